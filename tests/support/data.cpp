@@ -1,0 +1,39 @@
+#include "support/data.hpp"
+
+#include <cstdio>
+#include <cstdlib>
+
+#include "data_dir.hpp"
+
+namespace skinspec::testing {
+
+namespace {
+[[noreturn]] void die(const std::string& message) {
+  std::fprintf(stderr, "test data: %s\n", message.c_str());
+  std::abort();
+}
+}  // namespace
+
+std::string data_file(const std::string& relative) {
+  auto bytes = read_file(std::filesystem::path(SKINSPEC_TEST_DATA_DIR) / relative);
+  if (!bytes) die(bytes.error());
+  return *bytes;
+}
+
+Table table(const std::string& relative) {
+  auto parsed = parse_table(data_file(relative), relative, {});
+  if (!parsed) die(parsed.error().what());
+  return *parsed;
+}
+
+const Colorimetry& colorimetry() {
+  static const Colorimetry instance = [] {
+    auto c = Colorimetry::from_tables(table("colour/cie1931_2deg_cmf.csv"),
+                                      table("colour/cie_illuminants.csv"));
+    if (!c) die(c.error().what());
+    return *c;
+  }();
+  return instance;
+}
+
+}  // namespace skinspec::testing
