@@ -1,1 +1,28 @@
-int main() { return 0; }
+// skinspec: fit, model, optics and colour of skin reflectance spectra from the command line.
+
+#include <iostream>
+
+#include "common.hpp"
+
+int main(int argc, char** argv) {
+  using namespace skinspec::cli;
+  CLI::App app{"skinspec: skin reflectance spectra, the two-layer Kubelka-Munk model and its fit"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "skinspec 0.1.0");
+  add_fit_command(app);
+  add_model_command(app);
+  add_optics_command(app);
+  add_color_command(app);
+  add_tune_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int status = app.exit(e);
+    return status == 0 ? kOk : kBadInput;
+  } catch (const Failure& failure) {
+    std::cout.flush();
+    std::cerr << "skinspec: " << failure.message << '\n';
+    return failure.status;
+  }
+  return kOk;
+}

@@ -1,2 +1,225 @@
+#include "skinspec/fit/spectra_csv.hpp"
+
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
-TEST(SpectraCsv, Placeholder) {}
+
+namespace skinspec {
+namespace {
+
+using ::testing::HasSubstr;
+
+// A file in the documented format: three spectra on a grid that covers 400-700 nm.
+constexpr std::string_view kThreeSubjects =
+    "wavelength_nm, subject_1 ,subject_2,subject_3\n"
+    "400,0.30,0.25,0.20\n"
+    "550, 0.45 ,+4e-1,0.35\n"
+    "700,0.60,0.55,0.50\n";
+
+std::expected<std::vector<NamedSpectrum>, InputError> parse(std::string_view bytes,
+                                                            const SpectraLimits& limits = {}) {
+  return parse_spectra_csv(bytes, "data.csv", limits);
+}
+
+// The error a refused input gives; fails the test when the input is accepted.
+InputError error_of(std::string_view bytes, const SpectraLimits& limits = {}) {
+  const auto result = parse(bytes, limits);
+  if (result) {
+    ADD_FAILURE() << "accepted:\n" << bytes;
+    return {};
+  }
+  return result.error();
+}
+
+TEST(SpectraCsv, ParsesNamesAndValuesOfEveryColumn) {
+  const auto spectra = parse(kThreeSubjects);
+  ASSERT_TRUE(spectra) << spectra.error().what();
+  ASSERT_EQ(spectra->size(), 3u);
+  EXPECT_EQ((*spectra)[0].name, "subject_1");
+  EXPECT_EQ((*spectra)[1].name, "subject_2");
+  EXPECT_EQ((*spectra)[2].name, "subject_3");
+  for (const auto& named : *spectra) {
+    ASSERT_EQ(named.spectrum.size(), 3u);
+    EXPECT_DOUBLE_EQ(named.spectrum.wavelengths()[1], 550.0);
+  }
+  EXPECT_DOUBLE_EQ((*spectra)[0].spectrum.values()[1], 0.45);
+  EXPECT_DOUBLE_EQ((*spectra)[1].spectrum.values()[1], 0.4);
+  EXPECT_DOUBLE_EQ((*spectra)[2].spectrum.values()[2], 0.5);
+}
+
+TEST(SpectraCsv, AcceptsByteOrderMarkAndCrlf) {
+  const auto spectra = parse("\xEF\xBB\xBFwavelength_nm,a\r\n400,0.1\r\n700,0.2\r\n");
+  ASSERT_TRUE(spectra) << spectra.error().what();
+  ASSERT_EQ(spectra->size(), 1u);
+  EXPECT_EQ((*spectra)[0].name, "a");
+  EXPECT_DOUBLE_EQ((*spectra)[0].spectrum.values()[1], 0.2);
+}
+
+TEST(SpectraCsv, AcceptsCrLineEndsAndBlankLinesAnywhere) {
+  const auto spectra = parse("\r\nwavelength_nm,a\r\r400,0.1\r \t\r700,0.2\r\n\n  \n");
+  ASSERT_TRUE(spectra) << spectra.error().what();
+  EXPECT_EQ((*spectra)[0].spectrum.size(), 2u);
+}
+
+TEST(SpectraCsv, LeavesTheWavelengthRangeToTheCaller) {
+  const auto spectra = parse("wavelength_nm,a\n300,0.1\n900,0.2\n");
+  ASSERT_TRUE(spectra) << spectra.error().what();
+  EXPECT_DOUBLE_EQ((*spectra)[0].spectrum.first_nm(), 300.0);
+  EXPECT_DOUBLE_EQ((*spectra)[0].spectrum.last_nm(), 900.0);
+}
+
+TEST(SpectraCsv, RefusesEmptyInput) {
+  const auto empty = error_of("");
+  EXPECT_EQ(empty.line, 1u);
+  EXPECT_THAT(empty.message, HasSubstr("empty"));
+  const auto byte_order_mark_only = error_of("\xEF\xBB\xBF");
+  EXPECT_THAT(byte_order_mark_only.message, HasSubstr("empty"));
+  const auto blank = error_of("\n \t\r\n\n");
+  EXPECT_EQ(blank.line, 1u);
+  EXPECT_THAT(blank.message, HasSubstr("only blank lines"));
+}
+
+TEST(SpectraCsv, SaysTheHeaderIsMissingWhenTheFirstLineHoldsNumbers) {
+  const auto e = error_of("\n\n400,0.1\n700,0.2\n");
+  EXPECT_EQ(e.line, 3u);
+  EXPECT_EQ(e.column, 1u);
+  EXPECT_THAT(e.message, HasSubstr("header is missing"));
+  EXPECT_THAT(e.message, HasSubstr("400"));
+}
+
+TEST(SpectraCsv, RefusesAFirstColumnOtherThanWavelength) {
+  const auto e = error_of("wavelength,a\n400,0.1\n700,0.2\n");
+  EXPECT_EQ(e.what(), "data.csv:1:1: the first column is named 'wavelength'; it must be 'wavelength_nm'");
+  // The byte order mark is not counted as a character of the line.
+  const auto with_mark = error_of("\xEF\xBB\xBFnm,a\n400,0.1\n700,0.2\n");
+  EXPECT_EQ(with_mark.line, 1u);
+  EXPECT_EQ(with_mark.column, 1u);
+  EXPECT_THAT(with_mark.message, HasSubstr("'nm'"));
+}
+
+TEST(SpectraCsv, RefusesEmptyColumnNames) {
+  const auto e = error_of("wavelength_nm,a,,b\n400,0.1,0.1,0.1\n700,0.2,0.2,0.2\n");
+  EXPECT_EQ(e.line, 1u);
+  EXPECT_EQ(e.column, 17u);
+  EXPECT_THAT(e.message, HasSubstr("column 3 has an empty name"));
+  const auto trailing_comma = error_of("wavelength_nm,a, \n400,0.1,0.1\n700,0.2,0.2\n");
+  EXPECT_EQ(trailing_comma.column, 17u);
+}
+
+TEST(SpectraCsv, RefusesDuplicatedColumnNames) {
+  const auto e = error_of("wavelength_nm,a,b,a\n400,0.1,0.1,0.1\n700,0.2,0.2,0.2\n");
+  EXPECT_EQ(e.line, 1u);
+  EXPECT_EQ(e.column, 19u);
+  EXPECT_THAT(e.message, HasSubstr("duplicated column name 'a' (also column 2)"));
+  const auto second_wavelength = error_of("wavelength_nm,wavelength_nm\n400,400\n700,700\n");
+  EXPECT_EQ(second_wavelength.column, 15u);
+}
+
+TEST(SpectraCsv, RefusesAHeaderWithoutSpectra) {
+  const auto e = error_of("wavelength_nm\n400\n700\n");
+  EXPECT_EQ(e.line, 1u);
+  EXPECT_EQ(e.column, 0u);
+  EXPECT_THAT(e.message, HasSubstr("no spectrum"));
+}
+
+TEST(SpectraCsv, RefusesRowsWithTooManyCells) {
+  const auto e = error_of("wavelength_nm,a\n400,0.1\n550,0.2,0.3\n700,0.3\n");
+  EXPECT_EQ(e.line, 3u);
+  EXPECT_EQ(e.column, 9u);  // the first cell the header has no name for
+  EXPECT_THAT(e.message, HasSubstr("3 cells where the header has 2"));
+}
+
+TEST(SpectraCsv, RefusesRowsWithTooFewCells) {
+  const auto e = error_of("wavelength_nm,a,b\n400,0.1,0.1\n\n550,0.2\n700,0.3,0.3\n");
+  EXPECT_EQ(e.line, 4u);
+  EXPECT_EQ(e.column, 0u);
+  EXPECT_THAT(e.message, HasSubstr("2 cells where the header has 3"));
+  EXPECT_THAT(e.message, HasSubstr("'b'"));
+}
+
+TEST(SpectraCsv, LocatesCellsThatAreNotNumbers) {
+  const auto e = error_of(
+      "wavelength_nm,subject_1,subject_2,subject_3\n"
+      "400,0.4,0.3,0.2\n"
+      "500,0.4,0.3,0.2\n"
+      "600,0.4,0.3,0.2\n"
+      "700,0.4,0.3,abc\n");
+  EXPECT_EQ(e.what(), "data.csv:5:13: 'abc' is not a number in column 'subject_3'");
+}
+
+TEST(SpectraCsv, RefusesNonFiniteAndEmptyCells) {
+  struct Case {
+    std::string_view row;
+    std::size_t column;
+    std::string_view says;
+  };
+  for (const auto& [row, column, says] : {Case{"550,nan", 5, "not a finite number in column 'a'"},
+                                          Case{"550, inf", 5, "not a finite number"},
+                                          Case{"550,-inf", 5, "not a finite number"},
+                                          Case{"550,1e999", 5, "out of range"},
+                                          Case{"550,", 5, "empty cell"},
+                                          Case{"x5,0.1", 1, "in column 'wavelength_nm'"}}) {
+    SCOPED_TRACE(row);
+    const auto e = error_of("wavelength_nm,a\n400,0.1\n" + std::string(row) + "\n700,0.2\n");
+    EXPECT_EQ(e.line, 3u);
+    EXPECT_EQ(e.column, column);
+    EXPECT_THAT(e.message, HasSubstr(std::string(says)));
+  }
+}
+
+TEST(SpectraCsv, RefusesRepeatedWavelengthsNamingBoth) {
+  const auto e = error_of("wavelength_nm,a\n400,0.1\n550,0.2\n\n 550,0.3\n700,0.4\n");
+  EXPECT_EQ(e.line, 5u);
+  EXPECT_EQ(e.column, 1u);
+  EXPECT_THAT(e.message, HasSubstr("wavelength 550 nm repeats 550 nm on line 3"));
+}
+
+TEST(SpectraCsv, RefusesDecreasingWavelengthsNamingBoth) {
+  const auto e = error_of("wavelength_nm,a\n400,0.1\n550,0.2\n500.5,0.3\n700,0.4\n");
+  EXPECT_EQ(e.line, 4u);
+  EXPECT_EQ(e.column, 1u);
+  EXPECT_THAT(e.message, HasSubstr("wavelength 500.5 nm is below 550 nm on line 3"));
+}
+
+TEST(SpectraCsv, RefusesFewerThanTwoRows) {
+  const auto header_only = error_of("wavelength_nm,a\n\n");
+  EXPECT_EQ(header_only.line, 1u);
+  EXPECT_THAT(header_only.message, HasSubstr("0 data rows"));
+  const auto one_row = error_of("wavelength_nm,a\n\n400,0.1\n\n");
+  EXPECT_EQ(one_row.line, 3u);
+  EXPECT_THAT(one_row.message, HasSubstr("1 data row below the header"));
+}
+
+TEST(SpectraCsv, RefusesAGridThatDoesNotCoverTheVisible) {
+  const auto short_red = error_of("wavelength_nm,a\n400,0.1\n690,0.2\n");
+  EXPECT_EQ(short_red.what(), "data.csv: the wavelengths cover 400-690 nm but 400-700 nm is needed");
+  const auto short_blue = error_of("wavelength_nm,a\n410,0.1\n700,0.2\n");
+  EXPECT_THAT(short_blue.message, HasSubstr("cover 410-700 nm"));
+}
+
+TEST(SpectraCsv, RefusesValuesOutsideTheLimitsNamingThem) {
+  const auto negative = error_of("wavelength_nm,a,b\n400,0.1,0.1\n550,0.2,-0.05\n700,0.3,0.3\n");
+  EXPECT_EQ(negative.line, 3u);
+  EXPECT_EQ(negative.column, 9u);
+  EXPECT_THAT(negative.message, HasSubstr("value -0.05 in column 'b' is outside the allowed range [0, 1.5]"));
+  const auto too_bright = error_of("wavelength_nm,a\n400,1.6\n700,0.3\n");
+  EXPECT_EQ(too_bright.what(), "data.csv:2:5: value 1.6 in column 'a' is outside the allowed range [0, 1.5]");
+}
+
+TEST(SpectraCsv, LimitsAreConfigurable) {
+  constexpr std::string_view percent = "wavelength_nm,a\n450,55\n650,98\n";
+  EXPECT_FALSE(parse(percent));
+  const SpectraLimits percent_visible{.min_value = 0.0, .max_value = 100.0,
+                                      .must_cover_from_nm = 450.0, .must_cover_to_nm = 650.0};
+  const auto spectra = parse(percent, percent_visible);
+  ASSERT_TRUE(spectra) << spectra.error().what();
+  EXPECT_DOUBLE_EQ((*spectra)[0].spectrum.values()[1], 98.0);
+
+  const auto above = error_of("wavelength_nm,a\n450,55\n650,120\n", percent_visible);
+  EXPECT_EQ(above.line, 3u);
+  EXPECT_THAT(above.message, HasSubstr("[0, 100]"));
+  const auto narrow = error_of("wavelength_nm,a\n450,55\n600,98\n", percent_visible);
+  EXPECT_THAT(narrow.message, HasSubstr("450-650 nm is needed"));
+}
+
+}  // namespace
+}  // namespace skinspec

@@ -74,7 +74,15 @@ std::expected<Table, InputError> parse_table(std::string_view bytes, std::string
     if (cells.size() != table.columns_.size())
       return fail(line_no, 0, fmt::format("{} cells where the header has {}", cells.size(),
                                           table.columns_.size()));
-    for (std::size_t c = 0; c < cells.size(); ++c) {
+    const bool keyed = table.columns_.front() != "wavelength_nm";
+    if (keyed) {
+      const std::string key(text::trim(cells.front().text));
+      if (key.empty()) return fail(line_no, 1, "empty key");
+      if (std::ranges::find(table.keys_, key) != table.keys_.end())
+        return fail(line_no, 1, "duplicated key '" + key + "'");
+      table.keys_.push_back(key);
+    }
+    for (std::size_t c = keyed ? 1 : 0; c < cells.size(); ++c) {
       const auto value = text::parse_number(cells[c].text);
       if (!value) return fail(line_no, cells[c].column, value.error());
       table.values_[c].push_back(*value);

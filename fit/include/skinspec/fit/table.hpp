@@ -34,8 +34,10 @@ class Table {
   // The metadata value for key ("title", "source", ...), empty when absent.
   std::string meta(std::string_view key) const;
   bool has_column(std::string_view name) const;
-  // Values of a column that the parse was asked to require (or any present one).
+  // Values of a numeric column; empty when there is no such column.
   std::span<const double> column(std::string_view name) const;
+  // A keyed table (first column not wavelength_nm) holds text in its first column: the row keys.
+  const std::vector<std::string>& keys() const { return keys_; }
 
  private:
   friend std::expected<Table, InputError> parse_table(std::string_view, std::string_view,
@@ -43,12 +45,14 @@ class Table {
   std::string source_;
   std::map<std::string, std::string, std::less<>> meta_;
   std::vector<std::string> columns_;
-  std::vector<std::vector<double>> values_;  // one vector per column
+  std::vector<std::vector<double>> values_;  // one vector per column (the key column's is empty)
+  std::vector<std::string> keys_;
   std::size_t rows_ = 0;
 };
 
-// Parses a table. The first column must be "wavelength_nm" and strictly increasing when it
-// is present; required_columns must all be there.
+// Parses a table. A spectral table's first column is "wavelength_nm", strictly increasing; any
+// other first column holds unique text keys (a site name, a constant's name). Every other cell
+// is a finite number. required_columns must all be there.
 std::expected<Table, InputError> parse_table(std::string_view bytes, std::string_view source,
                                              std::span<const std::string_view> required_columns);
 

@@ -1,0 +1,54 @@
+// skinspec color FILE: XYZ, Lab and sRGB of each spectrum under an illuminant.
+
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "common.hpp"
+
+namespace skinspec::cli {
+
+namespace {
+
+// D65, A, or a spectra CSV whose first column is the illuminant's relative power.
+Spectrum illuminant_from(const std::string& name) {
+  if (auto builtin = fitter().colorimetry().illuminant(name)) return *builtin;
+  SpectraLimits limits;
+  limits.max_value = 1e9;
+  limits.must_cover_from_nm = 380;
+  limits.must_cover_to_nm = 780;
+  auto spectra = parse_spectra_csv(read_input(name), input_name(name), limits);
+  if (!spectra) throw Failure{kBadInput, spectra.error().what()};
+  return spectra->front().spectrum;
+}
+
+}  // namespace
+
+void add_color_command(CLI::App& app) {
+  auto file = std::make_shared<std::string>();
+  auto illuminant_name = std::make_shared<std::string>("D65");
+  auto* color = app.add_subcommand("color", "print CIE XYZ, CIELAB and sRGB of reflectance spectra");
+  color->add_option("FILE", *file, "CSV of reflectance spectra as for `fit`; - reads stdin")->required();
+  color->add_option("--illuminant", *illuminant_name, "D65, A, or a CSV file wavelength_nm,power covering 380-780 nm")
+      ->capture_default_str();
+  color->callback([file, illuminant_name] {
+    const Spectrum illuminant = illuminant_from(*illuminant_name);
+    const auto& c = fitter().colorimetry();
+    const Xyz white = c.white(illuminant);
+    for (const auto& [name, spectrum] : read_spectra(*file)) {
+      const Xyz xyz = c.xyz(spectrum, illuminant);
+      const Lab lab = xyz_to_lab(xyz, white);
+      const auto linear = xyz_to_linear_srgb(xyz);
+      const nlohmann::json out = {
+          {"name", name},
+          {"illuminant", *illuminant_name},
+          {"XYZ", {xyz.x, xyz.y, xyz.z}},
+          {"Lab", {lab.l, lab.a, lab.b}},
+          {"sRGB", {srgb_encode(linear[0]), srgb_encode(linear[1]), srgb_encode(linear[2])}},
+          {"sRGB8", srgb_8bit(linear)},
+      };
+      std::cout << out.dump() << '\n';
+    }
+  });
+}
+
+}  // namespace skinspec::cli

@@ -1,0 +1,40 @@
+#pragma once
+// What every skinspec subcommand shares: exit statuses, input reading, the loaded model.
+
+#include <CLI/CLI.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "skinspec/fit/fitter.hpp"
+#include "skinspec/fit/spectra_csv.hpp"
+
+namespace skinspec::cli {
+
+enum ExitStatus : int { kOk = 0, kFailure = 1, kBadInput = 2, kInstrumentError = 3 };
+
+// A failure that ends the subcommand with a message on stderr and the given status.
+struct Failure {
+  int status;
+  std::string message;
+};
+
+// Reads FILE, or standard input for "-".
+std::string read_input(const std::string& path);
+// "<stdin>" for "-", else the path itself: the name errors are reported under.
+std::string input_name(const std::string& path);
+std::vector<NamedSpectrum> read_spectra(const std::string& path);
+
+// The model tables and colorimetry from the data directory (loaded once per process).
+const Fitter& fitter();
+
+// Registers --site, validated against the shipped sites.
+CLI::Option* add_site_option(CLI::App& app, std::string& site);
+
+void add_fit_command(CLI::App& app);
+void add_model_command(CLI::App& app);
+void add_optics_command(CLI::App& app);
+void add_color_command(CLI::App& app);
+void add_tune_command(CLI::App& app);
+
+}  // namespace skinspec::cli
