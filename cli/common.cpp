@@ -1,5 +1,6 @@
 #include "common.hpp"
 
+#include <filesystem>
 #include <iostream>
 #include <iterator>
 
@@ -11,6 +12,9 @@ std::string input_name(const std::string& path) { return path == "-" ? "<stdin>"
 
 std::string read_input(const std::string& path) {
   if (path == "-") return {std::istreambuf_iterator<char>(std::cin), std::istreambuf_iterator<char>()};
+  // A directory opens and reads as zero bytes, which would be reported as an empty file.
+  if (std::error_code ec; std::filesystem::is_directory(path, ec))
+    throw Failure{kBadInput, path + ": is a directory, not a file"};
   auto bytes = read_file(path);
   if (!bytes) throw Failure{kBadInput, bytes.error()};
   return *bytes;

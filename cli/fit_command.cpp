@@ -1,11 +1,12 @@
 // skinspec fit FILE: one JSON line per spectrum column, fitted on all cores.
 
-#include <atomic>
+#include <cmath>
+#include <fmt/format.h>
 #include <iostream>
-#include <thread>
 
 #include "common.hpp"
 #include "fit_json.hpp"
+#include "skinspec/fit/parallel.hpp"
 
 namespace skinspec::cli {
 
@@ -15,22 +16,31 @@ struct FitArgs {
   std::string file;
   std::string site = "forearm";
   bool no_lateral_diffusion = false;
+  std::string format = "json";
 };
+
+// "4.2 ± 0.3", or "4.2 ± ?" where the spectrum cannot determine the parameter.
+std::string with_error(double value, double error) {
+  return std::isfinite(error) ? fmt::format("{:.4g} ± {:.2g}", value, error) : fmt::format("{:.4g} ± ?", value);
+}
+
+// A human-readable table: one row per spectrum.
+void print_table(const std::vector<NamedSpectrum>& spectra, const std::vector<std::expected<FitResult, std::string>>& results) {
+  std::cout << fmt::format("{:<14} {:<16} {:<16} {:<16} {:<16} {:<16} {:>7} {:>6} {}\n", "spectrum", "surface_refl",
+                           "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin", "rmse", "dE00", "converged");
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    const FitResult& r = *results[i];
+    std::cout << fmt::format("{:<14} ", spectra[i].name);
+    for (std::size_t p = 0; p < kParamCount; ++p) std::cout << fmt::format("{:<16} ", with_error(r.params[p], r.standard_error[p]));
+    std::cout << fmt::format("{:>7.4f} {:>6.2f} {}\n", r.rmse, r.delta_e00_d65, r.converged ? "yes" : "no");
+  }
+}
 
 // Fits every spectrum, spread over the machine's cores; results keep the input order.
 std::vector<std::expected<FitResult, std::string>> fit_all(const std::vector<NamedSpectrum>& spectra,
                                                            const FitOptions& options) {
   std::vector<std::expected<FitResult, std::string>> results(spectra.size());
-  std::atomic<std::size_t> next{0};
-  const auto worker = [&] {
-    for (std::size_t i; (i = next.fetch_add(1)) < spectra.size();)
-      results[i] = fitter().fit(spectra[i].spectrum, options);
-  };
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const auto threads_wanted = std::min<std::size_t>(cores, spectra.size());
-  std::vector<std::jthread> threads;
-  for (std::size_t t = 1; t < threads_wanted; ++t) threads.emplace_back(worker);
-  worker();
+  parallel_for(spectra.size(), 0, [&](std::size_t i) { results[i] = fitter().fit(spectra[i].spectrum, options); });
   return results;
 }
 
@@ -43,11 +53,13 @@ void run_fit(const FitArgs& args) {
   for (std::size_t i = 0; i < results.size(); ++i)
     if (!results[i])
       throw Failure{kBadInput, input_name(args.file) + ": column '" + spectra[i].name + "': " + results[i].error()};
-  std::size_t ignored = 0;
-  for (std::size_t i = 0; i < results.size(); ++i) {
-    std::cout << fit_to_json(spectra[i].name, *results[i]).dump() << '\n';
-    ignored = std::max(ignored, results[i]->samples_ignored);
+  if (args.format == "table") {
+    print_table(spectra, results);
+  } else {
+    for (std::size_t i = 0; i < results.size(); ++i) std::cout << fit_to_json(spectra[i].name, *results[i]).dump() << '\n';
   }
+  std::size_t ignored = 0;
+  for (const auto& r : results) ignored = std::max(ignored, r->samples_ignored);
   if (ignored > 0)
     std::cerr << "skinspec: " << input_name(args.file) << ": " << ignored
               << " samples outside the model's 380-780 nm were not fitted\n";
@@ -64,6 +76,8 @@ void add_fit_command(CLI::App& app) {
   add_site_option(*fit, args->site);
   fit->add_flag("--no-lateral-diffusion", args->no_lateral_diffusion,
                 "leave out the correction for light lost outside the measured spot");
+  fit->add_option("--format", args->format, "json: one JSON object per spectrum per line; table: a summary for people")
+      ->check(CLI::IsMember({"json", "table"}))->capture_default_str();
   fit->callback([args] { run_fit(*args); });
 }
 

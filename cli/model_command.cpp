@@ -28,6 +28,18 @@ std::vector<double> parse_grid(const std::string& text) {
   return Spectrum::uniform_grid(first, last, step);
 }
 
+// Like CLI::Range, but NaN is refused: Range only rejects values below or above its bounds, and
+// every comparison with NaN is false, so `--melanin nan` would print a NaN spectrum.
+CLI::Validator finite_range(double min, double max) {
+  const auto check = [min, max](std::string& text) -> std::string {
+    double value = 0;
+    if (!CLI::detail::lexical_cast(text, value)) return "'" + text + "' is not a number";
+    if (value >= min && value <= max) return {};
+    return fmt::format("must be a number in [{}, {}], not {}", min, max, text);
+  };
+  return CLI::Validator(check, fmt::format("FLOAT in [{} - {}]", min, max));
+}
+
 void run_model(const ModelArgs& args) {
   const auto grid = parse_grid(args.grid);
   const auto site = fitter().optics().site(args.site);
@@ -46,11 +58,11 @@ void add_model_command(CLI::App& app) {
   add_site_option(*model, args->site);
   auto& p = args->params;
   model->add_option("--surface-reflectance", p[kSurfaceReflectance], "surface (regular) reflectance Rs")
-      ->check(CLI::Range(0.0, 1.0))->capture_default_str();
+      ->check(finite_range(0.0, 1.0))->capture_default_str();
   for (int i = kMelanin; i < kParamCount; ++i) {
     const std::string name(kParamNames[static_cast<std::size_t>(i)]);
     model->add_option("--" + name, p[static_cast<std::size_t>(i)], name + " weight (1.0 = reference concentration)")
-        ->check(CLI::Range(0.0, 1e4))->capture_default_str();
+        ->check(finite_range(0.0, 1e4))->capture_default_str();
   }
   model->add_flag("--no-lateral-diffusion", args->no_lateral_diffusion,
                   "leave out the correction for light lost outside the measured spot");

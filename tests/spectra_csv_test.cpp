@@ -75,7 +75,7 @@ TEST(SpectraCsv, RefusesEmptyInput) {
   EXPECT_THAT(byte_order_mark_only.message, HasSubstr("empty"));
   const auto blank = error_of("\n \t\r\n\n");
   EXPECT_EQ(blank.line, 1u);
-  EXPECT_THAT(blank.message, HasSubstr("only blank lines"));
+  EXPECT_THAT(blank.message, HasSubstr("only blank or comment lines"));
 }
 
 TEST(SpectraCsv, SaysTheHeaderIsMissingWhenTheFirstLineHoldsNumbers) {
@@ -219,6 +219,20 @@ TEST(SpectraCsv, LimitsAreConfigurable) {
   EXPECT_THAT(above.message, HasSubstr("[0, 100]"));
   const auto narrow = error_of("wavelength_nm,a\n450,55\n600,98\n", percent_visible);
   EXPECT_THAT(narrow.message, HasSubstr("450-650 nm is needed"));
+}
+
+}  // namespace
+}  // namespace skinspec
+
+namespace skinspec {
+namespace {
+
+TEST(SpectraCsvComments, SkipsCommentLinesAnywhere) {
+  const auto spectra = parse_spectra_csv("# measured 2026-11-21\nwavelength_nm,a\n400,0.1\n  # lamp warm\n700,0.2\n",
+                                         "c.csv");
+  ASSERT_TRUE(spectra) << spectra.error().what();
+  ASSERT_EQ(spectra->size(), 1u);
+  EXPECT_EQ((*spectra)[0].spectrum.size(), 2u);
 }
 
 }  // namespace

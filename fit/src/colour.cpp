@@ -35,29 +35,14 @@ std::expected<Spectrum, InputError> column_spectrum(const Table& table, std::str
   return std::move(*spectrum);
 }
 
-struct Observer {
-  const Spectrum& xbar;
-  const Spectrum& ybar;
-  const Spectrum& zbar;
-};
-
-// Sum of R(λ)S(λ)x̄(λ) etc. at 1 nm, divided by the sum of S(λ)ȳ(λ) so that the perfect
-// reflecting diffuser has Y = 1. The wavelength is stepped as an integer so that the grid
-// lands exactly on the tables' 1 nm samples.
-template <typename Reflectance>
-Xyz tristimulus(const Observer& observer, const Spectrum& illuminant, Reflectance reflectance_at) {
-  Xyz sum;
-  double white_y = 0;
-  for (int nm = kObserverFirstNm; nm <= kObserverLastNm; ++nm) {
-    const double w = nm;
-    const double power = illuminant.at(w);
-    const double stimulus = power * reflectance_at(w);
-    sum.x += stimulus * observer.xbar.at(w);
-    sum.y += stimulus * observer.ybar.at(w);
-    sum.z += stimulus * observer.zbar.at(w);
-    white_y += power * observer.ybar.at(w);
-  }
-  return {sum.x / white_y, sum.y / white_y, sum.z / white_y};
+// The observer's 1 nm grid. Stepped as integers so that it lands exactly on the tables' samples.
+const std::vector<double>& observer_grid() {
+  static const std::vector<double> grid = [] {
+    std::vector<double> g;
+    for (int nm = kObserverFirstNm; nm <= kObserverLastNm; ++nm) g.push_back(nm);
+    return g;
+  }();
+  return grid;
 }
 
 // CIE 1976 lightness function, linear near black where the cube root is too steep.
@@ -136,14 +121,49 @@ std::expected<Spectrum, std::string> Colorimetry::illuminant(std::string_view na
   return std::unexpected(fmt::format("unknown illuminant '{}' (known: D65, A)", name));
 }
 
-Xyz Colorimetry::xyz(const Spectrum& reflectance, const Spectrum& illuminant) const {
-  return tristimulus({xbar_, ybar_, zbar_}, illuminant,
-                     [&reflectance](double nm) { return reflectance.at(nm); });
+// Sums of R(λ)S(λ)x̄(λ) etc. at 1 nm, divided by the sum of S(λ)ȳ(λ) so that the perfect
+// reflecting diffuser has Y = 1.
+ColourWeighting Colorimetry::weighting(const Spectrum& illuminant) const {
+  const auto& grid = observer_grid();
+  const Spectrum power_on_grid = illuminant.resampled(grid), xbar_on_grid = xbar_.resampled(grid),
+                 ybar_on_grid = ybar_.resampled(grid), zbar_on_grid = zbar_.resampled(grid);
+  const auto power = power_on_grid.values(), xbar = xbar_on_grid.values(), ybar = ybar_on_grid.values(),
+             zbar = zbar_on_grid.values();
+  ColourWeighting w;
+  double white_y = 0;
+  for (std::size_t i = 0; i < grid.size(); ++i) white_y += power[i] * ybar[i];
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    w.x.push_back(power[i] * xbar[i] / white_y);
+    w.y.push_back(power[i] * ybar[i] / white_y);
+    w.z.push_back(power[i] * zbar[i] / white_y);
+    w.white.x += w.x.back();
+    w.white.y += w.y.back();
+    w.white.z += w.z.back();
+  }
+  return w;
 }
 
-Xyz Colorimetry::white(const Spectrum& illuminant) const {
-  return tristimulus({xbar_, ybar_, zbar_}, illuminant, [](double) { return 1.0; });
+Xyz Colorimetry::xyz(const Spectrum& reflectance, const ColourWeighting& w) {
+  const Spectrum r = reflectance.resampled(observer_grid());
+  const auto values = r.values();
+  Xyz sum;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    sum.x += values[i] * w.x[i];
+    sum.y += values[i] * w.y[i];
+    sum.z += values[i] * w.z[i];
+  }
+  return sum;
 }
+
+Lab Colorimetry::lab(const Spectrum& reflectance, const ColourWeighting& w) {
+  return xyz_to_lab(xyz(reflectance, w), w.white);
+}
+
+Xyz Colorimetry::xyz(const Spectrum& reflectance, const Spectrum& illuminant) const {
+  return xyz(reflectance, weighting(illuminant));
+}
+
+Xyz Colorimetry::white(const Spectrum& illuminant) const { return weighting(illuminant).white; }
 
 Lab Colorimetry::lab(const Spectrum& reflectance, const Spectrum& illuminant) const {
   return xyz_to_lab(xyz(reflectance, illuminant), white(illuminant));

@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
+#include <limits>
+#include <vector>
 #include <fmt/format.h>
 
 namespace skinspec {
@@ -59,38 +62,112 @@ std::vector<Params> coarse_starts(const SkinModel& model, const std::vector<doub
 }
 
 struct Solution {
-  Params params;
+  Params params{};
   double cost = 0;
   int iterations = 0;
   bool converged = false;
   std::string message;
 };
 
-Solution solve_from(const SkinModel& model, const std::vector<double>& measured,
-                    const std::vector<double>& sqrt_weights, Params start) {
+using HeldAtZero = std::array<bool, kParamCount>;
+
+// Ends a solve as soon as a free pigment weight turns negative, so that the active-set loop
+// can pin it at zero: continuing would only fit a physically meaningless weight.
+class StopWhenNegative : public ceres::IterationCallback {
+ public:
+  StopWhenNegative(const Params& p, const std::array<bool, kParamCount>& held) : p_(p), held_(held) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    for (std::size_t i = kMelanin; i < kParamCount; ++i)
+      if (!held_[i] && p_[i] < 0) return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const Params& p_;
+  const std::array<bool, kParamCount>& held_;
+};
+
+// One Levenberg-Marquardt solve. Pigment weights may dip a little below zero here (never so
+// far that an absorption turns negative) and those in `held` stay at zero: non-negativity is
+// kept by the active-set loop in solve_from rather than by a bound at zero, because Ceres's
+// projection onto an active bound shrinks the trust region step after step while the
+// solution creeps along the bound.
+Solution solve_once(const SkinModel& model, const std::vector<double>& measured,
+                    const std::vector<double>& sqrt_weights, Params p, const HeldAtZero& held) {
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
-  auto* cost = new ResidualCost(new SpectrumResidual{model, measured, sqrt_weights},
-                                static_cast<int>(model.size()));
-  problem.AddResidualBlock(cost, nullptr, start.data());
-  for (int i = 0; i < kParamCount; ++i) {
-    problem.SetParameterLowerBound(start.data(), i, kLowerBounds[static_cast<std::size_t>(i)]);
-    problem.SetParameterUpperBound(start.data(), i, kUpperBounds[static_cast<std::size_t>(i)]);
+  auto* cost = new ResidualCost(new SpectrumResidual{model, measured, sqrt_weights}, static_cast<int>(model.size()));
+  problem.AddResidualBlock(cost, nullptr, p.data());
+  const Params lowest = model.lowest_safe_weights();
+  for (std::size_t i = 0; i < kParamCount; ++i) {
+    problem.SetParameterLowerBound(p.data(), static_cast<int>(i), std::min(lowest[i], kLowerBounds[i]));
+    problem.SetParameterUpperBound(p.data(), static_cast<int>(i), kUpperBounds[i]);
   }
+  std::vector<int> constant;
+  for (int i = 0; i < kParamCount; ++i)
+    if (held[static_cast<std::size_t>(i)]) constant.push_back(i);
+  if (!constant.empty()) problem.SetManifold(p.data(), new ceres::SubsetManifold(kParamCount, constant));
+
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_QR;
   options.logging_type = ceres::SILENT;
-  options.max_num_iterations = 200;
-  options.function_tolerance = 1e-10;
+  options.max_num_iterations = 100;
+  options.function_tolerance = 1e-7;
   options.gradient_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-10;
+  options.parameter_tolerance = 1e-8;
   options.num_threads = 1;
+  StopWhenNegative stop_when_negative(p, held);
+  options.callbacks.push_back(&stop_when_negative);
+  options.update_state_every_iteration = true;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
-  const bool converged = summary.termination_type == ceres::CONVERGENCE;
-  return {start, summary.final_cost, static_cast<int>(summary.iterations.size()), converged,
-          summary.BriefReport()};
+  return {p, summary.final_cost, static_cast<int>(summary.iterations.size()),
+          summary.termination_type == ceres::CONVERGENCE, summary.BriefReport()};
+}
+
+// d(cost)/d(p_i) at p: where it is negative for a weight held at zero, the fit would improve
+// by letting that weight grow again.
+Params cost_gradient(const SkinModel& model, const std::vector<double>& measured,
+                     const std::vector<double>& sqrt_weights, const Params& p) {
+  const auto n = model.size();
+  std::vector<double> residuals(n), jacobian(n * kParamCount);
+  const double* parameters[] = {p.data()};
+  double* jacobians[] = {jacobian.data()};
+  ResidualCost cost(new SpectrumResidual{model, measured, sqrt_weights}, static_cast<int>(n));
+  cost.Evaluate(parameters, residuals.data(), jacobians);
+  Params gradient{};
+  for (std::size_t r = 0; r < n; ++r)
+    for (std::size_t i = 0; i < kParamCount; ++i) gradient[i] += residuals[r] * jacobian[r * kParamCount + i];
+  return gradient;
+}
+
+// Bounded least squares by active sets: solve; pin every weight that went negative at zero
+// and solve again; release a pinned weight whose gradient asks for it to grow.
+Solution solve_from(const SkinModel& model, const std::vector<double>& measured,
+                    const std::vector<double>& sqrt_weights, const Params& start) {
+  HeldAtZero held{};
+  Solution solution{start, 0, 0, false, {}};
+  int iterations = 0;
+  for (int round = 0; round < 2 * kParamCount; ++round) {
+    solution = solve_once(model, measured, sqrt_weights, solution.params, held);
+    iterations += solution.iterations;
+    bool changed = false;
+    for (std::size_t i = kMelanin; i < kParamCount; ++i)
+      if (!held[i] && solution.params[i] < 0) {
+        solution.params[i] = 0;
+        held[i] = changed = true;
+      }
+    if (!changed) {
+      const Params gradient = cost_gradient(model, measured, sqrt_weights, solution.params);
+      for (std::size_t i = kMelanin; i < kParamCount; ++i)
+        if (held[i] && gradient[i] < 0) held[i] = false, changed = true;
+    }
+    if (!changed) break;
+  }
+  solution.iterations = iterations;
+  return solution;
 }
 
 // Standard errors from the Gauss-Newton covariance sigma^2 (J^T J)^-1, with sigma^2 estimated
@@ -132,7 +209,7 @@ Params standard_errors(const SkinModel& model, const std::vector<double>& measur
 Fitter::Fitter(SkinOptics optics, Colorimetry colorimetry)
     : optics_(std::move(optics)),
       colorimetry_(std::move(colorimetry)),
-      d65_(*colorimetry_.illuminant("D65")) {}
+      d65_(colorimetry_.weighting(*colorimetry_.illuminant("D65"))) {}
 
 std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, const FitOptions& options) const {
   const auto site = optics_.site(options.site);
@@ -183,8 +260,8 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
     result.max_abs_error = std::max(result.max_abs_error, std::abs(r));
   }
   result.rmse = std::sqrt(sum_squares / static_cast<double>(result.fitted.size()));
-  const auto measured_lab = colorimetry_.lab(*Spectrum::create(result.wavelength_nm, result.measured), d65_);
-  const auto fitted_lab = colorimetry_.lab(*Spectrum::create(result.wavelength_nm, result.fitted), d65_);
+  const auto measured_lab = Colorimetry::lab(*Spectrum::create(result.wavelength_nm, result.measured), d65_);
+  const auto fitted_lab = Colorimetry::lab(*Spectrum::create(result.wavelength_nm, result.fitted), d65_);
   result.delta_e00_d65 = delta_e2000(measured_lab, fitted_lab);
   return result;
 }

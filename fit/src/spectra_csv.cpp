@@ -19,7 +19,12 @@ std::string_view without_byte_order_mark(std::string_view bytes) {
   return bytes;
 }
 
-bool is_blank(std::string_view line) { return text::trim(line).empty(); }
+// Blank lines and "#" comment lines (a file's provenance, as in skinspec's own tables) carry
+// no data.
+bool carries_no_data(std::string_view line) {
+  const auto trimmed = text::trim(line);
+  return trimmed.empty() || trimmed.starts_with('#');
+}
 
 using Outcome = std::expected<void, InputError>;
 
@@ -36,13 +41,13 @@ class SpectraParser {
     std::string_view line;
     std::size_t line_no = 0;
     while (lines.next(line, line_no)) {
-      if (is_blank(line)) continue;
+      if (carries_no_data(line)) continue;
       const auto cells = text::split_csv(line);
       const auto read = has_header() ? read_row(cells, line_no) : read_header(cells, line_no);
       if (!read) return std::unexpected(read.error());
     }
     if (!has_header()) {
-      const auto* what = content.empty() ? "the input is empty" : "the input holds only blank lines";
+      const auto* what = content.empty() ? "the input is empty" : "the input holds only blank or comment lines";
       return fail(1, 0, fmt::format("{}; expected a header starting with '{}'", what, kWavelengthColumn));
     }
     if (const auto rows = check_row_count(); !rows) return std::unexpected(rows.error());

@@ -5,6 +5,7 @@
 #include <array>
 #include <expected>
 #include <string_view>
+#include <vector>
 
 #include "skinspec/fit/spectrum.hpp"
 #include "skinspec/fit/table.hpp"
@@ -17,6 +18,14 @@ struct Xyz {
 
 struct Lab {
   double l = 0, a = 0, b = 0;
+};
+
+// An illuminant's power times each colour-matching function, at 1 nm over the observer's
+// range, with the illuminant's white: computed once, it makes judging many spectra under one
+// light a single pass each.
+struct ColourWeighting {
+  std::vector<double> x, y, z;
+  Xyz white;
 };
 
 class Colorimetry {
@@ -35,6 +44,10 @@ class Colorimetry {
   Xyz white(const Spectrum& illuminant) const;
   // CIELAB of a reflectance relative to the illuminant's white.
   Lab lab(const Spectrum& reflectance, const Spectrum& illuminant) const;
+
+  ColourWeighting weighting(const Spectrum& illuminant) const;
+  static Xyz xyz(const Spectrum& reflectance, const ColourWeighting& weighting);
+  static Lab lab(const Spectrum& reflectance, const ColourWeighting& weighting);
 
  private:
   Spectrum xbar_, ybar_, zbar_, d65_, a_;

@@ -52,7 +52,7 @@ class Fitter {
  private:
   SkinOptics optics_;
   Colorimetry colorimetry_;
-  Spectrum d65_;
+  ColourWeighting d65_;
 };
 
 }  // namespace skinspec

@@ -93,6 +93,11 @@ class SkinModel {
   }
   std::vector<double> reflectance(const Params& p) const;
 
+  // The most negative pigment weights that still leave every layer's absorption positive
+  // (with margin), even when all pigments of a layer are that negative at once: a solver may
+  // wander there briefly without the model turning into NaN.
+  Params lowest_safe_weights() const;
+
  private:
   std::vector<double> grid_;
   std::vector<OpticsAt> at_;

@@ -1,7 +1,7 @@
 #pragma once
 // The spectra file format read by `skinspec fit` and `skinspec color`: CSV with a header whose
 // first column is `wavelength_nm`, then one column per spectrum (its name), one row per
-// wavelength. Blank lines are ignored. Every defect is reported with line and column.
+// wavelength. Blank lines and lines starting with '#' (comments) are ignored. Every defect is reported with line and column.
 
 #include <expected>
 #include <string>

@@ -1,0 +1,41 @@
+#pragma once
+// Choosing the model's fixed constants (scattering and thickness scales, lateral-diffusion
+// radius) on measured skin: the constants that minimise the mean fit RMSE of a training set,
+// found by a Nelder-Mead search over their logarithms. Repeatable: no randomness.
+
+#include <expected>
+#include <string>
+#include <vector>
+
+#include "skinspec/fit/fitter.hpp"
+
+namespace skinspec {
+
+// How well the model fits a set of spectra.
+struct FitQuality {
+  std::size_t count = 0;
+  std::size_t converged = 0;
+  double median_rmse = 0, p95_rmse = 0, max_rmse = 0;
+  double median_delta_e00 = 0, p95_delta_e00 = 0;
+};
+
+// Fits every spectrum (on `threads` threads, 0 = all cores) and summarises.
+std::expected<FitQuality, std::string> assess_fits(const Fitter& fitter, const std::vector<Spectrum>& spectra,
+                                                   const FitOptions& options, unsigned threads = 0);
+
+struct TuningOptions {
+  std::string site = "forearm";
+  int max_evaluations = 300;
+  unsigned threads = 0;
+};
+
+struct TuningResult {
+  ModelConstants constants;
+  double mean_rmse = 0;  // the minimised objective, on the training set
+  int evaluations = 0;
+};
+
+std::expected<TuningResult, std::string> tune_constants(const Fitter& start, const std::vector<Spectrum>& training,
+                                                        const TuningOptions& options);
+
+}  // namespace skinspec
