@@ -50,7 +50,7 @@ TEST(Table, RefusesRaggedRowsDuplicatesAndDisorder) {
 
 TEST(Table, EveryShippedTableLoads) {
   for (const char* name : {"optics/hemoglobin_prahl.csv", "optics/bilirubin_photochemcad.csv",
-                           "optics/melanosome_jacques1998.csv", "optics/skin_baseline_jacques1998.csv",
+                           "optics/melanosome_jacques2013.csv", "optics/skin_baseline_jacques1998.csv",
                            "optics/scattering_salomatina.csv", "colour/cie1931_2deg_cmf.csv",
                            "colour/cie_illuminants.csv"}) {
     const auto t = parse_table(testing::data_file(name), name, {});

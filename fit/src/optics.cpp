@@ -70,7 +70,7 @@ std::expected<LayerOptics, InputError> layer_optics(Loaded& loaded) {
   const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 1);
   auto hb = loaded.table("optics/hemoglobin_prahl.csv", {"wavelength_nm", "eps_hbo2", "eps_hb"});
   auto bil = loaded.table("optics/bilirubin_photochemcad.csv", {"wavelength_nm", "eps_bilirubin"});
-  auto mel = loaded.table("optics/melanosome_jacques1998.csv", {"wavelength_nm", "mua"});
+  auto mel = loaded.table("optics/melanosome_jacques2013.csv", {"wavelength_nm", "mua"});
   auto base = loaded.table("optics/skin_baseline_jacques1998.csv", {"wavelength_nm", "mua"});
   auto scat = loaded.table("optics/scattering_salomatina.csv", {"wavelength_nm", "musp_epidermis", "musp_dermis"});
   for (auto* t : {&hb, &bil, &mel, &base, &scat})

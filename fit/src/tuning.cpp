@@ -32,6 +32,23 @@ Vector to_point(const ModelConstants& c) {
   return x;
 }
 
+// The range each constant may take: wide enough for the tuning to matter, narrow enough that
+// the layers stay recognisable skin (without it the search can trade a scattering epidermis
+// for a thick clear one that fits a little better and means nothing).
+constexpr std::array<std::pair<double, double>, kTunedCount> kPlausible = {{
+    {0.33, 3.0},  // epidermis_scattering_scale
+    {0.33, 3.0},  // dermis_scattering_scale
+    {0.5, 2.0},   // epidermis_thickness_scale
+    {0.5, 5.0},   // dermis_thickness_scale: also stands in for a hypodermis that is not quite white
+    {0.5, 20.0},  // lateral_radius_mm
+}};
+
+bool plausible(const Vector& x) {
+  for (std::size_t i = 0; i < kTunedCount; ++i)
+    if (x[i] < std::log(kPlausible[i].first) || x[i] > std::log(kPlausible[i].second)) return false;
+  return true;
+}
+
 ModelConstants from_point(const Vector& x) {
   ModelConstants c;
   const auto fields = model_constant_fields();
@@ -94,26 +111,37 @@ std::pair<Vector, double> nelder_mead(F&& f, const Vector& x0, double step, int 
 
 }  // namespace
 
-std::expected<FitQuality, std::string> assess_fits(const Fitter& fitter, const std::vector<Spectrum>& spectra,
-                                                   const FitOptions& options, unsigned threads) {
-  if (spectra.empty()) return std::unexpected(std::string("no spectra to assess"));
+void FitScores::append(const FitScores& other) {
+  rmse.insert(rmse.end(), other.rmse.begin(), other.rmse.end());
+  delta_e00.insert(delta_e00.end(), other.delta_e00.begin(), other.delta_e00.end());
+  converged += other.converged;
+}
+
+FitQuality summarize(const FitScores& scores) {
+  FitQuality q;
+  q.count = scores.rmse.size();
+  q.converged = scores.converged;
+  if (q.count == 0) return q;
+  q.median_rmse = quantile(scores.rmse, 0.5);
+  q.p95_rmse = quantile(scores.rmse, 0.95);
+  q.max_rmse = *std::ranges::max_element(scores.rmse);
+  q.median_delta_e00 = quantile(scores.delta_e00, 0.5);
+  q.p95_delta_e00 = quantile(scores.delta_e00, 0.95);
+  return q;
+}
+
+std::expected<FitScores, std::string> score_fits(const Fitter& fitter, const std::vector<Spectrum>& spectra,
+                                                 const FitOptions& options, unsigned threads) {
   std::vector<std::expected<FitResult, std::string>> fits(spectra.size());
   parallel_for(spectra.size(), threads, [&](std::size_t i) { fits[i] = fitter.fit(spectra[i], options); });
-  FitQuality q;
-  std::vector<double> rmse, delta_e;
+  FitScores scores;
   for (const auto& fit : fits) {
     if (!fit) return std::unexpected(fit.error());
-    ++q.count;
-    q.converged += fit->converged ? 1 : 0;
-    rmse.push_back(fit->rmse);
-    delta_e.push_back(fit->delta_e00_d65);
+    scores.converged += fit->converged ? 1 : 0;
+    scores.rmse.push_back(fit->rmse);
+    scores.delta_e00.push_back(fit->delta_e00_d65);
   }
-  q.median_rmse = quantile(rmse, 0.5);
-  q.p95_rmse = quantile(rmse, 0.95);
-  q.max_rmse = *std::ranges::max_element(rmse);
-  q.median_delta_e00 = quantile(delta_e, 0.5);
-  q.p95_delta_e00 = quantile(delta_e, 0.95);
-  return q;
+  return scores;
 }
 
 std::expected<TuningResult, std::string> tune_constants(const Fitter& start, const std::vector<Spectrum>& training,
@@ -121,6 +149,7 @@ std::expected<TuningResult, std::string> tune_constants(const Fitter& start, con
   if (auto site = start.optics().site(options.site); !site) return std::unexpected(site.error());
   const FitOptions fit_options{.site = options.site, .lateral_diffusion = true, .weights = {}};
   const auto mean_rmse = [&](const Vector& x) {
+    if (!plausible(x)) return std::numeric_limits<double>::infinity();
     const Fitter candidate(start.optics().with_constants(from_point(x)), start.colorimetry());
     std::vector<double> rmse(training.size(), std::numeric_limits<double>::infinity());
     parallel_for(training.size(), options.threads, [&](std::size_t i) {

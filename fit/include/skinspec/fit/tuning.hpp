@@ -19,9 +19,18 @@ struct FitQuality {
   double median_delta_e00 = 0, p95_delta_e00 = 0;
 };
 
-// Fits every spectrum (on `threads` threads, 0 = all cores) and summarises.
-std::expected<FitQuality, std::string> assess_fits(const Fitter& fitter, const std::vector<Spectrum>& spectra,
-                                                   const FitOptions& options, unsigned threads = 0);
+// Per-spectrum figures of a set of fits, for pooling across cross-validation folds.
+struct FitScores {
+  std::vector<double> rmse, delta_e00;
+  std::size_t converged = 0;
+  void append(const FitScores& other);
+};
+
+FitQuality summarize(const FitScores& scores);
+
+// Fits every spectrum (on `threads` threads, 0 = all cores).
+std::expected<FitScores, std::string> score_fits(const Fitter& fitter, const std::vector<Spectrum>& spectra,
+                                                 const FitOptions& options, unsigned threads = 0);
 
 struct TuningOptions {
   std::string site = "forearm";
