@@ -6,8 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <vector>
 #include <limits>
+#include <span>
 #include <vector>
 #include <fmt/format.h>
 
@@ -42,7 +44,9 @@ double weighted_sum_of_squares(const SkinModel& model, const std::vector<double>
 }
 
 // Start points for the solver: a coarse log-spaced search over the pigments that shape skin
-// most (melanin and blood), on every fourth sample. Returns the best few, best first.
+// most (melanin and blood), on every fourth sample. Returns the best few, best first, each
+// with a different amount of blood: dark skin has a second basin where melanin explains the
+// blue and haemoglobin drops to zero, and starts from one blood level all fall into it.
 std::vector<Params> coarse_starts(const SkinModel& model, const std::vector<double>& measured,
                                   const std::vector<double>& weights, std::size_t how_many) {
   constexpr double kMelanin[] = {0.25, 1, 3, 8, 20, 50, 120};
@@ -57,7 +61,11 @@ std::vector<Params> coarse_starts(const SkinModel& model, const std::vector<doub
       }
   std::ranges::sort(scored, {}, &std::pair<double, Params>::first);
   std::vector<Params> starts;
-  for (std::size_t i = 0; i < std::min(how_many, scored.size()); ++i) starts.push_back(scored[i].second);
+  const auto blood_of = [](const Params& p) { return p[kOxyhemoglobin] + p[kDeoxyhemoglobin]; };
+  for (const auto& [score, p] : scored) {
+    if (starts.size() == how_many) break;
+    if (std::ranges::none_of(starts, [&](const Params& s) { return blood_of(s) == blood_of(p); })) starts.push_back(p);
+  }
   return starts;
 }
 
@@ -244,6 +252,16 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   best.cost = std::numeric_limits<double>::infinity();
   for (const Params& start : coarse_starts(model, result.measured, weights, 2)) {
     Solution s = solve_from(model, result.measured, sqrt_weights, start);
+    if (s.cost < best.cost) best = std::move(s);
+  }
+  // A weight pinned at zero may be a local minimum of its own (melanin standing in for blood
+  // in dark skin): try once more with those weights brought back to their reference level.
+  if (std::ranges::any_of(std::span(best.params).subspan(kMelanin), [](double w) { return w == 0; })) {
+    Params reseeded = best.params;
+    for (std::size_t i = kMelanin; i < kParamCount; ++i)
+      if (reseeded[i] == 0) reseeded[i] = 3;
+    Solution s = solve_from(model, result.measured, sqrt_weights, reseeded);
+    s.iterations += best.iterations;
     if (s.cost < best.cost) best = std::move(s);
   }
 

@@ -1,0 +1,613 @@
+// End-to-end tests of the skinspec program: each test runs the built binary as a child process
+// and judges only what a user sees, its exit status, standard output and standard error.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "support/process.hpp"
+
+namespace skinspec {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+using ::testing::IsEmpty;
+using ::testing::StartsWith;
+using Json = nlohmann::json;
+
+constexpr int kBadInput = 2;  // the status skinspec documents for input it refuses
+
+testing::ProcessResult skinspec(const std::vector<std::string>& args,
+                                std::optional<std::string> stdin_bytes = std::nullopt) {
+  testing::ProcessOptions options;
+  options.stdin_bytes = std::move(stdin_bytes);
+  return testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args, options);
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+// Each line of stdout as JSON; a line that does not parse fails the test.
+std::vector<Json> json_lines(const std::string& out) {
+  std::vector<Json> parsed;
+  for (const auto& line : lines_of(out)) {
+    parsed.push_back(Json::parse(line, nullptr, false));
+    EXPECT_FALSE(parsed.back().is_discarded()) << "not JSON: " << line;
+  }
+  return parsed;
+}
+
+std::vector<double> doubles(const Json& array) { return array.get<std::vector<double>>(); }
+
+// A fresh directory under the system's temporary directory, removed with everything in it.
+class TemporaryDirectory {
+ public:
+  TemporaryDirectory() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "skinspec-cli-XXXXXX").string();
+    if (!::mkdtemp(pattern.data())) throw std::runtime_error("mkdtemp failed for " + pattern);
+    path_ = pattern;
+  }
+  TemporaryDirectory(const TemporaryDirectory&) = delete;
+  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
+  ~TemporaryDirectory() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+
+  const std::filesystem::path& path() const { return path_; }
+
+  // Writes `bytes` to `name` inside the directory and returns the file's path.
+  std::string write(const std::string& name, const std::string& bytes) const {
+    const auto file = path_ / name;
+    std::ofstream(file, std::ios::binary) << bytes;
+    return file.string();
+  }
+
+ private:
+  std::filesystem::path path_;
+};
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override { directory_.emplace(); }
+  void TearDown() override { directory_.reset(); }
+
+  std::string write(const std::string& name, const std::string& bytes) const {
+    return directory_->write(name, bytes);
+  }
+  std::string path_of(const std::string& name) const { return (directory_->path() / name).string(); }
+
+ private:
+  std::optional<TemporaryDirectory> directory_;
+};
+
+// A spectra file every command accepts: two flat spectra over 400-700 nm.
+constexpr const char* kGoodSpectra = "wavelength_nm,a,b\n400,0.3,0.4\n550,0.35,0.45\n700,0.5,0.6\n";
+
+// Refused input: the status, empty stdout (no partial output), and the message on stderr.
+void expect_refused(const testing::ProcessResult& run, const ::testing::Matcher<std::string>& message) {
+  EXPECT_EQ(run.exit_status, kBadInput) << run.describe();
+  EXPECT_THAT(run.out, IsEmpty()) << run.describe();
+  EXPECT_THAT(run.err, message) << run.describe();
+}
+
+// ---------------------------------------------------------------------------------------------
+// The process helper itself, on standard tools, so a failure above is never the helper's.
+
+TEST(CliProcess, PassesLargeInputThroughAndSeparatesTheStreams) {
+  std::string big(1 << 20, 'x');  // larger than a pipe's buffer in both directions
+  for (std::size_t i = 0; i < big.size(); i += 97) big[i] = '\n';
+  testing::ProcessOptions options;
+  options.stdin_bytes = big;
+  const auto run = testing::run_process("/bin/sh", {"-c", "cat; echo oops >&2; exit 3"}, options);
+  EXPECT_EQ(run.exit_status, 3);
+  EXPECT_TRUE(run.out == big) << "stdout differs from stdin (" << run.out.size() << " bytes)";
+  EXPECT_EQ(run.err, "oops\n");
+}
+
+TEST(CliProcess, ToleratesAChildThatStopsReadingEarly) {
+  testing::ProcessOptions options;
+  options.stdin_bytes = std::string(4 << 20, 'y');
+  const auto run = testing::run_process("/usr/bin/head", {"-c", "5"}, options);
+  EXPECT_EQ(run.exit_status, 0) << run.describe();
+  EXPECT_EQ(run.out, "yyyyy");
+}
+
+TEST(CliProcess, KillsAChildPastItsTimeout) {
+  testing::ProcessOptions options;
+  options.timeout = std::chrono::milliseconds(200);
+  const auto started = std::chrono::steady_clock::now();
+  const auto run = testing::run_process("/bin/sleep", {"30"}, options);
+  EXPECT_TRUE(run.timed_out);
+  EXPECT_EQ(run.signal, SIGKILL);
+  EXPECT_FALSE(run.exited());
+  EXPECT_LT(std::chrono::steady_clock::now() - started, std::chrono::seconds(10));
+}
+
+TEST(CliProcess, ReportsAProgramThatCannotStart) {
+  const auto run = testing::run_process("/nonexistent/program", {});
+  EXPECT_EQ(run.exit_status, 127);
+  EXPECT_THAT(run.err, HasSubstr("/nonexistent/program"));
+}
+
+TEST(CliProcess, ChildWithoutInputReadsNothingAndSeesAddedEnvironment) {
+  testing::ProcessOptions options;
+  options.environment = {"SKINSPEC_CLI_TEST_MARK=present"};
+  const auto run = testing::run_process("/bin/sh", {"-c", "cat; echo \"$SKINSPEC_CLI_TEST_MARK\""}, options);
+  EXPECT_EQ(run.exit_status, 0) << run.describe();
+  EXPECT_EQ(run.out, "present\n");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Malformed spectra files, for `fit` and `color`, read from a file and from standard input.
+
+struct BadSpectra {
+  const char* label;
+  const char* bytes;
+  const char* location;  // what follows the source name: ":line:column: ", ":line: " or ": "
+  const char* message;   // a part of the message that says what is wrong
+};
+
+const BadSpectra kBadSpectra[] = {
+    {"non_numeric_cell", "wavelength_nm,a,b\n400,0.1,0.2\n550,0.3,abc\n700,0.2,0.3\n", ":3:9: ",
+     "'abc' is not a number in column 'b'"},
+    {"missing_header", "400,0.1\n550,0.2\n700,0.3\n", ":1:1: ", "the header is missing"},
+    {"misnamed_first_column", "wavelength,a\n400,0.1\n700,0.3\n", ":1:1: ", "must be 'wavelength_nm'"},
+    {"duplicated_header", "wavelength_nm,a,b,a\n400,0.1,0.1,0.1\n700,0.2,0.2,0.2\n", ":1:19: ",
+     "duplicated column name 'a'"},
+    {"single_column", "wavelength_nm\n400\n700\n", ":1: ", "names no spectrum"},
+    {"ragged_row", "wavelength_nm,a\n400,0.1\n550,0.2,0.3\n700,0.3\n", ":3:9: ", "3 cells where the header has 2"},
+    {"decreasing_wavelength", "wavelength_nm,a\n400,0.1\n700,0.2\n600,0.3\n", ":4:1: ",
+     "wavelength 600 nm is below 700 nm"},
+    {"repeated_wavelength", "wavelength_nm,a\n400,0.1\n550,0.2\n550,0.3\n700,0.3\n", ":4:1: ",
+     "wavelength 550 nm repeats"},
+    {"grid_starts_late", "wavelength_nm,a\n410,0.1\n700,0.2\n", ": ",
+     "the wavelengths cover 410-700 nm but 400-700 nm is needed"},
+    {"grid_ends_early", "wavelength_nm,a\n400,0.1\n690,0.2\n", ": ",
+     "the wavelengths cover 400-690 nm but 400-700 nm is needed"},
+    {"nan", "wavelength_nm,a\n400,0.1\n550,nan\n700,0.2\n", ":3:5: ", "'nan' is not a finite number"},
+    {"inf", "wavelength_nm,a\n400,0.1\n550,inf\n700,0.2\n", ":3:5: ", "'inf' is not a finite number"},
+    {"minus_inf_wavelength", "wavelength_nm,a\n400,0.1\n-inf,0.1\n700,0.2\n", ":3:1: ",
+     "'-inf' is not a finite number"},
+    {"negative_reflectance", "wavelength_nm,a\n400,0.1\n550,-0.01\n700,0.2\n", ":3:5: ",
+     "value -0.01 in column 'a' is outside the allowed range [0, 1.5]"},
+    {"reflectance_above_1_5", "wavelength_nm,a\n400,0.1\n550,1.51\n700,0.2\n", ":3:5: ",
+     "value 1.51 in column 'a' is outside the allowed range [0, 1.5]"},
+    {"one_row", "wavelength_nm,a\n400,0.1\n", ":2: ", "1 data row below the header"},
+    {"empty", "", ":1: ", "the input is empty"},
+    {"only_blank_lines", "\n  \n\n", ":1: ", "the input holds only blank"},
+};
+
+struct BadSpectraRun {
+  std::string command;  // "fit" or "color"
+  BadSpectra bad;
+  bool from_stdin;
+};
+
+// Names the case in test listings instead of gtest's dump of the struct's bytes.
+void PrintTo(const BadSpectraRun& run, std::ostream* out) {
+  *out << run.command << ' ' << run.bad.label << (run.from_stdin ? " from stdin" : " from a file");
+}
+
+class CliBadSpectra : public CliTest, public ::testing::WithParamInterface<BadSpectraRun> {};
+
+TEST_P(CliBadSpectra, IsRefusedWithStatus2AndTheLocation) {
+  const auto& [command, bad, from_stdin] = GetParam();
+  const auto file = from_stdin ? std::string("-") : write("bad.csv", bad.bytes);
+  const auto source = from_stdin ? std::string("<stdin>") : file;
+  const auto run = from_stdin ? skinspec({command, "-"}, bad.bytes) : skinspec({command, file});
+  expect_refused(run, AllOf(StartsWith("skinspec: " + source + bad.location), HasSubstr(bad.message)));
+}
+
+std::vector<BadSpectraRun> all_bad_spectra_runs() {
+  std::vector<BadSpectraRun> runs;
+  for (const char* command : {"fit", "color"})
+    for (const auto& bad : kBadSpectra)
+      for (const bool from_stdin : {false, true}) runs.push_back({command, bad, from_stdin});
+  return runs;
+}
+
+std::string run_name(const ::testing::TestParamInfo<BadSpectraRun>& run) {
+  return run.param.command + "_" + run.param.bad.label + (run.param.from_stdin ? "_stdin" : "_file");
+}
+
+INSTANTIATE_TEST_SUITE_P(Spectra, CliBadSpectra, ::testing::ValuesIn(all_bad_spectra_runs()), run_name);
+
+// ---------------------------------------------------------------------------------------------
+// Other refused invocations.
+
+class CliRefuses : public CliTest {};
+
+TEST_F(CliRefuses, NonexistentFile) {
+  for (const char* command : {"fit", "color"}) {
+    const auto missing = path_of("no_such_file.csv");
+    expect_refused(skinspec({command, missing}),
+                   AllOf(StartsWith("skinspec: " + missing + ":"), HasSubstr("cannot open")));
+  }
+}
+
+TEST_F(CliRefuses, DirectoryGivenAsFile) {
+  const auto directory = path_of("");
+  for (const char* command : {"fit", "color"})
+    expect_refused(skinspec({command, directory}), HasSubstr("is a directory"));
+}
+
+TEST_F(CliRefuses, UnknownSiteListingTheKnownOnes) {
+  const auto file = write("good.csv", kGoodSpectra);
+  const auto known_sites =
+      AllOf(HasSubstr("unknown site 'elbow'"), HasSubstr("forearm"), HasSubstr("back_of_hand"),
+            HasSubstr("cheek"), HasSubstr("forehead"), HasSubstr("palm"));
+  expect_refused(skinspec({"fit", "--site", "elbow", file}), known_sites);
+  expect_refused(skinspec({"model", "--site", "elbow"}), known_sites);
+  expect_refused(skinspec({"optics", "--site", "elbow"}), known_sites);
+}
+
+TEST_F(CliRefuses, UnknownSubcommandOrOption) {
+  const auto file = write("good.csv", kGoodSpectra);
+  const std::vector<std::vector<std::string>> invocations = {
+      {},
+      {"frobnicate"},
+      {"--bogus"},
+      {"fit", "--bogus", file},
+      {"fit"},  // FILE is required
+      {"fit", file, "extra.csv"},
+      {"color", "--site", "forearm", file},
+      {"model", "--grid"},  // the option's value is missing
+      {"optics", "--melanin", "1"},
+  };
+  for (const auto& args : invocations) {
+    SCOPED_TRACE(::testing::PrintToString(args));
+    expect_refused(skinspec(args), ::testing::Not(IsEmpty()));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// fit on spectra the model itself made: the fit must give back the parameters.
+
+struct ModelSpectrum {
+  std::vector<std::string> wavelength, reflectance;  // as printed, so no digit is lost
+};
+
+// Runs `skinspec model` and splits its two-column CSV.
+ModelSpectrum model_output(const std::vector<std::string>& args) {
+  const auto run = skinspec(args);
+  EXPECT_EQ(run.exit_status, 0) << run.describe();
+  const auto lines = lines_of(run.out);
+  EXPECT_FALSE(lines.empty());
+  if (lines.empty()) return {};
+  EXPECT_EQ(lines.front(), "wavelength_nm,reflectance");
+  ModelSpectrum spectrum;
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    const auto comma = lines[i].find(',');
+    spectrum.wavelength.push_back(lines[i].substr(0, comma));
+    spectrum.reflectance.push_back(lines[i].substr(comma + 1));
+  }
+  return spectrum;
+}
+
+struct TrueSkin {
+  const char* column;
+  double surface_reflectance, melanin, oxyhemoglobin, deoxyhemoglobin, bilirubin;
+
+  std::vector<std::string> model_args(const std::string& grid) const {
+    return {"model", "--site", "forearm", "--grid", grid,
+            "--surface-reflectance", text(surface_reflectance), "--melanin", text(melanin),
+            "--oxyhemoglobin", text(oxyhemoglobin), "--deoxyhemoglobin", text(deoxyhemoglobin),
+            "--bilirubin", text(bilirubin)};
+  }
+  static std::string text(double v) {
+    std::ostringstream out;
+    out << v;
+    return out.str();
+  }
+};
+
+// Named out of alphabetical order, so output sorted by name would not pass for input order.
+constexpr TrueSkin kSkins[] = {
+    {"zeta", 0.04, 5, 3, 1, 2},
+    {"alpha", 0.02, 1.5, 1, 0.4, 0.5},
+};
+
+constexpr const char* kParamKeys[] = {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin",
+                                      "bilirubin"};
+
+// The fit-result fields of `skinspec fit`, all present and of the documented types.
+void expect_fit_fields(const Json& line) {
+  for (const char* key : {"name", "site"}) EXPECT_TRUE(line.contains(key) && line[key].is_string()) << key;
+  for (const char* group : {"params", "stderr"}) {
+    ASSERT_TRUE(line.contains(group) && line[group].is_object()) << group;
+    EXPECT_EQ(line[group].size(), std::size(kParamKeys)) << line[group];
+    for (const char* key : kParamKeys) {
+      ASSERT_TRUE(line[group].contains(key)) << group << "." << key;
+      const auto& value = line[group][key];
+      // An undetermined standard error is null; a parameter is always a number.
+      EXPECT_TRUE(value.is_number() || (value.is_null() && std::string(group) == "stderr")) << group << "." << key;
+    }
+  }
+  for (const char* key : {"rmse", "max_abs_error", "delta_e00_d65"})
+    EXPECT_TRUE(line.contains(key) && line[key].is_number()) << key;
+  EXPECT_TRUE(line.contains("iterations") && line["iterations"].is_number_integer());
+  EXPECT_TRUE(line.contains("converged") && line["converged"].is_boolean());
+  for (const char* key : {"wavelength_nm", "measured", "fitted"})
+    EXPECT_TRUE(line.contains(key) && line[key].is_array()) << key;
+}
+
+class CliFit : public CliTest {};
+
+TEST_F(CliFit, RecoversTheParametersOfModelSpectra) {
+  const std::string grid = "400:700:5";
+  std::vector<ModelSpectrum> spectra;
+  for (const auto& skin : kSkins) spectra.push_back(model_output(skin.model_args(grid)));
+  ASSERT_EQ(spectra[0].wavelength.size(), 61u);
+
+  std::string csv = "wavelength_nm," + std::string(kSkins[0].column) + "," + kSkins[1].column + "\n";
+  for (std::size_t i = 0; i < spectra[0].wavelength.size(); ++i)
+    csv += spectra[0].wavelength[i] + "," + spectra[0].reflectance[i] + "," + spectra[1].reflectance[i] + "\n";
+  const auto run = skinspec({"fit", write("skins.csv", csv)});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const auto results = json_lines(run.out);
+  ASSERT_EQ(results.size(), std::size(kSkins)) << run.out;
+
+  for (std::size_t s = 0; s < std::size(kSkins); ++s) {
+    const auto& skin = kSkins[s];
+    const auto& result = results[s];
+    SCOPED_TRACE(skin.column);
+    expect_fit_fields(result);
+    EXPECT_EQ(result["name"], skin.column);
+    EXPECT_EQ(result["site"], "forearm");
+
+    const auto wavelengths = doubles(result["wavelength_nm"]);
+    const auto measured = doubles(result["measured"]);
+    ASSERT_EQ(wavelengths.size(), spectra[s].wavelength.size());
+    ASSERT_EQ(measured.size(), wavelengths.size());
+    EXPECT_EQ(result["fitted"].size(), wavelengths.size());
+    for (std::size_t i = 0; i < wavelengths.size(); ++i) {
+      EXPECT_DOUBLE_EQ(wavelengths[i], std::stod(spectra[s].wavelength[i]));
+      EXPECT_DOUBLE_EQ(measured[i], std::stod(spectra[s].reflectance[i]));
+    }
+
+    const auto& p = result["params"];
+    EXPECT_NEAR(p["melanin"].get<double>(), skin.melanin, 0.01 * skin.melanin);
+    EXPECT_NEAR(p["surface_reflectance"].get<double>(), skin.surface_reflectance, 1e-3);
+    EXPECT_NEAR(p["oxyhemoglobin"].get<double>(), skin.oxyhemoglobin, 0.01 * skin.oxyhemoglobin);
+    EXPECT_NEAR(p["deoxyhemoglobin"].get<double>(), skin.deoxyhemoglobin, 0.01 * skin.deoxyhemoglobin);
+    EXPECT_NEAR(p["bilirubin"].get<double>(), skin.bilirubin, 0.01 * skin.bilirubin);
+    EXPECT_LT(result["rmse"].get<double>(), 1e-4);
+    EXPECT_LT(result["max_abs_error"].get<double>(), 1e-3);
+    EXPECT_LT(result["delta_e00_d65"].get<double>(), 0.1);
+    EXPECT_TRUE(result["converged"].get<bool>());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// optics and model: eq. 1 of Doi, Tanaka & Tominaga, computed here from the printed constants in
+// its textbook hyperbolic form, must be what `model` prints.
+
+struct Layer {
+  double reflectance, transmittance;
+};
+
+// Kubelka: R = 1/(a + b coth C), T = b/(a sinh C + b cosh C), a = (S+K)/S, b = sqrt(a^2-1), C = D b S.
+Layer kubelka(double K, double S, double D) {
+  const double a = (S + K) / S;
+  const double b = std::sqrt(a * a - 1);
+  const double C = D * b * S;
+  const double coth = 1 / std::tanh(C);  // cosh/sinh, but finite where both overflow
+  return {1 / (a + b * coth), b / (a * std::sinh(C) + b * std::cosh(C))};
+}
+
+struct Weights {
+  double surface_reflectance, melanin, oxyhemoglobin, deoxyhemoglobin, bilirubin;
+};
+
+// Eq. 1 at wavelength index i of the `optics` JSON, over a white hypodermis (reflectance 1).
+double eq1_reflectance(const Json& optics, std::size_t i, const Weights& w) {
+  const auto at = [&](const char* key) { return optics[key][i].get<double>(); };
+  const double Ket = at("Ke") + w.melanin * at("Km");
+  const double Kdt = at("Kd") + w.oxyhemoglobin * at("Kh") + w.deoxyhemoglobin * at("Kdh") + w.bilirubin * at("Kb");
+  const Layer epidermis = kubelka(Ket, at("Se"), optics["epidermis_thickness_mm"].get<double>());
+  const Layer dermis = kubelka(Kdt, at("Sd"), optics["dermis_thickness_mm"].get<double>());
+  const double Rdt = dermis.reflectance + dermis.transmittance * dermis.transmittance / (1 - dermis.reflectance);
+  const double Re = epidermis.reflectance, Te = epidermis.transmittance, Rs = w.surface_reflectance;
+  return (1 - Rs) * (Re + Te * Te * Rdt / (1 - Re * Rdt)) + Rs;
+}
+
+class CliOptics : public CliTest {};
+
+TEST_F(CliOptics, ModelIsEquation1OfThePrintedConstants) {
+  const auto optics_run = skinspec({"optics", "--site", "cheek"});
+  ASSERT_EQ(optics_run.exit_status, 0) << optics_run.describe();
+  const auto optics = json_lines(optics_run.out);
+  ASSERT_EQ(optics.size(), 1u);
+  const Json& o = optics.front();
+  EXPECT_EQ(o["site"], "cheek");
+  EXPECT_GT(o["epidermis_thickness_mm"].get<double>(), 0);
+  EXPECT_GT(o["dermis_thickness_mm"].get<double>(), 0);
+  const auto wavelengths = doubles(o["wavelength_nm"]);
+  ASSERT_EQ(wavelengths.size(), 401u);  // 380-780 nm every 1 nm
+  for (const char* key : {"Ke", "Se", "Kd", "Sd", "Km", "Kh", "Kdh", "Kb"})
+    ASSERT_EQ(o[key].size(), wavelengths.size()) << key;
+
+  const Weights w{0.05, 2.5, 1.5, 0.6, 0.8};
+  const auto model = model_output({"model", "--site", "cheek", "--no-lateral-diffusion",
+                                   "--surface-reflectance", "0.05", "--melanin", "2.5", "--oxyhemoglobin", "1.5",
+                                   "--deoxyhemoglobin", "0.6", "--bilirubin", "0.8"});
+  ASSERT_EQ(model.wavelength.size(), wavelengths.size());
+  for (std::size_t i = 0; i < wavelengths.size(); ++i) {
+    SCOPED_TRACE(wavelengths[i]);
+    ASSERT_DOUBLE_EQ(std::stod(model.wavelength[i]), wavelengths[i]);
+    const double expected = eq1_reflectance(o, i, w);
+    ASSERT_TRUE(std::isfinite(expected));
+    EXPECT_NEAR(std::stod(model.reflectance[i]), expected, 1e-9);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// model's own arguments.
+
+class CliModel : public CliTest {};
+
+TEST_F(CliModel, PrintsTheRequestedGrid) {
+  const auto model = model_output({"model", "--grid", "400:700:5"});
+  ASSERT_EQ(model.wavelength.size(), 61u);
+  EXPECT_EQ(model.wavelength.front(), "400");
+  EXPECT_EQ(model.wavelength.back(), "700");
+  for (const auto& r : model.reflectance) {
+    EXPECT_GT(std::stod(r), 0);
+    EXPECT_LT(std::stod(r), 1);
+  }
+}
+
+TEST_F(CliModel, RefusesABadGrid) {
+  for (const char* grid : {"400:700", "400-700-5", "700:400:5", "300:700:5", "400:800:5", "400:700:0",
+                           "400:700:-5", "400:700:nan", "a:b:c", "400:700:5x", ""}) {
+    SCOPED_TRACE(grid);
+    expect_refused(skinspec({"model", "--grid", grid}), HasSubstr("--grid"));
+  }
+}
+
+TEST_F(CliModel, RefusesWeightsOutOfRange) {
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"--melanin", "-1"},          {"--oxyhemoglobin", "-0.5"}, {"--deoxyhemoglobin", "-1e-3"},
+      {"--bilirubin", "-2"},        {"--melanin", "nan"},        {"--bilirubin", "inf"},
+      {"--surface-reflectance", "-0.1"}, {"--surface-reflectance", "1.5"}, {"--surface-reflectance", "nan"},
+      {"--melanin", "lots"},
+  };
+  for (const auto& [option, value] : bad) {
+    SCOPED_TRACE(option + " " + value);
+    expect_refused(skinspec({"model", option, value}), HasSubstr(option));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// color.
+
+struct Chromaticity {
+  double x, y;
+};
+
+Chromaticity chromaticity(const Json& xyz) {
+  const double X = xyz[0].get<double>(), Y = xyz[1].get<double>(), Z = xyz[2].get<double>();
+  return {X / (X + Y + Z), Y / (X + Y + Z)};
+}
+
+// A perfect white and a flat 50% grey, over the whole visible range.
+constexpr const char* kWhiteAndGrey = "wavelength_nm,white,grey\n380,1.0,0.5\n780,1.0,0.5\n";
+
+class CliColor : public CliTest {};
+
+TEST_F(CliColor, WhiteUnderD65IsTheD65WhitePoint) {
+  const auto run = skinspec({"color", "-"}, kWhiteAndGrey);
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const auto results = json_lines(run.out);
+  ASSERT_EQ(results.size(), 2u);
+
+  const auto& white = results[0];
+  EXPECT_EQ(white["name"], "white");
+  EXPECT_EQ(white["illuminant"], "D65");
+  EXPECT_NEAR(white["XYZ"][0].get<double>(), 0.9505, 2e-4);
+  EXPECT_NEAR(white["XYZ"][1].get<double>(), 1.0, 1e-9);
+  EXPECT_NEAR(white["XYZ"][2].get<double>(), 1.0888, 2e-4);
+  EXPECT_NEAR(white["Lab"][0].get<double>(), 100, 1e-6);
+  EXPECT_NEAR(white["Lab"][1].get<double>(), 0, 1e-6);
+  EXPECT_NEAR(white["Lab"][2].get<double>(), 0, 1e-6);
+  EXPECT_EQ(white["sRGB8"], Json::array({255, 255, 255}));
+
+  // A flat reflectance scales the tristimulus values and keeps the chromaticity.
+  const auto& grey = results[1];
+  EXPECT_EQ(grey["name"], "grey");
+  for (std::size_t k = 0; k < 3; ++k)
+    EXPECT_NEAR(grey["XYZ"][k].get<double>(), 0.5 * white["XYZ"][k].get<double>(), 1e-9);
+  EXPECT_NEAR(grey["Lab"][0].get<double>(), 116 * std::cbrt(0.5) - 16, 1e-6);
+}
+
+TEST_F(CliColor, WhiteUnderAHasTheChromaticityOfA) {
+  const auto run = skinspec({"color", "--illuminant", "A", write("white.csv", kWhiteAndGrey)});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const auto results = json_lines(run.out);
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_EQ(results[0]["illuminant"], "A");
+  const auto xy = chromaticity(results[0]["XYZ"]);
+  EXPECT_NEAR(xy.x, 0.4476, 2e-4);
+  EXPECT_NEAR(xy.y, 0.4074, 2e-4);
+}
+
+TEST_F(CliColor, IlluminantFromAFile) {
+  const auto equal_energy = write("equal_energy.csv", "wavelength_nm,power\n380,100\n780,100\n");
+  const auto run = skinspec({"color", "--illuminant", equal_energy, write("white.csv", kWhiteAndGrey)});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const auto results = json_lines(run.out);
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_EQ(results[0]["illuminant"], equal_energy);
+  // The CIE 1931 functions have (nearly) equal areas, so white under E sits at x = y = 1/3.
+  const auto xy = chromaticity(results[0]["XYZ"]);
+  EXPECT_NEAR(xy.x, 1.0 / 3, 1e-3);
+  EXPECT_NEAR(xy.y, 1.0 / 3, 1e-3);
+  EXPECT_NEAR(results[0]["XYZ"][1].get<double>(), 1.0, 1e-9);
+}
+
+TEST_F(CliColor, RefusesAnUnknownIlluminant) {
+  const auto white = write("white.csv", kWhiteAndGrey);
+  expect_refused(skinspec({"color", "--illuminant", "nosuch", white}),
+                 AllOf(HasSubstr("'nosuch'"), HasSubstr("D65")));
+  // A file that does not span 380-780 nm cannot weight the whole observer range.
+  const auto narrow = write("narrow.csv", "wavelength_nm,power\n400,1\n700,1\n");
+  expect_refused(skinspec({"color", "--illuminant", narrow, white}),
+                 AllOf(StartsWith("skinspec: " + narrow), HasSubstr("380-780 nm is needed")));
+  // Without power there is no white to be relative to.
+  const auto dark = write("dark.csv", "wavelength_nm,power\n380,0\n780,0\n");
+  expect_refused(skinspec({"color", "--illuminant", dark, white}),
+                 AllOf(StartsWith("skinspec: " + dark), HasSubstr("no power")));
+}
+
+// ---------------------------------------------------------------------------------------------
+// --help
+
+struct HelpCase {
+  std::string subcommand;
+  std::vector<std::string> mentions;
+};
+
+TEST(CliHelp, EverySubcommandDescribesItsOptions) {
+  const std::vector<HelpCase> cases = {
+      {"fit", {"FILE", "--site", "--no-lateral-diffusion"}},
+      {"model",
+       {"--site", "--surface-reflectance", "--melanin", "--oxyhemoglobin", "--deoxyhemoglobin", "--bilirubin",
+        "--no-lateral-diffusion", "--grid"}},
+      {"optics", {"--site"}},
+      {"color", {"FILE", "--illuminant"}},
+      {"tune", {"FILE", "--site"}},
+  };
+  for (const auto& [subcommand, mentions] : cases) {
+    SCOPED_TRACE(subcommand);
+    const auto run = skinspec({subcommand, "--help"});
+    EXPECT_EQ(run.exit_status, 0) << run.describe();
+    EXPECT_THAT(run.err, IsEmpty());
+    for (const auto& option : mentions) EXPECT_THAT(run.out, HasSubstr(option));
+  }
+}
+
+TEST(CliHelp, TopLevelHelpListsTheSubcommands) {
+  const auto run = skinspec({"--help"});
+  EXPECT_EQ(run.exit_status, 0) << run.describe();
+  for (const char* subcommand : {"fit", "model", "optics", "color", "tune"}) EXPECT_THAT(run.out, HasSubstr(subcommand));
+}
+
+}  // namespace
+}  // namespace skinspec

@@ -1,0 +1,499 @@
+#include "skinspec/fit/model.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/gradient_checker.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <expected>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "data_dir.hpp"
+#include "skinspec/fit/optics.hpp"
+#include "skinspec/fit/spectrum.hpp"
+#include "support/data.hpp"
+
+namespace skinspec {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+// ---------------------------------------------------------------------------------------------
+// Shared fixtures
+
+DataReader source_data_reader() { return directory_reader(SKINSPEC_TEST_DATA_DIR); }
+
+// The shipped tables and constants, loaded once. data/model/constants.csv is re-tuned from time
+// to time, so what is checked on these must hold for any constants: eq. 1 itself, loading.
+const SkinOptics& shipped_optics() {
+  static const SkinOptics optics = [] {
+    auto loaded = SkinOptics::load(source_data_reader());
+    if (!loaded) {
+      std::fprintf(stderr, "cannot load the model tables: %s\n", loaded.error().what().c_str());
+      std::abort();
+    }
+    return *loaded;
+  }();
+  return optics;
+}
+
+const Site& shipped_forearm() {
+  static const Site site = *shipped_optics().site("forearm");
+  return site;
+}
+
+constexpr double kTypicalLateralRadiusMm = 2.0;
+
+// The shipped tables under fixed textbook constants (no scaling) and a typical lateral radius.
+// Properties that need the skin to behave like skin (the dermis seen through the epidermis,
+// red light lost sideways) are checked here: the tuner may move the shipped constants far
+// while it searches, and these properties are about the code, not about the tuning.
+const SkinOptics& textbook_optics() {
+  static const SkinOptics optics = [] {
+    ModelConstants constants;  // every scale 1
+    constants.lateral_radius_mm = kTypicalLateralRadiusMm;
+    return shipped_optics().with_constants(constants);
+  }();
+  return optics;
+}
+
+const Site& textbook_forearm() {
+  static const Site site = *textbook_optics().site("forearm");
+  return site;
+}
+
+// Parameter sets spanning light to dark skin with ordinary blood and bilirubin.
+const std::vector<Params> kOrdinarySkins = {
+    {0.02, 0.5, 1.0, 0.5, 0.5},
+    {0.04, 3.0, 3.0, 1.0, 1.0},
+    {0.05, 15.0, 5.0, 2.0, 2.0},
+    {0.06, 45.0, 6.0, 2.0, 3.0},
+};
+
+// ---------------------------------------------------------------------------------------------
+// Eq. 1 written out independently of model.hpp, in the paper's hyperbolic forms.
+
+struct PlainLayer {
+  double r, t;
+};
+
+PlainLayer plain_kubelka(double K, double S, double D) {
+  const double a = (S + K) / S;
+  const double b = std::sqrt(a * a - 1);
+  const double c = D * b * S;
+  const double coth = 1 / std::tanh(c);  // not cosh/sinh: both overflow to inf past c = 710
+  return {1 / (a + b * coth), b / (a * std::sinh(c) + b * std::cosh(c))};
+}
+
+// R(lambda) of eq. 1 at index i of the tables' 1 nm grid, with pigment weights applied exactly
+// as the paper's K_et and K_dt.
+double plain_eq1(const LayerOptics& o, std::size_t i, const Site& site, const Params& p) {
+  const double K_et = o.Ke[i] + p[kMelanin] * o.Km[i];
+  const double K_dt = o.Kd[i] + p[kOxyhemoglobin] * o.Kh[i] + p[kDeoxyhemoglobin] * o.Kdh[i] +
+                      p[kBilirubin] * o.Kb[i];
+  const PlainLayer e = plain_kubelka(K_et, o.Se[i], site.epidermis_mm);
+  const PlainLayer d = plain_kubelka(K_dt, o.Sd[i], site.dermis_mm);
+  const double R_dt = d.r + d.t * d.t / (1 - d.r);
+  const double Rs = p[kSurfaceReflectance];
+  return (1 - Rs) * (e.r + e.t * e.t * R_dt / (1 - e.r * R_dt)) + Rs;
+}
+
+// Index of a whole wavelength on the tables' grid (380-780 nm every 1 nm).
+std::size_t table_index(double wavelength_nm) {
+  return static_cast<std::size_t>(wavelength_nm - SkinOptics::kFirstNm);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hand-computed values
+
+TEST(KubelkaLayer, MatchesHandComputedValuesForMadeUpConstants) {
+  // K = 0.5, S = 2, D = 0.3: a = 1.25, b = 0.75, C = 0.45; reference R and T to 30 significant digits.
+  const auto thin = kubelka_layer(0.5, 2.0, 0.3);
+  EXPECT_NEAR(thin.r, 0.330286263579865367900182787913, 1e-14);
+  EXPECT_NEAR(thin.t, 0.532328241745527606569081615778, 1e-14);
+  // K = 3, S = 0.8, D = 0.05: a = 4.75, b = 4.6435439052516775, C = 0.18574175621006710.
+  const auto absorbing = kubelka_layer(3.0, 0.8, 0.05);
+  EXPECT_NEAR(absorbing.r, 0.0332924491900764360811833647572, 1e-14);
+  EXPECT_NEAR(absorbing.t, 0.8275446331572380382707601946, 1e-14);
+}
+
+TEST(KubelkaLayer, AgreesWithTheHyperbolicFormsOverAWideRangeOfConstants) {
+  for (const double K : {1e-4, 0.01, 0.3, 2.0, 40.0})
+    for (const double S : {0.5, 3.0, 30.0})
+      for (const double D : {0.01, 0.1, 1.0}) {
+        const auto layer = kubelka_layer(K, S, D);
+        const auto plain = plain_kubelka(K, S, D);
+        EXPECT_NEAR(layer.r, plain.r, 1e-12) << "K=" << K << " S=" << S << " D=" << D;
+        EXPECT_NEAR(layer.t, plain.t, 1e-12) << "K=" << K << " S=" << S << " D=" << D;
+      }
+}
+
+TEST(SkinModel, MatchesEquationOneWrittenOutByHandAtChosenWavelengths) {
+  const std::vector<double> grid = {420, 555, 660};  // Soret band, Q bands, red
+  const Params p = {0.035, 2.5, 3.0, 1.2, 0.8};
+  const SkinModel model(shipped_optics(), shipped_forearm(), grid, /*lateral_diffusion=*/false);
+  const auto r = model.reflectance(p);
+  ASSERT_EQ(r.size(), grid.size());
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    const double expected = plain_eq1(shipped_optics().optics(), table_index(grid[i]), shipped_forearm(), p);
+    EXPECT_NEAR(r[i], expected, 1e-12) << grid[i] << " nm";
+  }
+}
+
+TEST(SkinModel, MatchesEquationOneOnEverySiteAndTheWholeGrid) {
+  const auto& optics = shipped_optics().optics();
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 1);
+  for (const auto& name : shipped_optics().site_names()) {
+    const Site site = *shipped_optics().site(name);
+    const SkinModel model(shipped_optics(), site, grid, false);
+    for (const Params& p : kOrdinarySkins) {
+      const auto r = model.reflectance(p);
+      for (std::size_t i = 0; i < grid.size(); ++i)
+        ASSERT_NEAR(r[i], plain_eq1(optics, i, site, p), 1e-12) << name << " " << grid[i] << " nm";
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Limits
+
+TEST(KubelkaLayer, VeryThickLayerTendsToRInfinityAndNoTransmission) {
+  const double S = 2.0;
+  for (const double K : {1e-8, 1e-3, 0.5, 20.0})
+    for (const double D : {1e6, 1e300}) {  // optical depth C from 200 to 1e301
+      const auto layer = kubelka_layer(K, S, D);
+      const double a = (S + K) / S;
+      const double b = std::sqrt(a * a - 1);
+      ASSERT_TRUE(std::isfinite(layer.r) && std::isfinite(layer.t)) << "K=" << K << " D=" << D;
+      EXPECT_NEAR(layer.r, a - b, 1e-12) << "K=" << K << " D=" << D;
+      EXPECT_GE(layer.t, 0.0) << "K=" << K << " D=" << D;
+      EXPECT_LT(layer.t, 1e-80) << "K=" << K << " D=" << D;
+    }
+}
+
+TEST(KubelkaLayer, NonAbsorbingLimitIsFinite) {
+  // With K -> 0 the layer conserves light: R + T -> 1.
+  const auto layer = kubelka_layer(1e-12, 2.0, 0.5);
+  ASSERT_TRUE(std::isfinite(layer.r) && std::isfinite(layer.t));
+  EXPECT_NEAR(layer.r + layer.t, 1.0, 1e-5);
+}
+
+TEST(SkinModel, ZeroPigmentWeightsGiveTheBaselineTissue) {
+  const auto& o = shipped_optics().optics();
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 1);
+  const SkinModel model(shipped_optics(), shipped_forearm(), grid, false);
+  const double rs = 0.04;
+  const auto r = model.reflectance({rs, 0, 0, 0, 0});
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    // Only the baseline absorption Ke, Kd: the pigment rows must play no part at all.
+    const PlainLayer e = plain_kubelka(o.Ke[i], o.Se[i], shipped_forearm().epidermis_mm);
+    const PlainLayer d = plain_kubelka(o.Kd[i], o.Sd[i], shipped_forearm().dermis_mm);
+    const double R_dt = d.r + d.t * d.t / (1 - d.r);
+    const double baseline = (1 - rs) * (e.r + e.t * e.t * R_dt / (1 - e.r * R_dt)) + rs;
+    ASSERT_NEAR(r[i], baseline, 1e-12) << grid[i] << " nm";
+  }
+}
+
+TEST(SkinModel, SurfaceReflectanceOfOneReflectsEverything) {
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 5);
+  for (const bool lateral : {false, true}) {
+    const SkinModel model(shipped_optics(), shipped_forearm(), grid, lateral);
+    for (double value : model.reflectance({1.0, 30, 5, 2, 3})) EXPECT_NEAR(value, 1.0, 1e-15);
+  }
+}
+
+TEST(SkinModel, ReflectanceStaysStrictlyBetweenZeroAndOneForOrdinarySkin) {
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 1);
+  for (const SkinOptics* optics_under_test : {&shipped_optics(), &textbook_optics()}) {
+    const SkinOptics& optics = *optics_under_test;
+    for (const auto& name : optics.site_names())
+    for (const bool lateral : {false, true}) {
+      const SkinModel model(optics, *optics.site(name), grid, lateral);
+      for (const Params& p : kOrdinarySkins) {
+        const auto r = model.reflectance(p);
+        for (std::size_t i = 0; i < grid.size(); ++i) {
+          ASSERT_GT(r[i], 0.0) << name << " " << grid[i] << " nm";
+          ASSERT_LT(r[i], 1.0) << name << " " << grid[i] << " nm";
+        }
+      }
+    }
+  }
+}
+
+TEST(SkinModel, MoreMelaninLowersReflectanceAtEveryWavelength) {
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 1);
+  for (const bool lateral : {false, true}) {
+    const SkinModel model(shipped_optics(), shipped_forearm(), grid, lateral);
+    std::vector<double> previous;
+    for (const double melanin : {0.0, 1.0, 3.0, 10.0, 30.0, 100.0}) {
+      const auto r = model.reflectance({0.04, melanin, 3.0, 1.0, 1.0});
+      for (std::size_t i = 0; i < previous.size(); ++i)
+        ASSERT_LT(r[i], previous[i]) << "melanin " << melanin << " at " << grid[i] << " nm";
+      previous = r;
+    }
+  }
+}
+
+TEST(SkinModel, LateralDiffusionOnlyRemovesLight) {
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 1);
+  const SkinModel with_loss(textbook_optics(), textbook_forearm(), grid, true);
+  const SkinModel without_loss(textbook_optics(), textbook_forearm(), grid, false);
+  for (const Params& p : kOrdinarySkins) {
+    const auto lossy = with_loss.reflectance(p);
+    const auto full = without_loss.reflectance(p);
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+      // In the blue, light is absorbed long before it reaches the radius: the loss is there
+      // but below rounding. In the red it must be visible.
+      if (grid[i] >= 600) ASSERT_LT(lossy[i], full[i]) << grid[i] << " nm";
+      else ASSERT_LE(lossy[i], full[i]) << grid[i] << " nm";
+      ASSERT_GT(lossy[i], p[kSurfaceReflectance]) << grid[i] << " nm";
+    }
+  }
+}
+
+// Dermis absorption at one wavelength for ordinary blood and bilirubin.
+double ordinary_dermis_K(std::size_t i) {
+  const auto& o = textbook_optics().optics();
+  return o.Kd[i] + 3.0 * o.Kh[i] + 1.0 * o.Kdh[i] + 1.0 * o.Kb[i];
+}
+
+TEST(LateralLoss, IsZeroWithoutARadius) {
+  const auto& o = textbook_optics().optics();
+  const std::size_t i = table_index(550);
+  EXPECT_EQ(lateral_loss(ordinary_dermis_K(i), o.Sd[i], 0.0), 0.0);
+}
+
+TEST(LateralLoss, IsAFractionForPositiveRadii) {
+  const auto& o = textbook_optics().optics();
+  for (const double radius : {0.1, 1.0, 3.0, 10.0})
+    for (std::size_t i = 0; i < o.wavelength_nm.size(); i += 10) {
+      const double loss = lateral_loss(ordinary_dermis_K(i), o.Sd[i], radius);
+      ASSERT_GT(loss, 0.0) << radius << " mm at " << o.wavelength_nm[i] << " nm";
+      ASSERT_LT(loss, 1.0) << radius << " mm at " << o.wavelength_nm[i] << " nm";
+    }
+}
+
+TEST(LateralLoss, IsLargerInTheRedThanInTheBlue) {
+  // Red light is absorbed less by blood, so it diffuses further and more of it escapes the
+  // instrument: the reason Doi et al. compensate for lateral diffusion at long wavelengths.
+  const auto& o = textbook_optics().optics();
+  const std::size_t blue = table_index(450), red = table_index(700);
+  for (const double radius : {0.5, 1.0, 3.0}) {
+    const double loss_blue = lateral_loss(ordinary_dermis_K(blue), o.Sd[blue], radius);
+    const double loss_red = lateral_loss(ordinary_dermis_K(red), o.Sd[red], radius);
+    EXPECT_GT(loss_red, loss_blue) << radius << " mm";
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Derivatives: the fitter differentiates the templated model with Ceres' Jets; check those
+// against numeric differentiation of the same residual.
+
+struct ModelResidual {
+  const SkinModel& model;
+  std::vector<double> measured;
+
+  template <typename T>
+  bool operator()(const T* p, T* residuals) const {
+    for (std::size_t i = 0; i < model.size(); ++i) residuals[i] = model.reflectance_at(i, p) - measured[i];
+    return true;
+  }
+};
+
+using ModelCost = ceres::AutoDiffCostFunction<ModelResidual, ceres::DYNAMIC, kParamCount>;
+
+// A measured spectrum close to, but not on, the model, so residuals are not all zero.
+std::vector<double> nearby_measurement(const SkinModel& model) {
+  auto r = model.reflectance({0.03, 4.0, 2.5, 1.0, 1.0});
+  for (std::size_t i = 0; i < r.size(); ++i) r[i] += 0.01 * std::sin(0.1 * static_cast<double>(i));
+  return r;
+}
+
+class ModelGradient : public ::testing::TestWithParam<bool> {
+ protected:
+  ModelGradient()
+      : model_(textbook_optics(), textbook_forearm(),
+               Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 4), GetParam()),
+        cost_(new ModelResidual{model_, nearby_measurement(model_)}, static_cast<int>(model_.size())),
+        checker_(&cost_, kEuclidean, numeric_options()) {}
+
+  // Ridders' method from Ceres' default first step (1e-2 of the value) loses accuracy at small
+  // pigment weights (1e-5 relative at deoxy-haemoglobin 0.05 in the Soret band); starting from
+  // 1e-3 it agrees with the automatic derivatives to 1e-8 at every point below.
+  static ceres::NumericDiffOptions numeric_options() {
+    ceres::NumericDiffOptions options;
+    options.ridders_relative_initial_step_size = 1e-3;
+    return options;
+  }
+
+  static constexpr const std::vector<const ceres::Manifold*>* kEuclidean = nullptr;
+  static constexpr double kRelativePrecision = 1e-6;
+
+  SkinModel model_;
+  ModelCost cost_;
+  ceres::GradientChecker checker_;
+};
+
+// From nearly unpigmented to dark skin whose dermis is still seen.
+const std::vector<Params> kCheckPoints = {
+    {0.01, 0.05, 0.1, 0.05, 0.02},
+    {0.02, 0.5, 1.0, 0.5, 0.5},
+    {0.04, 3.0, 3.0, 1.0, 1.0},
+    {0.05, 15.0, 5.0, 2.0, 2.0},
+};
+
+TEST_P(ModelGradient, AutomaticDerivativesMatchNumericOnes) {
+  for (const Params& p : kCheckPoints) {
+    const double* parameters[] = {p.data()};
+    ceres::GradientChecker::ProbeResults results;
+    EXPECT_TRUE(checker_.Probe(parameters, kRelativePrecision, &results))
+        << "melanin " << p[kMelanin] << ": worst relative error " << results.maximum_relative_error
+        << "\n" << results.error_log;
+  }
+}
+
+TEST_P(ModelGradient, AutomaticDerivativesMatchNumericOnesUnderHeavyMelanin) {
+  // Under melanin 60 the blue hardly sees the dermis: d R / d w_blood falls to 1e-13, below what
+  // differencing a reflectance of 0.1 can resolve, so entry-wise relative errors are noise
+  // there. Each entry is judged against the largest derivative for the same parameter instead.
+  const Params p = {0.10, 60.0, 10.0, 8.0, 6.0};
+  const double* parameters[] = {p.data()};
+  ceres::GradientChecker::ProbeResults results;
+  checker_.Probe(parameters, kRelativePrecision, &results);
+  ASSERT_TRUE(results.return_value) << results.error_log;
+  const auto& automatic = results.jacobians.at(0);
+  const auto& numeric = results.numeric_jacobians.at(0);
+  for (int j = 0; j < kParamCount; ++j) {
+    const double scale = automatic.col(j).cwiseAbs().maxCoeff();
+    ASSERT_GT(scale, 0.0) << kParamNames[static_cast<std::size_t>(j)];
+    for (int i = 0; i < automatic.rows(); ++i)
+      EXPECT_LE(std::abs(automatic(i, j) - numeric(i, j)), kRelativePrecision * scale)
+          << kParamNames[static_cast<std::size_t>(j)] << " at " << model_.grid()[static_cast<std::size_t>(i)] << " nm";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(LateralDiffusion, ModelGradient, ::testing::Bool(),
+                         [](const auto& test) { return test.param ? "On" : "Off"; });
+
+// ---------------------------------------------------------------------------------------------
+// Loading the tables
+
+// Every file SkinOptics::load reads.
+const std::vector<std::string> kModelFiles = {
+    "optics/hemoglobin_prahl.csv",          "optics/bilirubin_photochemcad.csv",
+    "optics/melanosome_jacques2013.csv",    "optics/skin_baseline_jacques1998.csv",
+    "optics/scattering_salomatina.csv",     "model/sites.csv",
+    "model/constants.csv",
+};
+
+// The source data directory, with `file`'s bytes passed through `change` (or replaced by a
+// read error when change is null).
+DataReader reader_changing(std::string file, std::function<std::string(std::string)> change) {
+  return [file = std::move(file), change = std::move(change)](
+             std::string_view path) -> std::expected<std::string, std::string> {
+    auto bytes = source_data_reader()(path);
+    if (path != file || !bytes) return bytes;
+    if (!change) return std::unexpected(std::string("disk on fire"));
+    return change(std::move(*bytes));
+  };
+}
+
+std::string without_source_line(std::string bytes) {
+  const auto start = bytes.find("# source:");
+  if (start == std::string::npos) return bytes;
+  const auto end = bytes.find('\n', start);
+  bytes.erase(start, end == std::string::npos ? std::string::npos : end - start + 1);
+  return bytes;
+}
+
+std::string with_malformed_row(std::string bytes) {
+  if (!bytes.empty() && bytes.back() != '\n') bytes += '\n';
+  return bytes + "1000\n";  // one cell where every table has at least two columns
+}
+
+class TableLoading : public ::testing::TestWithParam<std::string> {};
+
+TEST(TableLoadingBaseline, ShippedTablesLoad) {
+  const auto optics = SkinOptics::load(source_data_reader());
+  ASSERT_TRUE(optics.has_value()) << optics.error().what();
+  EXPECT_EQ(optics->optics().wavelength_nm.size(), 401u);
+  EXPECT_FALSE(optics->tables_digest().empty());
+}
+
+TEST_P(TableLoading, ReadErrorNamesTheFile) {
+  const auto optics = SkinOptics::load(reader_changing(GetParam(), nullptr));
+  ASSERT_FALSE(optics.has_value());
+  EXPECT_EQ(optics.error().source, GetParam());
+  EXPECT_THAT(optics.error().what(), AllOf(HasSubstr(GetParam()), HasSubstr("disk on fire")));
+}
+
+TEST_P(TableLoading, MalformedTableNamesTheFileAndLine) {
+  const auto optics = SkinOptics::load(reader_changing(GetParam(), with_malformed_row));
+  ASSERT_FALSE(optics.has_value());
+  EXPECT_EQ(optics.error().source, GetParam());
+  EXPECT_GT(optics.error().line, 0u);
+  EXPECT_THAT(optics.error().what(), HasSubstr(GetParam()));
+}
+
+TEST_P(TableLoading, MissingSourceLineIsRefused) {
+  const auto optics = SkinOptics::load(reader_changing(GetParam(), without_source_line));
+  ASSERT_FALSE(optics.has_value());
+  EXPECT_EQ(optics.error().source, GetParam());
+  EXPECT_THAT(optics.error().what(), AllOf(HasSubstr(GetParam()), HasSubstr("source")));
+}
+
+TEST_P(TableLoading, ChangingATableChangesTheDigest) {
+  const auto changed = SkinOptics::load(reader_changing(GetParam(), [](std::string bytes) {
+    return bytes + "\n";  // a blank line: same numbers, different bytes
+  }));
+  ASSERT_TRUE(changed.has_value()) << changed.error().what();
+  EXPECT_NE(changed->tables_digest(), shipped_optics().tables_digest());
+}
+
+INSTANTIATE_TEST_SUITE_P(EachFile, TableLoading, ::testing::ValuesIn(kModelFiles),
+                         [](const auto& test) {
+                           std::string name = test.param;
+                           for (char& c : name)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return name;
+                         });
+
+// ---------------------------------------------------------------------------------------------
+// Sites
+
+TEST(Sites, KnownSiteHasPositiveThicknesses) {
+  const auto site = shipped_optics().site("forearm");
+  ASSERT_TRUE(site.has_value()) << site.error();
+  EXPECT_EQ(site->name, "forearm");
+  EXPECT_GT(site->epidermis_mm, 0.0);
+  EXPECT_GT(site->dermis_mm, site->epidermis_mm);
+}
+
+TEST(Sites, UnknownSiteListsTheKnownOnes) {
+  const auto site = shipped_optics().site("elbow");
+  ASSERT_FALSE(site.has_value());
+  EXPECT_THAT(site.error(), HasSubstr("elbow"));
+  const auto names = shipped_optics().site_names();
+  ASSERT_FALSE(names.empty());
+  for (const auto& name : names) EXPECT_THAT(site.error(), HasSubstr(name));
+}
+
+TEST(Sites, ThicknessScalesApply) {
+  ModelConstants constants = shipped_optics().constants();
+  const Site before = *shipped_optics().site("forearm");
+  constants.epidermis_thickness_scale *= 2;
+  constants.dermis_thickness_scale *= 3;
+  const Site after = *shipped_optics().with_constants(constants).site("forearm");
+  EXPECT_NEAR(after.epidermis_mm, 2 * before.epidermis_mm, 1e-15);
+  EXPECT_NEAR(after.dermis_mm, 3 * before.dermis_mm, 1e-15);
+}
+
+}  // namespace
+}  // namespace skinspec
