@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "support/process.hpp"
+#include "support/reference_model.hpp"
 
 namespace skinspec {
 namespace {
@@ -399,33 +400,15 @@ TEST_F(CliFit, RecoversTheParametersOfModelSpectra) {
 // optics and model: eq. 1 of Doi, Tanaka & Tominaga, computed here from the printed constants in
 // its textbook hyperbolic form, must be what `model` prints.
 
-struct Layer {
-  double reflectance, transmittance;
-};
+using testing::reference::Weights;
 
-// Kubelka: R = 1/(a + b coth C), T = b/(a sinh C + b cosh C), a = (S+K)/S, b = sqrt(a^2-1), C = D b S.
-Layer kubelka(double K, double S, double D) {
-  const double a = (S + K) / S;
-  const double b = std::sqrt(a * a - 1);
-  const double C = D * b * S;
-  const double coth = 1 / std::tanh(C);  // cosh/sinh, but finite where both overflow
-  return {1 / (a + b * coth), b / (a * std::sinh(C) + b * std::cosh(C))};
-}
-
-struct Weights {
-  double surface_reflectance, melanin, oxyhemoglobin, deoxyhemoglobin, bilirubin;
-};
-
-// Eq. 1 at wavelength index i of the `optics` JSON, over a white hypodermis (reflectance 1).
+// Eq. 1 (support/reference_model.hpp) at wavelength index i of the `optics` JSON, over a white
+// hypodermis (reflectance 1).
 double eq1_reflectance(const Json& optics, std::size_t i, const Weights& w) {
   const auto at = [&](const char* key) { return optics[key][i].get<double>(); };
-  const double Ket = at("Ke") + w.melanin * at("Km");
-  const double Kdt = at("Kd") + w.oxyhemoglobin * at("Kh") + w.deoxyhemoglobin * at("Kdh") + w.bilirubin * at("Kb");
-  const Layer epidermis = kubelka(Ket, at("Se"), optics["epidermis_thickness_mm"].get<double>());
-  const Layer dermis = kubelka(Kdt, at("Sd"), optics["dermis_thickness_mm"].get<double>());
-  const double Rdt = dermis.reflectance + dermis.transmittance * dermis.transmittance / (1 - dermis.reflectance);
-  const double Re = epidermis.reflectance, Te = epidermis.transmittance, Rs = w.surface_reflectance;
-  return (1 - Rs) * (Re + Te * Te * Rdt / (1 - Re * Rdt)) + Rs;
+  return testing::reference::eq1(
+      {at("Ke"), at("Se"), at("Kd"), at("Sd"), at("Km"), at("Kh"), at("Kdh"), at("Kb")},
+      optics["epidermis_thickness_mm"].get<double>(), optics["dermis_thickness_mm"].get<double>(), w);
 }
 
 class CliOptics : public CliTest {};

@@ -13,7 +13,6 @@
 #include <string>
 #include <vector>
 
-#include "data_dir.hpp"
 #include "support/data.hpp"
 
 namespace skinspec {
@@ -35,28 +34,10 @@ enum class Constants { kShipped, kTextbook };
 std::string name_of(Constants constants) { return constants == Constants::kShipped ? "Shipped" : "Textbook"; }
 void PrintTo(Constants constants, std::ostream* out) { *out << name_of(constants); }
 
-const SkinOptics& shipped_optics() {
-  static const SkinOptics optics = [] {
-    auto loaded = SkinOptics::load(directory_reader(SKINSPEC_TEST_DATA_DIR));
-    if (!loaded) {
-      std::fprintf(stderr, "cannot load the model tables: %s\n", loaded.error().what().c_str());
-      std::abort();
-    }
-    return *loaded;
-  }();
-  return optics;
-}
-
-// Every scale 1, and a lateral radius typical of a contact probe so that the lateral-diffusion
-// path is exercised.
-const SkinOptics& textbook_optics() {
-  static const SkinOptics optics = [] {
-    ModelConstants constants;
-    constants.lateral_radius_mm = 2.0;
-    return shipped_optics().with_constants(constants);
-  }();
-  return optics;
-}
+// The shipped constants, and every scale 1 with a lateral radius typical of a contact probe so
+// that the lateral-diffusion path is exercised (support/data.hpp).
+using testing::shipped_optics;
+using testing::textbook_optics;
 
 const SkinOptics& optics(Constants constants) {
   return constants == Constants::kShipped ? shipped_optics() : textbook_optics();

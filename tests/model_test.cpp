@@ -7,17 +7,15 @@
 
 #include <cctype>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <expected>
 #include <functional>
 #include <string>
 #include <vector>
 
-#include "data_dir.hpp"
 #include "skinspec/fit/optics.hpp"
 #include "skinspec/fit/spectrum.hpp"
 #include "support/data.hpp"
+#include "support/reference_model.hpp"
 
 namespace skinspec {
 namespace {
@@ -28,40 +26,13 @@ using ::testing::HasSubstr;
 // ---------------------------------------------------------------------------------------------
 // Shared fixtures
 
-DataReader source_data_reader() { return directory_reader(SKINSPEC_TEST_DATA_DIR); }
-
-// The shipped tables and constants, loaded once. data/model/constants.csv is re-tuned from time
-// to time, so what is checked on these must hold for any constants: eq. 1 itself, loading.
-const SkinOptics& shipped_optics() {
-  static const SkinOptics optics = [] {
-    auto loaded = SkinOptics::load(source_data_reader());
-    if (!loaded) {
-      std::fprintf(stderr, "cannot load the model tables: %s\n", loaded.error().what().c_str());
-      std::abort();
-    }
-    return *loaded;
-  }();
-  return optics;
-}
+using testing::shipped_optics;
+using testing::source_data_reader;
+using testing::textbook_optics;
 
 const Site& shipped_forearm() {
   static const Site site = *shipped_optics().site("forearm");
   return site;
-}
-
-constexpr double kTypicalLateralRadiusMm = 2.0;
-
-// The shipped tables under fixed textbook constants (no scaling) and a typical lateral radius.
-// Properties that need the skin to behave like skin (the dermis seen through the epidermis,
-// red light lost sideways) are checked here: the tuner may move the shipped constants far
-// while it searches, and these properties are about the code, not about the tuning.
-const SkinOptics& textbook_optics() {
-  static const SkinOptics optics = [] {
-    ModelConstants constants;  // every scale 1
-    constants.lateral_radius_mm = kTypicalLateralRadiusMm;
-    return shipped_optics().with_constants(constants);
-  }();
-  return optics;
 }
 
 const Site& textbook_forearm() {
@@ -78,31 +49,17 @@ const std::vector<Params> kOrdinarySkins = {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Eq. 1 written out independently of model.hpp, in the paper's hyperbolic forms.
+// Eq. 1 written out independently of model.hpp, in the paper's hyperbolic forms
+// (support/reference_model.hpp).
 
-struct PlainLayer {
-  double r, t;
-};
+namespace reference = testing::reference;
 
-PlainLayer plain_kubelka(double K, double S, double D) {
-  const double a = (S + K) / S;
-  const double b = std::sqrt(a * a - 1);
-  const double c = D * b * S;
-  const double coth = 1 / std::tanh(c);  // not cosh/sinh: both overflow to inf past c = 710
-  return {1 / (a + b * coth), b / (a * std::sinh(c) + b * std::cosh(c))};
-}
-
-// R(lambda) of eq. 1 at index i of the tables' 1 nm grid, with pigment weights applied exactly
-// as the paper's K_et and K_dt.
+// R(lambda) of eq. 1 at index i of the tables' 1 nm grid.
 double plain_eq1(const LayerOptics& o, std::size_t i, const Site& site, const Params& p) {
-  const double K_et = o.Ke[i] + p[kMelanin] * o.Km[i];
-  const double K_dt = o.Kd[i] + p[kOxyhemoglobin] * o.Kh[i] + p[kDeoxyhemoglobin] * o.Kdh[i] +
-                      p[kBilirubin] * o.Kb[i];
-  const PlainLayer e = plain_kubelka(K_et, o.Se[i], site.epidermis_mm);
-  const PlainLayer d = plain_kubelka(K_dt, o.Sd[i], site.dermis_mm);
-  const double R_dt = d.r + d.t * d.t / (1 - d.r);
-  const double Rs = p[kSurfaceReflectance];
-  return (1 - Rs) * (e.r + e.t * e.t * R_dt / (1 - e.r * R_dt)) + Rs;
+  return reference::eq1({o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i]},
+                        site.epidermis_mm, site.dermis_mm,
+                        {p[kSurfaceReflectance], p[kMelanin], p[kOxyhemoglobin], p[kDeoxyhemoglobin],
+                         p[kBilirubin]});
 }
 
 // Index of a whole wavelength on the tables' grid (380-780 nm every 1 nm).
@@ -129,7 +86,7 @@ TEST(KubelkaLayer, AgreesWithTheHyperbolicFormsOverAWideRangeOfConstants) {
     for (const double S : {0.5, 3.0, 30.0})
       for (const double D : {0.01, 0.1, 1.0}) {
         const auto layer = kubelka_layer(K, S, D);
-        const auto plain = plain_kubelka(K, S, D);
+        const auto plain = reference::kubelka(K, S, D);
         EXPECT_NEAR(layer.r, plain.r, 1e-12) << "K=" << K << " S=" << S << " D=" << D;
         EXPECT_NEAR(layer.t, plain.t, 1e-12) << "K=" << K << " S=" << S << " D=" << D;
       }
@@ -193,10 +150,9 @@ TEST(SkinModel, ZeroPigmentWeightsGiveTheBaselineTissue) {
   const auto r = model.reflectance({rs, 0, 0, 0, 0});
   for (std::size_t i = 0; i < grid.size(); ++i) {
     // Only the baseline absorption Ke, Kd: the pigment rows must play no part at all.
-    const PlainLayer e = plain_kubelka(o.Ke[i], o.Se[i], shipped_forearm().epidermis_mm);
-    const PlainLayer d = plain_kubelka(o.Kd[i], o.Sd[i], shipped_forearm().dermis_mm);
-    const double R_dt = d.r + d.t * d.t / (1 - d.r);
-    const double baseline = (1 - rs) * (e.r + e.t * e.t * R_dt / (1 - e.r * R_dt)) + rs;
+    const double baseline =
+        reference::skin_reflectance(reference::kubelka(o.Ke[i], o.Se[i], shipped_forearm().epidermis_mm),
+                                    reference::kubelka(o.Kd[i], o.Sd[i], shipped_forearm().dermis_mm), rs);
     ASSERT_NEAR(r[i], baseline, 1e-12) << grid[i] << " nm";
   }
 }

@@ -12,6 +12,8 @@ namespace {
   std::fprintf(stderr, "test data: %s\n", message.c_str());
   std::abort();
 }
+
+constexpr double kTypicalLateralRadiusMm = 2.0;
 }  // namespace
 
 std::string data_file(const std::string& relative) {
@@ -34,6 +36,26 @@ const Colorimetry& colorimetry() {
     return *c;
   }();
   return instance;
+}
+
+DataReader source_data_reader() { return directory_reader(SKINSPEC_TEST_DATA_DIR); }
+
+const SkinOptics& shipped_optics() {
+  static const SkinOptics optics = [] {
+    auto loaded = SkinOptics::load(source_data_reader());
+    if (!loaded) die("cannot load the model tables: " + loaded.error().what());
+    return *loaded;
+  }();
+  return optics;
+}
+
+const SkinOptics& textbook_optics() {
+  static const SkinOptics optics = [] {
+    ModelConstants constants;  // every scale 1
+    constants.lateral_radius_mm = kTypicalLateralRadiusMm;
+    return shipped_optics().with_constants(constants);
+  }();
+  return optics;
 }
 
 }  // namespace skinspec::testing
