@@ -36,5 +36,7 @@ void add_model_command(CLI::App& app);
 void add_optics_command(CLI::App& app);
 void add_color_command(CLI::App& app);
 void add_tune_command(CLI::App& app);
+void add_ports_command(CLI::App& app);
+void add_measure_command(CLI::App& app);
 
 }  // namespace skinspec::cli

@@ -14,9 +14,11 @@ int main(int argc, char** argv) {
   add_optics_command(app);
   add_color_command(app);
   add_tune_command(app);
+  add_ports_command(app);
+  add_measure_command(app);
   // CLI11 reports a mistyped subcommand only as "a subcommand is required"; name it instead.
   if (argc > 1 && argv[1][0] != '-' && app.get_subcommands([&](CLI::App* sub) { return sub->get_name() == argv[1]; }).empty()) {
-    std::cerr << "skinspec: unknown command '" << argv[1] << "'; commands: fit, model, optics, color, tune\n";
+    std::cerr << "skinspec: unknown command '" << argv[1] << "'; commands: fit, model, optics, color, tune, ports, measure\n";
     return kBadInput;
   }
   try {

@@ -1,0 +1,281 @@
+// The PR-650 driver against a scripted meter on an in-process link: every byte and delay is
+// under the test's control.
+
+#include "skinspec/drivers/pr650.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <thread>
+
+#include "skinspec/drivers/memory_transport.hpp"
+#include "support/scripted_meter.hpp"
+
+namespace skinspec::drivers {
+namespace {
+
+using namespace std::chrono_literals;
+using ::testing::HasSubstr;
+using testing::MeterStep;
+using testing::ScriptedMeter;
+
+// Short timeouts so that silence is noticed quickly; the logic is the same at full length.
+DriverOptions fast_options() {
+  DriverOptions o;
+  o.contact_attempts = 3;
+  o.contact_timeout = 100ms;
+  o.modem_settle = 0ms;
+  o.reply_timeout = 300ms;
+  o.measurement_overhead = 300ms;
+  o.line_bytes_per_second = 1e6;
+  return o;
+}
+
+// A smooth lamp spectrum with a given scale, as the meter would print it.
+pr650::SpectralReport lamp(double scale, int quality = 0) {
+  pr650::SpectralReport r;
+  r.quality = quality;
+  double sum = 0;
+  for (int i = 0; i < pr650::kSpectralPoints; ++i) {
+    const double nm = 380 + 4.0 * i;
+    r.wavelength_nm.push_back(nm);
+    const double v = scale * (1 + 0.5 * std::sin(nm / 40));
+    r.values.push_back(std::stod(pr650::format_value(v)));
+    sum += r.values.back();
+  }
+  r.integrated = sum * 4;
+  return r;
+}
+
+std::string d5(double scale, int quality = 0) { return pr650::format_spectral_reply(lamp(scale, quality)); }
+const std::string kOk = "000\r\n";
+const std::string kSetupOk = "00\r\n";
+const std::string kD1 = "00,0,1.000E+02,.3355,.3270\r\n";
+const std::string kD2 = "00,0,1.026E+02,1.000E+02,1.032E+02\r\n";
+
+std::vector<MeterStep> contact() { return {{"b3", kOk}}; }
+
+std::vector<MeterStep> measurement(const std::string& setup, const std::string& spectral_reply) {
+  return {{setup, kSetupOk}, {"m0", kOk, 20ms}, {"d5", spectral_reply}, {"d1", kD1}, {"d2", kD2}};
+}
+
+// A measurement whose quality code ends it after the spectral report: no D1/D2 follow.
+std::vector<MeterStep> failed_measurement(const std::string& setup, const std::string& spectral_reply) {
+  return {{setup, kSetupOk}, {"m0", kOk, 20ms}, {"d5", spectral_reply}};
+}
+
+std::vector<MeterStep> operator+(std::vector<MeterStep> a, const std::vector<MeterStep>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+struct Rig {
+  std::unique_ptr<ScriptedMeter> meter;
+  std::unique_ptr<Pr650> driver;
+  MemoryTransport* host = nullptr;
+};
+
+Rig rig(std::vector<MeterStep> script, DriverOptions options = fast_options()) {
+  auto [host, device] = make_memory_pair("memory:test");
+  Rig r;
+  r.host = dynamic_cast<MemoryTransport*>(host.get());
+  r.meter = std::make_unique<ScriptedMeter>(std::move(device), std::move(script));
+  r.driver = std::make_unique<Pr650>(std::move(host), options);
+  return r;
+}
+
+TEST(Pr650Driver, ConnectsMeasuresAndReportsEverything) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"d110", "60912345\r\n"}, {"d120", "0101,008.0,0380.,0780.,004.\r\n"}} +
+               measurement("s01,,,,,0,01,1", d5(1e-4)));
+  ASSERT_TRUE(r.driver->connect());
+  const auto identity = r.driver->identify();
+  ASSERT_TRUE(identity) << identity.error().message;
+  EXPECT_EQ(identity->serial_number, "60912345");
+  EXPECT_EQ(identity->configuration.points, 101);
+
+  const auto reading = r.driver->measure({});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(r.meter->mismatch(), "");
+  EXPECT_EQ(reading->quality_code, 0);
+  EXPECT_EQ(reading->quality, "Measurement OK");
+  ASSERT_EQ(reading->radiance.size(), 101u);
+  EXPECT_DOUBLE_EQ(reading->wavelength_nm.front(), 380);
+  EXPECT_DOUBLE_EQ(reading->wavelength_nm.back(), 780);
+  EXPECT_EQ(reading->radiance, lamp(1e-4).values);
+  EXPECT_EQ(reading->units, "W/(sr m2 nm)");
+  EXPECT_EQ(reading->luminance_units, "cd/m2");
+  EXPECT_DOUBLE_EQ(reading->luminance, 100);
+  EXPECT_DOUBLE_EQ(reading->x, 0.3355);
+  EXPECT_DOUBLE_EQ(reading->xyz[2], 103.2);
+  EXPECT_EQ(reading->serial_number, "60912345");
+  EXPECT_THAT(reading->raw_reply, HasSubstr("0380.,"));
+  EXPECT_LE(reading->started, reading->finished);
+}
+
+TEST(Pr650Driver, TogglesModemLinesBeforeFirstContact) {
+  auto r = rig(contact());
+  ASSERT_TRUE(r.driver->connect());
+  const auto changes = r.host->modem_line_changes();
+  ASSERT_GE(changes.size(), 2u);
+  EXPECT_EQ(changes.front(), (std::pair{false, false}));
+  EXPECT_EQ(changes.back(), (std::pair{true, true}));
+}
+
+TEST(Pr650Driver, RetriesFirstContactAndGivesUpWithPowerCycleAdvice) {
+  auto late = rig({{"b3", ""}, {"b3", ""}, {"b3", kOk}});
+  EXPECT_TRUE(late.driver->connect());
+  EXPECT_EQ(late.meter->commands().size(), 3u);
+
+  auto silent = rig({{"b3", ""}, {"b3", ""}, {"b3", ""}});
+  const auto result = silent.driver->connect();
+  ASSERT_FALSE(result);
+  EXPECT_EQ(result.error().kind, InstrumentError::Kind::no_contact);
+  EXPECT_THAT(result.error().message, HasSubstr("switch it off, switch it on"));
+  EXPECT_EQ(silent.meter->commands().size(), 3u);
+}
+
+TEST(Pr650Driver, FallsBackToNoSyncWhenTheLightCannotBeLockedTo) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"f", "00,60.02\r\n"}} + failed_measurement("s01,,,,1,0,01,1", d5(1e-4, 8)) +
+               measurement("s01,,,,,0,01,1", d5(2e-4)));
+  ASSERT_TRUE(r.driver->connect());
+  MeasureOptions options;
+  options.sync = MeasureOptions::Sync::automatic;
+  const auto reading = r.driver->measure(options);
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(r.meter->mismatch(), "");
+  EXPECT_EQ(reading->attempts, 2);
+  EXPECT_EQ(reading->sync, "off");
+  EXPECT_EQ(reading->radiance, lamp(2e-4).values);
+}
+
+TEST(Pr650Driver, UsesTheMeasuredFlickerFrequency) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"f", "00,60.02\r\n"}} + measurement("s01,,,,1,0,01,1", d5(1e-4)));
+  ASSERT_TRUE(r.driver->connect());
+  MeasureOptions options;
+  options.sync = MeasureOptions::Sync::automatic;
+  const auto reading = r.driver->measure(options);
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_THAT(reading->sync, HasSubstr("60.02 Hz"));
+}
+
+TEST(Pr650Driver, LowLightIsABadReadingAndNeverAStaleSpectrum) {
+  // The meter answers 18 with the data lines of the previous measurement: they must not come out.
+  auto r = rig(contact() + measurement("s01,,,,,0,01,1", d5(1e-4)) +
+               failed_measurement("s01,,,,,0,01,1", d5(1e-4, 18)));
+  ASSERT_TRUE(r.driver->connect());
+  ASSERT_TRUE(r.driver->measure({}));
+  const auto dim = r.driver->measure({});
+  ASSERT_FALSE(dim);
+  EXPECT_EQ(dim.error().kind, InstrumentError::Kind::bad_reading);
+  EXPECT_EQ(dim.error().quality_code, 18);
+  EXPECT_THAT(dim.error().message, HasSubstr("Low light level"));
+  EXPECT_THAT(dim.error().raw_reply, HasSubstr("18,0"));
+}
+
+TEST(Pr650Driver, DoublesIntegrationOnLowLightAndHalvesOnOverload) {
+  auto r = rig(contact() + failed_measurement("s01,,,,,100,01,1", d5(1e-6, 18)) + measurement("s01,,,,,200,01,1", d5(1e-6)) +
+               failed_measurement("s01,,,,,400,01,1", d5(1e-2, 19)) + measurement("s01,,,,,200,01,1", d5(1e-2)));
+  ASSERT_TRUE(r.driver->connect());
+  MeasureOptions options;
+  options.integration_ms = 100;
+  options.adjust_integration = true;
+  const auto dim = r.driver->measure(options);
+  ASSERT_TRUE(dim) << dim.error().message;
+  EXPECT_EQ(dim->integration_ms, 200);
+  options.integration_ms = 400;
+  const auto bright = r.driver->measure(options);
+  ASSERT_TRUE(bright) << bright.error().message;
+  EXPECT_EQ(bright->integration_ms, 200);
+  EXPECT_EQ(r.meter->mismatch(), "");
+}
+
+TEST(Pr650Driver, ReportsOverloadWithoutAdjustment) {
+  auto r = rig(contact() + failed_measurement("s01,,,,,0,01,1", d5(1e-2, 19)));
+  ASSERT_TRUE(r.driver->connect());
+  const auto reading = r.driver->measure({});
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().quality_code, 19);
+}
+
+TEST(Pr650Driver, AsksAgainForAGarbledReportAndGivesUpOnASecond) {
+  std::string garbled = d5(1e-4);
+  garbled[garbled.find("0384.")] = '9';
+  auto once = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", garbled}, {"d5", d5(1e-4)},
+                                                     {"d1", kD1}, {"d2", kD2}});
+  ASSERT_TRUE(once.driver->connect());
+  EXPECT_TRUE(once.driver->measure({}));
+
+  auto twice = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", garbled}, {"d5", garbled}});
+  ASSERT_TRUE(twice.driver->connect());
+  const auto reading = twice.driver->measure({});
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, InstrumentError::Kind::protocol);
+}
+
+TEST(Pr650Driver, ASilentMeterAfterContactIsLost) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,10,01,1", kSetupOk}, {"m0", ""}});
+  ASSERT_TRUE(r.driver->connect());
+  MeasureOptions options;
+  options.integration_ms = 10;
+  const auto reading = r.driver->measure(options);
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, InstrumentError::Kind::lost);
+  EXPECT_THAT(reading.error().message, HasSubstr("did not answer 'm0'"));
+}
+
+TEST(Pr650Driver, AnUnpluggedCableInTheMiddleOfAReportIsLost) {
+  const std::string half = d5(1e-4).substr(0, 700);
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", half, 0ms, true}});
+  ASSERT_TRUE(r.driver->connect());
+  const auto reading = r.driver->measure({});
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, InstrumentError::Kind::lost);
+}
+
+TEST(Pr650Driver, CancelEndsAMeasurementAndTheNextOneStillWorks) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk, 400ms}} +
+               measurement("s01,,,,,0,01,1", d5(1e-4)));
+  ASSERT_TRUE(r.driver->connect());
+  std::jthread canceller([&] {
+    std::this_thread::sleep_for(50ms);
+    r.driver->cancel();
+  });
+  const auto cancelled = r.driver->measure({});
+  ASSERT_FALSE(cancelled);
+  EXPECT_EQ(cancelled.error().kind, InstrumentError::Kind::cancelled);
+  canceller.join();
+  // The cancelled measurement's late "000" must not be taken for the next command's reply.
+  const auto reading = r.driver->measure({});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(r.meter->mismatch(), "");
+}
+
+TEST(Pr650Driver, AcceptsAnEchoingMeterWithPrompts) {
+  // After someone sent E, the meter echoes each command and prompts with '>'.
+  auto r = rig({{"b3", "b3\r\n000\r\n>"}});
+  EXPECT_TRUE(r.driver->connect());
+}
+
+TEST(Pr650Driver, RefusesImpossibleSettingsWithoutTouchingTheMeter) {
+  auto r = rig(contact());
+  ASSERT_TRUE(r.driver->connect());
+  MeasureOptions options;
+  options.integration_ms = 7000;
+  EXPECT_EQ(r.driver->measure(options).error().kind, InstrumentError::Kind::rejected);
+  options.integration_ms = 0;
+  options.averages = 0;
+  EXPECT_EQ(r.driver->measure(options).error().kind, InstrumentError::Kind::rejected);
+  EXPECT_EQ(r.meter->commands().size(), 1u);
+}
+
+TEST(Pr650Driver, ASetupTheMeterRefusesIsReported) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", "06\r\n"}});
+  ASSERT_TRUE(r.driver->connect());
+  const auto reading = r.driver->measure({});
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, InstrumentError::Kind::rejected);
+}
+
+}  // namespace
+}  // namespace skinspec::drivers
