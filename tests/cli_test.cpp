@@ -594,3 +594,26 @@ TEST(CliHelp, TopLevelHelpListsTheSubcommands) {
 
 }  // namespace
 }  // namespace skinspec
+
+namespace skinspec {
+namespace {
+
+// measure: what is wrong with the request is bad input (2); an instrument that cannot be
+// reached is an instrument error (3). The simulator's tests cover measuring itself.
+TEST(CliMeasure, RefusesABadDeviceUriWithStatus2) {
+  const auto run = skinspec({"measure", "--device", "tcp:localhost"});
+  EXPECT_EQ(run.exit_status, 2) << run.describe();
+  EXPECT_THAT(run.err, ::testing::HasSubstr("--device 'tcp:localhost'"));
+  EXPECT_EQ(skinspec({"measure", "--device", "tcp:127.0.0.1:9", "--integration-ms", "5"}).exit_status, 2);
+}
+
+TEST(CliMeasure, AnUnreachableInstrumentIsStatus3) {
+  // Port 1 on loopback: nothing listens there, so the connection is refused at once.
+  const auto run = skinspec({"measure", "--device", "tcp:127.0.0.1:1"});
+  EXPECT_EQ(run.exit_status, 3) << run.describe();
+  EXPECT_THAT(run.err, ::testing::HasSubstr("instrument error"));
+  EXPECT_EQ(run.out, "");
+}
+
+}  // namespace
+}  // namespace skinspec
