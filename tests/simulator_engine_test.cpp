@@ -55,7 +55,8 @@ TEST(SimulatorEngine, CommandsSentTogetherAreAnsweredInOrder) {
 
 TEST(SimulatorEngine, UnknownCommandsGetNoAnswerAndAreReported) {
   MeterRig rig(white());
-  for (const std::string command : {"x1\n", "m7\n", "b9\n", "d999\n", "q\n"}) EXPECT_EQ(ask(*rig.host(), command), "");
+  for (const std::string command : {"x1\n", "m7\n", "b9\n", "d999\n", "q\n"})
+    EXPECT_EQ(testing::ask_expecting_silence(*rig.host(), command), "");
   const auto problems = rig.meter().problems();
   ASSERT_EQ(problems.size(), 5u);
   EXPECT_THAT(problems[0], HasSubstr("unknown command 'X1'"));
@@ -245,7 +246,7 @@ TEST(SimulatorEngine, ExponentHeaderAndQualityFaultsRewriteTheReport) {
 
 TEST(SimulatorEngine, NoAnswerSwallowsTheCommandWithoutEffect) {
   MeterRig rig(white(), with_faults({"s:no-answer@1"}));
-  EXPECT_EQ(ask(*rig.host(), "s01,,,,,0,01,2\n"), "");
+  EXPECT_EQ(testing::ask_expecting_silence(*rig.host(), "s01,,,,,0,01,2\n"), "");
   EXPECT_EQ(ask(*rig.host(), "d201\n"), "00\r\n");
 }
 
@@ -279,8 +280,8 @@ TEST(SimulatorEngine, WindowMissedMeansSilenceEvenForValidCommands) {
   options.boot_window_s = 0.02;
   MeterRig rig(white(), options);
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  EXPECT_EQ(ask(*rig.host(), "b3\n"), "");
-  EXPECT_EQ(ask(*rig.host(), "d110\n"), "");
+  EXPECT_EQ(testing::ask_expecting_silence(*rig.host(), "b3\n"), "");
+  EXPECT_EQ(testing::ask_expecting_silence(*rig.host(), "d110\n"), "");
   EXPECT_EQ(rig.meter().mode(), SimulatedMeter::Mode::local);
   rig.meter().power_cycle();
   EXPECT_EQ(ask(*rig.host(), "d110\n"), "60912345\r\n");

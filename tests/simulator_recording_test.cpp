@@ -101,7 +101,8 @@ TEST(RecordingFormat, RefusesBadFilesNamingTheLine) {
       {R"({"tx":"b3\n","rx":""})", "f.jsonl:1: the first line must be the header"},
       {R"({"format":"skinspec-pr650-recording","version":2,"captured":"x"})", "f.jsonl:1: version 2 is not one"},
       {R"({"format":"skinspec-pr650-recording","version":1,"by":"y"})", "must say how the session was \"captured\""},
-      {R"({"format":"skinspec-pr650-recording","version":1,"captured":"x","colour":1})", "unknown header field \"colour\""},
+      {R"({"format":"skinspec-pr650-recording","version":1,"captured":"x","colour":1})",
+       "unknown header field \"colour\""},
       {header + "\n\n{\"tx\":\"b3\\n\"}", "f.jsonl:3: missing \"rx\""},
       {header + "\n{\"tx\":1,\"rx\":\"\"}", "f.jsonl:2: \"tx\" is not a string"},
       {header + "\n{\"tx\":\"b3\",\"rx\":\"\",\"delay\":1}", "unknown field \"delay\""},
@@ -167,7 +168,7 @@ TEST(Replay, TranscriptAIsReplayedByteForByte) {
   MeterRig rig(a);
   expect_replayed_byte_for_byte(*rig.host(), a);
   EXPECT_TRUE(rig.meter().problems().empty());
-  EXPECT_EQ(ask(*rig.host(), "b3\n"), "");  // the recording is over
+  EXPECT_EQ(testing::ask_expecting_silence(*rig.host(), "b3\n"), "");  // the recording is over
   EXPECT_THAT(rig.meter().problems().back(), HasSubstr("after the last of 6 recorded exchanges"));
 }
 
@@ -290,9 +291,8 @@ TEST(RecordAndReplay, ADriverSessionReplaysWithIdenticalBytes) {
   options.noise = 0.01;
   options.seed = 3;
   options.faults = *FaultPlan::parse(std::vector<std::string>{"d5:truncate@2"});
-  const RecordedSession live =
-      run_session(Synthesis{testing::observer(), {testing::white_scene(), testing::skin_scene(), testing::white_scene(0.5)}},
-                  options);
+  Synthesis scenes{testing::observer(), {testing::white_scene(), testing::skin_scene(), testing::white_scene(0.5)}};
+  const RecordedSession live = run_session(std::move(scenes), options);
   ASSERT_GE(live.recording.exchanges.size(), 15u);
   EXPECT_EQ(live.outcomes[0], "ok");
 

@@ -482,10 +482,10 @@ TEST(SimulatorDriver, MeterNotCommandedWithinItsWindowStaysSilentUntilPowerCycle
 
 TEST(SimulatorDriver, MeterCommandedInTimeStaysRemoteAfterTheWindow) {
   MeterOptions options = fast_meter();
-  options.boot_window_s = 0.2;
+  options.boot_window_s = 0.5;
   Session s({white_scene()}, options);
   ASSERT_TRUE(s.driver->connect());
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
   EXPECT_EQ(s.rig.meter().mode(), SimulatedMeter::Mode::remote);
   EXPECT_TRUE(s.driver->measure({}));
 }

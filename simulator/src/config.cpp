@@ -71,7 +71,8 @@ std::expected<std::unique_ptr<SimulatedMeter>, std::string> make_simulated_meter
   if (sources > 1) return std::unexpected("give one source of readings: a replay, a radiance or reflectance files");
   if (!config.replay_file.empty() && !config.white_file.empty())
     return std::unexpected("a white standard goes with reflectance files, not with a replay");
-  if (config.meter.time_scale < 0) return std::unexpected(fmt::format("time scale {} is negative", config.meter.time_scale));
+  if (config.meter.time_scale < 0)
+    return std::unexpected(fmt::format("time scale {} is negative", config.meter.time_scale));
 
   MeterOptions options = config.meter;
   auto plan = FaultPlan::parse(config.faults, config.fault_rate, config.seed);

@@ -71,7 +71,8 @@ std::optional<int> to_int(std::string_view text) {
 }
 
 // Which values a fault takes: none, an integer or a number in a range, or one word.
-std::expected<void, std::string> read_value(Fault& fault, std::string_view name, std::optional<std::string_view> value) {
+std::expected<void, std::string> read_value(Fault& fault, std::string_view name,
+                                            std::optional<std::string_view> value) {
   const auto integer_in = [&](int low, int high, bool required) -> std::expected<void, std::string> {
     if (!value) {
       if (required) return std::unexpected(fmt::format("'{}' needs a value (an integer {}-{})", name, low, high));

@@ -162,7 +162,8 @@ Outcome Instrument::respond(const Command& command, std::vector<Fault>& faults) 
     case 'S': {
       setup_status_ = apply_setup(parameters, setup_);
       Outcome out{quick(pp::format_setup_reply(setup_status_)), {}, {}};
-      if (setup_status_ != 0) out.notes.push_back(fmt::format("setup refused: {}", pp::setup_reply_message(setup_status_)));
+      if (setup_status_ != 0)
+        out.notes.push_back(fmt::format("setup refused: {}", pp::setup_reply_message(setup_status_)));
       return out;
     }
     case 'F':
@@ -306,6 +307,7 @@ std::optional<std::string> Instrument::report(int code) const {
 }  // namespace
 
 Command parse_command(std::string_view line) {
+  while (!line.empty() && (line.back() == ' ' || line.back() == '\t')) line.remove_suffix(1);
   Command command;
   for (const char c : line) command.text += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   if (command.text.empty()) return command;

@@ -138,7 +138,9 @@ std::optional<Outgoing> SimulatedMeter::Impl::take_command(std::string_view line
 
   std::vector<Fault> faults = options.faults.next(command.key);
   for (const auto& fault : faults) log(fmt::format("fault {} on '{}'", fault.to_string(), command.text));
-  const auto has = [&](FaultKind kind) { return std::ranges::any_of(faults, [&](const Fault& f) { return f.kind == kind; }); };
+  const auto has = [&](FaultKind kind) {
+    return std::ranges::any_of(faults, [&](const Fault& f) { return f.kind == kind; });
+  };
   if (has(FaultKind::no_answer)) return std::nullopt;
   if (has(FaultKind::reboot)) {
     mode = Mode::local;

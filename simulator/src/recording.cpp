@@ -84,8 +84,8 @@ std::expected<RecordingHeader, std::string> parse_header(const Json& object, con
                                                  "boot_window_s", "header_variant", "exp_char", "echo"};
   const auto format = object.find("format");
   if (format == object.end() || !format->is_string() || format->get<std::string>() != kRecordingFormat)
-    return at(fmt::format("the first line must be the header {{\"format\":\"{}\",\"version\":{},...}}", kRecordingFormat,
-                          kRecordingVersion));
+    return at(fmt::format("the first line must be the header {{\"format\":\"{}\",\"version\":{},...}}",
+                          kRecordingFormat, kRecordingVersion));
   for (const auto& [key, value] : object.items())
     if (std::ranges::find(kKeys, key) == kKeys.end()) return at(fmt::format("unknown header field \"{}\"", key));
   const auto version = object.find("version");

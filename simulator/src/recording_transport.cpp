@@ -88,7 +88,8 @@ void RecordingTransport::received(std::string_view bytes) {
   // Bytes come in chunks: the time from the first chunk to the last, over the bytes after the
   // first chunk. A reply that came in one piece keeps the nominal line rate.
   if (const std::size_t later = timing.bytes - timing.first_chunk; later > 0)
-    exchange.byte_interval_ms = rounded_ms((timing.last - timing.first) / static_cast<long>(later), options_.time_scale);
+    exchange.byte_interval_ms =
+        rounded_ms((timing.last - timing.first) / static_cast<long>(later), options_.time_scale);
 }
 
 std::expected<void, drivers::TransportError> RecordingTransport::set_modem_lines(bool dtr, bool rts) {

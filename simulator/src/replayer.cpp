@@ -112,7 +112,8 @@ Outcome Replayer::respond(const Command& command, std::vector<Fault>& faults) {
     });
   }
   std::string bytes = exchange.rx;
-  if (forced_quality_ && (command.letter == 'D' || command.letter == 'M')) bytes = with_quality(std::move(bytes), *forced_quality_);
+  if (forced_quality_ && (command.letter == 'D' || command.letter == 'M'))
+    bytes = with_quality(std::move(bytes), *forced_quality_);
   out.notes.push_back(fmt::format("replay: exchange {} answers '{}'", *index + 1, command.text));
   if (bytes.empty()) return out;  // recorded silence
   out.reply = reply_of(std::move(bytes), exchange);

@@ -121,11 +121,11 @@ std::string with_garbage(std::string reply, int count, std::mt19937_64& rng) {
   // Bytes no reply holds: punctuation the meter never prints and the upper half of the byte range.
   static constexpr std::string_view kPunctuation = "#$%&*?@!~^|{}[]";
   std::string noise;
-  std::uniform_int_distribution<int> pick(0, static_cast<int>(kPunctuation.size()) + 127);
+  const int punctuation = static_cast<int>(kPunctuation.size());
+  std::uniform_int_distribution<int> pick(0, punctuation + 127);
   for (int i = 0; i < count; ++i) {
     const int k = pick(rng);
-    noise += k < static_cast<int>(kPunctuation.size()) ? kPunctuation[static_cast<std::size_t>(k)]
-                                                       : static_cast<char>(0x80 + k - static_cast<int>(kPunctuation.size()));
+    noise += k < punctuation ? kPunctuation[static_cast<std::size_t>(k)] : static_cast<char>(0x80 + k - punctuation);
   }
   // Inside the reply, before its final line end, so that the noise cannot pass for a later reply.
   std::size_t end = reply.size();

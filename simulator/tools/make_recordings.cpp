@@ -135,13 +135,15 @@ int main(int argc, char** argv) {
        fmt::format("A white standard, then forearm skin ({} of data/examples/forearm.csv) under illuminant A, white "
                    "at {} cd/m2; adaptive integration, noise 0.2 %",
                    skin.name, bright.white_luminance),
-       {flat_white(bright, colour->observer), scene_under_lamp(skin.name + " under A", skin.spectrum, bright, colour->observer)},
+       {flat_white(bright, colour->observer),
+        scene_under_lamp(skin.name + " under A", skin.spectrum, bright, colour->observer)},
        {adaptive, adaptive}},
       {"synthetic-dim-skin-low-light.jsonl",
        fmt::format("The same white and skin under a dim illuminant A (white at {} cd/m2): the white measures, the skin "
                    "reads quality 18 and its D5 keeps the white's data lines (stale buffer)",
                    dim.white_luminance),
-       {flat_white(dim, colour->observer), scene_under_lamp(skin.name + " under dim A", skin.spectrum, dim, colour->observer)},
+       {flat_white(dim, colour->observer),
+        scene_under_lamp(skin.name + " under dim A", skin.spectrum, dim, colour->observer)},
        {adaptive, adaptive}},
   };
   for (const auto& session : sessions) {

@@ -61,14 +61,18 @@ std::optional<std::pair<std::string, std::string_view>> literal(std::string_view
 // "~1.5 s", "~50 ms" or "10 s" in a timing note, in milliseconds.
 std::optional<double> time_in(std::string_view note) {
   for (std::size_t i = 0; i < note.size(); ++i) {
-    if (!std::isdigit(static_cast<unsigned char>(note[i])) || (i > 0 && (std::isalnum(static_cast<unsigned char>(note[i - 1])) || note[i - 1] == '.' || note[i - 1] == '-')))
+    const auto at = [&](std::size_t k) { return static_cast<unsigned char>(note[k]); };
+    // A number starts here, not inside a word or another number ("9600-8-N-1").
+    if (!std::isdigit(at(i)) || (i > 0 && (std::isalnum(at(i - 1)) || note[i - 1] == '.' || note[i - 1] == '-')))
       continue;
     std::size_t j = i;
     while (j < note.size() && (std::isdigit(static_cast<unsigned char>(note[j])) || note[j] == '.')) ++j;
     const double value = std::stod(std::string(note.substr(i, j - i)));
     std::string_view unit = note.substr(j);
     if (unit.starts_with(' ')) unit.remove_prefix(1);
-    const auto word_end = [&](std::size_t n) { return unit.size() == n || !std::isalpha(static_cast<unsigned char>(unit[n])); };
+    const auto word_end = [&](std::size_t n) {
+      return unit.size() == n || !std::isalpha(static_cast<unsigned char>(unit[n]));
+    };
     if (unit.starts_with("ms") && word_end(2)) return value;
     if (unit.starts_with("s") && word_end(1)) return value * 1000;
     i = j;
@@ -124,7 +128,8 @@ std::expected<Recording, std::string> read_block(const Block& block, std::string
       "synthesized: transcript {} of {} (section 6); no recording of a real PR-650 exchange is public", block.letter,
       source);
   recording.header.by = "make_recordings (skinspec simulator tools), from the reference's TX/RX lines";
-  recording.header.description = fmt::format("Transcript {}{}", block.letter, block.title.empty() ? "" : " " + block.title);
+  recording.header.description =
+      fmt::format("Transcript {}{}", block.letter, block.title.empty() ? "" : " " + block.title);
   recording.header.boot_window_s = 5;
   recording.header.exponent = 'E';
   recording.header.echo = false;
@@ -177,7 +182,8 @@ std::expected<Recording, std::string> read_block(const Block& block, std::string
       }
     } else if (line.starts_with('[')) {
       const auto close = line.rfind(']');
-      const std::string_view note = line.substr(1, close == std::string_view::npos ? std::string_view::npos : close - 1);
+      const std::string_view note =
+          line.substr(1, close == std::string_view::npos ? std::string_view::npos : close - 1);
       const bool indented = raw.starts_with(' ');
       if (indented && !exchanges.empty()) {
         // About the exchange above: its timing, or how its reply goes.

@@ -129,22 +129,30 @@ class MeterRig {
   std::vector<std::string> log_;
 };
 
-// Collects what arrives until the line has been quiet for `quiet`.
-inline std::string listen(drivers::Transport& link, std::chrono::milliseconds quiet = 30ms) {
+// Collects what arrives, waiting up to `first` for the first byte, until the line has been
+// quiet for `quiet`.
+inline std::string listen(drivers::Transport& link, std::chrono::milliseconds quiet = 30ms,
+                          std::chrono::milliseconds first = 1s) {
   std::string received;
   char buffer[2048];
   while (true) {
-    auto n = link.read(buffer, sizeof buffer, drivers::deadline_in(quiet));
+    auto n = link.read(buffer, sizeof buffer, drivers::deadline_in(received.empty() ? first : quiet));
     if (!n) return received;
     received.append(buffer, *n);
   }
 }
 
 // Discards what is pending, sends a command and collects the reply.
-inline std::string ask(drivers::Transport& link, std::string_view command, std::chrono::milliseconds quiet = 30ms) {
+inline std::string ask(drivers::Transport& link, std::string_view command, std::chrono::milliseconds quiet = 30ms,
+                       std::chrono::milliseconds first = 1s) {
   (void)link.flush_input();
   (void)link.write(command, drivers::deadline_in(1s));
-  return listen(link, quiet);
+  return listen(link, quiet, first);
+}
+
+// For a command that should get no answer: what came within 150 ms.
+inline std::string ask_expecting_silence(drivers::Transport& link, std::string_view command) {
+  return ask(link, command, 30ms, 150ms);
 }
 
 }  // namespace skinspec::testing

@@ -62,7 +62,7 @@ struct MeterOptions {
 // Synthesis: the meter measures these scenes, computing colour values with the observer.
 struct Synthesis {
   Observer observer;
-  std::vector<Scene> scenes;  // at least one
+  std::vector<Scene> scenes;  // in measurement order; none: the meter looks at darkness
 };
 
 using ReadingSource = std::variant<Synthesis, Recording>;
