@@ -28,6 +28,7 @@ DriverOptions fast_options() {
   o.modem_settle = 0ms;
   o.reply_timeout = 300ms;
   o.measurement_overhead = 300ms;
+  o.adaptive_allowance = 300ms;
   o.line_bytes_per_second = 1e6;
   return o;
 }

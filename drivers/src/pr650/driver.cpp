@@ -78,15 +78,19 @@ std::chrono::milliseconds Pr650::transfer_time(std::size_t bytes) const {
   return std::chrono::milliseconds(static_cast<long>(1000.0 * static_cast<double>(bytes) / options_.line_bytes_per_second));
 }
 
-// Adaptive integration may choose up to 6 s per average; dark measurements come on top.
+// A fixed integration time is spent twice per average (the dark reading comes on top);
+// adaptive integration gets the allowance the meter's makers' software gives it.
 std::chrono::milliseconds Pr650::measurement_timeout(int integration_ms, int averages) const {
-  const int per_average = integration_ms > 0 ? integration_ms : kMaxIntegrationMs;
-  return std::chrono::milliseconds(2L * per_average * averages) + options_.measurement_overhead;
+  const auto per_average = integration_ms > 0 ? std::chrono::milliseconds(2L * integration_ms) : options_.adaptive_allowance;
+  return per_average * averages + options_.measurement_overhead;
 }
 
 InstrumentError Pr650::link_error(const TransportError& error, const std::string& command) const {
   using K = TransportError::Kind;
   if (error.kind == K::interrupted || cancelled_) return {InstrumentError::Kind::cancelled, "cancelled", -1, {}};
+  if (error.kind == K::timeout && !connected_)
+    return {InstrumentError::Kind::no_contact,
+            fmt::format("no answer from a PR-650 on {} to '{}'", transport_->describe(), printable(command)), -1, {}};
   if (error.kind == K::timeout)
     return {InstrumentError::Kind::lost,
             fmt::format("the PR-650 on {} did not answer '{}' in time; is it still on and connected?",
@@ -122,6 +126,7 @@ std::expected<std::string, InstrumentError> Pr650::exchange(const std::string& c
 
 std::expected<void, InstrumentError> Pr650::connect() {
   std::lock_guard lock(call_mutex_);
+  connected_ = false;
   cancelled_ = false;
   transport_->clear_interrupt();
   if (!transport_->is_open())
@@ -143,9 +148,9 @@ std::expected<void, InstrumentError> Pr650::connect() {
       }
       continue;  // garbage on the line at power-on: ask again
     }
-    if (reply.error().kind == InstrumentError::Kind::cancelled) return std::unexpected(reply.error());
-    if (reply.error().kind == InstrumentError::Kind::lost && reply.error().message.find("in time") == std::string::npos)
-      return std::unexpected(reply.error());  // the link itself failed, not the meter's silence
+    // Silence is the meter outside its power-on window: ask again. Anything else (cancel, a
+    // failed link) ends the attempt.
+    if (reply.error().kind != InstrumentError::Kind::no_contact) return std::unexpected(reply.error());
   }
   return fail(InstrumentError::Kind::no_contact,
               fmt::format("no answer from a PR-650 on {} after {} attempts. The meter accepts remote control only "

@@ -46,6 +46,8 @@ struct DriverOptions {
   std::chrono::milliseconds modem_settle{500};            // after raising DTR/RTS
   std::chrono::milliseconds reply_timeout{3000};          // replies that need no measurement
   std::chrono::milliseconds measurement_overhead{5000};   // beyond integration time
+  // Adaptive integration chooses its own time: a dim patch can take 30 s per average.
+  std::chrono::milliseconds adaptive_allowance{30000};
   double line_bytes_per_second = 960;                     // 9600 baud, 8N1
 };
 
