@@ -38,6 +38,7 @@ class Fd {
 
   int get() const { return fd_; }
   bool is_open() const { return fd_ >= 0; }
+  int release() { return std::exchange(fd_, -1); }
   void close() {
     if (fd_ >= 0) ::close(fd_);
     fd_ = -1;
@@ -249,6 +250,155 @@ ProcessResult run_process(const std::string& program, const std::vector<std::str
   }
   reap(pid, deadline, result);
   return result;
+}
+
+namespace {
+
+// The complete lines of `text` (without CR LF or LF), in order.
+std::vector<std::string_view> complete_lines(std::string_view text) {
+  std::vector<std::string_view> lines;
+  std::size_t start = 0;
+  for (std::size_t end = text.find('\n'); end != std::string_view::npos; end = text.find('\n', start)) {
+    std::string_view line = text.substr(start, end - start);
+    start = end + 1;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    lines.push_back(line);
+  }
+  return lines;
+}
+
+}  // namespace
+
+BackgroundProcess::BackgroundProcess(const std::string& program, const std::vector<std::string>& args,
+                                     const ProcessOptions& options) {
+  ignore_sigpipe_once();
+  Pipe output, error;
+  if (!make_pipe(output) || !make_pipe(error)) {
+    start_error_ = std::string("cannot create a pipe: ") + std::strerror(errno);
+    return;
+  }
+  std::vector<std::string> argv_strings{program};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  auto env_strings = child_environment(options.environment);
+  auto argv = c_array(argv_strings);
+  auto envp = c_array(env_strings);
+  pid_t pid = 0;
+  const int spawned = [&] {
+    const SpawnSetup setup(nullptr, output, error);
+    return ::posix_spawn(&pid, program.c_str(), setup.actions(), setup.attributes(), argv.data(), envp.data());
+  }();
+  if (spawned != 0) {
+    start_error_ = "cannot start " + program + ": " + std::strerror(spawned);
+    return;
+  }
+  pid_ = pid;
+  output.write.close();
+  error.write.close();
+  reader_ = std::thread([this, out = output.read.release(), err = error.read.release()] { collect(out, err); });
+}
+
+BackgroundProcess::~BackgroundProcess() {
+  if (pid_ > 0 && !reap(false)) {
+    ::kill(pid_, SIGKILL);
+    reap(true);
+  }
+  if (reader_.joinable()) reader_.join();
+}
+
+void BackgroundProcess::collect(int out_fd, int err_fd) {
+  Fd out(out_fd), err(err_fd);
+  while (out.is_open() || err.is_open()) {
+    pollfd fds[2] = {{out.get(), POLLIN, 0}, {err.get(), POLLIN, 0}};
+    const int ready = ::poll(fds, 2, -1);
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready < 0) break;
+    std::string more_out, more_err;
+    if (fds[0].revents) drain(out, more_out);
+    if (fds[1].revents) drain(err, more_err);
+    {
+      std::lock_guard lock(mutex_);
+      out_ += more_out;
+      err_ += more_err;
+    }
+    changed_.notify_all();
+  }
+  {
+    std::lock_guard lock(mutex_);
+    outputs_closed_ = true;
+  }
+  changed_.notify_all();
+}
+
+std::optional<std::string> BackgroundProcess::wait_for_stdout_line(std::string_view prefix,
+                                                                   std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    for (const auto line : complete_lines(out_))
+      if (line.starts_with(prefix)) return std::string(line);
+    if (outputs_closed_ || Clock::now() >= deadline) return std::nullopt;
+    changed_.wait_until(lock, deadline);
+  }
+}
+
+bool BackgroundProcess::wait_for_stderr(std::string_view text, std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  return changed_.wait_for(lock, timeout, [&] { return err_.find(text) != std::string::npos || outputs_closed_; }) &&
+         err_.find(text) != std::string::npos;
+}
+
+void BackgroundProcess::send_signal(int signal) {
+  if (pid_ > 0 && !reaped_) ::kill(pid_, signal);
+}
+
+bool BackgroundProcess::reap(bool block) {
+  if (reaped_ || pid_ <= 0) return reaped_;
+  int status = 0;
+  pid_t done = 0;
+  do {
+    done = ::waitpid(pid_, &status, block ? 0 : WNOHANG);
+  } while (done < 0 && errno == EINTR);
+  if (done != pid_) return false;
+  reaped_ = true;
+  if (WIFEXITED(status)) result_.exit_status = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) result_.signal = WTERMSIG(status);
+  return true;
+}
+
+bool BackgroundProcess::has_exited() { return reap(false); }
+
+ProcessResult BackgroundProcess::wait(std::chrono::milliseconds timeout) {
+  if (pid_ <= 0) {
+    ProcessResult failed;
+    failed.exit_status = 127;
+    failed.err = start_error_;
+    return failed;
+  }
+  const auto deadline = Clock::now() + timeout;
+  while (!reap(false)) {
+    if (Clock::now() >= deadline) {
+      result_.timed_out = true;
+      ::kill(pid_, SIGKILL);
+      reap(true);
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  if (reader_.joinable()) reader_.join();
+  std::lock_guard lock(mutex_);
+  result_.out = out_;
+  result_.err = err_;
+  return result_;
+}
+
+std::string BackgroundProcess::out() const {
+  std::lock_guard lock(mutex_);
+  return out_;
+}
+
+std::string BackgroundProcess::err() const {
+  std::lock_guard lock(mutex_);
+  return err_;
 }
 
 }  // namespace skinspec::testing

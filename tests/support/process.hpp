@@ -1,10 +1,17 @@
 #pragma once
-// Test helper: runs a program as a child process, feeds it standard input and collects its
-// standard output, standard error and exit status, killing it if it runs past a deadline.
+// Test helpers: run a program as a child process, feed it standard input and collect its
+// standard output, standard error and exit status, killing it if it runs past a deadline; or
+// start a long-running one (a server), watch what it writes while it runs, signal it, stop it.
+
+#include <sys/types.h>
 
 #include <chrono>
+#include <condition_variable>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <thread>
 #include <vector>
 
 namespace skinspec::testing {
@@ -35,5 +42,56 @@ struct ProcessResult {
 // the child at all is reported as exit status 127 with the reason in `err`, as a shell would.
 ProcessResult run_process(const std::string& program, const std::vector<std::string>& args,
                           const ProcessOptions& options = {});
+
+// A child that keeps running while the test talks to it, such as a server. Its standard input
+// is /dev/null; a thread collects its standard output and standard error as they come, so it
+// can never block on a full pipe, and a test can wait for a line it prints. Destroying the
+// object kills the child (SIGKILL) if it is still running, and reaps it.
+class BackgroundProcess {
+ public:
+  // Starts `program` (a path) with `args`; `options.environment` applies, `stdin_bytes` and
+  // `timeout` do not. Whether it started: started(), and start_error() if not.
+  BackgroundProcess(const std::string& program, const std::vector<std::string>& args,
+                    const ProcessOptions& options = {});
+  ~BackgroundProcess();
+  BackgroundProcess(const BackgroundProcess&) = delete;
+  BackgroundProcess& operator=(const BackgroundProcess&) = delete;
+
+  bool started() const { return pid_ > 0; }
+  const std::string& start_error() const { return start_error_; }
+  pid_t pid() const { return pid_; }
+
+  // The first complete line of standard output that starts with `prefix` (without its line
+  // end), waiting up to `timeout` for it; nullopt if it did not come, or the child ended first.
+  std::optional<std::string> wait_for_stdout_line(std::string_view prefix, std::chrono::milliseconds timeout);
+  // Whether standard error came to contain `text` within `timeout`.
+  bool wait_for_stderr(std::string_view text, std::chrono::milliseconds timeout);
+
+  // Sends `signal` to the child, if it has not been reaped yet.
+  void send_signal(int signal);
+  // Waits for the child to end, killing it (SIGKILL, timed_out) after `timeout`, and returns
+  // how it ended and all it wrote. Later calls return the same.
+  ProcessResult wait(std::chrono::milliseconds timeout);
+  // Whether the child has ended (reaping it if so), without waiting.
+  bool has_exited();
+
+  // What it has written so far.
+  std::string out() const;
+  std::string err() const;
+
+ private:
+  void collect(int out_fd, int err_fd);
+  bool reap(bool block);
+
+  pid_t pid_ = -1;
+  std::string start_error_;
+  bool reaped_ = false;
+  ProcessResult result_;
+  std::thread reader_;
+  mutable std::mutex mutex_;  // out_, err_, outputs_closed_
+  std::condition_variable changed_;
+  std::string out_, err_;
+  bool outputs_closed_ = false;
+};
 
 }  // namespace skinspec::testing

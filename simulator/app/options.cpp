@@ -1,0 +1,165 @@
+#include "options.hpp"
+
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <limits>
+
+namespace skinspec::sim_app {
+
+namespace {
+
+// Seconds, or "inf" / "never" for a window that never closes.
+std::expected<double, std::string> parse_boot_window(const std::string& text) {
+  if (text == "never") return std::numeric_limits<double>::infinity();
+  double seconds = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), seconds);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !(seconds >= 0))
+    return std::unexpected(fmt::format("--boot-window '{}': expected seconds >= 0, or 'inf'", text));
+  return seconds;
+}
+
+bool valid_serial(const std::string& serial) {
+  return !serial.empty() && serial.size() <= 32 &&
+         std::ranges::all_of(serial, [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0; });
+}
+
+struct RawOptions {
+  std::string listen;
+  std::string boot_window = "5";
+  std::string header;
+  std::string exponent;
+  std::string replay_order = "in-order";
+  bool fresh_on_low_light = false;
+};
+
+// The options that need more than CLI11's checks, into `options`.
+std::expected<void, std::string> finish(const RawOptions& raw, AppOptions& options) {
+  auto& config = options.config;
+  auto& meter = config.meter;
+  if (raw.listen.empty() && !options.pty) return std::unexpected("give --listen HOST:PORT, --pty, or both");
+  if (!raw.listen.empty()) {
+    auto address = parse_listen_address(raw.listen);
+    if (!address) return std::unexpected(address.error());
+    options.listen = *address;
+  }
+  auto window = parse_boot_window(raw.boot_window);
+  if (!window) return std::unexpected(window.error());
+  meter.boot_window_s = *window;
+  if (!raw.header.empty())
+    meter.style.header = raw.header == "h1" || raw.header == "H1" ? drivers::pr650::HeaderVariant::h1_bare_cr
+                                                                  : drivers::pr650::HeaderVariant::h2_two_lines;
+  if (!raw.exponent.empty()) meter.style.exponent = raw.exponent.front();
+  meter.replay_order = raw.replay_order == "by-command" ? simulator::MeterOptions::ReplayOrder::by_command
+                                                        : simulator::MeterOptions::ReplayOrder::in_order;
+  meter.stale_on_low_light = !raw.fresh_on_low_light;
+  if (!valid_serial(meter.serial_number))
+    return std::unexpected(fmt::format("--serial '{}': expected 1-32 letters and digits", meter.serial_number));
+  if (!(meter.noise >= 0)) return std::unexpected(fmt::format("--noise {}: must not be negative", meter.noise));
+  return {};
+}
+
+}  // namespace
+
+std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
+  AppOptions options;
+  RawOptions raw;
+  auto& config = options.config;
+  auto& meter = config.meter;
+
+  CLI::App app{
+      "skinspec-sim: a simulated Photo Research PR-650 on a TCP port or a pseudo-terminal.\n"
+      "Prints 'listening on HOST:PORT' and/or 'pty PATH', then serves one client at a time until\n"
+      "SIGTERM or SIGINT; SIGHUP power-cycles the meter. Readings come from --replay, --radiance or\n"
+      "--reflectance (with --white and --illuminant); with none, from a white standard.",
+      "skinspec-sim"};
+  app.set_version_flag("--version", "skinspec-sim 0.1.0");
+
+  app.add_option("--listen", raw.listen, "serve TCP clients on HOST:PORT (numeric address; port 0: any free port)")
+      ->type_name("HOST:PORT");
+  app.add_flag("--pty", options.pty, "serve on a new pseudo-terminal too (or only, without --listen); prints its path");
+
+  auto* replay =
+      app.add_option("--replay", config.replay_file, "replay a recording (docs/recording-format.md)")->type_name("FILE");
+  app.add_option("--replay-order", raw.replay_order, "match commands to the recording in-order or by-command")
+      ->type_name("ORDER")
+      ->check(CLI::IsMember({"in-order", "by-command"}))
+      ->capture_default_str();
+  auto* radiance = app.add_option("--radiance", config.radiance_file,
+                                  "spectra CSV of radiance in W/(sr m2 nm): one measurement per column")
+                       ->type_name("FILE");
+  auto* reflectance = app.add_option("--reflectance", config.reflectance_files,
+                                     "spectra CSV files of reflectance (0-1.5), comma-separated or repeated: one "
+                                     "measurement per column, under --illuminant")
+                          ->type_name("FILE[,FILE...]")
+                          ->delimiter(',');
+  auto* white = app.add_option("--white", config.white_file,
+                               "spectra CSV of a white standard's reflectance, measured before the others")
+                    ->type_name("FILE");
+  auto* illuminant = app.add_option("--illuminant", config.illuminant,
+                                    "the lamp: D65, A, or a spectra CSV file of relative power (its first column)")
+                         ->type_name("D65|A|FILE")
+                         ->capture_default_str();
+  auto* white_luminance = app.add_option("--white-luminance", config.white_luminance,
+                                         "cd/m2 of a perfect white diffuser under the lamp")
+                              ->type_name("CD/M2")
+                              ->capture_default_str();
+  app.add_option("--flicker", config.flicker_hz, "Hz the F command reports; 0: steady light")
+      ->type_name("HZ")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  replay->excludes(radiance)->excludes(reflectance)->excludes(white)->excludes(illuminant)->excludes(white_luminance);
+  radiance->excludes(reflectance);
+
+  app.add_option("--time-scale", meter.time_scale, "multiplies every delay and the line's pacing; 0: no waiting")
+      ->type_name("X")
+      ->capture_default_str();
+  app.add_option("--boot-window", raw.boot_window,
+                 "seconds after power-on (start, SIGHUP) in which a command puts the meter in remote mode; inf: always")
+      ->type_name("SECONDS")
+      ->capture_default_str();
+  app.add_option("--fault", config.faults, "a fault spec, e.g. d5:truncate, m0:no-answer@2, m:quality=18 (repeatable)")
+      ->type_name("SPEC");
+  app.add_option("--fault-rate", config.fault_rate, "probability of a random fault per command")
+      ->type_name("P")
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--seed", config.seed, "seed of random faults, noise and line noise")
+      ->type_name("N")
+      ->capture_default_str();
+  app.add_option("--noise", meter.noise, "relative standard deviation of each spectral value")
+      ->type_name("R")
+      ->capture_default_str();
+  app.add_option("--serial", meter.serial_number, "the serial number D110 reports")
+      ->type_name("NUMBER")
+      ->capture_default_str();
+  app.add_option("--header", raw.header, "spectral report header layout: h1 or h2 (default h1)")
+      ->type_name("h1|h2")
+      ->check(CLI::IsMember({"h1", "h2", "H1", "H2"}));
+  app.add_option("--exponent", raw.exponent, "exponent letter of printed values: E or e (default E)")
+      ->type_name("E|e")
+      ->check(CLI::IsMember({"E", "e"}));
+  app.add_flag("--m0-quality", meter.m0_reports_quality, "M0 answers 0qq with the quality code rather than 000");
+  app.add_flag("--fresh-on-low-light", raw.fresh_on_low_light,
+               "quality 10 and 18 store new data instead of leaving the previous data lines");
+  app.add_flag("-q,--quiet", options.quiet, "report only errors on standard error, not events");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return std::unexpected(EarlyExit{app.exit(e), {}});
+  } catch (const CLI::CallForAllHelp& e) {
+    return std::unexpected(EarlyExit{app.exit(e), {}});
+  } catch (const CLI::CallForVersion& e) {
+    return std::unexpected(EarlyExit{app.exit(e), {}});
+  } catch (const CLI::ParseError& e) {
+    return std::unexpected(EarlyExit{kExitBadInput, fmt::format("{} (see --help)", e.what())});
+  }
+  if (auto finished = finish(raw, options); !finished)
+    return std::unexpected(EarlyExit{kExitBadInput, finished.error()});
+  return options;
+}
+
+}  // namespace skinspec::sim_app
