@@ -38,5 +38,6 @@ void add_color_command(CLI::App& app);
 void add_tune_command(CLI::App& app);
 void add_ports_command(CLI::App& app);
 void add_measure_command(CLI::App& app);
+void add_export_command(CLI::App& app);
 
 }  // namespace skinspec::cli

@@ -1,0 +1,141 @@
+// The SQLite store with synchronous=FULL on the build machine's disk: committed
+// measurement-plus-fit transactions per second (each one on the disk before it returns), and
+// reads per second while a writer keeps committing. Run: build/release/bin/store_bench
+// The database goes to $TMPDIR (or /tmp): put it on the disk you mean to measure.
+
+#include <benchmark/benchmark.h>
+#include <stdlib.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <random>
+#include <thread>
+
+#include "skinspec/store/store.hpp"
+
+namespace skinspec::store {
+namespace {
+
+// A fresh database in its own temporary directory, removed afterwards.
+struct Scratch {
+  std::filesystem::path dir;
+  std::optional<Store> store;
+  Id session = 0;
+
+  Scratch() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "skinspec-bench-XXXXXX").string();
+    if (!::mkdtemp(pattern.data())) std::abort();
+    dir = pattern;
+    auto opened = Store::open((dir / "bench.db").string());
+    if (!opened) {
+      std::fprintf(stderr, "store_bench: %s\n", opened.error().message.c_str());
+      std::exit(1);
+    }
+    store.emplace(std::move(*opened));
+    Session s;
+    s.subject = "S-1";
+    s.site = "forearm";
+    session = *store->create_session(s);
+  }
+  ~Scratch() {
+    store.reset();
+    std::filesystem::remove_all(dir);
+  }
+};
+
+// What the daemon stores per sample: 101-point radiance, its deviation and the reflectance,
+// the meter's reply (about 2 KB), and a fit with its measured and fitted curves.
+Measurement measurement(Id session, int n) {
+  Measurement m;
+  m.session_id = session;
+  m.label = "sample";
+  m.quality = "OK";
+  m.units = "W/(sr m2 nm)";
+  m.settings = R"({"integration_ms":0,"averages":3})";
+  m.reading_count = 3;
+  for (int w = 380; w <= 780; w += 4) {
+    const double x = w + n;
+    m.radiance.wavelength_nm.push_back(w);
+    m.radiance.values.push_back(0.01 + std::sin(x / 50) * 1e-3);
+    m.reflectance.wavelength_nm.push_back(w);
+    m.reflectance.values.push_back(0.4 + std::cos(x / 60) * 0.1);
+  }
+  m.radiance_sd = m.radiance;
+  m.raw_reply = std::string(1950, '0');
+  return m;
+}
+
+Fit fit() {
+  Fit f;
+  f.site = "forearm";
+  f.params = {0.1, 7, 3, 3, 1};
+  f.standard_error = {0.01, 0.2, 0.4, 0.3, 0.3};
+  f.solver_summary = "CONVERGENCE";
+  f.model_version = "skinspec 0.1.0";
+  f.tables_digest = "0123456789abcdef";
+  for (int w = 380; w <= 780; w += 4) {
+    f.wavelength_nm.push_back(w);
+    f.measured.push_back(0.4);
+    f.fitted.push_back(0.41);
+  }
+  return f;
+}
+
+void BM_CommitMeasurementWithFit(benchmark::State& state) {
+  Scratch scratch;
+  const auto f = fit();
+  int n = 0;
+  for (auto _ : state) {
+    auto ids = scratch.store->record_measurement(measurement(scratch.session, n++), f);
+    if (!ids) state.SkipWithError(ids.error().message.c_str());
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_CommitMeasurementWithFit)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Reads of stored fits (what GET /api/v1/fits/{id} does) on `state.range(0)` reader threads,
+// while another thread commits measurement-plus-fit transactions as fast as it can.
+void BM_ReadFitWhileWriting(benchmark::State& state) {
+  static std::unique_ptr<Scratch> scratch;
+  static std::atomic<bool> stop;
+  static std::atomic<long> commits;
+  static std::thread writer;
+  static std::vector<Id> fits;
+  static std::chrono::steady_clock::time_point started;
+  if (state.thread_index() == 0) {
+    scratch = std::make_unique<Scratch>();
+    fits.clear();
+    for (int n = 0; n < 200; ++n) fits.push_back(*scratch->store->record_measurement(measurement(scratch->session, n), fit())->fit_id);
+    stop = false;
+    commits = 0;
+    writer = std::thread([] {
+      const auto f = fit();
+      for (int n = 0; !stop; ++n)
+        if (scratch->store->record_measurement(measurement(scratch->session, n), f)) ++commits;
+    });
+    started = std::chrono::steady_clock::now();
+  }
+  std::mt19937 random(static_cast<unsigned>(state.thread_index()));
+  std::uniform_int_distribution<std::size_t> pick(0, 199);
+  for (auto _ : state) {
+    auto read = scratch->store->fit(fits[pick(random)]);
+    if (!read) state.SkipWithError(read.error().message.c_str());
+    benchmark::DoNotOptimize(read);
+  }
+  state.SetItemsProcessed(state.iterations());
+  if (state.thread_index() == 0) {
+    stop = true;
+    writer.join();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    state.counters["writer_commits_per_s"] = static_cast<double>(commits.load()) / seconds;
+    scratch.reset();
+  }
+}
+BENCHMARK(BM_ReadFitWhileWriting)->Threads(1)->Threads(2)->UseRealTime()->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace skinspec::store
+
+BENCHMARK_MAIN();

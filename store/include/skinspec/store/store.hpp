@@ -1,0 +1,153 @@
+#pragma once
+// The SQLite store of instruments, white standards, sessions, measurements, fits and jobs
+// (docs/store.md). One writer connection and a pool of read connections: every method may be
+// called from any thread; writes are serialised, reads run beside them on their own snapshot.
+// Every write is one transaction, durable when the method returns (WAL, synchronous=FULL).
+
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "skinspec/store/types.hpp"
+
+namespace skinspec::store {
+
+// Which sessions count as running when a database is opened after its writer died.
+enum class RecoveryPolicy {
+  sessions_with_active_jobs,  // open sessions with a queued or running job
+  all_open_sessions,          // every open session
+};
+
+struct OpenOptions {
+  // read_only: no writes, no migration, no recovery, no writer lock; the file must exist and
+  // be at the current schema version.
+  bool read_only = false;
+  RecoveryPolicy recovery = RecoveryPolicy::sessions_with_active_jobs;
+  // Run PRAGMA quick_check before using an existing file (time proportional to its size).
+  bool check_integrity = true;
+  std::chrono::milliseconds busy_timeout{5000};
+  int max_readers = 8;  // read connections; a reader beyond them waits for one
+  // Caps the database at this many pages (PRAGMA max_page_count, 4 KiB each); 0 = no cap.
+  // Writes beyond it fail as `full`, like a full disk.
+  std::int64_t max_pages = 0;
+  // Where the store takes "now" from; the system clock when empty.
+  std::function<Time()> clock;
+};
+
+// What opening did to sessions and jobs left running by a writer that died.
+struct RecoveryReport {
+  std::vector<Id> interrupted_sessions;  // now `interrupted`
+  std::vector<Id> failed_jobs;           // were queued or running, now `failed`
+};
+
+struct SessionFilter {
+  std::optional<std::string> site{};
+  std::optional<SessionState> state{};
+  std::optional<Time> created_from{};    // created_at >= this
+  std::optional<Time> created_before{};  // created_at < this
+  std::optional<Id> cursor{};            // next_cursor of the previous page
+  int limit = 50;                        // 1-1000
+};
+
+// Newest first.
+struct SessionPage {
+  std::vector<Session> sessions;
+  std::optional<Id> next_cursor{};  // empty on the last page
+};
+
+struct SessionDetail {
+  Session session;
+  std::vector<Measurement> measurements;  // in the order stored
+  std::vector<Fit> fits;                  // of those measurements, in the order stored
+};
+
+struct SessionUpdate {
+  std::optional<std::string> notes{};
+  // open <-> interrupted; open or interrupted -> complete or aborted, which are final.
+  std::optional<SessionState> state{};
+};
+
+struct RecordedMeasurement {
+  Id measurement_id = 0;
+  std::optional<Id> fit_id{};
+};
+
+struct JobUpdate {
+  // queued -> running, failed or cancelled; running -> succeeded, failed or cancelled.
+  JobState state = JobState::running;
+  std::optional<std::string> error{};
+  std::optional<std::string> result{};  // a JSON object
+};
+
+struct CreatedJob {
+  Job job;
+  bool created = true;  // false: an earlier job had the same idempotency key, returned as is
+};
+
+class Store {
+ public:
+  // Opens the database at `path`, creating it (read-write) when missing, migrating it forward
+  // and recovering from a writer that died (recovery()). Refuses, leaving the file as it was:
+  // a newer schema, a file that is not a skinspec database or is damaged, a read-only file
+  // (read-write), and a database another program holds for writing (busy).
+  static Result<Store> open(const std::string& path, const OpenOptions& options = {});
+
+  // A moved-from Store may only be destroyed or assigned to.
+  Store(Store&&) noexcept;
+  Store& operator=(Store&&) noexcept;
+  ~Store();
+
+  const std::string& path() const;
+  int schema_version() const;
+  const RecoveryReport& recovery() const;
+
+  // Instruments are known by model and serial number: a second call for the same one updates
+  // its configuration, connection and last_seen_at and returns the same id.
+  Result<Id> ensure_instrument(const Instrument& instrument);
+  Result<Instrument> instrument(Id id) const;
+  Result<std::vector<Instrument>> instruments() const;
+
+  Result<Id> add_white_standard(const WhiteStandard& standard);
+  Result<WhiteStandard> white_standard(Id id) const;
+  Result<std::vector<WhiteStandard>> white_standards() const;
+
+  Result<Id> create_session(const Session& session);
+  Result<Session> update_session(Id id, const SessionUpdate& update);
+  Result<Session> session(Id id) const;
+  Result<SessionDetail> session_detail(Id id) const;
+  Result<SessionPage> sessions(const SessionFilter& filter) const;
+
+  // Stores a measurement of an open session and, when given, its fit (whose measurement_id is
+  // ignored), in one transaction: both or neither.
+  Result<RecordedMeasurement> record_measurement(const Measurement& measurement, const std::optional<Fit>& fit);
+  Result<Measurement> measurement(Id id) const;
+  // Another fit of a stored measurement (a refit), in any session state.
+  Result<Id> add_fit(const Fit& fit);
+  Result<Fit> fit(Id id) const;
+  Result<std::vector<Fit>> fits_of_measurement(Id measurement_id) const;
+
+  Result<CreatedJob> create_job(const Job& job);
+  Result<Job> update_job(Id id, const JobUpdate& update);
+  Result<Job> job(Id id) const;
+  Result<std::optional<Job>> job_by_idempotency_key(const std::string& key) const;
+  // Newest first; of one session when given.
+  Result<std::vector<Job>> jobs(std::optional<Id> session_id = std::nullopt, int limit = 100) const;
+
+  struct Impl;  // opaque: store/src/store_impl.hpp
+
+ private:
+  explicit Store(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// The schema version this program writes.
+int current_schema_version();
+
+// Creates a new database at `path` holding the schema of `version` (1..current) and nothing
+// else: what an older skinspec would have made. For migration tests and tools.
+Result<void> create_database_at_version(const std::string& path, int version);
+
+}  // namespace skinspec::store

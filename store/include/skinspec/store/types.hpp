@@ -1,0 +1,160 @@
+#pragma once
+// The records skinspec keeps: plain values with no SQLite, driver or fit types in them, so that
+// the store depends on nothing of ours and the programs convert at their edge.
+//
+// Ids are assigned by the store; on insert, `id` and the `*_at` fields the store stamps are
+// ignored. Times are UTC, kept to the microsecond.
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <expected>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace skinspec::store {
+
+using Id = std::int64_t;
+using Time = std::chrono::sys_time<std::chrono::microseconds>;
+
+// What went wrong, in kinds a caller can act on (an HTTP status, an exit status, a retry).
+struct StoreError {
+  enum class Kind {
+    invalid_argument,  // the caller's values cannot be stored (unequal lengths, NaN, unknown state)
+    not_found,         // no such record, or no database file where one must exist
+    conflict,          // not allowed in the record's current state (a measurement in a closed session)
+    newer_schema,      // written by a newer skinspec: left untouched
+    older_schema,      // opened read-only but needs migrating first
+    corrupt,           // not a SQLite file, not a skinspec database, or damaged
+    read_only,         // the file (or this Store) cannot be written
+    full,              // the disk, or the configured size limit, is full
+    busy,              // another program holds the database for writing
+    io,                // the operating system failed a read or write
+    internal,          // anything else SQLite reports
+  };
+  Kind kind = Kind::internal;
+  std::string message;
+  int sqlite_code = 0;  // SQLite's extended result code when it came from SQLite, else 0
+};
+
+std::string_view to_string(StoreError::Kind kind);
+
+template <typename T>
+using Result = std::expected<T, StoreError>;
+
+// A sampled spectrum and its grid, equal lengths, wavelengths strictly increasing. Stored
+// bit for bit (docs/store.md). An empty one stands for "none".
+struct SpectralSamples {
+  std::vector<double> wavelength_nm;
+  std::vector<double> values;
+
+  bool empty() const { return wavelength_nm.empty(); }
+  bool operator==(const SpectralSamples&) const = default;
+};
+
+struct Instrument {
+  Id id = 0;
+  std::string model;                   // "PR-650"
+  std::string serial_number;
+  std::string spectral_configuration;  // free text or JSON: grid, bandwidth, firmware
+  std::string connection;              // the URI it was last reached by
+  Time created_at{}, last_seen_at{};
+};
+
+struct WhiteStandard {
+  Id id = 0;
+  std::string name;
+  std::string certificate;      // certificate number, issuer, date: free text
+  SpectralSamples reflectance;  // calibrated reflectance, 0..1
+  Time created_at{};
+};
+
+enum class SessionState { open, complete, interrupted, aborted };
+std::string_view to_string(SessionState state);
+std::optional<SessionState> parse_session_state(std::string_view text);
+
+struct Session {
+  Id id = 0;
+  std::string subject;  // a pseudonym; no real names are needed
+  std::string site;     // body site, as the model names them ("forearm")
+  std::string operator_name;
+  std::string notes;
+  std::optional<Id> white_standard_id{};
+  SessionState state = SessionState::open;  // new sessions are always open
+  Time created_at{}, updated_at{};
+  std::optional<Time> ended_at{};  // when it left the open state
+};
+
+enum class MeasurementKind { white, sample, dark };
+std::string_view to_string(MeasurementKind kind);
+std::optional<MeasurementKind> parse_measurement_kind(std::string_view text);
+
+struct Measurement {
+  Id id = 0;
+  Id session_id = 0;
+  MeasurementKind kind = MeasurementKind::sample;
+  std::string label;
+  std::optional<Id> instrument_id{};
+  std::optional<Id> white_measurement_id{};  // the white reading its reflectance was derived from
+  std::optional<Id> job_id{};                // the job that produced it
+  bool simulated = false;
+  int quality_code = 0;
+  std::string quality;                     // the meter's text for the code
+  std::string units;                       // of the radiance, "W/(sr m2 nm)"
+  std::string settings = "{}";             // a JSON object: integration, averages, sync, ...
+  int reading_count = 1;                   // readings averaged into `radiance`
+  SpectralSamples radiance;                // on the instrument's native grid
+  SpectralSamples radiance_sd;             // standard deviation over the readings; empty for one
+  SpectralSamples reflectance;             // derived; empty for whites and darks
+  std::vector<std::string> warnings;
+  std::string raw_reply;                   // the meter's reply bytes, as received
+  Time started_at{}, finished_at{};        // of the reading(s), from the caller
+  Time created_at{};                       // when it was stored
+};
+
+// The fit's five parameters, in this order.
+inline constexpr std::size_t kFitParamCount = 5;
+using FitParams = std::array<double, kFitParamCount>;
+inline constexpr std::array<std::string_view, kFitParamCount> kFitParamNames = {
+    "surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"};
+
+struct Fit {
+  Id id = 0;
+  Id measurement_id = 0;  // set by record_measurement when stored with its measurement
+  std::string site;
+  FitParams params{};          // finite
+  FitParams standard_error{};  // may be infinite (undetermined); NaN reads back as NaN
+  double rmse = 0, max_abs_error = 0, delta_e00_d65 = 0;
+  int iterations = 0;
+  bool converged = false;
+  std::string solver_summary;
+  std::string options = "{}";  // a JSON object: the fit options used
+  std::string model_version;   // the program and version that fitted
+  std::string tables_digest;   // digest of the optical tables behind the model
+  // The samples that were fitted, equal lengths.
+  std::vector<double> wavelength_nm, measured, fitted;
+  int samples_ignored = 0;
+  Time created_at{};
+};
+
+enum class JobState { queued, running, succeeded, failed, cancelled };
+std::string_view to_string(JobState state);
+std::optional<JobState> parse_job_state(std::string_view text);
+
+struct Job {
+  Id id = 0;
+  std::string kind;             // "measure", "refit", ...
+  std::string request = "{}";   // a JSON object: what was asked
+  std::string requested_by;     // who asked (a token name, a user)
+  std::optional<Id> session_id{};
+  std::string idempotency_key;  // empty = none; otherwise unique among jobs
+  JobState state = JobState::queued;
+  std::string error;            // why it failed or was cancelled
+  std::string result = "{}";    // a JSON object: the ids it produced
+  Time created_at{};
+  std::optional<Time> started_at{}, finished_at{};
+};
+
+}  // namespace skinspec::store

@@ -1,0 +1,101 @@
+#include "codec.hpp"
+
+#include <fmt/format.h>
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <nlohmann/json.hpp>
+
+#include "sqlite.hpp"
+
+namespace skinspec::store::detail {
+
+namespace {
+
+constexpr std::size_t kPairBytes = 16;
+
+void put_double(char* out, double value) {
+  auto bits = std::bit_cast<std::uint64_t>(value);
+  if constexpr (std::endian::native == std::endian::big) bits = std::byteswap(bits);
+  std::memcpy(out, &bits, sizeof bits);
+}
+
+double get_double(const char* in) {
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, in, sizeof bits);
+  if constexpr (std::endian::native == std::endian::big) bits = std::byteswap(bits);
+  return std::bit_cast<double>(bits);
+}
+
+[[noreturn]] void invalid(std::string message) { fail(StoreError::Kind::invalid_argument, std::move(message)); }
+
+}  // namespace
+
+std::string encode_spectrum(const SpectralSamples& spectrum) {
+  std::string bytes(spectrum.wavelength_nm.size() * kPairBytes, '\0');
+  for (std::size_t i = 0; i < spectrum.wavelength_nm.size(); ++i) {
+    put_double(bytes.data() + i * kPairBytes, spectrum.wavelength_nm[i]);
+    put_double(bytes.data() + i * kPairBytes + 8, spectrum.values[i]);
+  }
+  return bytes;
+}
+
+SpectralSamples decode_spectrum(std::string_view bytes, std::string_view what) {
+  if (bytes.size() % kPairBytes != 0)
+    fail(StoreError::Kind::corrupt, fmt::format("{}: {} bytes is not a whole number of (wavelength, value) pairs",
+                                                what, bytes.size()));
+  SpectralSamples spectrum;
+  const std::size_t n = bytes.size() / kPairBytes;
+  spectrum.wavelength_nm.resize(n);
+  spectrum.values.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    spectrum.wavelength_nm[i] = get_double(bytes.data() + i * kPairBytes);
+    spectrum.values[i] = get_double(bytes.data() + i * kPairBytes + 8);
+  }
+  return spectrum;
+}
+
+std::int64_t to_micros(Time time) { return time.time_since_epoch().count(); }
+Time from_micros(std::int64_t micros) { return Time(std::chrono::microseconds(micros)); }
+
+std::string encode_text_list(const std::vector<std::string>& items) {
+  return nlohmann::json(items).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::vector<std::string> decode_text_list(std::string_view json, std::string_view what) {
+  const auto parsed = nlohmann::json::parse(json, nullptr, false);
+  if (parsed.is_discarded() || !parsed.is_array())
+    fail(StoreError::Kind::corrupt, fmt::format("{}: not a JSON array of text", what));
+  std::vector<std::string> items;
+  for (const auto& item : parsed) {
+    if (!item.is_string()) fail(StoreError::Kind::corrupt, fmt::format("{}: not a JSON array of text", what));
+    items.push_back(item.get<std::string>());
+  }
+  return items;
+}
+
+void check_spectrum(const SpectralSamples& spectrum, std::string_view what, bool may_be_empty) {
+  const auto n = spectrum.wavelength_nm.size();
+  if (n != spectrum.values.size())
+    invalid(fmt::format("{}: {} wavelengths but {} values", what, n, spectrum.values.size()));
+  if (n == 0 && !may_be_empty) invalid(fmt::format("{}: no samples", what));
+  for (std::size_t i = 0; i < n; ++i) {
+    const double w = spectrum.wavelength_nm[i];
+    if (!std::isfinite(w)) invalid(fmt::format("{}: wavelength {} is not finite", what, i));
+    if (i > 0 && !(w > spectrum.wavelength_nm[i - 1]))
+      invalid(fmt::format("{}: wavelengths must strictly increase ({} nm after {} nm)", what, w,
+                          spectrum.wavelength_nm[i - 1]));
+  }
+}
+
+void check_json_object(std::string_view json, std::string_view what) {
+  const auto parsed = nlohmann::json::parse(json, nullptr, false);
+  if (parsed.is_discarded() || !parsed.is_object()) invalid(fmt::format("{}: not a JSON object", what));
+}
+
+void check_not_empty(std::string_view text, std::string_view what) {
+  if (text.empty()) invalid(fmt::format("{} is empty", what));
+}
+
+}  // namespace skinspec::store::detail

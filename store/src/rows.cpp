@@ -1,0 +1,145 @@
+#include "rows.hpp"
+
+#include <fmt/format.h>
+
+#include "codec.hpp"
+
+namespace skinspec::store::detail {
+
+namespace {
+
+std::optional<Time> optional_time(const Statement& row, int column) {
+  const auto micros = row.optional_integer(column);
+  if (!micros) return std::nullopt;
+  return from_micros(*micros);
+}
+
+Time time_at(const Statement& row, int column) { return from_micros(row.integer(column)); }
+
+template <typename T>
+T parsed(std::optional<T> value, std::string_view text, std::string_view what) {
+  if (!value) fail(StoreError::Kind::corrupt, fmt::format("{} '{}' is not one skinspec writes", what, text));
+  return *value;
+}
+
+SpectralSamples optional_spectrum(const Statement& row, int column, std::string_view what) {
+  if (row.is_null(column)) return {};
+  return decode_spectrum(row.blob(column), what);
+}
+
+}  // namespace
+
+Instrument read_instrument(const Statement& row) {
+  Instrument out;
+  out.id = row.integer(0);
+  out.model = row.text(1);
+  out.serial_number = row.text(2);
+  out.spectral_configuration = row.text(3);
+  out.connection = row.text(4);
+  out.created_at = time_at(row, 5);
+  out.last_seen_at = time_at(row, 6);
+  return out;
+}
+
+WhiteStandard read_white_standard(const Statement& row) {
+  WhiteStandard out;
+  out.id = row.integer(0);
+  out.name = row.text(1);
+  out.certificate = row.text(2);
+  out.reflectance = decode_spectrum(row.blob(3), "white_standards.reflectance");
+  out.created_at = time_at(row, 4);
+  return out;
+}
+
+Session read_session(const Statement& row) {
+  Session out;
+  out.id = row.integer(0);
+  out.subject = row.text(1);
+  out.site = row.text(2);
+  out.operator_name = row.text(3);
+  out.notes = row.text(4);
+  out.white_standard_id = row.optional_integer(5);
+  const auto state = row.text(6);
+  out.state = parsed(parse_session_state(state), state, "session state");
+  out.created_at = time_at(row, 7);
+  out.updated_at = time_at(row, 8);
+  out.ended_at = optional_time(row, 9);
+  return out;
+}
+
+Measurement read_measurement(const Statement& row) {
+  Measurement out;
+  out.id = row.integer(0);
+  out.session_id = row.integer(1);
+  const auto kind = row.text(2);
+  out.kind = parsed(parse_measurement_kind(kind), kind, "measurement kind");
+  out.label = row.text(3);
+  out.instrument_id = row.optional_integer(4);
+  out.white_measurement_id = row.optional_integer(5);
+  out.job_id = row.optional_integer(6);
+  out.simulated = row.integer(7) != 0;
+  out.quality_code = static_cast<int>(row.integer(8));
+  out.quality = row.text(9);
+  out.units = row.text(10);
+  out.settings = row.text(11);
+  out.reading_count = static_cast<int>(row.integer(12));
+  out.radiance = decode_spectrum(row.blob(13), "measurements.radiance");
+  out.radiance_sd = optional_spectrum(row, 14, "measurements.radiance_sd");
+  out.reflectance = optional_spectrum(row, 15, "measurements.reflectance");
+  out.warnings = decode_text_list(row.text(16), "measurements.warnings");
+  out.raw_reply = row.blob(17);
+  out.started_at = time_at(row, 18);
+  out.finished_at = time_at(row, 19);
+  out.created_at = time_at(row, 20);
+  return out;
+}
+
+Fit read_fit(const Statement& row) {
+  Fit out;
+  out.id = row.integer(0);
+  out.measurement_id = row.integer(1);
+  out.site = row.text(2);
+  for (std::size_t i = 0; i < kFitParamCount; ++i) {
+    out.params[i] = row.real(3 + static_cast<int>(i));
+    out.standard_error[i] = row.real(8 + static_cast<int>(i));
+  }
+  out.rmse = row.real(13);
+  out.max_abs_error = row.real(14);
+  out.delta_e00_d65 = row.real(15);
+  out.iterations = static_cast<int>(row.integer(16));
+  out.converged = row.integer(17) != 0;
+  out.solver_summary = row.text(18);
+  out.options = row.text(19);
+  out.model_version = row.text(20);
+  out.tables_digest = row.text(21);
+  auto measured = decode_spectrum(row.blob(22), "fits.measured");
+  auto fitted = decode_spectrum(row.blob(23), "fits.fitted");
+  if (measured.wavelength_nm != fitted.wavelength_nm)
+    fail(StoreError::Kind::corrupt, fmt::format("fit {}: measured and fitted are on different grids", out.id));
+  out.wavelength_nm = std::move(measured.wavelength_nm);
+  out.measured = std::move(measured.values);
+  out.fitted = std::move(fitted.values);
+  out.samples_ignored = static_cast<int>(row.integer(24));
+  out.created_at = time_at(row, 25);
+  return out;
+}
+
+Job read_job(const Statement& row) {
+  Job out;
+  out.id = row.integer(0);
+  out.kind = row.text(1);
+  out.request = row.text(2);
+  out.requested_by = row.text(3);
+  out.session_id = row.optional_integer(4);
+  out.idempotency_key = row.text(5);  // NULL reads as empty
+  const auto state = row.text(6);
+  out.state = parsed(parse_job_state(state), state, "job state");
+  out.error = row.text(7);
+  out.result = row.text(8);
+  out.created_at = time_at(row, 9);
+  out.started_at = optional_time(row, 10);
+  out.finished_at = optional_time(row, 11);
+  return out;
+}
+
+}  // namespace skinspec::store::detail

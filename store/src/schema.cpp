@@ -1,0 +1,151 @@
+#include "schema.hpp"
+
+#include <array>
+
+#include <fmt/format.h>
+
+namespace skinspec::store::detail {
+
+namespace {
+
+// Version 1: the core tables. Times are integer microseconds since the Unix epoch (UTC);
+// spectra are BLOBs of float64 (wavelength, value) pairs (codec.hpp).
+constexpr std::string_view kVersion1 = R"sql(
+PRAGMA application_id = 1397445456;
+
+CREATE TABLE instruments (
+  id                     INTEGER PRIMARY KEY,
+  model                  TEXT NOT NULL,
+  serial_number          TEXT NOT NULL,
+  spectral_configuration TEXT NOT NULL,
+  connection             TEXT NOT NULL,
+  created_at             INTEGER NOT NULL,
+  last_seen_at           INTEGER NOT NULL,
+  UNIQUE (model, serial_number)
+);
+
+CREATE TABLE white_standards (
+  id          INTEGER PRIMARY KEY,
+  name        TEXT NOT NULL,
+  certificate TEXT NOT NULL,
+  reflectance BLOB NOT NULL,
+  created_at  INTEGER NOT NULL
+);
+
+CREATE TABLE sessions (
+  id                INTEGER PRIMARY KEY,
+  subject           TEXT NOT NULL,
+  site              TEXT NOT NULL,
+  operator_name     TEXT NOT NULL,
+  notes             TEXT NOT NULL,
+  white_standard_id INTEGER REFERENCES white_standards (id),
+  state             TEXT NOT NULL CHECK (state IN ('open', 'complete', 'interrupted', 'aborted')),
+  created_at        INTEGER NOT NULL,
+  updated_at        INTEGER NOT NULL,
+  ended_at          INTEGER
+);
+CREATE INDEX sessions_by_created ON sessions (created_at);
+
+CREATE TABLE measurements (
+  id                   INTEGER PRIMARY KEY,
+  session_id           INTEGER NOT NULL REFERENCES sessions (id),
+  kind                 TEXT NOT NULL CHECK (kind IN ('white', 'sample', 'dark')),
+  label                TEXT NOT NULL,
+  instrument_id        INTEGER REFERENCES instruments (id),
+  white_measurement_id INTEGER REFERENCES measurements (id),
+  simulated            INTEGER NOT NULL CHECK (simulated IN (0, 1)),
+  quality_code         INTEGER NOT NULL,
+  quality              TEXT NOT NULL,
+  units                TEXT NOT NULL,
+  settings             TEXT NOT NULL CHECK (json_valid(settings)),
+  reading_count        INTEGER NOT NULL CHECK (reading_count >= 1),
+  radiance             BLOB NOT NULL,
+  radiance_sd          BLOB,
+  reflectance          BLOB,
+  warnings             TEXT NOT NULL CHECK (json_valid(warnings)),
+  raw_reply            BLOB NOT NULL,
+  started_at           INTEGER NOT NULL,
+  finished_at          INTEGER NOT NULL,
+  created_at           INTEGER NOT NULL
+);
+CREATE INDEX measurements_by_session ON measurements (session_id);
+
+CREATE TABLE fits (
+  id                     INTEGER PRIMARY KEY,
+  measurement_id         INTEGER NOT NULL REFERENCES measurements (id),
+  site                   TEXT NOT NULL,
+  surface_reflectance    REAL NOT NULL,
+  melanin                REAL NOT NULL,
+  oxyhemoglobin          REAL NOT NULL,
+  deoxyhemoglobin        REAL NOT NULL,
+  bilirubin              REAL NOT NULL,
+  se_surface_reflectance REAL,
+  se_melanin             REAL,
+  se_oxyhemoglobin       REAL,
+  se_deoxyhemoglobin     REAL,
+  se_bilirubin           REAL,
+  rmse                   REAL NOT NULL,
+  max_abs_error          REAL NOT NULL,
+  delta_e00_d65          REAL NOT NULL,
+  iterations             INTEGER NOT NULL,
+  converged              INTEGER NOT NULL CHECK (converged IN (0, 1)),
+  solver_summary         TEXT NOT NULL,
+  options                TEXT NOT NULL CHECK (json_valid(options)),
+  model_version          TEXT NOT NULL,
+  tables_digest          TEXT NOT NULL,
+  measured               BLOB NOT NULL,
+  fitted                 BLOB NOT NULL,
+  samples_ignored        INTEGER NOT NULL,
+  created_at             INTEGER NOT NULL
+);
+CREATE INDEX fits_by_measurement ON fits (measurement_id);
+)sql";
+
+// Version 2: jobs (what was asked of the service, by whom, and how it ended), the job behind
+// each measurement, and the indexes for listing sessions by site and state.
+constexpr std::string_view kVersion2 = R"sql(
+CREATE TABLE jobs (
+  id              INTEGER PRIMARY KEY,
+  kind            TEXT NOT NULL,
+  request         TEXT NOT NULL CHECK (json_valid(request)),
+  requested_by    TEXT NOT NULL,
+  session_id      INTEGER REFERENCES sessions (id),
+  idempotency_key TEXT UNIQUE,
+  state           TEXT NOT NULL CHECK (state IN ('queued', 'running', 'succeeded', 'failed', 'cancelled')),
+  error           TEXT NOT NULL,
+  result          TEXT NOT NULL CHECK (json_valid(result)),
+  created_at      INTEGER NOT NULL,
+  started_at      INTEGER,
+  finished_at     INTEGER
+);
+CREATE INDEX jobs_by_session ON jobs (session_id);
+CREATE INDEX jobs_active ON jobs (state) WHERE state IN ('queued', 'running');
+
+ALTER TABLE measurements ADD COLUMN job_id INTEGER REFERENCES jobs (id);
+
+CREATE INDEX sessions_by_site ON sessions (site, id);
+CREATE INDEX sessions_by_state ON sessions (state, id);
+)sql";
+
+constexpr std::array<std::string_view, 2> kMigrations = {kVersion1, kVersion2};
+
+}  // namespace
+
+int latest_schema_version() { return static_cast<int>(kMigrations.size()); }
+
+void migrate(Connection& writer, int target) {
+  for (;;) {
+    Transaction transaction(writer, Transaction::Kind::write);
+    // Read inside the transaction: the version cannot change under us once we hold it.
+    const auto version = writer.query_integer("PRAGMA user_version");
+    if (version >= target) return;
+    if (version < 0)
+      fail(StoreError::Kind::corrupt, fmt::format("schema version {} is not one skinspec writes", version));
+    writer.execute(kMigrations[static_cast<std::size_t>(version)]);
+    // PRAGMA takes no parameters; the value is our own integer.
+    writer.execute(fmt::format("PRAGMA user_version = {}", version + 1));
+    transaction.commit();
+  }
+}
+
+}  // namespace skinspec::store::detail

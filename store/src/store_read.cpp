@@ -1,0 +1,171 @@
+// The store's reads: each on a pooled read connection, in one read transaction, so that a
+// session and its measurements and fits come from the same snapshot.
+
+#include <fmt/format.h>
+
+#include "codec.hpp"
+#include "rows.hpp"
+#include "store_impl.hpp"
+
+namespace skinspec::store {
+
+using detail::Connection;
+using detail::fail;
+using Kind = StoreError::Kind;
+
+namespace {
+
+// The one record `sql` selects by id, or not_found naming `what`.
+template <typename Read>
+auto one(Connection& c, const std::string& sql, Id id, std::string_view what, Read read) {
+  auto row = c.prepare(sql);
+  row.bind(id);
+  if (!row.step()) fail(Kind::not_found, fmt::format("{} {} does not exist", what, id));
+  return read(row);
+}
+
+template <typename Read, typename... Args>
+auto all(Connection& c, const std::string& sql, Read read, const Args&... args) {
+  auto rows = c.prepare(sql);
+  rows.bind(args...);
+  std::vector<std::invoke_result_t<Read, const detail::Statement&>> out;
+  while (rows.step()) out.push_back(read(rows));
+  return out;
+}
+
+std::string select_by_id(std::string_view columns, std::string_view table) {
+  return fmt::format("SELECT {} FROM {} WHERE id = ?1", columns, table);
+}
+
+Session session_in(Connection& c, Id id) {
+  static const std::string sql = select_by_id(detail::kSessionColumns, "sessions");
+  return one(c, sql, id, "session", detail::read_session);
+}
+
+}  // namespace
+
+Result<Instrument> Store::instrument(Id id) const {
+  return impl_->read("reading an instrument", [&](Connection& c) {
+    static const std::string sql = select_by_id(detail::kInstrumentColumns, "instruments");
+    return one(c, sql, id, "instrument", detail::read_instrument);
+  });
+}
+
+Result<std::vector<Instrument>> Store::instruments() const {
+  return impl_->read("listing instruments", [&](Connection& c) {
+    static const std::string sql = fmt::format("SELECT {} FROM instruments ORDER BY id", detail::kInstrumentColumns);
+    return all(c, sql, detail::read_instrument);
+  });
+}
+
+Result<WhiteStandard> Store::white_standard(Id id) const {
+  return impl_->read("reading a white standard", [&](Connection& c) {
+    static const std::string sql = select_by_id(detail::kWhiteStandardColumns, "white_standards");
+    return one(c, sql, id, "white standard", detail::read_white_standard);
+  });
+}
+
+Result<std::vector<WhiteStandard>> Store::white_standards() const {
+  return impl_->read("listing white standards", [&](Connection& c) {
+    static const std::string sql =
+        fmt::format("SELECT {} FROM white_standards ORDER BY id", detail::kWhiteStandardColumns);
+    return all(c, sql, detail::read_white_standard);
+  });
+}
+
+Result<Session> Store::session(Id id) const {
+  return impl_->read("reading a session", [&](Connection& c) { return session_in(c, id); });
+}
+
+Result<SessionDetail> Store::session_detail(Id id) const {
+  return impl_->read(fmt::format("reading session {}", id), [&](Connection& c) {
+    static const std::string measurements = fmt::format(
+        "SELECT {} FROM measurements WHERE session_id = ?1 ORDER BY id", detail::kMeasurementColumns);
+    static const std::string fits = fmt::format(
+        "SELECT {} FROM fits WHERE measurement_id IN (SELECT id FROM measurements WHERE session_id = ?1) "
+        "ORDER BY id",
+        detail::kFitColumns);
+    SessionDetail detail;
+    detail.session = session_in(c, id);
+    detail.measurements = all(c, measurements, detail::read_measurement, id);
+    detail.fits = all(c, fits, detail::read_fit, id);
+    return detail;
+  });
+}
+
+Result<SessionPage> Store::sessions(const SessionFilter& filter) const {
+  return impl_->read("listing sessions", [&](Connection& c) {
+    if (filter.limit < 1 || filter.limit > 1000)
+      fail(Kind::invalid_argument, fmt::format("limit {} is outside 1-1000", filter.limit));
+    // Each filter is off when its parameter is NULL. One row beyond the page says whether
+    // there is a next one.
+    static const std::string sql = fmt::format(
+        "SELECT {} FROM sessions WHERE (?1 IS NULL OR site = ?1) AND (?2 IS NULL OR state = ?2) "
+        "AND (?3 IS NULL OR created_at >= ?3) AND (?4 IS NULL OR created_at < ?4) AND (?5 IS NULL OR id < ?5) "
+        "ORDER BY id DESC LIMIT ?6",
+        detail::kSessionColumns);
+    const auto micros = [](const std::optional<Time>& t) {
+      return t ? std::optional<std::int64_t>(detail::to_micros(*t)) : std::nullopt;
+    };
+    const auto state = filter.state ? std::optional<std::string_view>(to_string(*filter.state)) : std::nullopt;
+    SessionPage page;
+    page.sessions = all(c, sql, detail::read_session, filter.site, state, micros(filter.created_from),
+                        micros(filter.created_before), filter.cursor, filter.limit + 1);
+    if (page.sessions.size() > static_cast<std::size_t>(filter.limit)) {
+      page.sessions.pop_back();
+      page.next_cursor = page.sessions.back().id;
+    }
+    return page;
+  });
+}
+
+Result<Measurement> Store::measurement(Id id) const {
+  return impl_->read("reading a measurement", [&](Connection& c) {
+    static const std::string sql = select_by_id(detail::kMeasurementColumns, "measurements");
+    return one(c, sql, id, "measurement", detail::read_measurement);
+  });
+}
+
+Result<Fit> Store::fit(Id id) const {
+  return impl_->read("reading a fit", [&](Connection& c) {
+    static const std::string sql = select_by_id(detail::kFitColumns, "fits");
+    return one(c, sql, id, "fit", detail::read_fit);
+  });
+}
+
+Result<std::vector<Fit>> Store::fits_of_measurement(Id measurement_id) const {
+  return impl_->read("listing fits", [&](Connection& c) {
+    static const std::string exists = "SELECT 1 FROM measurements WHERE id = ?1";
+    one(c, exists, measurement_id, "measurement", [](const detail::Statement&) { return 0; });
+    static const std::string sql =
+        fmt::format("SELECT {} FROM fits WHERE measurement_id = ?1 ORDER BY id", detail::kFitColumns);
+    return all(c, sql, detail::read_fit, measurement_id);
+  });
+}
+
+Result<Job> Store::job(Id id) const {
+  return impl_->read("reading a job", [&](Connection& c) {
+    static const std::string sql = select_by_id(detail::kJobColumns, "jobs");
+    return one(c, sql, id, "job", detail::read_job);
+  });
+}
+
+Result<std::optional<Job>> Store::job_by_idempotency_key(const std::string& key) const {
+  return impl_->read("finding a job", [&](Connection& c) {
+    static const std::string sql = fmt::format("SELECT {} FROM jobs WHERE idempotency_key = ?1", detail::kJobColumns);
+    auto row = c.prepare(sql);
+    row.bind(key);
+    return row.step() ? std::optional<Job>(detail::read_job(row)) : std::nullopt;
+  });
+}
+
+Result<std::vector<Job>> Store::jobs(std::optional<Id> session_id, int limit) const {
+  return impl_->read("listing jobs", [&](Connection& c) {
+    if (limit < 1 || limit > 1000) fail(Kind::invalid_argument, fmt::format("limit {} is outside 1-1000", limit));
+    static const std::string sql = fmt::format(
+        "SELECT {} FROM jobs WHERE (?1 IS NULL OR session_id = ?1) ORDER BY id DESC LIMIT ?2", detail::kJobColumns);
+    return all(c, sql, detail::read_job, session_id, limit);
+  });
+}
+
+}  // namespace skinspec::store

@@ -1,0 +1,288 @@
+// The store's writes: each checks its input first, then runs as one write transaction.
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "codec.hpp"
+#include "rows.hpp"
+#include "store_impl.hpp"
+
+namespace skinspec::store {
+
+using detail::Blob;
+using detail::Connection;
+using detail::fail;
+using Kind = StoreError::Kind;
+
+namespace {
+
+[[noreturn]] void invalid(std::string message) { fail(Kind::invalid_argument, std::move(message)); }
+
+void check_measurement(const Measurement& m) {
+  if (m.session_id <= 0) invalid("a measurement needs its session's id");
+  detail::check_spectrum(m.radiance, "radiance", false);
+  detail::check_spectrum(m.radiance_sd, "radiance_sd", true);
+  if (!m.radiance_sd.empty() && m.radiance_sd.wavelength_nm != m.radiance.wavelength_nm)
+    invalid("radiance_sd: not on the radiance's grid");
+  detail::check_spectrum(m.reflectance, "reflectance", true);
+  detail::check_json_object(m.settings, "settings");
+  if (m.reading_count < 1) invalid(fmt::format("reading_count {} is below 1", m.reading_count));
+}
+
+void check_fit(const Fit& f) {
+  detail::check_not_empty(f.site, "the fit's site");
+  detail::check_not_empty(f.model_version, "model_version");
+  detail::check_not_empty(f.tables_digest, "tables_digest");
+  for (std::size_t i = 0; i < kFitParamCount; ++i) {
+    if (!std::isfinite(f.params[i])) invalid(fmt::format("parameter {} is not finite", kFitParamNames[i]));
+  }
+  if (f.measured.size() != f.wavelength_nm.size() || f.fitted.size() != f.wavelength_nm.size()) {
+    invalid(fmt::format("fit: {} wavelengths, {} measured, {} fitted values", f.wavelength_nm.size(),
+                        f.measured.size(), f.fitted.size()));
+  }
+  detail::check_spectrum({f.wavelength_nm, f.measured}, "fit", true);
+  detail::check_json_object(f.options, "fit options");
+}
+
+std::string session_state_of(Connection& c, Id session_id) {
+  auto stmt = c.prepare("SELECT state FROM sessions WHERE id = ?1");
+  stmt.bind(session_id);
+  if (!stmt.step()) fail(Kind::not_found, fmt::format("session {} does not exist", session_id));
+  return stmt.text(0);
+}
+
+void require_row(Connection& c, std::string_view sql, Id id, std::string_view what) {
+  auto stmt = c.prepare(sql);
+  stmt.bind(id);
+  if (!stmt.step()) fail(Kind::not_found, fmt::format("{} {} does not exist", what, id));
+}
+
+Id insert_fit(Connection& c, const Fit& f, Id measurement_id, Time now) {
+  const auto measured = detail::encode_spectrum({f.wavelength_nm, f.measured});
+  const auto fitted = detail::encode_spectrum({f.wavelength_nm, f.fitted});
+  const auto& p = f.params;
+  const auto& se = f.standard_error;
+  c.prepare(
+       "INSERT INTO fits (measurement_id, site, surface_reflectance, melanin, oxyhemoglobin, deoxyhemoglobin, "
+       "bilirubin, se_surface_reflectance, se_melanin, se_oxyhemoglobin, se_deoxyhemoglobin, se_bilirubin, rmse, "
+       "max_abs_error, delta_e00_d65, iterations, converged, solver_summary, options, model_version, tables_digest, "
+       "measured, fitted, samples_ignored, created_at) "
+       "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, "
+       "?23, ?24, ?25)")
+      .bind(measurement_id, f.site, p[0], p[1], p[2], p[3], p[4], se[0], se[1], se[2], se[3], se[4], f.rmse,
+            f.max_abs_error, f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options, f.model_version,
+            f.tables_digest, Blob{measured}, Blob{fitted}, f.samples_ignored, detail::to_micros(now))
+      .run();
+  return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+}
+
+std::optional<Blob> optional_blob(const SpectralSamples& spectrum, const std::string& bytes) {
+  if (spectrum.empty()) return std::nullopt;
+  return Blob{bytes};
+}
+
+Id insert_measurement(Connection& c, const Measurement& m, Time now) {
+  const auto radiance = detail::encode_spectrum(m.radiance);
+  const auto radiance_sd = detail::encode_spectrum(m.radiance_sd);
+  const auto reflectance = detail::encode_spectrum(m.reflectance);
+  c.prepare(
+       "INSERT INTO measurements (session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, "
+       "quality_code, quality, units, settings, reading_count, radiance, radiance_sd, reflectance, warnings, "
+       "raw_reply, started_at, finished_at, created_at) "
+       "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20)")
+      .bind(m.session_id, to_string(m.kind), m.label, m.instrument_id, m.white_measurement_id, m.job_id, m.simulated,
+            m.quality_code, m.quality, m.units, m.settings, m.reading_count, Blob{radiance},
+            optional_blob(m.radiance_sd, radiance_sd), optional_blob(m.reflectance, reflectance),
+            detail::encode_text_list(m.warnings), Blob{m.raw_reply}, detail::to_micros(m.started_at),
+            detail::to_micros(m.finished_at), detail::to_micros(now))
+      .run();
+  return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+}
+
+bool session_transition_allowed(SessionState from, SessionState to) {
+  if (from == to) return true;
+  switch (from) {
+    case SessionState::open: return true;
+    case SessionState::interrupted: return true;
+    case SessionState::complete:
+    case SessionState::aborted: return false;
+  }
+  return false;
+}
+
+bool job_transition_allowed(JobState from, JobState to) {
+  switch (from) {
+    case JobState::queued: return to == JobState::running || to == JobState::failed || to == JobState::cancelled;
+    case JobState::running: return to == JobState::succeeded || to == JobState::failed || to == JobState::cancelled;
+    default: return false;
+  }
+}
+
+}  // namespace
+
+Result<Id> Store::ensure_instrument(const Instrument& in) {
+  return impl_->write("storing an instrument", [&](Connection& c) {
+    detail::check_not_empty(in.model, "the instrument's model");
+    detail::check_not_empty(in.serial_number, "the instrument's serial number");
+    const auto now = detail::to_micros(impl_->now());
+    c.prepare(
+         "INSERT INTO instruments (model, serial_number, spectral_configuration, connection, created_at, "
+         "last_seen_at) VALUES (?1, ?2, ?3, ?4, ?5, ?5) "
+         "ON CONFLICT (model, serial_number) DO UPDATE SET spectral_configuration = excluded.spectral_configuration, "
+         "connection = excluded.connection, last_seen_at = excluded.last_seen_at")
+        .bind(in.model, in.serial_number, in.spectral_configuration, in.connection, now)
+        .run();
+    auto id = c.prepare("SELECT id FROM instruments WHERE model = ?1 AND serial_number = ?2");
+    id.bind(in.model, in.serial_number);
+    if (!id.step()) fail(Kind::internal, "the instrument just stored is missing");
+    return Id{id.integer(0)};
+  });
+}
+
+Result<Id> Store::add_white_standard(const WhiteStandard& standard) {
+  return impl_->write("storing a white standard", [&](Connection& c) {
+    detail::check_not_empty(standard.name, "the white standard's name");
+    detail::check_spectrum(standard.reflectance, "the white standard's reflectance", false);
+    const auto reflectance = detail::encode_spectrum(standard.reflectance);
+    c.prepare("INSERT INTO white_standards (name, certificate, reflectance, created_at) VALUES (?1, ?2, ?3, ?4)")
+        .bind(standard.name, standard.certificate, Blob{reflectance}, detail::to_micros(impl_->now()))
+        .run();
+    return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+  });
+}
+
+Result<Id> Store::create_session(const Session& s) {
+  return impl_->write("creating a session", [&](Connection& c) {
+    detail::check_not_empty(s.subject, "the session's subject");
+    detail::check_not_empty(s.site, "the session's site");
+    if (s.white_standard_id)
+      require_row(c, "SELECT 1 FROM white_standards WHERE id = ?1", *s.white_standard_id, "white standard");
+    const auto now = detail::to_micros(impl_->now());
+    c.prepare(
+         "INSERT INTO sessions (subject, site, operator_name, notes, white_standard_id, state, created_at, "
+         "updated_at) VALUES (?1, ?2, ?3, ?4, ?5, 'open', ?6, ?6)")
+        .bind(s.subject, s.site, s.operator_name, s.notes, s.white_standard_id, now)
+        .run();
+    return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+  });
+}
+
+Result<Session> Store::update_session(Id id, const SessionUpdate& update) {
+  return impl_->write(fmt::format("updating session {}", id), [&](Connection& c) {
+    const auto current = *parse_session_state(session_state_of(c, id));
+    const auto now = detail::to_micros(impl_->now());
+    if (update.state && *update.state != current) {
+      if (!session_transition_allowed(current, *update.state)) {
+        fail(Kind::conflict, fmt::format("a session that is {} cannot become {}", to_string(current),
+                                         to_string(*update.state)));
+      }
+      const std::optional<std::int64_t> ended = *update.state == SessionState::open
+                                                    ? std::nullopt
+                                                    : std::optional<std::int64_t>(now);
+      c.prepare("UPDATE sessions SET state = ?2, updated_at = ?3, ended_at = ?4 WHERE id = ?1")
+          .bind(id, to_string(*update.state), now, ended)
+          .run();
+    }
+    if (update.notes) {
+      c.prepare("UPDATE sessions SET notes = ?2, updated_at = ?3 WHERE id = ?1").bind(id, *update.notes, now).run();
+    }
+    static const std::string select = fmt::format("SELECT {} FROM sessions WHERE id = ?1", detail::kSessionColumns);
+    auto row = c.prepare(select);
+    row.bind(id);
+    row.step();
+    return detail::read_session(row);
+  });
+}
+
+Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, const std::optional<Fit>& fit) {
+  return impl_->write("recording a measurement", [&](Connection& c) {
+    check_measurement(m);
+    if (fit) check_fit(*fit);
+    const auto state = session_state_of(c, m.session_id);
+    if (state != to_string(SessionState::open))
+      fail(Kind::conflict, fmt::format("session {} is {}, not open", m.session_id, state));
+    if (m.white_measurement_id) {
+      auto white = c.prepare("SELECT kind FROM measurements WHERE id = ?1");
+      white.bind(*m.white_measurement_id);
+      if (!white.step()) fail(Kind::not_found, fmt::format("measurement {} does not exist", *m.white_measurement_id));
+      if (white.text(0) != to_string(MeasurementKind::white))
+        fail(Kind::conflict, fmt::format("measurement {} is not a white reading", *m.white_measurement_id));
+    }
+    if (m.instrument_id) require_row(c, "SELECT 1 FROM instruments WHERE id = ?1", *m.instrument_id, "instrument");
+    if (m.job_id) require_row(c, "SELECT 1 FROM jobs WHERE id = ?1", *m.job_id, "job");
+    const auto now = impl_->now();
+    RecordedMeasurement ids;
+    ids.measurement_id = insert_measurement(c, m, now);
+    if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
+    return ids;
+  });
+}
+
+Result<Id> Store::add_fit(const Fit& fit) {
+  return impl_->write(fmt::format("storing a fit of measurement {}", fit.measurement_id), [&](Connection& c) {
+    check_fit(fit);
+    require_row(c, "SELECT 1 FROM measurements WHERE id = ?1", fit.measurement_id, "measurement");
+    return insert_fit(c, fit, fit.measurement_id, impl_->now());
+  });
+}
+
+Result<CreatedJob> Store::create_job(const Job& job) {
+  return impl_->write("creating a job", [&](Connection& c) {
+    detail::check_not_empty(job.kind, "the job's kind");
+    detail::check_json_object(job.request, "the job's request");
+    detail::check_json_object(job.result, "the job's result");
+    static const std::string by_key = fmt::format("SELECT {} FROM jobs WHERE idempotency_key = ?1", detail::kJobColumns);
+    if (!job.idempotency_key.empty()) {
+      auto existing = c.prepare(by_key);
+      existing.bind(job.idempotency_key);
+      if (existing.step()) return CreatedJob{detail::read_job(existing), false};
+    }
+    if (job.session_id) require_row(c, "SELECT 1 FROM sessions WHERE id = ?1", *job.session_id, "session");
+    const std::optional<std::string> key =
+        job.idempotency_key.empty() ? std::nullopt : std::optional<std::string>(job.idempotency_key);
+    c.prepare(
+         "INSERT INTO jobs (kind, request, requested_by, session_id, idempotency_key, state, error, result, "
+         "created_at) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', '', ?6, ?7)")
+        .bind(job.kind, job.request, job.requested_by, job.session_id, key, job.result,
+              detail::to_micros(impl_->now()))
+        .run();
+    static const std::string by_id = fmt::format("SELECT {} FROM jobs WHERE id = ?1", detail::kJobColumns);
+    auto row = c.prepare(by_id);
+    row.bind(static_cast<Id>(sqlite3_last_insert_rowid(c.handle())));
+    row.step();
+    return CreatedJob{detail::read_job(row), true};
+  });
+}
+
+Result<Job> Store::update_job(Id id, const JobUpdate& update) {
+  return impl_->write(fmt::format("updating job {}", id), [&](Connection& c) {
+    if (update.result) detail::check_json_object(*update.result, "the job's result");
+    static const std::string by_id = fmt::format("SELECT {} FROM jobs WHERE id = ?1", detail::kJobColumns);
+    JobState current{};
+    {
+      auto row = c.prepare(by_id);
+      row.bind(id);
+      if (!row.step()) fail(Kind::not_found, fmt::format("job {} does not exist", id));
+      current = detail::read_job(row).state;
+    }
+    if (update.state != current && !job_transition_allowed(current, update.state)) {
+      fail(Kind::conflict,
+           fmt::format("a job that is {} cannot become {}", to_string(current), to_string(update.state)));
+    }
+    const auto now = detail::to_micros(impl_->now());
+    const bool finished = update.state != JobState::queued && update.state != JobState::running;
+    c.prepare(
+         "UPDATE jobs SET state = ?2, error = coalesce(?3, error), result = coalesce(?4, result), "
+         "started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?5 ELSE started_at END, "
+         "finished_at = CASE WHEN ?6 AND finished_at IS NULL THEN ?5 ELSE finished_at END WHERE id = ?1")
+        .bind(id, to_string(update.state), update.error, update.result, now, finished)
+        .run();
+    auto row = c.prepare(by_id);
+    row.bind(id);
+    row.step();
+    return detail::read_job(row);
+  });
+}
+
+}  // namespace skinspec::store

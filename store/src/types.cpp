@@ -1,0 +1,70 @@
+#include "skinspec/store/types.hpp"
+
+#include <algorithm>
+
+namespace skinspec::store {
+
+namespace {
+
+template <typename E, std::size_t N>
+std::optional<E> lookup(const std::array<std::pair<E, std::string_view>, N>& names, std::string_view text) {
+  const auto found = std::ranges::find(names, text, &std::pair<E, std::string_view>::second);
+  if (found == names.end()) return std::nullopt;
+  return found->first;
+}
+
+template <typename E, std::size_t N>
+std::string_view name_of(const std::array<std::pair<E, std::string_view>, N>& names, E value) {
+  const auto found = std::ranges::find(names, value, &std::pair<E, std::string_view>::first);
+  return found == names.end() ? std::string_view("unknown") : found->second;
+}
+
+constexpr std::array<std::pair<SessionState, std::string_view>, 4> kSessionStates = {{
+    {SessionState::open, "open"},
+    {SessionState::complete, "complete"},
+    {SessionState::interrupted, "interrupted"},
+    {SessionState::aborted, "aborted"},
+}};
+
+constexpr std::array<std::pair<MeasurementKind, std::string_view>, 3> kMeasurementKinds = {{
+    {MeasurementKind::white, "white"},
+    {MeasurementKind::sample, "sample"},
+    {MeasurementKind::dark, "dark"},
+}};
+
+constexpr std::array<std::pair<JobState, std::string_view>, 5> kJobStates = {{
+    {JobState::queued, "queued"},
+    {JobState::running, "running"},
+    {JobState::succeeded, "succeeded"},
+    {JobState::failed, "failed"},
+    {JobState::cancelled, "cancelled"},
+}};
+
+constexpr std::array<std::pair<StoreError::Kind, std::string_view>, 11> kErrorKinds = {{
+    {StoreError::Kind::invalid_argument, "invalid_argument"},
+    {StoreError::Kind::not_found, "not_found"},
+    {StoreError::Kind::conflict, "conflict"},
+    {StoreError::Kind::newer_schema, "newer_schema"},
+    {StoreError::Kind::older_schema, "older_schema"},
+    {StoreError::Kind::corrupt, "corrupt"},
+    {StoreError::Kind::read_only, "read_only"},
+    {StoreError::Kind::full, "full"},
+    {StoreError::Kind::busy, "busy"},
+    {StoreError::Kind::io, "io"},
+    {StoreError::Kind::internal, "internal"},
+}};
+
+}  // namespace
+
+std::string_view to_string(StoreError::Kind kind) { return name_of(kErrorKinds, kind); }
+std::string_view to_string(SessionState state) { return name_of(kSessionStates, state); }
+std::string_view to_string(MeasurementKind kind) { return name_of(kMeasurementKinds, kind); }
+std::string_view to_string(JobState state) { return name_of(kJobStates, state); }
+
+std::optional<SessionState> parse_session_state(std::string_view text) { return lookup(kSessionStates, text); }
+std::optional<MeasurementKind> parse_measurement_kind(std::string_view text) {
+  return lookup(kMeasurementKinds, text);
+}
+std::optional<JobState> parse_job_state(std::string_view text) { return lookup(kJobStates, text); }
+
+}  // namespace skinspec::store

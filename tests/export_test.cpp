@@ -1,0 +1,258 @@
+// `skinspec export` run as a child process on databases the store made: what it prints in both
+// formats, and the files and sessions it refuses with exit status 2.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "skinspec/store/store.hpp"
+#include "support/process.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec {
+namespace {
+
+using namespace skinspec::store;
+using ::testing::HasSubstr;
+using ::testing::IsEmpty;
+using Json = nlohmann::json;
+
+constexpr int kBadInput = 2;
+
+template <typename T>
+T value_of(Result<T> result) {
+  if (!result) throw std::runtime_error(result.error().message);
+  return std::move(*result);
+}
+
+testing::ProcessResult skinspec(const std::vector<std::string>& args) {
+  return testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args);
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+std::vector<std::string> fields_of(const std::string& line) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted && c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+      fields.back() += '"';
+      ++i;
+    } else if (c == '"') {
+      quoted = !quoted;
+    } else if (c == ',' && !quoted) {
+      fields.emplace_back();
+    } else {
+      fields.back() += c;
+    }
+  }
+  return fields;
+}
+
+class ExportTest : public ::testing::Test {
+ protected:
+  // Two sessions: the first with a white reading and two samples (one fitted twice), the
+  // second with one fitted sample. Returns the store, still open (as skinspecd would hold it).
+  Store make_database() {
+    auto store = value_of(Store::open(path_));
+    const Id white_standard = value_of(store.add_white_standard(testing::sample_white_standard(1)));
+    const Id instrument = value_of(store.ensure_instrument(testing::sample_instrument(1)));
+    auto session = testing::sample_session(0);
+    session.subject = "S-1000, left";
+    session.white_standard_id = white_standard;
+    first_ = value_of(store.create_session(session));
+    auto white = testing::sample_measurement(first_, 0);
+    white.kind = MeasurementKind::white;
+    white.reflectance = {};
+    white.instrument_id = instrument;
+    white_id_ = value_of(store.record_measurement(white, std::nullopt)).measurement_id;
+    auto sample = testing::sample_measurement(first_, 1);
+    sample.white_measurement_id = white_id_;
+    sample.instrument_id = instrument;
+    const auto ids = value_of(store.record_measurement(sample, testing::sample_fit(1)));
+    sample_id_ = ids.measurement_id;
+    auto refit = testing::sample_fit(2);
+    refit.measurement_id = sample_id_;
+    value_of(store.add_fit(refit));
+    value_of(store.record_measurement(testing::sample_measurement(first_, 3), std::nullopt));
+    second_ = value_of(store.create_session(testing::sample_session(4)));
+    value_of(store.record_measurement(testing::sample_measurement(second_, 4), testing::sample_fit(4)));
+    return store;
+  }
+
+  testing::ScratchDirectory dir_;
+  std::string path_ = dir_.file("skinspec.db");
+  Id first_ = 0, second_ = 0, white_id_ = 0, sample_id_ = 0;
+};
+
+TEST_F(ExportTest, JsonHoldsTheSessionItsSpectraFitsAndProvenance) {
+  auto store = make_database();
+  const auto result = skinspec({"export", "--db", path_, "--session", std::to_string(first_)});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  const auto lines = lines_of(result.out);
+  ASSERT_EQ(lines.size(), 1u);
+  const auto json = Json::parse(lines[0]);
+  EXPECT_EQ(json["session"]["id"], first_);
+  EXPECT_EQ(json["session"]["subject"], "S-1000, left");
+  EXPECT_EQ(json["session"]["state"], "open");
+  EXPECT_EQ(json["white_standard"]["name"], testing::sample_white_standard(1).name);
+  EXPECT_EQ(json["white_standard"]["reflectance"]["values"].get<std::vector<double>>(),
+            testing::sample_white_standard(1).reflectance.values);
+  ASSERT_EQ(json["instruments"].size(), 1u);
+  EXPECT_EQ(json["instruments"][0]["serial_number"], "609501");
+  ASSERT_EQ(json["measurements"].size(), 3u);
+
+  const auto& sample = json["measurements"][1];
+  const auto expected = testing::sample_measurement(first_, 1);
+  EXPECT_EQ(sample["id"], sample_id_);
+  EXPECT_EQ(sample["kind"], "sample");
+  EXPECT_EQ(sample["white_measurement_id"], white_id_);
+  EXPECT_EQ(sample["settings"]["integration_ms"], 101);
+  // Numbers come back bit for bit.
+  EXPECT_EQ(sample["radiance"]["wavelength_nm"].get<std::vector<double>>(), expected.radiance.wavelength_nm);
+  EXPECT_EQ(sample["radiance"]["values"].get<std::vector<double>>(), expected.radiance.values);
+  EXPECT_EQ(sample["reflectance"]["values"].get<std::vector<double>>(), expected.reflectance.values);
+  EXPECT_EQ(sample["radiance_sd"]["values"].get<std::vector<double>>(), expected.radiance_sd.values);
+  EXPECT_TRUE(sample["raw_reply_base64"].get<std::string>().starts_with("MDAwMCwwDQo"));  // "0000,0\r\n"
+  EXPECT_EQ(sample["started_at"], "2023-11-14T22:13:21.000123Z");
+
+  ASSERT_EQ(sample["fits"].size(), 2u);
+  const auto& fit = sample["fits"][0];
+  for (const char* field : {"params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations", "converged",
+                            "wavelength_nm", "measured", "fitted", "model_version", "tables_digest", "options"})
+    EXPECT_TRUE(fit.contains(field)) << field;
+  EXPECT_EQ(fit["params"]["melanin"], testing::sample_fit(1).params[1]);
+  EXPECT_TRUE(fit["stderr"]["bilirubin"].is_null());  // undetermined
+  EXPECT_EQ(fit["tables_digest"], "3f2a9c0d");
+  EXPECT_EQ(fit["options"]["lateral_diffusion"], true);
+  EXPECT_EQ(fit["fitted"].get<std::vector<double>>(), testing::sample_fit(1).fitted);
+  EXPECT_TRUE(json["measurements"][0]["reflectance"].is_null());
+  EXPECT_TRUE(json["measurements"][2]["fits"].empty());
+}
+
+TEST_F(ExportTest, WithoutASessionEverySessionIsOneJsonLineOldestFirst) {
+  auto store = make_database();
+  const auto result = skinspec({"export", "--db", path_});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  const auto lines = lines_of(result.out);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(Json::parse(lines[0])["session"]["id"], first_);
+  EXPECT_EQ(Json::parse(lines[1])["session"]["id"], second_);
+}
+
+TEST_F(ExportTest, CsvHasOneRowPerWavelengthOfEachMeasurementAndFit) {
+  auto store = make_database();
+  const auto result = skinspec({"export", "--db", path_, "--format", "csv"});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  const auto lines = lines_of(result.out);
+  ASSERT_FALSE(lines.empty());
+  const auto header = fields_of(lines[0]);
+  EXPECT_EQ(header.front(), "session_id");
+  EXPECT_EQ(header.back(), "fitted");
+  // white (no fit), sample x 2 fits, unfitted sample; second session's fitted sample: 5 x 101.
+  ASSERT_EQ(lines.size(), 1u + 5u * 101u);
+  const auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  const auto expected = testing::sample_measurement(first_, 1);
+  int checked = 0;
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    const auto row = fields_of(lines[i]);
+    ASSERT_EQ(row.size(), header.size()) << lines[i];
+    EXPECT_EQ(row[column("subject")], row[0] == std::to_string(first_) ? "S-1000, left" : "S-1004");
+    if (row[column("measurement_id")] != std::to_string(sample_id_) || row[column("wavelength_nm")] != "400") continue;
+    EXPECT_EQ(std::stod(row[column("radiance")]), expected.radiance.values[5]);
+    EXPECT_EQ(std::stod(row[column("reflectance")]), expected.reflectance.values[5]);
+    EXPECT_EQ(row[column("tables_digest")], "3f2a9c0d");
+    const int n = row[column("fit_id")] == "1" ? 1 : 2;
+    EXPECT_EQ(std::stod(row[column("melanin")]), testing::sample_fit(n).params[1]);
+    EXPECT_EQ(std::stod(row[column("fitted")]), testing::sample_fit(n).fitted[5]);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 2);
+
+  const auto one = skinspec({"export", "--db", path_, "--session", std::to_string(second_), "--format", "csv"});
+  ASSERT_EQ(one.exit_status, 0) << one.describe();
+  EXPECT_EQ(lines_of(one.out).size(), 1u + 101u);
+  EXPECT_EQ(lines_of(one.out)[0], lines[0]);
+}
+
+// Export reads beside a live writer without disturbing it: no lock taken, no recovery run.
+TEST_F(ExportTest, ExportingBesideAWriterChangesNothing) {
+  auto store = make_database();
+  Job job;
+  job.kind = "measure";
+  job.session_id = first_;
+  const Id job_id = value_of(store.create_job(job)).job.id;
+  value_of(store.update_job(job_id, {.state = JobState::running}));
+  const auto result = skinspec({"export", "--db", path_, "--session", std::to_string(first_)});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  EXPECT_EQ(value_of(store.session(first_)).state, SessionState::open);
+  EXPECT_EQ(value_of(store.job(job_id)).state, JobState::running);
+  EXPECT_TRUE(store.record_measurement(testing::sample_measurement(first_, 9), testing::sample_fit(9)));
+}
+
+TEST_F(ExportTest, AnOlderDatabaseIsMigratedAndExported) {
+  ASSERT_TRUE(create_database_at_version(path_, 1));
+  testing::sqlite_execute(path_, "INSERT INTO sessions VALUES (1, 'S-9', 'palm', '', '', NULL, 'complete', 0, 0, 0)");
+  const auto result = skinspec({"export", "--db", path_});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  EXPECT_EQ(Json::parse(result.out)["session"]["subject"], "S-9");
+  EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA user_version"), current_schema_version());
+}
+
+TEST_F(ExportTest, AnUnknownSessionIsBadInputWithNothingOnStdout) {
+  auto store = make_database();
+  for (const char* format : {"json", "csv"}) {
+    const auto result = skinspec({"export", "--db", path_, "--session", "999", "--format", format});
+    EXPECT_EQ(result.exit_status, kBadInput) << result.describe();
+    EXPECT_THAT(result.out, IsEmpty());
+    EXPECT_THAT(result.err, HasSubstr("session 999 does not exist"));
+  }
+}
+
+TEST_F(ExportTest, MissingCorruptAndNewerDatabasesAreBadInput) {
+  const auto missing = skinspec({"export", "--db", dir_.file("nothing.db")});
+  EXPECT_EQ(missing.exit_status, kBadInput) << missing.describe();
+  EXPECT_THAT(missing.err, HasSubstr("no database file"));
+  EXPECT_FALSE(std::filesystem::exists(dir_.file("nothing.db")));
+
+  const auto text = dir_.file("spectra.csv");
+  std::ofstream(text) << "wavelength_nm,a\n400,0.5\n";
+  const auto corrupt = skinspec({"export", "--db", text});
+  EXPECT_EQ(corrupt.exit_status, kBadInput) << corrupt.describe();
+  EXPECT_THAT(corrupt.err, HasSubstr("not a SQLite database"));
+  EXPECT_THAT(corrupt.out, IsEmpty());
+
+  { make_database(); }
+  testing::sqlite_execute(path_, "PRAGMA user_version = " + std::to_string(current_schema_version() + 1));
+  const auto before = testing::file_bytes(path_);
+  const auto newer = skinspec({"export", "--db", path_});
+  EXPECT_EQ(newer.exit_status, kBadInput) << newer.describe();
+  EXPECT_THAT(newer.err, HasSubstr("newer skinspec"));
+  EXPECT_THAT(newer.out, IsEmpty());
+  EXPECT_EQ(testing::file_bytes(path_), before);
+
+  const auto format = skinspec({"export", "--db", path_, "--format", "xml"});
+  EXPECT_EQ(format.exit_status, kBadInput) << format.describe();
+}
+
+TEST_F(ExportTest, TheCommandIsListedWhenAnotherIsMistyped) {
+  const auto result = skinspec({"exprot"});
+  EXPECT_EQ(result.exit_status, kBadInput);
+  EXPECT_THAT(result.err, HasSubstr("export"));
+}
+
+}  // namespace
+}  // namespace skinspec

@@ -1,0 +1,187 @@
+// Readers beside a writer, in threads of one process; and a writer process SIGKILLed at random
+// moments, after which the database is intact and holds everything it reported committed.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <csignal>
+#include <map>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "skinspec/store/store.hpp"
+#include "support/process.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec {
+namespace {
+
+using namespace skinspec::store;
+using Kind = StoreError::Kind;
+
+template <typename T>
+T value_of(Result<T> result) {
+  if (!result) throw std::runtime_error(result.error().message);
+  return std::move(*result);
+}
+
+// Readers see whole transactions only: every fit they find has its measurement, every
+// measurement they find has its fit, and the counts only grow.
+TEST(StoreConcurrencyTest, ReadersSeeWholeTransactionsWhileOneThreadWrites) {
+  testing::ScratchDirectory dir;
+  OpenOptions options;
+  options.max_readers = 3;  // four reader threads: one always waits for a connection
+  auto store = value_of(Store::open(dir.file("skinspec.db"), options));
+  const Id session = value_of(store.create_session(testing::sample_session(1)));
+
+  constexpr int kWrites = 150;
+  std::atomic<bool> writing{true};
+  std::atomic<int> reads{0};
+  std::vector<std::string> problems(4);
+  std::vector<std::thread> readers;
+  for (std::size_t r = 0; r < problems.size(); ++r) {
+    readers.emplace_back([&, r] {
+      std::size_t last_count = 0;
+      while (writing.load() || reads.load() < 40) {
+        const auto detail = store.session_detail(session);
+        if (!detail) {
+          problems[r] = detail.error().message;
+          return;
+        }
+        if (detail->measurements.size() != detail->fits.size() || detail->measurements.size() < last_count) {
+          problems[r] = "a snapshot with " + std::to_string(detail->measurements.size()) + " measurements and " +
+                        std::to_string(detail->fits.size()) + " fits";
+          return;
+        }
+        last_count = detail->measurements.size();
+        for (const auto& m : detail->measurements) {
+          if (auto problem = testing::check_sample_measurement(m); !problem.empty()) {
+            problems[r] = problem;
+            return;
+          }
+        }
+        ++reads;
+      }
+    });
+  }
+  for (int n = 0; n < kWrites; ++n) {
+    ASSERT_TRUE(store.record_measurement(testing::sample_measurement(session, n), testing::sample_fit(n)));
+  }
+  writing = false;
+  for (auto& t : readers) t.join();
+  for (const auto& problem : problems) EXPECT_EQ(problem, "");
+  EXPECT_GE(reads.load(), 40);
+  EXPECT_EQ(value_of(store.session_detail(session)).fits.size(), static_cast<std::size_t>(kWrites));
+}
+
+// Writes from several threads are serialised on the one writer connection.
+TEST(StoreConcurrencyTest, WritesFromManyThreadsAllLand) {
+  testing::ScratchDirectory dir;
+  auto store = value_of(Store::open(dir.file("skinspec.db")));
+  const Id session = value_of(store.create_session(testing::sample_session(1)));
+  std::vector<std::thread> writers;
+  std::atomic<int> failures{0};
+  for (int t = 0; t < 4; ++t) {
+    writers.emplace_back([&, t] {
+      for (int i = 0; i < 10; ++i) {
+        const int n = t * 100 + i;
+        if (!store.record_measurement(testing::sample_measurement(session, n), testing::sample_fit(n))) ++failures;
+        if (!store.session(session)) ++failures;
+      }
+    });
+  }
+  for (auto& t : writers) t.join();
+  EXPECT_EQ(failures.load(), 0);
+  const auto detail = value_of(store.session_detail(session));
+  EXPECT_EQ(detail.measurements.size(), 40u);
+  for (const auto& m : detail.measurements) EXPECT_EQ(testing::check_sample_measurement(m), "");
+}
+
+struct Reported {
+  Id fit_id;
+  int n;
+};
+
+// The complete "committed" lines of the writer's output.
+std::map<Id, Reported> committed_lines(const std::string& out) {
+  std::map<Id, Reported> found;
+  std::istringstream lines(out.substr(0, out.rfind('\n') == std::string::npos ? 0 : out.rfind('\n') + 1));
+  for (std::string line; std::getline(lines, line);) {
+    long long measurement = 0, fit = 0;
+    int n = 0;
+    if (std::sscanf(line.c_str(), "committed %lld %lld %d", &measurement, &fit, &n) == 3)
+      found[measurement] = {fit, n};
+  }
+  return found;
+}
+
+// Every reported id, read back through a read-only store: present and whole.
+void expect_reported_present(const std::string& path, const std::map<Id, Reported>& reported) {
+  OpenOptions options;
+  options.read_only = true;
+  options.check_integrity = false;
+  auto store = value_of(Store::open(path, options));
+  for (const auto& [measurement_id, r] : reported) {
+    const auto m = store.measurement(measurement_id);
+    ASSERT_TRUE(m) << "reported measurement " << measurement_id << " is missing: " << m.error().message;
+    EXPECT_EQ(testing::check_sample_measurement(*m), "") << "measurement " << measurement_id;
+    EXPECT_EQ(m->label, "sample " + std::to_string(r.n));
+    const auto f = store.fit(r.fit_id);
+    ASSERT_TRUE(f) << "reported fit " << r.fit_id << " is missing";
+    EXPECT_EQ(f->measurement_id, measurement_id);
+    EXPECT_EQ(testing::check_sample_fit(*f, r.n), "") << "fit " << r.fit_id;
+  }
+}
+
+TEST(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
+  testing::ScratchDirectory dir;
+  const auto path = dir.file("skinspec.db");
+  std::mt19937 random(650);
+  std::uniform_int_distribution<int> delay_us(0, 40'000);
+  std::bernoulli_distribution kill_early(0.2);  // before it has even opened the database
+  std::map<Id, Reported> all_reported;
+  int kills_mid_stream = 0;
+
+  for (int round = 0; round < 50; ++round) {
+    SCOPED_TRACE("round " + std::to_string(round));
+    testing::BackgroundProcess writer(SKINSPEC_TEST_BIN_DIR "/store_crash_writer", {path});
+    ASSERT_TRUE(writer.started()) << writer.start_error();
+    if (!kill_early(random)) {
+      ASSERT_TRUE(writer.wait_for_stdout_line("session ", std::chrono::seconds(20))) << writer.err();
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random)));
+    writer.send_signal(SIGKILL);
+    const auto ended = writer.wait(std::chrono::seconds(10));
+    ASSERT_EQ(ended.signal, SIGKILL) << ended.describe();
+
+    const auto reported = committed_lines(ended.out);
+    if (!reported.empty()) ++kills_mid_stream;
+    all_reported.insert(reported.begin(), reported.end());
+    ASSERT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");
+    EXPECT_EQ(testing::sqlite_integer(path, "SELECT count(*) FROM measurements m WHERE NOT EXISTS "
+                                            "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id)"),
+              0);
+    expect_reported_present(path, reported);
+    if (HasFatalFailure()) return;
+  }
+  EXPECT_GT(kills_mid_stream, 25) << "most kills should land while it is writing";
+  expect_reported_present(path, all_reported);
+
+  // The next writer finds the last one's session still running and marks it interrupted: every
+  // session with a job is interrupted, every job failed. (A writer killed between creating its
+  // session and its job left a session that never ran: it stays open.)
+  auto store = value_of(Store::open(path));
+  int interrupted = 0;
+  for (const auto& s : value_of(store.sessions({.limit = 1000})).sessions) {
+    const auto jobs = value_of(store.jobs(s.id));
+    EXPECT_EQ(s.state, jobs.empty() ? SessionState::open : SessionState::interrupted) << "session " << s.id;
+    for (const auto& job : jobs) EXPECT_EQ(job.state, JobState::failed) << "job " << job.id;
+    interrupted += s.state == SessionState::interrupted;
+  }
+  EXPECT_GE(interrupted, 40);
+}
+
+}  // namespace
+}  // namespace skinspec

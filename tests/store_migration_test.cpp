@@ -1,0 +1,307 @@
+// Opening databases made by earlier versions (every one of them), and files the store must
+// refuse without changing a byte: a newer schema, not SQLite, not skinspec's, damaged,
+// read-only. A full disk fails a write whole.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "skinspec/store/store.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec {
+namespace {
+
+using namespace skinspec::store;
+using ::testing::HasSubstr;
+using Kind = StoreError::Kind;
+
+template <typename T>
+T value_of(Result<T> result) {
+  if (!result) throw std::runtime_error(result.error().message);
+  return std::move(*result);
+}
+
+// Rows as a skinspec of each earlier schema version wrote them, by hand, with the spectra in
+// their documented encoding: 400 nm -> 0.5, 700 nm -> 0.25 (little-endian float64 pairs).
+const std::map<int, std::string> kRowsAtVersion = {
+    {1, R"sql(
+INSERT INTO instruments VALUES (1, 'PR-650', '60950', '', 'serial:/dev/ttyUSB0', 1700000000000000, 1700000000000000);
+INSERT INTO white_standards VALUES (1, 'Spectralon', 'cert 7',
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 1700000000000001);
+INSERT INTO sessions VALUES (1, 'S-1', 'forearm', 'op', 'first', 1, 'open', 1700000000000002, 1700000000000002, NULL);
+INSERT INTO measurements VALUES (1, 1, 'white', 'w', 1, NULL, 0, 0, 'OK', 'W/(sr m2 nm)', '{}', 1,
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL, NULL, '[]', X'303030302C300D0A',
+  1700000000000003, 1700000000000004, 1700000000000005);
+INSERT INTO measurements VALUES (2, 1, 'sample', 's', 1, 1, 1, 0, 'OK', 'W/(sr m2 nm)', '{"averages":2}', 2,
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL,
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', '["old white"]', X'00FF',
+  1700000000000006, 1700000000000007, 1700000000000008);
+INSERT INTO fits VALUES (1, 2, 'forearm', 0.1, 7, 3, 2, 1, 0.01, 0.2, 0.3, 0.2, NULL, 0.012, 0.03, 0.9, 14, 1,
+  'converged', '{"site":"forearm"}', 'skinspec 0.1.0', 'abc123',
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F',
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 0, 1700000000000009);
+)sql"},
+};
+
+// What every version's rows must read back as under the current schema.
+void expect_rows_of_earlier_version(Store& store) {
+  const SpectralSamples spectrum{{400, 700}, {0.5, 0.25}};
+  const auto white = value_of(store.white_standard(1));
+  EXPECT_EQ(white.reflectance, spectrum);
+  EXPECT_EQ(white.certificate, "cert 7");
+  const auto detail = value_of(store.session_detail(1));
+  EXPECT_EQ(detail.session.notes, "first");
+  EXPECT_EQ(detail.session.white_standard_id, 1);
+  ASSERT_GE(detail.measurements.size(), 2u);  // and what the test added since
+  const auto& sample = detail.measurements[1];
+  EXPECT_EQ(sample.kind, MeasurementKind::sample);
+  EXPECT_EQ(sample.white_measurement_id, 1);
+  EXPECT_EQ(sample.reflectance, spectrum);
+  EXPECT_TRUE(sample.radiance_sd.empty());
+  EXPECT_EQ(sample.raw_reply, std::string("\x00\xff", 2));
+  EXPECT_EQ(sample.warnings, std::vector<std::string>{"old white"});
+  EXPECT_FALSE(sample.job_id);
+  EXPECT_EQ(sample.finished_at, Time(std::chrono::microseconds(1700000000000007)));
+  ASSERT_GE(detail.fits.size(), 1u);
+  EXPECT_EQ(detail.fits[0].params[1], 7);
+  EXPECT_TRUE(std::isnan(detail.fits[0].standard_error[4]));
+  EXPECT_EQ(detail.fits[0].tables_digest, "abc123");
+  EXPECT_EQ(detail.fits[0].measured, std::vector<double>({0.5, 0.25}));
+}
+
+class StoreMigrationTest : public ::testing::Test {
+ protected:
+  testing::ScratchDirectory dir_;
+  std::string path_ = dir_.file("skinspec.db");
+};
+
+TEST_F(StoreMigrationTest, EveryEarlierVersionOpensWithItsRowsIntact) {
+  for (int version = 1; version < current_schema_version(); ++version) {
+    SCOPED_TRACE("from schema version " + std::to_string(version));
+    const auto path = dir_.file("v" + std::to_string(version) + ".db");
+    ASSERT_TRUE(create_database_at_version(path, version));
+    ASSERT_EQ(testing::sqlite_integer(path, "PRAGMA user_version"), version);
+    ASSERT_TRUE(kRowsAtVersion.contains(version)) << "add the rows a version-" << version << " database holds";
+    testing::sqlite_execute(path, kRowsAtVersion.at(version));
+
+    {
+      auto store = value_of(Store::open(path));
+      EXPECT_EQ(store.schema_version(), current_schema_version());
+      expect_rows_of_earlier_version(store);
+      // What the newer versions added works on the old rows.
+      Job job;
+      job.kind = "measure";
+      job.session_id = 1;
+      const auto created = value_of(store.create_job(job));
+      auto m = testing::sample_measurement(1, 1);
+      m.job_id = created.job.id;
+      m.white_measurement_id = 1;
+      const auto ids = value_of(store.record_measurement(m, testing::sample_fit(1)));
+      EXPECT_EQ(value_of(store.measurement(ids.measurement_id)).job_id, created.job.id);
+      EXPECT_EQ(value_of(store.sessions({.site = "forearm"})).sessions.size(), 1u);
+    }
+    EXPECT_EQ(testing::sqlite_integer(path, "PRAGMA user_version"), current_schema_version());
+    EXPECT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");
+    EXPECT_EQ(testing::sqlite_text(path, "PRAGMA foreign_key_check"), "");
+    // Opening again migrates nothing and changes nothing.
+    auto again = value_of(Store::open(path));
+    expect_rows_of_earlier_version(again);
+  }
+}
+
+TEST_F(StoreMigrationTest, AnEmptyFileBecomesACurrentDatabase) {
+  std::ofstream(path_).close();
+  auto store = value_of(Store::open(path_));
+  EXPECT_EQ(store.schema_version(), current_schema_version());
+  EXPECT_TRUE(value_of(store.instruments()).empty());
+}
+
+TEST_F(StoreMigrationTest, TheCurrentVersionBuiltStepByStepMatchesANewDatabase) {
+  const auto stepwise = dir_.file("stepwise.db");
+  ASSERT_TRUE(create_database_at_version(stepwise, 1));
+  { value_of(Store::open(stepwise)); }
+  { value_of(Store::open(path_)); }
+  const std::string schema = "SELECT group_concat(type || ' ' || name || ' ' || coalesce(sql, ''), char(10)) "
+                             "FROM (SELECT * FROM sqlite_schema ORDER BY name)";
+  EXPECT_EQ(testing::sqlite_text(stepwise, schema), testing::sqlite_text(path_, schema));
+}
+
+// Each migration is one transaction: one that fails leaves the database at the version before.
+TEST_F(StoreMigrationTest, AFailedMigrationLeavesThePreviousVersionWhole) {
+  ASSERT_TRUE(create_database_at_version(path_, 1));
+  testing::sqlite_execute(path_, kRowsAtVersion.at(1) + "CREATE TABLE jobs (x);");
+  const auto opened = Store::open(path_);
+  ASSERT_FALSE(opened);
+  EXPECT_THAT(opened.error().message, HasSubstr("jobs"));
+  EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA user_version"), 1);
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM sqlite_schema WHERE name = 'sessions_by_site'"), 0);
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM pragma_table_info('measurements') "
+                                           "WHERE name = 'job_id'"),
+            0);
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 2);
+}
+
+TEST_F(StoreMigrationTest, CreatingAtAVersionChecksItsArguments) {
+  EXPECT_EQ(create_database_at_version(path_, 0).error().kind, Kind::invalid_argument);
+  EXPECT_EQ(create_database_at_version(path_, current_schema_version() + 1).error().kind, Kind::invalid_argument);
+  ASSERT_TRUE(create_database_at_version(path_, 1));
+  EXPECT_EQ(create_database_at_version(path_, 1).error().kind, Kind::conflict);
+}
+
+// ---- Files the store refuses ----
+
+class StoreBadInputTest : public StoreMigrationTest {
+ protected:
+  // A current database holding one session with a measurement and its fit, closed.
+  void make_database(const std::string& path) {
+    auto store = value_of(Store::open(path));
+    const Id session = value_of(store.create_session(testing::sample_session(1)));
+    for (int n = 0; n < 20; ++n) value_of(store.record_measurement(testing::sample_measurement(session, n),
+                                                                   testing::sample_fit(n)));
+  }
+
+  // Opens `path` read-write and read-only, expecting `kind` both times and no change to it.
+  void expect_refused_unchanged(const std::string& path, Kind kind, const std::string& message) {
+    const auto before = testing::file_bytes(path);
+    for (const bool read_only : {false, true}) {
+      SCOPED_TRACE(read_only ? "read-only" : "read-write");
+      OpenOptions options;
+      options.read_only = read_only;
+      const auto opened = Store::open(path, options);
+      ASSERT_FALSE(opened);
+      EXPECT_EQ(opened.error().kind, kind) << opened.error().message;
+      EXPECT_THAT(opened.error().message, HasSubstr(message));
+      EXPECT_THAT(opened.error().message, HasSubstr(path));
+      EXPECT_EQ(testing::file_bytes(path), before) << "the file changed";
+    }
+  }
+};
+
+TEST_F(StoreBadInputTest, ANewerSchemaIsRefusedAndLeftUnchanged) {
+  make_database(path_);
+  testing::sqlite_execute(path_, "PRAGMA user_version = " + std::to_string(current_schema_version() + 1));
+  expect_refused_unchanged(path_, Kind::newer_schema, "written by a newer skinspec");
+  EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA user_version"), current_schema_version() + 1);
+}
+
+TEST_F(StoreBadInputTest, AFileThatIsNotSqliteIsRefused) {
+  std::ofstream(path_) << "wavelength_nm,forearm\n400,0.3\n";
+  expect_refused_unchanged(path_, Kind::corrupt, "not a SQLite database");
+  std::string noise(8192, '\0');
+  for (std::size_t i = 0; i < noise.size(); ++i) noise[i] = static_cast<char>((i * 2654435761u) >> 13);
+  std::ofstream(path_, std::ios::binary | std::ios::trunc) << noise;
+  expect_refused_unchanged(path_, Kind::corrupt, "not a SQLite database");
+}
+
+TEST_F(StoreBadInputTest, AnotherProgramsSqliteDatabaseIsRefused) {
+  testing::sqlite_execute(path_, "CREATE TABLE photos (id INTEGER PRIMARY KEY, name TEXT); PRAGMA user_version = 3;");
+  expect_refused_unchanged(path_, Kind::corrupt, "not a skinspec one");
+}
+
+TEST_F(StoreBadInputTest, ADamagedDatabaseIsRefused) {
+  make_database(path_);
+  const auto page_size = testing::sqlite_integer(path_, "PRAGMA page_size");
+  const auto pages = testing::sqlite_integer(path_, "PRAGMA page_count");
+  ASSERT_GT(pages, 8);
+  {
+    // Garbage over a page in the middle of the file, where the tables' rows are.
+    std::fstream file(path_, std::ios::binary | std::ios::in | std::ios::out);
+    file.seekp(static_cast<std::streamoff>(page_size * (pages / 2)));
+    file << std::string(static_cast<std::size_t>(page_size), '\x5a');
+  }
+  expect_refused_unchanged(path_, Kind::corrupt, "damaged");
+
+  // A damaged header: no longer recognisable as SQLite.
+  make_database(dir_.file("second.db"));
+  {
+    std::fstream file(dir_.file("second.db"), std::ios::binary | std::ios::in | std::ios::out);
+    file << "not SQLite at all";
+  }
+  expect_refused_unchanged(dir_.file("second.db"), Kind::corrupt, "not a SQLite database");
+}
+
+TEST_F(StoreBadInputTest, AReadOnlyFileIsNotWrittenButCanBeRead) {
+  make_database(path_);
+  const auto copy = dir_.file("read-only.db");
+  std::filesystem::copy_file(path_, copy);
+  ASSERT_EQ(::chmod(copy.c_str(), 0444), 0);
+  const auto before = testing::file_bytes(copy);
+
+  const auto opened = Store::open(copy);
+  ASSERT_FALSE(opened);
+  EXPECT_EQ(opened.error().kind, Kind::read_only);
+  EXPECT_THAT(opened.error().message, HasSubstr("read-only"));
+  EXPECT_EQ(testing::file_bytes(copy), before);
+
+  {
+    OpenOptions read_only;
+    read_only.read_only = true;
+    auto reader = value_of(Store::open(copy, read_only));
+    EXPECT_EQ(value_of(reader.session_detail(1)).measurements.size(), 20u);
+    const auto refused = reader.record_measurement(testing::sample_measurement(1, 99), testing::sample_fit(99));
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().kind, Kind::read_only);
+  }
+  EXPECT_EQ(testing::sqlite_integer(copy, "SELECT count(*) FROM measurements"), 20);
+  EXPECT_EQ(testing::file_bytes(copy), before);
+}
+
+// The size cap stands in for a full disk: SQLite fails the same way (SQLITE_FULL) at the page
+// it cannot add. Whichever row that falls in, none of that transaction's rows remain.
+TEST_F(StoreBadInputTest, AFullDiskFailsTheWholeMeasurementAndFit) {
+  int failed_at_the_fit = 0;
+  for (int extra_pages = 0; extra_pages < 6; ++extra_pages) {
+    SCOPED_TRACE("cap " + std::to_string(extra_pages) + " pages past the empty database");
+    const auto path = dir_.file("full-" + std::to_string(extra_pages) + ".db");
+    { value_of(Store::open(path)); }
+    const auto empty_pages = testing::sqlite_integer(path, "PRAGMA page_count");
+    OpenOptions options;
+    options.max_pages = empty_pages + 12 + extra_pages;
+    auto store = value_of(Store::open(path, options));
+    const Id session = value_of(store.create_session(testing::sample_session(1)));
+
+    int stored = 0;
+    StoreError error;
+    Measurement refused;
+    for (int n = 0; n < 200; ++n) {
+      auto m = testing::sample_measurement(session, n);
+      m.raw_reply += std::string(static_cast<std::size_t>(1000 * (n % 4)), 'r');  // vary where the cap falls
+      const auto recorded = store.record_measurement(m, testing::sample_fit(n));
+      if (!recorded) {
+        error = recorded.error();
+        refused = m;
+        break;
+      }
+      ++stored;
+    }
+    ASSERT_GT(stored, 0);
+    EXPECT_EQ(error.kind, Kind::full) << error.message;
+    EXPECT_THAT(error.message, HasSubstr("full"));
+    EXPECT_THAT(error.message, HasSubstr("recording a measurement"));
+
+    // Still usable: reads work, and a small write that fits still succeeds.
+    const auto detail = value_of(store.session_detail(session));
+    EXPECT_EQ(detail.measurements.size(), static_cast<std::size_t>(stored));
+    EXPECT_EQ(detail.fits.size(), static_cast<std::size_t>(stored));
+    EXPECT_EQ(testing::sqlite_integer(path, "SELECT count(*) FROM measurements"), stored);
+    EXPECT_EQ(testing::sqlite_integer(path, "SELECT count(*) FROM fits"), stored);
+    EXPECT_EQ(testing::sqlite_integer(
+                  path, "SELECT count(*) FROM measurements m WHERE NOT EXISTS (SELECT 1 FROM fits f WHERE "
+                        "f.measurement_id = m.id)"),
+              0);
+    EXPECT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");
+
+    // When the measurement alone still fits, it was the fit's row that failed, after the
+    // measurement's had been written: and that row is gone too.
+    if (store.record_measurement(refused, std::nullopt)) ++failed_at_the_fit;
+  }
+  EXPECT_GT(failed_at_the_fit, 0) << "no cap fell inside a fit; vary the sizes";
+}
+
+}  // namespace
+}  // namespace skinspec

@@ -1,0 +1,444 @@
+// The store's records, queries and rules: every entity round trips bit for bit, the one
+// transaction of a measurement and its fit, session and job life cycles, listing with filters
+// and cursors, recovery after a writer died, and the one-writer lock.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "skinspec/store/store.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec {
+namespace {
+
+using namespace skinspec::store;
+using testing::check_sample_fit;
+using testing::check_sample_measurement;
+using testing::sample_fit;
+using testing::sample_measurement;
+using testing::sample_session;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+using Kind = StoreError::Kind;
+
+// A clock a test moves by hand, one second per reading unless set.
+struct ManualClock {
+  std::shared_ptr<Time> now = std::make_shared<Time>(Time(std::chrono::seconds(1'700'000'000)));
+  std::function<Time()> function() const {
+    auto shared = now;
+    return [shared] {
+      *shared += std::chrono::seconds(1);
+      return *shared;
+    };
+  }
+};
+
+class StoreTest : public ::testing::Test {
+ protected:
+  Store open(OpenOptions options = {}) {
+    if (!options.clock) options.clock = clock_.function();
+    auto store = Store::open(path_, options);
+    if (!store) throw std::runtime_error(store.error().message);
+    return std::move(*store);
+  }
+
+  testing::ScratchDirectory dir_;
+  std::string path_ = dir_.file("skinspec.db");
+  ManualClock clock_;
+};
+
+template <typename T>
+T value_of(Result<T> result) {
+  if (!result) throw std::runtime_error(result.error().message);
+  return std::move(*result);
+}
+
+TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaInWalModeWithForeignKeys) {
+  {
+    auto store = open();
+    EXPECT_EQ(store.schema_version(), current_schema_version());
+    EXPECT_GE(current_schema_version(), 2);
+  }
+  EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA user_version"), current_schema_version());
+  EXPECT_EQ(testing::sqlite_text(path_, "PRAGMA journal_mode"), "wal");
+  EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA application_id"), 0x534B5350);
+  EXPECT_EQ(testing::sqlite_text(path_, "PRAGMA integrity_check"), "ok");
+}
+
+TEST_F(StoreTest, InstrumentsAreKnownByModelAndSerialNumber) {
+  auto store = open();
+  const Id first = value_of(store.ensure_instrument(testing::sample_instrument(1)));
+  auto moved = testing::sample_instrument(1);
+  moved.connection = "usb:0403:6001:A1";
+  EXPECT_EQ(value_of(store.ensure_instrument(moved)), first);
+  const Id second = value_of(store.ensure_instrument(testing::sample_instrument(2)));
+  EXPECT_NE(second, first);
+
+  const auto read = value_of(store.instrument(first));
+  EXPECT_EQ(read.model, "PR-650");
+  EXPECT_EQ(read.serial_number, "609501");
+  EXPECT_EQ(read.connection, "usb:0403:6001:A1");
+  EXPECT_EQ(read.spectral_configuration, testing::sample_instrument(1).spectral_configuration);
+  EXPECT_LT(read.created_at, read.last_seen_at);
+  EXPECT_EQ(value_of(store.instruments()).size(), 2u);
+  EXPECT_EQ(store.instrument(99).error().kind, Kind::not_found);
+}
+
+TEST_F(StoreTest, WhiteStandardRoundTripsItsTableBitForBit) {
+  auto store = open();
+  auto standard = testing::sample_white_standard(1);
+  standard.reflectance.values[1] = std::nextafter(0.99, 1.0);  // the last bit must survive
+  const Id id = value_of(store.add_white_standard(standard));
+  const auto read = value_of(store.white_standard(id));
+  EXPECT_EQ(read.name, standard.name);
+  EXPECT_EQ(read.certificate, standard.certificate);
+  EXPECT_EQ(read.reflectance, standard.reflectance);
+  EXPECT_EQ(read.created_at, *clock_.now);
+  EXPECT_EQ(value_of(store.white_standards()).size(), 1u);
+}
+
+TEST_F(StoreTest, SpectraAreStoredAsLittleEndianFloat64Pairs) {
+  {
+    auto store = open();
+    WhiteStandard standard{0, "w", "", {{400, 700}, {0.5, -1.25}}, {}};
+    value_of(store.add_white_standard(standard));
+  }
+  const auto hex = testing::sqlite_text(path_, "SELECT hex(reflectance) FROM white_standards");
+  // 400.0 = 0x4079000000000000, 0.5 = 0x3FE0..., 700.0 = 0x4085E00000000000, -1.25 = 0xBFF4...
+  EXPECT_EQ(hex,
+            "0000000000007940"
+            "000000000000E03F"
+            "0000000000E08540"
+            "000000000000F4BF");
+}
+
+TEST_F(StoreTest, SessionRoundTripsAndFollowsItsStates) {
+  auto store = open();
+  const Id white = value_of(store.add_white_standard(testing::sample_white_standard(1)));
+  auto session = sample_session(2);
+  session.white_standard_id = white;
+  session.state = SessionState::complete;  // ignored: new sessions are open
+  const Id id = value_of(store.create_session(session));
+
+  auto read = value_of(store.session(id));
+  EXPECT_EQ(read.subject, session.subject);
+  EXPECT_EQ(read.site, session.site);
+  EXPECT_EQ(read.operator_name, session.operator_name);
+  EXPECT_EQ(read.notes, session.notes);
+  EXPECT_EQ(read.white_standard_id, white);
+  EXPECT_EQ(read.state, SessionState::open);
+  EXPECT_EQ(read.created_at, read.updated_at);
+  EXPECT_FALSE(read.ended_at);
+
+  read = value_of(store.update_session(id, {.notes = "left arm", .state = SessionState::interrupted}));
+  EXPECT_EQ(read.notes, "left arm");
+  EXPECT_EQ(read.state, SessionState::interrupted);
+  EXPECT_TRUE(read.ended_at);
+  read = value_of(store.update_session(id, {.state = SessionState::open}));
+  EXPECT_FALSE(read.ended_at);
+  read = value_of(store.update_session(id, {.state = SessionState::complete}));
+  EXPECT_EQ(read.state, SessionState::complete);
+  EXPECT_EQ(read.ended_at, read.updated_at);
+
+  const auto reopened = store.update_session(id, {.state = SessionState::open});
+  ASSERT_FALSE(reopened);
+  EXPECT_EQ(reopened.error().kind, Kind::conflict);
+  EXPECT_THAT(reopened.error().message, HasSubstr("complete cannot become open"));
+  EXPECT_TRUE(store.update_session(id, {.notes = "annotated afterwards"}));
+  EXPECT_EQ(store.update_session(77, {.notes = "x"}).error().kind, Kind::not_found);
+
+  auto unknown_white = sample_session(3);
+  unknown_white.white_standard_id = 42;
+  EXPECT_EQ(store.create_session(unknown_white).error().kind, Kind::not_found);
+  EXPECT_EQ(store.create_session(Session{}).error().kind, Kind::invalid_argument);
+}
+
+TEST_F(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
+  auto store = open();
+  const Id instrument = value_of(store.ensure_instrument(testing::sample_instrument(1)));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  auto white = sample_measurement(session, 0);
+  white.kind = MeasurementKind::white;
+  white.reflectance = {};
+  white.instrument_id = instrument;
+  const auto white_ids = value_of(store.record_measurement(white, std::nullopt));
+  EXPECT_FALSE(white_ids.fit_id);
+
+  auto sample = sample_measurement(session, 5);
+  sample.instrument_id = instrument;
+  sample.white_measurement_id = white_ids.measurement_id;
+  const auto ids = value_of(store.record_measurement(sample, sample_fit(5)));
+  ASSERT_TRUE(ids.fit_id);
+
+  const auto m = value_of(store.measurement(ids.measurement_id));
+  EXPECT_EQ(check_sample_measurement(m), "");
+  EXPECT_EQ(m.kind, MeasurementKind::sample);
+  EXPECT_EQ(m.label, "sample 5");
+  EXPECT_EQ(m.session_id, session);
+  EXPECT_EQ(m.instrument_id, instrument);
+  EXPECT_EQ(m.white_measurement_id, white_ids.measurement_id);
+  EXPECT_TRUE(m.simulated);
+  EXPECT_EQ(m.units, "W/(sr m2 nm)");
+  EXPECT_EQ(m.reading_count, 3);
+  EXPECT_EQ(m.created_at, *clock_.now);
+
+  const auto stored_white = value_of(store.measurement(white_ids.measurement_id));
+  EXPECT_EQ(stored_white.kind, MeasurementKind::white);
+  EXPECT_TRUE(stored_white.reflectance.empty());
+
+  const auto f = value_of(store.fit(*ids.fit_id));
+  EXPECT_EQ(check_sample_fit(f, 5), "");
+  EXPECT_EQ(f.measurement_id, ids.measurement_id);
+  EXPECT_TRUE(std::isinf(f.standard_error[4]));
+  EXPECT_EQ(f.site, "forearm");
+  EXPECT_EQ(f.solver_summary, sample_fit(5).solver_summary);
+  EXPECT_EQ(f.options, sample_fit(5).options);
+  EXPECT_EQ(f.delta_e00_d65, 0.9);
+  EXPECT_TRUE(f.converged);
+
+  // A refit of the same measurement, then the whole session from one snapshot.
+  auto refit = sample_fit(5);
+  refit.measurement_id = ids.measurement_id;
+  refit.options = R"({"site":"forearm","lateral_diffusion":false})";
+  refit.standard_error[0] = std::numeric_limits<double>::quiet_NaN();
+  const Id refit_id = value_of(store.add_fit(refit));
+  EXPECT_TRUE(std::isnan(value_of(store.fit(refit_id)).standard_error[0]));
+  EXPECT_EQ(value_of(store.fits_of_measurement(ids.measurement_id)).size(), 2u);
+
+  const auto detail = value_of(store.session_detail(session));
+  EXPECT_EQ(detail.session.id, session);
+  ASSERT_EQ(detail.measurements.size(), 2u);
+  EXPECT_EQ(detail.measurements[0].id, white_ids.measurement_id);
+  ASSERT_EQ(detail.fits.size(), 2u);
+  EXPECT_EQ(detail.fits[1].id, refit_id);
+}
+
+TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(1)));
+  auto bad_fit = sample_fit(1);
+  bad_fit.params[1] = std::numeric_limits<double>::quiet_NaN();
+  const auto refused = store.record_measurement(sample_measurement(session, 1), bad_fit);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, Kind::invalid_argument);
+  EXPECT_THAT(refused.error().message, HasSubstr("melanin"));
+
+  bad_fit = sample_fit(1);
+  bad_fit.tables_digest.clear();
+  EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad_fit).error().kind, Kind::invalid_argument);
+  EXPECT_TRUE(value_of(store.session_detail(session)).measurements.empty());
+
+  auto bad_options = sample_fit(1);
+  bad_options.options = "{";
+  EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad_options).error().kind,
+            Kind::invalid_argument);
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 0);
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM fits"), 0);
+}
+
+TEST_F(StoreTest, MeasurementsAreCheckedBeforeTheyAreStored) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(1)));
+  auto m = sample_measurement(session, 1);
+  m.radiance.values.pop_back();
+  EXPECT_THAT(store.record_measurement(m, std::nullopt).error().message, HasSubstr("101 wavelengths but 100 values"));
+  m = sample_measurement(session, 1);
+  std::swap(m.radiance.wavelength_nm[3], m.radiance.wavelength_nm[4]);
+  EXPECT_THAT(store.record_measurement(m, std::nullopt).error().message, HasSubstr("strictly increase"));
+  m = sample_measurement(session, 1);
+  m.settings = "[1]";
+  EXPECT_EQ(store.record_measurement(m, std::nullopt).error().kind, Kind::invalid_argument);
+  m = sample_measurement(session, 1);
+  m.white_measurement_id = 555;
+  EXPECT_EQ(store.record_measurement(m, std::nullopt).error().kind, Kind::not_found);
+  m = sample_measurement(session, 1);
+  m.instrument_id = 556;
+  EXPECT_EQ(store.record_measurement(m, std::nullopt).error().kind, Kind::not_found);
+  EXPECT_EQ(store.record_measurement(sample_measurement(999, 1), std::nullopt).error().kind, Kind::not_found);
+
+  const Id sample = value_of(store.record_measurement(sample_measurement(session, 2), std::nullopt)).measurement_id;
+  m = sample_measurement(session, 3);
+  m.white_measurement_id = sample;  // not a white reading
+  EXPECT_EQ(store.record_measurement(m, std::nullopt).error().kind, Kind::conflict);
+
+  value_of(store.update_session(session, {.state = SessionState::aborted}));
+  const auto closed = store.record_measurement(sample_measurement(session, 4), std::nullopt);
+  EXPECT_EQ(closed.error().kind, Kind::conflict);
+  EXPECT_THAT(closed.error().message, HasSubstr("aborted, not open"));
+  EXPECT_TRUE(store.add_fit([&] {
+    auto f = sample_fit(2);
+    f.measurement_id = sample;
+    return f;
+  }()));  // refits are allowed after a session ends
+  EXPECT_EQ(value_of(store.session_detail(session)).measurements.size(), 1u);
+}
+
+TEST_F(StoreTest, SessionsAreListedNewestFirstWithFiltersAndCursor) {
+  auto store = open();
+  std::vector<Id> ids;
+  for (int n = 0; n < 7; ++n) ids.push_back(value_of(store.create_session(sample_session(n))));
+  value_of(store.update_session(ids[2], {.state = SessionState::complete}));
+  const auto created = [&](int n) { return value_of(store.session(ids[static_cast<std::size_t>(n)])).created_at; };
+
+  std::vector<Id> seen;
+  SessionFilter filter;
+  filter.limit = 3;
+  for (int pages = 0;; ++pages) {
+    ASSERT_LT(pages, 5);
+    const auto page = value_of(store.sessions(filter));
+    for (const auto& s : page.sessions) seen.push_back(s.id);
+    if (!page.next_cursor) break;
+    filter.cursor = page.next_cursor;
+  }
+  EXPECT_EQ(seen, std::vector<Id>(ids.rbegin(), ids.rend()));
+
+  const auto ids_of = [](const SessionPage& page) {
+    std::vector<Id> out;
+    for (const auto& s : page.sessions) out.push_back(s.id);
+    return out;
+  };
+  EXPECT_THAT(ids_of(value_of(store.sessions({.site = "cheek"}))), ElementsAre(ids[5], ids[3], ids[1]));
+  EXPECT_THAT(ids_of(value_of(store.sessions({.state = SessionState::complete}))), ElementsAre(ids[2]));
+  EXPECT_THAT(ids_of(value_of(store.sessions({.created_from = created(2), .created_before = created(5)}))),
+              ElementsAre(ids[4], ids[3], ids[2]));
+  EXPECT_THAT(ids_of(value_of(store.sessions({.site = "forearm", .state = SessionState::open, .limit = 1}))),
+              ElementsAre(ids[6]));
+  EXPECT_EQ(store.sessions({.limit = 0}).error().kind, Kind::invalid_argument);
+}
+
+TEST_F(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(1)));
+  Job asked;
+  asked.kind = "measure";
+  asked.request = R"({"kind":"sample","count":3})";
+  asked.requested_by = "operator-token";
+  asked.session_id = session;
+  asked.idempotency_key = "key-1";
+  const auto created = value_of(store.create_job(asked));
+  EXPECT_TRUE(created.created);
+  EXPECT_EQ(created.job.state, JobState::queued);
+  EXPECT_EQ(created.job.request, asked.request);
+  EXPECT_EQ(created.job.requested_by, "operator-token");
+
+  const auto again = value_of(store.create_job(asked));
+  EXPECT_FALSE(again.created);
+  EXPECT_EQ(again.job.id, created.job.id);
+  EXPECT_EQ(value_of(store.job_by_idempotency_key("key-1"))->id, created.job.id);
+  EXPECT_FALSE(value_of(store.job_by_idempotency_key("key-2")));
+
+  auto running = value_of(store.update_job(created.job.id, {.state = JobState::running}));
+  EXPECT_TRUE(running.started_at);
+  EXPECT_FALSE(running.finished_at);
+  auto m = sample_measurement(session, 1);
+  m.job_id = created.job.id;
+  const auto ids = value_of(store.record_measurement(m, sample_fit(1)));
+  EXPECT_EQ(value_of(store.measurement(ids.measurement_id)).job_id, created.job.id);
+  const auto done = value_of(store.update_job(
+      created.job.id,
+      {.state = JobState::succeeded, .result = R"({"measurement_id":)" + std::to_string(ids.measurement_id) + "}"}));
+  EXPECT_EQ(done.state, JobState::succeeded);
+  EXPECT_TRUE(done.finished_at);
+  EXPECT_THAT(done.result, HasSubstr("measurement_id"));
+  EXPECT_EQ(store.update_job(created.job.id, {.state = JobState::running}).error().kind, Kind::conflict);
+
+  Job other;
+  other.kind = "refit";
+  const Id unattached = value_of(store.create_job(other)).job.id;
+  const auto cancelled =
+      value_of(store.update_job(unattached, {.state = JobState::cancelled, .error = "cancelled by operator"}));
+  EXPECT_EQ(cancelled.error, "cancelled by operator");
+  EXPECT_EQ(value_of(store.jobs()).size(), 2u);
+  EXPECT_EQ(value_of(store.jobs(session)).size(), 1u);
+  EXPECT_EQ(store.update_job(1234, {.state = JobState::running}).error().kind, Kind::not_found);
+  other.request = "not json";
+  EXPECT_EQ(store.create_job(other).error().kind, Kind::invalid_argument);
+}
+
+// A writer that died with a job running: on the next open its session is interrupted and the
+// job failed; what it had committed is all there.
+TEST_F(StoreTest, OpeningAfterAWriterDiedInterruptsItsRunningSessions) {
+  Id busy_session = 0, idle_session = 0, finished_session = 0, job_id = 0, measurement_id = 0;
+  {
+    auto store = open();
+    busy_session = value_of(store.create_session(sample_session(1)));
+    idle_session = value_of(store.create_session(sample_session(2)));
+    finished_session = value_of(store.create_session(sample_session(3)));
+    value_of(store.update_session(finished_session, {.state = SessionState::complete}));
+    Job job;
+    job.kind = "measure";
+    job.session_id = busy_session;
+    job_id = value_of(store.create_job(job)).job.id;
+    value_of(store.update_job(job_id, {.state = JobState::running}));
+    measurement_id = value_of(store.record_measurement(sample_measurement(busy_session, 1), sample_fit(1))).measurement_id;
+    EXPECT_TRUE(store.recovery().interrupted_sessions.empty());
+  }
+  auto store = open();
+  EXPECT_THAT(store.recovery().interrupted_sessions, ElementsAre(busy_session));
+  EXPECT_THAT(store.recovery().failed_jobs, ElementsAre(job_id));
+  EXPECT_EQ(value_of(store.session(busy_session)).state, SessionState::interrupted);
+  EXPECT_EQ(value_of(store.session(idle_session)).state, SessionState::open);
+  EXPECT_EQ(value_of(store.session(finished_session)).state, SessionState::complete);
+  const auto job = value_of(store.job(job_id));
+  EXPECT_EQ(job.state, JobState::failed);
+  EXPECT_THAT(job.error, HasSubstr("interrupted"));
+  EXPECT_EQ(check_sample_measurement(value_of(store.measurement(measurement_id))), "");
+}
+
+TEST_F(StoreTest, RecoveryCanTreatEveryOpenSessionAsRunning) {
+  Id idle = 0;
+  {
+    auto store = open();
+    idle = value_of(store.create_session(sample_session(1)));
+  }
+  OpenOptions options;
+  options.recovery = RecoveryPolicy::all_open_sessions;
+  auto store = open(options);
+  EXPECT_THAT(store.recovery().interrupted_sessions, ElementsAre(idle));
+  EXPECT_EQ(value_of(store.session(idle)).state, SessionState::interrupted);
+}
+
+TEST_F(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
+  auto writer = open();
+  const Id session = value_of(writer.create_session(sample_session(1)));
+  const auto second = Store::open(path_);
+  ASSERT_FALSE(second);
+  EXPECT_EQ(second.error().kind, Kind::busy);
+  EXPECT_THAT(second.error().message, HasSubstr("another program has it open for writing"));
+
+  OpenOptions read_only;
+  read_only.read_only = true;
+  auto reader = Store::open(path_, read_only);
+  ASSERT_TRUE(reader) << reader.error().message;
+  EXPECT_EQ(value_of(reader->session(session)).subject, sample_session(1).subject);
+  const auto refused = reader->create_session(sample_session(2));
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, Kind::read_only);
+  EXPECT_TRUE(reader->recovery().interrupted_sessions.empty());
+}
+
+TEST_F(StoreTest, ReadOnlyOpeningNeedsAnExistingFile) {
+  OpenOptions read_only;
+  read_only.read_only = true;
+  const auto missing = Store::open(path_, read_only);
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().kind, Kind::not_found);
+  EXPECT_FALSE(std::filesystem::exists(path_));
+  EXPECT_EQ(Store::open(":memory:").error().kind, Kind::invalid_argument);
+  EXPECT_EQ(Store::open(dir_.path().string()).error().kind, Kind::invalid_argument);
+}
+
+TEST_F(StoreTest, ErrorKindsHaveNames) {
+  EXPECT_EQ(to_string(Kind::newer_schema), "newer_schema");
+  EXPECT_EQ(to_string(SessionState::interrupted), "interrupted");
+  EXPECT_EQ(parse_session_state("aborted"), SessionState::aborted);
+  EXPECT_FALSE(parse_session_state("Aborted"));
+  EXPECT_EQ(parse_measurement_kind("dark"), MeasurementKind::dark);
+  EXPECT_EQ(parse_job_state("cancelled"), JobState::cancelled);
+}
+
+}  // namespace
+}  // namespace skinspec
