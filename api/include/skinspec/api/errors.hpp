@@ -1,0 +1,37 @@
+#pragma once
+// The service's one error shape, {"error": {"code": "...", "message": "..."}}, and the one
+// place where error kinds become HTTP statuses.
+
+#include <string>
+#include <string_view>
+
+namespace skinspec::api {
+
+enum class ErrorKind {
+  bad_request,             // 400: malformed JSON, invalid UTF-8, a bad path or query
+  unauthorized,            // 401: no or unknown bearer token
+  forbidden,               // 403: a read-only token on a mutating route
+  not_found,               // 404: no such route or record
+  method_not_allowed,      // 405: the path exists, the method does not
+  conflict,                // 409: not allowed in the record's current state
+  payload_too_large,       // 413: body over the limit
+  unsupported_media_type,  // 415: a body that is not application/json
+  unprocessable,           // 422: well-formed JSON with wrong types, missing fields, bad values
+  unavailable,             // 503: database or model not available, store busy
+  timeout,                 // 504: the work did not finish in time
+  internal,                // 500: anything else
+};
+
+int http_status(ErrorKind kind);
+std::string_view default_code(ErrorKind kind);
+
+struct ApiError {
+  ErrorKind kind = ErrorKind::internal;
+  std::string code;  // machine-readable, e.g. "malformed_json"; default_code(kind) when empty
+  std::string message;
+};
+
+// The JSON body of an error response.
+std::string error_body(const ApiError& error);
+
+}  // namespace skinspec::api

@@ -1,0 +1,15 @@
+#pragma once
+// The model the service fits with: the optical tables and colorimetry from a data directory.
+
+#include <expected>
+#include <filesystem>
+#include <string>
+
+#include "skinspec/fit/fitter.hpp"
+
+namespace skinspec::api {
+
+// Loads data/ at `dir` (find_data_dir() when empty); an explanation naming the file otherwise.
+std::expected<Fitter, std::string> load_fitter(const std::filesystem::path& dir = {});
+
+}  // namespace skinspec::api

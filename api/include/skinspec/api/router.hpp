@@ -1,0 +1,93 @@
+#pragma once
+// The service as a pure function from a request to a response: no sockets, no threads of its
+// own. The server (server.hpp) reads requests off connections and hands them here; tests call
+// it directly. The route table is the single list of what the service offers; GET /openapi.json
+// is generated from it.
+
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "skinspec/api/errors.hpp"
+#include "skinspec/api/metrics.hpp"
+
+namespace skinspec {
+class Fitter;
+namespace store {
+class Store;
+}
+}  // namespace skinspec
+
+namespace skinspec::api {
+
+struct Request {
+  std::string method;  // "GET", "POST", ...
+  std::string target;  // path and query, as sent: "/api/v1/sessions?site=forearm"
+  std::map<std::string, std::string> headers;  // names in lower case
+  std::string body;
+};
+
+struct Response {
+  int status = 200;
+  std::string content_type = "application/json";
+  std::string body;
+  std::vector<std::pair<std::string, std::string>> headers;  // extra headers (Allow, Location)
+};
+
+// Bearer tokens; when `required`, every route but /healthz needs one, and mutating routes need
+// the operator token.
+struct AccessPolicy {
+  bool required = false;
+  std::string read_token;
+  std::string operator_token;
+};
+
+struct RouterContext {
+  store::Store* store = nullptr;       // null: data routes answer 503
+  const Fitter* fitter = nullptr;      // null: fitting routes answer 503
+  std::shared_ptr<Metrics> metrics;    // created when null
+  AccessPolicy access;
+  std::string version = "0.0.0";
+  std::size_t max_spectrum_samples = 10000;
+};
+
+struct RouteInfo {
+  std::string method;
+  std::string path;  // template with {id} segments
+  std::string summary;
+  bool mutating = false;
+  std::string request_schema;   // name in components/schemas, empty for none
+  std::string response_schema;  // name in components/schemas, or "text/csv", "text/plain"
+  int success_status = 200;
+};
+
+class Router {
+ public:
+  explicit Router(RouterContext context);
+  ~Router();
+  Router(const Router&) = delete;
+  Router& operator=(const Router&) = delete;
+
+  // Never throws: every failure becomes a JSON error response.
+  Response handle(const Request& request) const;
+
+  static const std::vector<RouteInfo>& routes();
+  // OpenAPI 3.1, generated from routes().
+  static nlohmann::json openapi_document(const std::string& version);
+
+  Metrics& metrics() const { return *context_.metrics; }
+
+  struct Handlers;
+
+ private:
+  RouterContext context_;
+};
+
+// A response carrying `error` in the one JSON shape, with its status.
+Response error_response(const ApiError& error);
+
+}  // namespace skinspec::api

@@ -1,0 +1,62 @@
+#pragma once
+// The Beast HTTP server in front of a Router: a listener that accepts connections (up to a cap)
+// and one session per connection that reads requests with limits and timeouts, hands them to
+// the router on a worker pool, and writes the responses back, keeping the connection alive
+// when the client asks for it.
+
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <expected>
+#include <memory>
+#include <string>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/thread_pool.hpp>
+
+#include "skinspec/api/router.hpp"
+
+namespace skinspec::api {
+
+struct ServerOptions {
+  std::string address = "127.0.0.1";
+  unsigned short port = 8650;  // 0: any free port (see Server::port())
+  std::size_t body_limit = 1024 * 1024;
+  std::size_t header_limit = 8 * 1024;
+  // A request (its headers and body) must arrive within this from its first byte, or from the
+  // end of the previous response on a kept-alive connection; otherwise the connection is closed.
+  std::chrono::milliseconds read_timeout{10000};
+  std::chrono::milliseconds write_timeout{30000};
+  std::size_t max_connections = 512;  // beyond it, new connections get a 503 and are closed
+  int io_threads = 2;
+  int worker_threads = 2;  // where the router runs (fits take milliseconds)
+};
+
+class Server {
+ public:
+  Server(const Router& router, ServerOptions options);
+  ~Server();
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  // Binds and listens; an explanation when the address cannot be used.
+  std::expected<void, std::string> listen();
+  // The bound port (useful with port 0), after listen().
+  unsigned short port() const;
+
+  // Serves on io_threads threads (this one included) until stop() and the end of every
+  // connection's in-flight request.
+  void run();
+  // Stops accepting, closes idle connections and lets requests in flight finish. Thread-safe.
+  void stop();
+
+  boost::asio::io_context& context() { return ioc_; }
+
+  struct State;
+
+ private:
+  boost::asio::io_context ioc_;
+  std::shared_ptr<State> state_;
+};
+
+}  // namespace skinspec::api

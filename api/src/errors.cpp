@@ -1,0 +1,49 @@
+#include "skinspec/api/errors.hpp"
+
+#include <nlohmann/json.hpp>
+
+namespace skinspec::api {
+
+int http_status(ErrorKind kind) {
+  switch (kind) {
+    case ErrorKind::bad_request: return 400;
+    case ErrorKind::unauthorized: return 401;
+    case ErrorKind::forbidden: return 403;
+    case ErrorKind::not_found: return 404;
+    case ErrorKind::method_not_allowed: return 405;
+    case ErrorKind::conflict: return 409;
+    case ErrorKind::payload_too_large: return 413;
+    case ErrorKind::unsupported_media_type: return 415;
+    case ErrorKind::unprocessable: return 422;
+    case ErrorKind::unavailable: return 503;
+    case ErrorKind::timeout: return 504;
+    case ErrorKind::internal: return 500;
+  }
+  return 500;
+}
+
+std::string_view default_code(ErrorKind kind) {
+  switch (kind) {
+    case ErrorKind::bad_request: return "bad_request";
+    case ErrorKind::unauthorized: return "unauthorized";
+    case ErrorKind::forbidden: return "forbidden";
+    case ErrorKind::not_found: return "not_found";
+    case ErrorKind::method_not_allowed: return "method_not_allowed";
+    case ErrorKind::conflict: return "conflict";
+    case ErrorKind::payload_too_large: return "payload_too_large";
+    case ErrorKind::unsupported_media_type: return "unsupported_media_type";
+    case ErrorKind::unprocessable: return "unprocessable";
+    case ErrorKind::unavailable: return "unavailable";
+    case ErrorKind::timeout: return "timeout";
+    case ErrorKind::internal: return "internal";
+  }
+  return "internal";
+}
+
+std::string error_body(const ApiError& error) {
+  const std::string code = error.code.empty() ? std::string(default_code(error.kind)) : error.code;
+  nlohmann::json body = {{"error", {{"code", code}, {"message", error.message}}}};
+  return body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+}  // namespace skinspec::api

@@ -1,0 +1,28 @@
+#include "skinspec/api/model_loader.hpp"
+
+#include "data_dir.hpp"
+#include "skinspec/fit/colour.hpp"
+#include "skinspec/fit/table.hpp"
+
+namespace skinspec::api {
+
+std::expected<Fitter, std::string> load_fitter(const std::filesystem::path& dir_given) {
+  const auto dir = dir_given.empty() ? find_data_dir() : dir_given;
+  const DataReader read = directory_reader(dir);
+  auto optics = SkinOptics::load(read);
+  if (!optics) return std::unexpected((dir / optics.error().what()).string());
+  Table tables[2];
+  const char* names[] = {"colour/cie1931_2deg_cmf.csv", "colour/cie_illuminants.csv"};
+  for (int i = 0; i < 2; ++i) {
+    auto bytes = read(names[i]);
+    if (!bytes) return std::unexpected(bytes.error());
+    auto table = parse_table(*bytes, (dir / names[i]).string(), {});
+    if (!table) return std::unexpected(table.error().what());
+    tables[i] = std::move(*table);
+  }
+  auto colorimetry = Colorimetry::from_tables(tables[0], tables[1]);
+  if (!colorimetry) return std::unexpected(colorimetry.error().what());
+  return Fitter(std::move(*optics), std::move(*colorimetry));
+}
+
+}  // namespace skinspec::api

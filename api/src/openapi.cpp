@@ -1,0 +1,148 @@
+// GET /openapi.json: generated from the route table, so that every route is documented and
+// nothing is documented that is not a route.
+
+#include "skinspec/api/router.hpp"
+
+namespace skinspec::api {
+
+using nlohmann::json;
+
+namespace {
+
+json ref(const std::string& name) { return {{"$ref", "#/components/schemas/" + name}}; }
+json numbers() { return {{"type", "array"}, {"items", {{"type", "number"}}}}; }
+json nullable(json type) { return {{"type", json::array({type, "null"})}}; }
+json samples() {
+  return {{"type", json::array({"object", "null"})},
+          {"properties", {{"wavelength_nm", numbers()}, {"values", numbers()}}}};
+}
+
+json params_schema() {
+  json props = json::object();
+  for (const char* name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
+    props[name] = nullable("number");
+  return {{"type", "object"}, {"properties", props}};
+}
+
+json schemas() {
+  const json fit_fields = {
+      {"name", {{"type", "string"}}}, {"site", {{"type", "string"}}}, {"params", params_schema()},
+      {"stderr", params_schema()}, {"rmse", {{"type", "number"}}}, {"max_abs_error", {{"type", "number"}}},
+      {"delta_e00_d65", {{"type", "number"}}}, {"iterations", {{"type", "integer"}}}, {"converged", {{"type", "boolean"}}},
+      {"wavelength_nm", numbers()}, {"measured", numbers()}, {"fitted", numbers()}};
+  json stored_fit = fit_fields;
+  stored_fit["id"] = {{"type", "integer"}};
+  stored_fit["measurement_id"] = {{"type", "integer"}};
+  stored_fit["options"] = {{"type", "object"}};
+  stored_fit["model_version"] = {{"type", "string"}};
+  stored_fit["tables_digest"] = {{"type", "string"}};
+  stored_fit["samples_ignored"] = {{"type", "integer"}};
+  stored_fit["created_at"] = {{"type", "string"}, {"format", "date-time"}};
+  const json session_props = {
+      {"id", {{"type", "integer"}}}, {"subject", {{"type", "string"}}}, {"site", {{"type", "string"}}},
+      {"operator", {{"type", "string"}}}, {"notes", {{"type", "string"}}}, {"white_standard_id", nullable("integer")},
+      {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}},
+      {"created_at", {{"type", "string"}, {"format", "date-time"}}}, {"updated_at", {{"type", "string"}, {"format", "date-time"}}},
+      {"ended_at", nullable("string")}};
+  json fit_list = {{"type", "object"}, {"properties", {{"fits", {{"type", "array"}, {"items", ref("FitResult")}}}}}};
+  json fit_response = {{"oneOf", json::array({ref("FitResult"), fit_list})}};
+  json detail_props = session_props;
+  detail_props["measurements"] = {{"type", "array"}, {"items", ref("Measurement")}};
+  detail_props["fits"] = {{"type", "array"}, {"items", ref("Fit")}};
+  return {
+      {"Error", {{"type", "object"}, {"required", {"error"}},
+                 {"properties", {{"error", {{"type", "object"}, {"required", {"code", "message"}},
+                                            {"properties", {{"code", {{"type", "string"}}}, {"message", {{"type", "string"}}}}}}}}}}},
+      {"Health", {{"type", "object"}, {"properties", {{"status", {{"type", "string"}}}, {"version", {{"type", "string"}}},
+                                                     {"database", {{"type", "object"}}}, {"model", {{"type", "object"}}}}}}},
+      {"OpenApi", {{"type", "object"}}},
+      {"FitRequest", {{"type", "object"}, {"required", {"wavelength_nm"}}, {"additionalProperties", false},
+                      {"properties", {{"wavelength_nm", numbers()}, {"reflectance", numbers()},
+                                      {"spectra", {{"type", "object"}, {"additionalProperties", numbers()}}},
+                                      {"site", {{"type", "string"}, {"default", "forearm"}}}, {"name", {{"type", "string"}}},
+                                      {"lateral_diffusion", {{"type", "boolean"}, {"default", true}}}}}}},
+      {"FitResult", {{"type", "object"}, {"properties", fit_fields}}},
+      {"FitResponse", fit_response},
+      {"Fit", {{"type", "object"}, {"properties", stored_fit}}},
+      {"RefitRequest", {{"type", "object"}, {"additionalProperties", false},
+                        {"properties", {{"site", {{"type", "string"}}}, {"lateral_diffusion", {{"type", "boolean"}}}}}}},
+      {"WhiteStandardCreate", {{"type", "object"}, {"required", {"name", "wavelength_nm", "reflectance"}}, {"additionalProperties", false},
+                               {"properties", {{"name", {{"type", "string"}}}, {"certificate", {{"type", "string"}}},
+                                               {"wavelength_nm", numbers()}, {"reflectance", numbers()}}}}},
+      {"WhiteStandard", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"name", {{"type", "string"}}},
+                                                             {"certificate", {{"type", "string"}}}, {"wavelength_nm", numbers()},
+                                                             {"reflectance", numbers()}, {"created_at", {{"type", "string"}}}}}}},
+      {"WhiteStandardList", {{"type", "object"}, {"properties", {{"white_standards", {{"type", "array"}, {"items", ref("WhiteStandard")}}}}}}},
+      {"SessionCreate", {{"type", "object"}, {"required", {"site", "subject"}}, {"additionalProperties", false},
+                         {"properties", {{"site", {{"type", "string"}}}, {"subject", {{"type", "string"}}}, {"operator", {{"type", "string"}}},
+                                         {"white_standard_id", {{"type", "integer"}}}, {"notes", {{"type", "string"}}}}}}},
+      {"SessionUpdate", {{"type", "object"}, {"additionalProperties", false},
+                         {"properties", {{"notes", {{"type", "string"}}}, {"close", {{"type", "boolean"}}},
+                                         {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}}}}}},
+      {"Session", {{"type", "object"}, {"properties", session_props}}},
+      {"SessionDetail", {{"type", "object"}, {"properties", detail_props}}},
+      {"SessionPage", {{"type", "object"}, {"properties", {{"sessions", {{"type", "array"}, {"items", ref("Session")}}},
+                                                           {"next_cursor", nullable("integer")}}}}},
+      {"Measurement", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
+                                                           {"kind", {{"type", "string"}}}, {"label", {{"type", "string"}}},
+                                                           {"quality", {{"type", "object"}}}, {"units", {{"type", "string"}}},
+                                                           {"reading_count", {{"type", "integer"}}}, {"radiance", samples()},
+                                                           {"radiance_sd", samples()}, {"reflectance", samples()},
+                                                           {"warnings", {{"type", "array"}, {"items", {{"type", "string"}}}}},
+                                                           {"provenance", {{"type", "object"}}}, {"created_at", {{"type", "string"}}},
+                                                           {"fit_id", nullable("integer")}}}}},
+  };
+}
+
+json list_parameters() {
+  auto q = [](const char* name, json schema, const char* description) {
+    return json{{"name", name}, {"in", "query"}, {"required", false}, {"schema", schema}, {"description", description}};
+  };
+  return json::array({q("site", {{"type", "string"}}, "body site"),
+                      q("state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}, "session state"),
+                      q("from", {{"type", "string"}, {"format", "date-time"}}, "created at or after (UTC)"),
+                      q("to", {{"type", "string"}, {"format", "date-time"}}, "created before (UTC)"),
+                      q("cursor", {{"type", "integer"}}, "next_cursor of the previous page"),
+                      q("limit", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}, {"default", 50}}, "page size")});
+}
+
+json error_reply(const char* description) {
+  return {{"description", description}, {"content", {{"application/json", {{"schema", ref("Error")}}}}}};
+}
+
+}  // namespace
+
+json Router::openapi_document(const std::string& version) {
+  json paths = json::object();
+  for (const RouteInfo& r : routes()) {
+    json op = {{"summary", r.summary}, {"operationId", r.method + " " + r.path}};
+    json content;
+    if (r.response_schema == "text/csv" || r.response_schema == "text/plain")
+      content = {{r.response_schema, {{"schema", {{"type", "string"}}}}}};
+    else
+      content = {{"application/json", {{"schema", ref(r.response_schema)}}}};
+    op["responses"] = {{std::to_string(r.success_status), {{"description", "success"}, {"content", content}}},
+                       {"4XX", error_reply("the request was refused")},
+                       {"5XX", error_reply("the service could not answer")}};
+    if (!r.request_schema.empty())
+      op["requestBody"] = {{"required", r.path != "/api/v1/measurements/{id}/fit"},
+                           {"content", {{"application/json", {{"schema", ref(r.request_schema)}}}}}};
+    json params = json::array();
+    if (r.path.find("{id}") != std::string::npos)
+      params.push_back({{"name", "id"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "integer"}, {"minimum", 1}}}});
+    if (r.method == "GET" && r.path == "/api/v1/sessions") params = list_parameters();
+    if (!params.empty()) op["parameters"] = params;
+    if (r.mutating) op["security"] = json::array({{{"bearer", json::array()}}});
+    std::string method = r.method;
+    for (char& ch : method) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    paths[r.path][method] = op;
+  }
+  return {{"openapi", "3.1.0"},
+          {"info", {{"title", "skinspecd"}, {"version", version},
+                    {"description", "Stored skin spectra, sessions and fits of the two-layer skin model"}}},
+          {"paths", paths},
+          {"components", {{"schemas", schemas()},
+                          {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
+}
+
+}  // namespace skinspec::api

@@ -1,0 +1,443 @@
+#include "skinspec/api/router.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <sstream>
+
+#include "json_io.hpp"
+#include "skinspec/fit/fitter.hpp"
+#include "skinspec/store/export.hpp"
+#include "skinspec/store/store.hpp"
+#include "text.hpp"
+#include "fit_json.hpp"
+
+namespace skinspec::api {
+
+using nlohmann::json;
+using detail::fail;
+using detail::fail_store;
+
+// What a matched route's handler gets: the request, the ids from its path, its query.
+struct Call {
+  const Request& request;
+  std::vector<store::Id> ids;
+  std::map<std::string, std::string> query;
+};
+
+struct Router::Handlers {
+  using Fn = Response (*)(const RouterContext&, const Call&);
+
+  static store::Store& store_of(const RouterContext& c) {
+    if (c.store == nullptr) fail(ErrorKind::unavailable, "database_unavailable", "no database is open");
+    return *c.store;
+  }
+  static const Fitter& fitter_of(const RouterContext& c) {
+    if (c.fitter == nullptr) fail(ErrorKind::unavailable, "model_unavailable", "the model tables are not loaded");
+    return *c.fitter;
+  }
+  template <typename T>
+  static T value(store::Result<T> result) {
+    if (!result) fail_store(result.error());
+    return std::move(*result);
+  }
+  static Response json_response(const json& body, int status = 200) {
+    return Response{status, "application/json", detail::dump(body), {}};
+  }
+  static void no_query(const Call& call) {
+    if (!call.query.empty()) fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + call.query.begin()->first + "'");
+  }
+  static std::string checked_site(const RouterContext& c, const std::string& site) {
+    if (auto known = fitter_of(c).optics().site(site); !known) fail(ErrorKind::unprocessable, "unknown_site", known.error());
+    return site;
+  }
+
+  // GET /healthz
+  static Response healthz(const RouterContext& c, const Call&) {
+    json db = {{"state", c.store ? "open" : "unavailable"}};
+    if (c.store) {
+      db["path"] = c.store->path();
+      db["schema_version"] = c.store->schema_version();
+    }
+    return json_response({{"status", "ok"}, {"version", c.version}, {"database", db}, {"model", {{"loaded", c.fitter != nullptr}}}});
+  }
+  static Response openapi(const RouterContext& c, const Call&) { return json_response(openapi_document(c.version)); }
+  static Response metrics(const RouterContext& c, const Call&) {
+    return Response{200, "text/plain; version=0.0.4; charset=utf-8", c.metrics->prometheus_text(), {}};
+  }
+
+  static FitResult run_fit(const RouterContext& c, const Spectrum& spectrum, const FitOptions& options) {
+    auto result = fitter_of(c).fit(spectrum, options);
+    c.metrics->record_fit(result.has_value());
+    if (!result) fail(ErrorKind::unprocessable, "fit_failed", result.error());
+    return std::move(*result);
+  }
+  static Spectrum make_spectrum(std::vector<double> wl, std::vector<double> values, const std::string& name) {
+    if (wl.size() != values.size())
+      fail(ErrorKind::unprocessable, "unequal_lengths",
+           "'" + name + "' has " + std::to_string(values.size()) + " values for " + std::to_string(wl.size()) + " wavelengths");
+    auto spectrum = Spectrum::create(std::move(wl), std::move(values));
+    if (!spectrum) fail(ErrorKind::unprocessable, "invalid_spectrum", name + ": " + spectrum.error());
+    return std::move(*spectrum);
+  }
+
+  // POST /api/v1/fit
+  static Response fit(const RouterContext& c, const Call& call) {
+    const json body = detail::parse_object(call.request.body);
+    detail::only_fields(body, {"wavelength_nm", "reflectance", "spectra", "site", "name", "lateral_diffusion"});
+    FitOptions options;
+    options.site = detail::optional_string(body, "site", 64).value_or("forearm");
+    options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
+    checked_site(c, options.site);
+    if (!body.contains("wavelength_nm")) fail(ErrorKind::unprocessable, "missing_field", "'wavelength_nm' is required");
+    const auto wl = detail::number_array(body["wavelength_nm"], "wavelength_nm", 1, 100000, c.max_spectrum_samples);
+    const bool single = body.contains("reflectance"), several = body.contains("spectra");
+    if (single == several) fail(ErrorKind::unprocessable, "missing_field", "give exactly one of 'reflectance' and 'spectra'");
+    if (single) {
+      const auto name = detail::optional_string(body, "name", 200).value_or("spectrum");
+      auto values = detail::number_array(body["reflectance"], "reflectance", -10, 10, c.max_spectrum_samples);
+      return json_response(fit_to_json(name, run_fit(c, make_spectrum(wl, std::move(values), "reflectance"), options)));
+    }
+    if (body.contains("name")) fail(ErrorKind::unprocessable, "unknown_field", "'name' goes with 'reflectance'; 'spectra' are named by their keys");
+    const json& spectra = body["spectra"];
+    if (!spectra.is_object() || spectra.empty() || spectra.size() > 100)
+      fail(ErrorKind::unprocessable, "wrong_type", "'spectra' must be an object of 1 to 100 named arrays");
+    std::vector<std::pair<std::string, Spectrum>> inputs;
+    for (const auto& item : spectra.items()) {
+      auto values = detail::number_array(item.value(), "spectra." + item.key(), -10, 10, c.max_spectrum_samples);
+      inputs.emplace_back(item.key(), make_spectrum(wl, std::move(values), "spectra." + item.key()));
+    }
+    json fits = json::array();
+    for (const auto& [name, spectrum] : inputs) fits.push_back(fit_to_json(name, run_fit(c, spectrum, options)));
+    return json_response({{"fits", fits}});
+  }
+
+  // White standards
+  static Response create_white_standard(const RouterContext& c, const Call& call) {
+    const json body = detail::parse_object(call.request.body);
+    detail::only_fields(body, {"name", "certificate", "wavelength_nm", "reflectance"});
+    store::WhiteStandard s;
+    s.name = detail::required_string(body, "name", 200);
+    s.certificate = detail::optional_string(body, "certificate", 2000).value_or("");
+    for (const char* key : {"wavelength_nm", "reflectance"})
+      if (!body.contains(key)) fail(ErrorKind::unprocessable, "missing_field", std::string("'") + key + "' is required");
+    s.reflectance.wavelength_nm = detail::number_array(body["wavelength_nm"], "wavelength_nm", 1, 100000, c.max_spectrum_samples);
+    s.reflectance.values = detail::number_array(body["reflectance"], "reflectance", 0, 2, c.max_spectrum_samples);
+    make_spectrum(s.reflectance.wavelength_nm, s.reflectance.values, "reflectance");  // same checks as a fit's input
+    store::Store& db = store_of(c);
+    const store::Id id = value(db.add_white_standard(s));
+    Response r = json_response(to_json_ws(value(db.white_standard(id))), 201);
+    r.headers.emplace_back("Location", "/api/v1/white-standards/" + std::to_string(id));
+    return r;
+  }
+  static json to_json_ws(const store::WhiteStandard& s) { return detail::to_json(s); }
+  static Response list_white_standards(const RouterContext& c, const Call& call) {
+    no_query(call);
+    json list = json::array();
+    for (const auto& s : value(store_of(c).white_standards())) list.push_back(detail::to_json(s));
+    return json_response({{"white_standards", list}});
+  }
+  static Response get_white_standard(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return json_response(detail::to_json(value(store_of(c).white_standard(call.ids[0]))));
+  }
+
+  // Sessions
+  static Response create_session(const RouterContext& c, const Call& call) {
+    const json body = detail::parse_object(call.request.body);
+    detail::only_fields(body, {"site", "subject", "operator", "white_standard_id", "notes"});
+    store::Session s;
+    s.site = checked_site(c, detail::required_string(body, "site", 64));
+    s.subject = detail::required_string(body, "subject", 200);
+    s.operator_name = detail::optional_string(body, "operator", 200).value_or("");
+    s.notes = detail::optional_string(body, "notes", 20000).value_or("");
+    s.white_standard_id = detail::optional_id(body, "white_standard_id");
+    store::Store& db = store_of(c);
+    if (s.white_standard_id) {
+      if (auto ws = db.white_standard(*s.white_standard_id); !ws) {
+        if (ws.error().kind == store::StoreError::Kind::not_found)
+          fail(ErrorKind::unprocessable, "unknown_white_standard", "no white standard " + std::to_string(*s.white_standard_id));
+        fail_store(ws.error());
+      }
+    }
+    const store::Id id = value(db.create_session(s));
+    Response r = json_response(detail::to_json(value(db.session(id))), 201);
+    r.headers.emplace_back("Location", "/api/v1/sessions/" + std::to_string(id));
+    return r;
+  }
+  static store::Id parse_id(const std::string& text, const char* name) {
+    store::Id id = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), id);
+    if (ec != std::errc{} || end != text.data() + text.size() || id <= 0)
+      fail(ErrorKind::bad_request, "invalid_parameter", std::string("'") + name + "' must be a positive integer");
+    return id;
+  }
+  static store::Time parse_time_param(const std::string& text, const char* name) {
+    auto t = detail::parse_time(text);
+    if (!t) fail(ErrorKind::bad_request, "invalid_parameter", std::string("'") + name + "' must be an RFC 3339 UTC time like 2026-01-02T03:04:05Z");
+    return *t;
+  }
+  static Response list_sessions(const RouterContext& c, const Call& call) {
+    store::SessionFilter filter;
+    for (const auto& [name, text] : call.query) {
+      if (name == "site") filter.site = text;
+      else if (name == "state") {
+        filter.state = store::parse_session_state(text);
+        if (!filter.state) fail(ErrorKind::bad_request, "invalid_parameter", "'state' must be open, complete, interrupted or aborted");
+      } else if (name == "from") filter.created_from = parse_time_param(text, "from");
+      else if (name == "to") filter.created_before = parse_time_param(text, "to");
+      else if (name == "cursor") filter.cursor = parse_id(text, "cursor");
+      else if (name == "limit") {
+        const store::Id limit = parse_id(text, "limit");
+        if (limit > 1000) fail(ErrorKind::bad_request, "invalid_parameter", "'limit' must be 1 to 1000");
+        filter.limit = static_cast<int>(limit);
+      } else fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + name + "'");
+    }
+    const auto page = value(store_of(c).sessions(filter));
+    json list = json::array();
+    for (const auto& s : page.sessions) list.push_back(detail::to_json(s));
+    return json_response({{"sessions", list}, {"next_cursor", page.next_cursor ? json(*page.next_cursor) : json(nullptr)}});
+  }
+  static Response get_session(const RouterContext& c, const Call& call) {
+    no_query(call);
+    const auto detail_ = value(store_of(c).session_detail(call.ids[0]));
+    json out = detail::to_json(detail_.session);
+    json measurements = json::array(), fits = json::array();
+    for (const auto& m : detail_.measurements) {
+      std::optional<store::Id> latest;
+      for (const auto& f : detail_.fits)
+        if (f.measurement_id == m.id) latest = f.id;
+      measurements.push_back(detail::to_json(m, latest));
+    }
+    for (const auto& f : detail_.fits) fits.push_back(detail::to_json(f));
+    out["measurements"] = measurements;
+    out["fits"] = fits;
+    return json_response(out);
+  }
+  static Response patch_session(const RouterContext& c, const Call& call) {
+    const json body = detail::parse_object(call.request.body);
+    detail::only_fields(body, {"notes", "close", "state"});
+    store::SessionUpdate update;
+    update.notes = detail::optional_string(body, "notes", 20000);
+    if (auto state = detail::optional_string(body, "state", 32)) {
+      update.state = store::parse_session_state(*state);
+      if (!update.state) fail(ErrorKind::unprocessable, "invalid_value", "'state' must be open, complete, interrupted or aborted");
+    }
+    if (auto close = detail::optional_bool(body, "close"); close && *close) {
+      if (update.state && *update.state != store::SessionState::complete)
+        fail(ErrorKind::unprocessable, "invalid_value", "'close' and 'state' disagree");
+      update.state = store::SessionState::complete;
+    }
+    if (!update.notes && !update.state) fail(ErrorKind::unprocessable, "missing_field", "nothing to change: give 'notes', 'close' or 'state'");
+    return json_response(detail::to_json(value(store_of(c).update_session(call.ids[0], update))));
+  }
+  static Response export_csv(const RouterContext& c, const Call& call) {
+    no_query(call);
+    std::ostringstream out;
+    store::write_csv_header(out);
+    if (auto done = store::export_session(store_of(c), call.ids[0], store::ExportFormat::csv, out); !done) fail_store(done.error());
+    Response r{200, "text/csv; charset=utf-8", out.str(), {}};
+    r.headers.emplace_back("Content-Disposition", "attachment; filename=\"session-" + std::to_string(call.ids[0]) + ".csv\"");
+    return r;
+  }
+
+  // Measurements and fits
+  static Response get_measurement(const RouterContext& c, const Call& call) {
+    no_query(call);
+    store::Store& db = store_of(c);
+    const auto m = value(db.measurement(call.ids[0]));
+    const auto fits = value(db.fits_of_measurement(m.id));
+    return json_response(detail::to_json(m, fits.empty() ? std::nullopt : std::optional<store::Id>(fits.back().id)));
+  }
+  static Response get_fit(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return json_response(detail::to_json(value(store_of(c).fit(call.ids[0]))));
+  }
+  static Response refit(const RouterContext& c, const Call& call) {
+    const json body = call.request.body.empty() ? json::object() : detail::parse_object(call.request.body);
+    detail::only_fields(body, {"site", "lateral_diffusion"});
+    store::Store& db = store_of(c);
+    const auto m = value(db.measurement(call.ids[0]));
+    if (m.reflectance.empty()) fail(ErrorKind::conflict, "no_reflectance", "measurement " + std::to_string(m.id) + " has no reflectance to fit");
+    FitOptions options;
+    options.site = detail::optional_string(body, "site", 64).value_or("");
+    if (options.site.empty()) options.site = value(db.session(m.session_id)).site;
+    checked_site(c, options.site);
+    options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
+    const auto result = run_fit(c, make_spectrum(m.reflectance.wavelength_nm, m.reflectance.values, "reflectance"), options);
+    store::Fit f = detail::to_store_fit(result, {{"site", options.site}, {"lateral_diffusion", options.lateral_diffusion}},
+                                        "skinspecd " + c.version, fitter_of(c).optics().tables_digest());
+    f.measurement_id = m.id;
+    const store::Id id = value(db.add_fit(f));
+    Response r = json_response(detail::to_json(value(db.fit(id))), 201);
+    r.headers.emplace_back("Location", "/api/v1/fits/" + std::to_string(id));
+    return r;
+  }
+};
+
+namespace {
+
+struct Route {
+  RouteInfo info;
+  Router::Handlers::Fn handler;
+  std::vector<std::string> segments;
+};
+
+std::vector<std::string> split_path(std::string_view path) {
+  std::vector<std::string> out;
+  std::size_t pos = 1;
+  while (pos <= path.size()) {
+    const auto slash = path.find('/', pos);
+    const auto end = slash == std::string_view::npos ? path.size() : slash;
+    out.emplace_back(path.substr(pos, end - pos));
+    pos = end + 1;
+  }
+  return out;
+}
+
+const std::vector<Route>& route_table() {
+  using H = Router::Handlers;
+  static const std::vector<Route> table = [] {
+    std::vector<Route> t = {
+        {{"GET", "/healthz", "Liveness, database state and version", false, "", "Health", 200}, &H::healthz, {}},
+        {{"GET", "/openapi.json", "This OpenAPI document", false, "", "OpenApi", 200}, &H::openapi, {}},
+        {{"GET", "/metrics", "Prometheus metrics", false, "", "text/plain", 200}, &H::metrics, {}},
+        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest", "FitResponse", 200}, &H::fit, {}},
+        {{"POST", "/api/v1/white-standards", "Store a white standard", true, "WhiteStandardCreate", "WhiteStandard", 201}, &H::create_white_standard, {}},
+        {{"GET", "/api/v1/white-standards", "List white standards", false, "", "WhiteStandardList", 200}, &H::list_white_standards, {}},
+        {{"GET", "/api/v1/white-standards/{id}", "One white standard", false, "", "WhiteStandard", 200}, &H::get_white_standard, {}},
+        {{"POST", "/api/v1/sessions", "Open a session", true, "SessionCreate", "Session", 201}, &H::create_session, {}},
+        {{"GET", "/api/v1/sessions", "List sessions, newest first, with cursor pagination", false, "", "SessionPage", 200}, &H::list_sessions, {}},
+        {{"GET", "/api/v1/sessions/{id}", "One session with its measurements and fits", false, "", "SessionDetail", 200}, &H::get_session, {}},
+        {{"PATCH", "/api/v1/sessions/{id}", "Change a session's notes or close it", true, "SessionUpdate", "Session", 200}, &H::patch_session, {}},
+        {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", false, "", "text/csv", 200}, &H::export_csv, {}},
+        {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id", false, "", "Measurement", 200}, &H::get_measurement, {}},
+        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true, "RefitRequest", "Fit", 201}, &H::refit, {}},
+        {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200}, &H::get_fit, {}},
+    };
+    for (auto& r : t) r.segments = split_path(r.info.path);
+    return t;
+  }();
+  return table;
+}
+
+bool segment_matches(const std::string& pattern, const std::string& segment, std::vector<store::Id>& ids) {
+  if (pattern != "{id}") return pattern == segment;
+  if (segment.empty() || segment.size() > 18 || !std::all_of(segment.begin(), segment.end(), [](char ch) { return ch >= '0' && ch <= '9'; }))
+    return false;
+  const store::Id id = std::stoll(segment);
+  if (id <= 0) return false;
+  ids.push_back(id);
+  return true;
+}
+
+bool constant_time_equal(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  unsigned char diff = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) diff = static_cast<unsigned char>(diff | (a[i] ^ b[i]));
+  return diff == 0;
+}
+
+void check_access(const AccessPolicy& access, const Request& request, const RouteInfo& route) {
+  if (!access.required || route.path == "/healthz") return;
+  const auto it = request.headers.find("authorization");
+  constexpr std::string_view kBearer = "Bearer ";
+  if (it == request.headers.end() || it->second.size() <= kBearer.size() || it->second.compare(0, kBearer.size(), kBearer) != 0)
+    fail(ErrorKind::unauthorized, "unauthorized", "a bearer token is required");
+  const std::string_view token = std::string_view(it->second).substr(kBearer.size());
+  if (!access.operator_token.empty() && constant_time_equal(token, access.operator_token)) return;
+  if (!access.read_token.empty() && constant_time_equal(token, access.read_token)) {
+    if (route.mutating) fail(ErrorKind::forbidden, "forbidden", "this route needs the operator token");
+    return;
+  }
+  fail(ErrorKind::unauthorized, "unauthorized", "unknown token");
+}
+
+bool is_json_content_type(const Request& request) {
+  const auto it = request.headers.find("content-type");
+  if (it == request.headers.end()) return false;
+  std::string type = it->second.substr(0, it->second.find(';'));
+  std::transform(type.begin(), type.end(), type.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  while (!type.empty() && type.back() == ' ') type.pop_back();
+  return type == "application/json";
+}
+
+}  // namespace
+
+Response error_response(const ApiError& error) {
+  return Response{http_status(error.kind), "application/json", error_body(error), {}};
+}
+
+Router::Router(RouterContext context) : context_(std::move(context)) {
+  if (!context_.metrics) context_.metrics = std::make_shared<Metrics>();
+}
+Router::~Router() = default;
+
+const std::vector<RouteInfo>& Router::routes() {
+  static const std::vector<RouteInfo> infos = [] {
+    std::vector<RouteInfo> out;
+    for (const auto& r : route_table()) out.push_back(r.info);
+    return out;
+  }();
+  return infos;
+}
+
+Response Router::handle(const Request& request) const {
+  const auto started = std::chrono::steady_clock::now();
+  std::string route_label = "unmatched";
+  Response response;
+  try {
+    const std::string_view target = request.target;
+    const auto qmark = target.find('?');
+    const std::string_view raw_path = target.substr(0, qmark);
+    if (raw_path.empty() || raw_path.front() != '/') fail(ErrorKind::bad_request, "invalid_path", "the target must be an absolute path");
+    const auto path = detail::percent_decode(raw_path, false);
+    if (!path || !detail::valid_utf8(*path) || path->find('\0') != std::string::npos || path->find('\\') != std::string::npos)
+      fail(ErrorKind::bad_request, "invalid_path", "the path is not valid percent-encoded UTF-8");
+    const auto segments = split_path(*path);
+    for (const auto& s : segments)
+      if (s == ".." || s == ".") fail(ErrorKind::bad_request, "invalid_path", "'.' and '..' are not allowed in paths");
+    const Route* matched = nullptr;
+    std::vector<store::Id> ids;
+    std::string allow;
+    for (const auto& route : route_table()) {
+      if (route.segments.size() != segments.size()) continue;
+      std::vector<store::Id> route_ids;
+      bool ok = true;
+      for (std::size_t i = 0; ok && i < segments.size(); ++i) ok = segment_matches(route.segments[i], segments[i], route_ids);
+      if (!ok) continue;
+      if (route.info.method == request.method) {
+        matched = &route;
+        ids = std::move(route_ids);
+        break;
+      }
+      allow += (allow.empty() ? "" : ", ") + route.info.method;
+    }
+    if (matched == nullptr) {
+      if (allow.empty()) fail(ErrorKind::not_found, "not_found", "no route for " + *path);
+      response = error_response({ErrorKind::method_not_allowed, "", request.method + " is not allowed here; allowed: " + allow});
+      response.headers.emplace_back("Allow", allow);
+    } else {
+      route_label = matched->info.method + " " + matched->info.path;
+      check_access(context_.access, request, matched->info);
+      if (!matched->info.request_schema.empty() && !(request.body.empty() && matched->info.path == "/api/v1/measurements/{id}/fit") &&
+          !is_json_content_type(request))
+        fail(ErrorKind::unsupported_media_type, "unsupported_media_type", "the body must be application/json");
+      auto query = detail::parse_query(qmark == std::string_view::npos ? std::string_view{} : target.substr(qmark + 1));
+      if (!query) fail(ErrorKind::bad_request, "invalid_query", "the query string is malformed, repeats a name or is not UTF-8");
+      response = matched->handler(context_, Call{request, std::move(ids), std::move(*query)});
+    }
+  } catch (const detail::HandlerError& e) {
+    response = error_response(e.error);
+    if (e.error.kind == ErrorKind::unauthorized) response.headers.emplace_back("WWW-Authenticate", "Bearer");
+  } catch (const std::exception& e) {
+    response = error_response({ErrorKind::internal, "", e.what()});
+  }
+  if (response.status >= 400) {
+    const json body = json::parse(response.body, nullptr, false);
+    context_.metrics->record_error(body.is_object() && body.contains("error") ? body["error"].value("code", "unknown") : "unknown");
+  }
+  context_.metrics->record_request(route_label, response.status, std::chrono::steady_clock::now() - started);
+  return response;
+}
+
+}  // namespace skinspec::api

@@ -1,0 +1,113 @@
+// skinspecd: stored skin spectra, sessions and fits over HTTP/JSON (docs/api.md).
+
+#include <csignal>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "options.hpp"
+#include "skinspec/api/model_loader.hpp"
+#include "skinspec/store/store.hpp"
+
+namespace {
+
+constexpr const char* kVersion = "0.1.0";
+
+int serve(const skinspec::daemon::Options& o) {
+  using namespace skinspec;
+  const auto listen = daemon::parse_listen(o.listen);
+  if (!listen) return spdlog::error("event=bad_option message=\"{}\"", listen.error()), 2;
+  api::RouterContext context;
+  context.version = kVersion;
+  if (!o.token_file.empty()) {
+    auto access = daemon::read_token_file(o.token_file);
+    if (!access) return spdlog::error("event=bad_token_file message=\"{}\"", access.error()), 2;
+    context.access = *access;
+  } else if (!daemon::is_loopback(listen->first)) {
+    spdlog::error("event=refused message=\"listening on {} needs --token-file (read and operator tokens)\"", listen->first);
+    return 2;
+  }
+  if (!o.device.empty()) spdlog::info("event=device_ignored device=\"{}\" message=\"instrument support comes later\"", o.device);
+
+  auto fitter = api::load_fitter();
+  if (!fitter) return spdlog::error("event=model_load_failed message=\"{}\"", fitter.error()), 1;
+  auto db = store::Store::open(o.db);
+  if (!db) return spdlog::error("event=db_open_failed path=\"{}\" kind={} message=\"{}\"", o.db, store::to_string(db.error().kind), db.error().message), 1;
+  if (!db->recovery().interrupted_sessions.empty())
+    spdlog::warn("event=recovered interrupted_sessions={}", db->recovery().interrupted_sessions.size());
+  context.store = &*db;
+  context.fitter = &*fitter;
+
+  const api::Router router(context);
+  api::ServerOptions options;
+  options.address = listen->first;
+  options.port = listen->second;
+  options.body_limit = o.body_limit;
+  options.max_connections = o.max_connections;
+  options.read_timeout = std::chrono::milliseconds(o.read_timeout_ms);
+  options.io_threads = o.threads;
+  options.worker_threads = o.threads;
+  api::Server server(router, options);
+  if (auto ok = server.listen(); !ok) return spdlog::error("event=listen_failed message=\"{}\"", ok.error()), 1;
+
+  boost::asio::signal_set signals(server.context(), SIGINT, SIGTERM);
+  signals.async_wait([&server](const boost::system::error_code& ec, int signal) {
+    if (ec) return;
+    spdlog::info("event=stopping signal={}", signal);
+    server.stop();
+  });
+  spdlog::info("event=listening address={} port={} db=\"{}\" auth={} version={}", options.address, server.port(), o.db,
+               context.access.required ? "tokens" : "none", kVersion);
+  // For people and for programs waiting for the service to come up.
+  std::cout << "skinspecd listening on http://" << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address)
+            << ':' << server.port() << std::endl;
+  server.run();
+  spdlog::info("event=stopped db=\"{}\"", o.db);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  skinspec::daemon::Options o;
+  CLI::App app{"skinspecd: stored skin spectra, sessions and fits over HTTP/JSON"};
+  app.add_option("--listen", o.listen, "HOST:PORT to listen on (port 0: any free port)")->capture_default_str();
+  app.add_option("--db", o.db, "SQLite database file, created when missing")->capture_default_str();
+  app.add_option("--device", o.device, "instrument connection URI (used by acquisition, not yet)");
+  app.add_option("--token-file", o.token_file, "0600 JSON file with read_token and operator_token; required off loopback");
+  app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical or off")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))->capture_default_str();
+  app.add_option("--config", o.config, "JSON file of settings (keys as the flags, '_' for '-'); flags win");
+  app.add_option("--body-limit", o.body_limit, "largest request body in bytes")->capture_default_str();
+  app.add_option("--max-connections", o.max_connections, "connections served at once")->capture_default_str();
+  app.add_option("--read-timeout-ms", o.read_timeout_ms, "time a client has to send a whole request")->capture_default_str();
+  app.add_option("--threads", o.threads, "I/O and worker threads each")->check(CLI::Range(1, 64))->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  auto logger = spdlog::stderr_color_mt("skinspecd");
+  spdlog::set_default_logger(logger);
+  spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%fZ level=%l %v", spdlog::pattern_time_type::utc);
+
+  if (!o.config.empty()) {
+    std::ifstream in(o.config);
+    if (!in) return spdlog::error("event=bad_config path=\"{}\" message=\"cannot read\"", o.config), 2;
+    std::stringstream text;
+    text << in.rdbuf();
+    auto applied = skinspec::daemon::apply_config_json(text.str(), o, [&app](const std::string& flag) {
+      return app.count("--" + flag) > 0;
+    });
+    if (!applied) return spdlog::error("event=bad_config path=\"{}\" message=\"{}\"", o.config, applied.error()), 2;
+  }
+  spdlog::set_level(spdlog::level::from_str(o.log_level));
+  try {
+    return serve(o);
+  } catch (const std::exception& e) {
+    spdlog::critical("event=fatal message=\"{}\"", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,86 @@
+#include "options.hpp"
+
+#include <charconv>
+#include <fstream>
+#include <sstream>
+#include <sys/stat.h>
+
+#include <boost/asio/ip/address.hpp>
+#include <nlohmann/json.hpp>
+
+namespace skinspec::daemon {
+
+using nlohmann::json;
+
+std::expected<void, std::string> apply_config_json(const std::string& text, Options& o,
+                                                   const std::function<bool(const std::string&)>& given) {
+  const json config = json::parse(text, nullptr, false);
+  if (config.is_discarded() || !config.is_object()) return std::unexpected("the config file is not a JSON object");
+  try {
+    for (const auto& item : config.items()) {
+      const std::string& key = item.key();
+      const json& v = item.value();
+      std::string flag = key;
+      for (char& ch : flag) ch = ch == '_' ? '-' : ch;
+      if (given(flag)) continue;
+      if (key == "listen") o.listen = v.get<std::string>();
+      else if (key == "db") o.db = v.get<std::string>();
+      else if (key == "device") o.device = v.get<std::string>();
+      else if (key == "token_file") o.token_file = v.get<std::string>();
+      else if (key == "log_level") o.log_level = v.get<std::string>();
+      else if (key == "body_limit") o.body_limit = v.get<std::size_t>();
+      else if (key == "max_connections") o.max_connections = v.get<std::size_t>();
+      else if (key == "read_timeout_ms") o.read_timeout_ms = v.get<int>();
+      else if (key == "threads") o.threads = v.get<int>();
+      else return std::unexpected("unknown config key '" + key + "'");
+    }
+  } catch (const json::exception& e) {
+    return std::unexpected(std::string("config: ") + e.what());
+  }
+  return {};
+}
+
+std::expected<std::pair<std::string, unsigned short>, std::string> parse_listen(const std::string& text) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0) return std::unexpected("--listen wants HOST:PORT, not '" + text + "'");
+  std::string host = text.substr(0, colon);
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  unsigned port = 0;
+  const char* first = text.data() + colon + 1;
+  const char* last = text.data() + text.size();
+  const auto [end, ec] = std::from_chars(first, last, port);
+  if (ec != std::errc{} || end != last || port > 65535 || first == last) return std::unexpected("bad port in '" + text + "'");
+  boost::system::error_code bad;
+  boost::asio::ip::make_address(host, bad);
+  if (bad) return std::unexpected("bad address '" + host + "' (give an IP address)");
+  return std::pair{host, static_cast<unsigned short>(port)};
+}
+
+bool is_loopback(const std::string& address) {
+  boost::system::error_code ec;
+  const auto a = boost::asio::ip::make_address(address, ec);
+  return !ec && a.is_loopback();
+}
+
+std::expected<api::AccessPolicy, std::string> read_token_file(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return std::unexpected(path + ": cannot read the token file");
+  if ((st.st_mode & 077) != 0) return std::unexpected(path + ": the token file must be readable by its owner only (chmod 600)");
+  std::ifstream in(path);
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  const json tokens = json::parse(bytes.str(), nullptr, false);
+  if (tokens.is_discarded() || !tokens.is_object()) return std::unexpected(path + ": not a JSON object");
+  api::AccessPolicy access;
+  access.required = true;
+  for (const auto& [key, field] : {std::pair{"read_token", &access.read_token}, std::pair{"operator_token", &access.operator_token}}) {
+    const auto it = tokens.find(key);
+    if (it == tokens.end() || !it->is_string() || it->get<std::string>().size() < 16)
+      return std::unexpected(path + ": '" + key + "' must be a string of at least 16 characters");
+    *field = it->get<std::string>();
+  }
+  if (access.read_token == access.operator_token) return std::unexpected(path + ": the two tokens must differ");
+  return access;
+}
+
+}  // namespace skinspec::daemon

@@ -1,0 +1,40 @@
+#pragma once
+// skinspecd's settings: command-line flags over an optional JSON config file, and the token file.
+
+#include <expected>
+#include <functional>
+#include <string>
+
+#include "skinspec/api/router.hpp"
+#include "skinspec/api/server.hpp"
+
+namespace skinspec::daemon {
+
+struct Options {
+  std::string listen = "127.0.0.1:8650";
+  std::string db = "skinspec.db";
+  std::string device;  // used by the instrument supervisor (next issue)
+  std::string token_file;
+  std::string log_level = "info";
+  std::string config;
+  std::size_t body_limit = 1024 * 1024;
+  std::size_t max_connections = 512;
+  int read_timeout_ms = 10000;
+  int threads = 2;
+};
+
+// Fills the fields of `options` not given on the command line (`given(flag name)` false) from
+// the JSON object `text` (keys: the flag names with '_' for '-'); an explanation for bad JSON,
+// a wrong type or an unknown key.
+std::expected<void, std::string> apply_config_json(const std::string& text, Options& options,
+                                                   const std::function<bool(const std::string&)>& given);
+
+// "host:port" → address and port.
+std::expected<std::pair<std::string, unsigned short>, std::string> parse_listen(const std::string& text);
+bool is_loopback(const std::string& address);
+
+// The bearer tokens from a JSON file {"read_token": "...", "operator_token": "..."} that only its
+// owner may read or write (mode 0600 or stricter).
+std::expected<api::AccessPolicy, std::string> read_token_file(const std::string& path);
+
+}  // namespace skinspec::daemon

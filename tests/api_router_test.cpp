@@ -1,0 +1,359 @@
+// The router called directly, without sockets: every route, the error shape and statuses,
+// strict input checks, access control, and the OpenAPI document against the route table.
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "fit_json.hpp"
+#include "skinspec/api/model_loader.hpp"
+#include "skinspec/api/router.hpp"
+#include "skinspec/store/store.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec::api {
+namespace {
+
+using nlohmann::json;
+
+const Fitter& shared_fitter() {
+  static const Fitter fitter = [] {
+    auto loaded = load_fitter(SKINSPEC_TEST_DATA_DIR);
+    if (!loaded) throw std::runtime_error(loaded.error());
+    return std::move(*loaded);
+  }();
+  return fitter;
+}
+
+std::vector<double> grid() {
+  std::vector<double> wl;
+  for (int w = 380; w <= 780; w += 4) wl.push_back(w);
+  return wl;
+}
+std::vector<double> skin_like(const std::vector<double>& wl) {
+  std::vector<double> r;
+  for (double w : wl) r.push_back(0.25 + 0.0006 * (w - 380));
+  return r;
+}
+
+Request req(std::string method, std::string target, std::string body = "", bool json_type = true) {
+  Request r{std::move(method), std::move(target), {}, std::move(body)};
+  if (json_type && !r.body.empty()) r.headers["content-type"] = "application/json";
+  return r;
+}
+
+class ApiRouterTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto opened = store::Store::open(dir_.file("api.db"));
+    ASSERT_TRUE(opened) << opened.error().message;
+    db_.emplace(std::move(*opened));
+    RouterContext context;
+    context.store = &*db_;
+    context.fitter = &shared_fitter();
+    context.version = "test";
+    router_ = std::make_unique<Router>(context);
+  }
+  Response call(std::string method, std::string target, std::string body = "", bool json_type = true) {
+    return router_->handle(req(std::move(method), std::move(target), std::move(body), json_type));
+  }
+  static json body(const Response& r) { return json::parse(r.body); }
+  static void expect_error(const Response& r, int status, const std::string& code) {
+    EXPECT_EQ(r.status, status) << r.body;
+    const json b = json::parse(r.body, nullptr, false);
+    ASSERT_TRUE(b.is_object()) << r.body;
+    ASSERT_TRUE(b.contains("error")) << r.body;
+    EXPECT_EQ(b["error"]["code"], code) << r.body;
+    EXPECT_TRUE(b["error"]["message"].is_string());
+    EXPECT_EQ(r.content_type, "application/json");
+  }
+  store::Id add_measurement(store::Id session) {
+    auto m = testing::sample_measurement(session, 1);
+    m.reflectance = {grid(), skin_like(grid())};
+    auto recorded = db_->record_measurement(m, std::nullopt);
+    EXPECT_TRUE(recorded) << recorded.error().message;
+    return recorded->measurement_id;
+  }
+
+  testing::ScratchDirectory dir_;
+  std::optional<store::Store> db_;
+  std::unique_ptr<Router> router_;
+};
+
+TEST(ApiErrors, EveryKindHasOneStatus) {
+  const std::pair<ErrorKind, int> expected[] = {
+      {ErrorKind::bad_request, 400}, {ErrorKind::unauthorized, 401}, {ErrorKind::forbidden, 403},
+      {ErrorKind::not_found, 404}, {ErrorKind::method_not_allowed, 405}, {ErrorKind::conflict, 409},
+      {ErrorKind::payload_too_large, 413}, {ErrorKind::unsupported_media_type, 415}, {ErrorKind::unprocessable, 422},
+      {ErrorKind::unavailable, 503}, {ErrorKind::timeout, 504}, {ErrorKind::internal, 500}};
+  for (const auto& [kind, status] : expected) {
+    EXPECT_EQ(http_status(kind), status);
+    const json b = json::parse(error_body({kind, "", "m"}));
+    EXPECT_EQ(b["error"]["code"], std::string(default_code(kind)));
+    EXPECT_EQ(error_response({kind, "x", "m"}).status, status);
+  }
+}
+
+TEST_F(ApiRouterTest, HealthzReportsDatabaseAndVersion) {
+  const auto r = call("GET", "/healthz");
+  ASSERT_EQ(r.status, 200);
+  EXPECT_EQ(body(r)["status"], "ok");
+  EXPECT_EQ(body(r)["version"], "test");
+  EXPECT_EQ(body(r)["database"]["state"], "open");
+}
+
+TEST_F(ApiRouterTest, UnknownRoutesAndMethods) {
+  expect_error(call("GET", "/nope"), 404, "not_found");
+  expect_error(call("GET", "/api/v1/sessions/abc"), 404, "not_found");
+  expect_error(call("GET", "/api/v1/sessions/0"), 404, "not_found");
+  expect_error(call("GET", "/api/v1/sessions/"), 404, "not_found");
+  const auto r = call("DELETE", "/api/v1/sessions/1");
+  expect_error(r, 405, "method_not_allowed");
+  ASSERT_EQ(r.headers.size(), 1u);
+  EXPECT_EQ(r.headers[0].first, "Allow");
+  EXPECT_EQ(r.headers[0].second, "GET, PATCH");
+  expect_error(call("PUT", "/api/v1/fit", "{}"), 405, "method_not_allowed");
+}
+
+TEST_F(ApiRouterTest, PathTraversalAndBadPathsAreRefused) {
+  expect_error(call("GET", "/api/v1/../../etc/passwd"), 400, "invalid_path");
+  expect_error(call("GET", "/api/v1/%2e%2e/x"), 400, "invalid_path");
+  expect_error(call("GET", "/api/v1/%2E%2E%2Fetc"), 400, "invalid_path");
+  expect_error(call("GET", "/api/v1/fits/%zz"), 400, "invalid_path");
+  expect_error(call("GET", "/api/v1/fits/\xff\xfe"), 400, "invalid_path");
+  expect_error(call("GET", "/api/v1/fits/%00"), 400, "invalid_path");
+  expect_error(call("GET", "relative"), 400, "invalid_path");
+  expect_error(call("GET", "/api/v1/sessions?site=%ff"), 400, "invalid_query");
+}
+
+TEST_F(ApiRouterTest, FitReturnsTheFieldsOfTheCommandLine) {
+  const auto wl = grid();
+  const auto refl = skin_like(wl);
+  const auto r = call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", refl}, {"site", "forearm"}}.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  auto direct = shared_fitter().fit(*Spectrum::create(wl, refl), FitOptions{});
+  ASSERT_TRUE(direct);
+  EXPECT_EQ(body(r), json::parse(fit_to_json("spectrum", *direct).dump()));
+
+  const auto several = call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"spectra", {{"a", refl}, {"b", refl}}}}.dump());
+  ASSERT_EQ(several.status, 200) << several.body;
+  ASSERT_EQ(body(several)["fits"].size(), 2u);
+  EXPECT_EQ(body(several)["fits"][1]["name"], "b");
+  EXPECT_EQ(body(several)["fits"][1]["params"], body(r)["params"]);
+}
+
+TEST_F(ApiRouterTest, FitRefusesBadInput) {
+  const auto wl = grid();
+  const json good = {{"wavelength_nm", wl}, {"reflectance", skin_like(wl)}};
+  auto with = [&](const char* key, json value) {
+    json b = good;
+    b[key] = std::move(value);
+    return b.dump();
+  };
+  expect_error(call("POST", "/api/v1/fit", "{\"wavelength_nm\": [1,2"), 400, "malformed_json");
+  expect_error(call("POST", "/api/v1/fit", "{\"site\": \"\xc3\x28\"}"), 400, "invalid_utf8");
+  expect_error(call("POST", "/api/v1/fit", "[1,2]"), 422, "wrong_type");
+  expect_error(call("POST", "/api/v1/fit", good.dump(), false), 415, "unsupported_media_type");
+  Request text = req("POST", "/api/v1/fit", good.dump());
+  text.headers["content-type"] = "text/plain";
+  expect_error(router_->handle(text), 415, "unsupported_media_type");
+  expect_error(call("POST", "/api/v1/fit", json{{"reflectance", skin_like(wl)}}.dump()), 422, "missing_field");
+  expect_error(call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}}.dump()), 422, "missing_field");
+  expect_error(call("POST", "/api/v1/fit", with("wavelength_nm", "400")), 422, "wrong_type");
+  expect_error(call("POST", "/api/v1/fit", with("reflectance", json::array({"a", "b"}))), 422, "wrong_type");
+  expect_error(call("POST", "/api/v1/fit", with("site", 3)), 422, "wrong_type");
+  expect_error(call("POST", "/api/v1/fit", with("site", "elbow")), 422, "unknown_site");
+  expect_error(call("POST", "/api/v1/fit", with("extra", 1)), 422, "unknown_field");
+  expect_error(call("POST", "/api/v1/fit", with("reflectance", json::array({0.1, 0.2}))), 422, "unequal_lengths");
+  // Huge numbers: out of range when a double holds them, malformed when it cannot; NaN is not JSON.
+  std::string huge = good.dump();
+  huge.replace(huge.find("0.25"), 4, "1e300");
+  expect_error(call("POST", "/api/v1/fit", huge), 422, "out_of_range");
+  huge.replace(huge.find("1e300"), 5, "1e999");
+  expect_error(call("POST", "/api/v1/fit", huge), 400, "malformed_json");
+  std::string nan = good.dump();
+  nan.replace(nan.find("0.25"), 4, "NaN");
+  expect_error(call("POST", "/api/v1/fit", nan), 400, "malformed_json");
+  auto decreasing = wl;
+  std::reverse(decreasing.begin(), decreasing.end());
+  expect_error(call("POST", "/api/v1/fit", with("wavelength_nm", decreasing)), 422, "invalid_spectrum");
+  expect_error(call("POST", "/api/v1/fit", with("spectra", json::object({{"a", skin_like(wl)}}))), 422, "missing_field");
+}
+
+TEST_F(ApiRouterTest, WhiteStandards) {
+  const json ws = {{"name", "Spectralon 99"}, {"certificate", "C-1"}, {"wavelength_nm", {380, 780}}, {"reflectance", {0.99, 0.99}}};
+  const auto created = call("POST", "/api/v1/white-standards", ws.dump());
+  ASSERT_EQ(created.status, 201) << created.body;
+  const auto id = body(created)["id"].get<std::int64_t>();
+  const auto one = call("GET", "/api/v1/white-standards/" + std::to_string(id));
+  ASSERT_EQ(one.status, 200);
+  EXPECT_EQ(body(one)["name"], "Spectralon 99");
+  EXPECT_EQ(body(call("GET", "/api/v1/white-standards"))["white_standards"].size(), 1u);
+  expect_error(call("GET", "/api/v1/white-standards/999"), 404, "not_found");
+  expect_error(call("POST", "/api/v1/white-standards", json{{"name", "x"}}.dump()), 422, "missing_field");
+  json bad = ws;
+  bad["reflectance"] = {0.99, 7};
+  expect_error(call("POST", "/api/v1/white-standards", bad.dump()), 422, "out_of_range");
+}
+
+TEST_F(ApiRouterTest, SessionsCreateListPaginateFilterAndClose) {
+  for (int i = 0; i < 5; ++i) {
+    const json s = {{"site", i % 2 ? "cheek" : "forearm"}, {"subject", "S" + std::to_string(i)}, {"operator", "op"}};
+    ASSERT_EQ(call("POST", "/api/v1/sessions", s.dump()).status, 201);
+  }
+  expect_error(call("POST", "/api/v1/sessions", json{{"site", "forearm"}}.dump()), 422, "missing_field");
+  expect_error(call("POST", "/api/v1/sessions", json{{"site", "elbow"}, {"subject", "x"}}.dump()), 422, "unknown_site");
+  expect_error(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "x"}, {"white_standard_id", 42}}.dump()), 422,
+               "unknown_white_standard");
+
+  auto page = body(call("GET", "/api/v1/sessions?limit=2"));
+  ASSERT_EQ(page["sessions"].size(), 2u);
+  EXPECT_EQ(page["sessions"][0]["subject"], "S4");
+  std::set<std::string> seen;
+  for (int pages = 0; pages < 10; ++pages) {
+    for (const auto& s : page["sessions"]) seen.insert(s["subject"].get<std::string>());
+    if (page["next_cursor"].is_null()) break;
+    page = body(call("GET", "/api/v1/sessions?limit=2&cursor=" + std::to_string(page["next_cursor"].get<std::int64_t>())));
+  }
+  EXPECT_EQ(seen.size(), 5u);
+  EXPECT_EQ(body(call("GET", "/api/v1/sessions?site=cheek"))["sessions"].size(), 2u);
+  EXPECT_EQ(body(call("GET", "/api/v1/sessions?from=2000-01-01T00:00:00Z&to=2999-01-01T00:00:00Z"))["sessions"].size(), 5u);
+  EXPECT_EQ(body(call("GET", "/api/v1/sessions?to=2000-01-01T00:00:00Z"))["sessions"].size(), 0u);
+  expect_error(call("GET", "/api/v1/sessions?state=sleeping"), 400, "invalid_parameter");
+  expect_error(call("GET", "/api/v1/sessions?from=yesterday"), 400, "invalid_parameter");
+  expect_error(call("GET", "/api/v1/sessions?limit=0"), 400, "invalid_parameter");
+  expect_error(call("GET", "/api/v1/sessions?colour=red"), 400, "unknown_parameter");
+
+  const auto patched = call("PATCH", "/api/v1/sessions/1", json{{"notes", "dry skin"}, {"close", true}}.dump());
+  ASSERT_EQ(patched.status, 200) << patched.body;
+  EXPECT_EQ(body(patched)["state"], "complete");
+  EXPECT_EQ(body(patched)["notes"], "dry skin");
+  EXPECT_EQ(body(call("GET", "/api/v1/sessions?state=complete"))["sessions"].size(), 1u);
+  expect_error(call("PATCH", "/api/v1/sessions/1", json{{"state", "open"}}.dump()), 409, "conflict");
+  expect_error(call("PATCH", "/api/v1/sessions/2", json::object().dump()), 422, "missing_field");
+  expect_error(call("PATCH", "/api/v1/sessions/99", json{{"notes", "x"}}.dump()), 404, "not_found");
+}
+
+TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
+  ASSERT_EQ(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}}.dump()).status, 201);
+  const store::Id m = add_measurement(1);
+  const auto got = call("GET", "/api/v1/measurements/" + std::to_string(m));
+  ASSERT_EQ(got.status, 200) << got.body;
+  EXPECT_TRUE(body(got)["fit_id"].is_null());
+  EXPECT_EQ(body(got)["reflectance"]["values"].size(), grid().size());
+  EXPECT_TRUE(body(got)["provenance"].contains("raw_reply"));
+
+  const auto refit = call("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", json{{"site", "cheek"}}.dump());
+  ASSERT_EQ(refit.status, 201) << refit.body;
+  EXPECT_EQ(body(refit)["site"], "cheek");
+  const auto fit_id = body(refit)["id"].get<std::int64_t>();
+  const auto stored = call("GET", "/api/v1/fits/" + std::to_string(fit_id));
+  ASSERT_EQ(stored.status, 200);
+  auto direct = shared_fitter().fit(*Spectrum::create(grid(), skin_like(grid())), FitOptions{.site = "cheek", .lateral_diffusion = true, .weights = {}});
+  ASSERT_TRUE(direct);
+  const json cli = json::parse(fit_to_json("x", *direct).dump());
+  for (const auto& item : cli.items())
+    if (item.key() != "name") {
+      EXPECT_EQ(body(stored)[item.key()], item.value()) << item.key();
+    }
+  EXPECT_EQ(body(call("GET", "/api/v1/measurements/" + std::to_string(m)))["fit_id"], fit_id);
+  // With no body the session's site is used.
+  const auto again = router_->handle(Request{"POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", {}, ""});
+  ASSERT_EQ(again.status, 201) << again.body;
+  EXPECT_EQ(body(again)["site"], "forearm");
+
+  const auto detail = body(call("GET", "/api/v1/sessions/1"));
+  EXPECT_EQ(detail["measurements"].size(), 1u);
+  EXPECT_EQ(detail["fits"].size(), 2u);
+  const auto csv = call("GET", "/api/v1/sessions/1/export.csv");
+  ASSERT_EQ(csv.status, 200);
+  EXPECT_EQ(csv.content_type.rfind("text/csv", 0), 0u);
+  EXPECT_EQ(csv.body.rfind("session_id,", 0), 0u);
+  EXPECT_GT(std::count(csv.body.begin(), csv.body.end(), '\n'), 100);
+  expect_error(call("GET", "/api/v1/sessions/7/export.csv"), 404, "not_found");
+  expect_error(call("GET", "/api/v1/measurements/77"), 404, "not_found");
+  expect_error(call("GET", "/api/v1/fits/77"), 404, "not_found");
+  expect_error(call("POST", "/api/v1/measurements/77/fit", "{}"), 404, "not_found");
+}
+
+TEST_F(ApiRouterTest, OpenApiDocumentAndRouteTableAgree) {
+  const auto r = call("GET", "/openapi.json");
+  ASSERT_EQ(r.status, 200);
+  const json doc = body(r);
+  EXPECT_EQ(doc["openapi"], "3.1.0");
+  std::set<std::pair<std::string, std::string>> table, documented;
+  for (const auto& route : Router::routes()) {
+    std::string method = route.method;
+    for (char& ch : method) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    table.emplace(method, route.path);
+  }
+  for (const auto& path : doc["paths"].items())
+    for (const auto& op : path.value().items()) {
+      documented.emplace(op.key(), path.key());
+      // Every referenced schema exists.
+      const std::string text = op.value().dump();
+      for (auto pos = text.find("#/components/schemas/"); pos != std::string::npos; pos = text.find("#/components/schemas/", pos + 1)) {
+        const auto start = pos + std::string("#/components/schemas/").size();
+        const auto name = text.substr(start, text.find('"', start) - start);
+        EXPECT_TRUE(doc["components"]["schemas"].contains(name)) << name;
+      }
+    }
+  EXPECT_EQ(table, documented);
+  // Every documented route answers something other than 404 / 405 through the router.
+  for (const auto& [method, path] : documented) {
+    std::string upper = method;
+    for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+    std::string target = path;
+    if (const auto at = target.find("{id}"); at != std::string::npos) target.replace(at, 4, "1");
+    const auto answer = call(upper, target, "{}");
+    EXPECT_NE(answer.status, 405) << method << ' ' << path;
+    if (answer.status == 404) {
+      EXPECT_NE(body(answer)["error"]["message"].get<std::string>().rfind("no route", 0), 0u) << path;
+    }
+  }
+}
+
+TEST_F(ApiRouterTest, MetricsCountRequestsFitsAndErrors) {
+  call("GET", "/healthz");
+  call("GET", "/nope");
+  const auto wl = grid();
+  call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", skin_like(wl)}}.dump());
+  const auto r = call("GET", "/metrics");
+  ASSERT_EQ(r.status, 200);
+  EXPECT_EQ(r.content_type.rfind("text/plain", 0), 0u);
+  EXPECT_NE(r.body.find("skinspec_http_requests_total{route=\"GET /healthz\",status=\"200\"} 1"), std::string::npos) << r.body;
+  EXPECT_NE(r.body.find("skinspec_http_errors_total{code=\"not_found\"} 1"), std::string::npos);
+  EXPECT_NE(r.body.find("skinspec_fits_total{outcome=\"ok\"} 1"), std::string::npos);
+  EXPECT_NE(r.body.find("skinspec_http_request_duration_seconds_count{route=\"POST /api/v1/fit\"} 1"), std::string::npos);
+}
+
+TEST_F(ApiRouterTest, TokensGuardEveryRouteButHealthz) {
+  RouterContext context;
+  context.store = &*db_;
+  context.fitter = &shared_fitter();
+  context.access = {true, "read-token-0123456789", "operator-token-0123456789"};
+  const Router guarded(context);
+  auto with_token = [](Request r, const std::string& token) {
+    r.headers["authorization"] = "Bearer " + token;
+    return r;
+  };
+  EXPECT_EQ(guarded.handle(req("GET", "/healthz")).status, 200);
+  const auto none = guarded.handle(req("GET", "/api/v1/sessions"));
+  expect_error(none, 401, "unauthorized");
+  expect_error(guarded.handle(with_token(req("GET", "/api/v1/sessions"), "wrong")), 401, "unauthorized");
+  EXPECT_EQ(guarded.handle(with_token(req("GET", "/api/v1/sessions"), "read-token-0123456789")).status, 200);
+  const std::string session = json{{"site", "forearm"}, {"subject", "S"}}.dump();
+  expect_error(guarded.handle(with_token(req("POST", "/api/v1/sessions", session), "read-token-0123456789")), 403, "forbidden");
+  EXPECT_EQ(guarded.handle(with_token(req("POST", "/api/v1/sessions", session), "operator-token-0123456789")).status, 201);
+}
+
+TEST(ApiRouterWithoutDatabase, DataRoutesAnswer503) {
+  const Router router(RouterContext{});
+  const auto r = router.handle(Request{"GET", "/api/v1/sessions", {}, ""});
+  EXPECT_EQ(r.status, 503);
+  EXPECT_EQ(json::parse(r.body)["error"]["code"], "database_unavailable");
+  EXPECT_EQ(router.handle(Request{"GET", "/healthz", {}, ""}).status, 200);
+}
+
+}  // namespace
+}  // namespace skinspec::api

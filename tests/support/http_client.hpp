@@ -1,0 +1,52 @@
+#pragma once
+// Test helper: a small synchronous HTTP/1.1 client (Boost.Beast) for talking to skinspecd on
+// loopback, and raw byte exchanges for requests a well-behaved client would never send.
+
+#include <chrono>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace skinspec::testing {
+
+struct HttpReply {
+  int status = 0;  // 0: no reply (connection failed or closed)
+  std::map<std::string, std::string> headers;  // names in lower case
+  std::string body;
+  std::string error;  // why there was no reply
+
+  nlohmann::json json() const { return nlohmann::json::parse(body, nullptr, false); }
+  std::string header(const std::string& name) const {
+    const auto it = headers.find(name);
+    return it == headers.end() ? std::string() : it->second;
+  }
+};
+
+// One request on its own connection. A non-empty body is sent as application/json unless
+// `headers` names a content-type.
+HttpReply http_request(unsigned short port, const std::string& method, const std::string& target,
+                       const std::string& body = "", const std::vector<std::pair<std::string, std::string>>& headers = {});
+
+// A kept-alive connection for several requests.
+class HttpConnection {
+ public:
+  explicit HttpConnection(unsigned short port);
+  ~HttpConnection();
+  HttpConnection(const HttpConnection&) = delete;
+  HttpConnection& operator=(const HttpConnection&) = delete;
+  HttpReply request(const std::string& method, const std::string& target, const std::string& body = "",
+                    const std::vector<std::pair<std::string, std::string>>& headers = {});
+  struct Impl;
+
+ private:
+  Impl* impl_;
+};
+
+// Writes `bytes` as they are and reads until the server closes the connection or `timeout`
+// passes; everything the server sent.
+std::string raw_exchange(unsigned short port, const std::string& bytes, std::chrono::milliseconds timeout);
+
+}  // namespace skinspec::testing
