@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "skinspec/drivers/memory_transport.hpp"
+#include "support/driver_options.hpp"
 #include "support/scripted_meter.hpp"
 
 namespace skinspec::drivers {
@@ -20,18 +21,7 @@ using ::testing::HasSubstr;
 using testing::MeterStep;
 using testing::ScriptedMeter;
 
-// Short timeouts so that silence is noticed quickly; the logic is the same at full length.
-DriverOptions fast_options() {
-  DriverOptions o;
-  o.contact_attempts = 3;
-  o.contact_timeout = 100ms;
-  o.modem_settle = 0ms;
-  o.reply_timeout = 300ms;
-  o.measurement_overhead = 300ms;
-  o.adaptive_allowance = 300ms;
-  o.line_bytes_per_second = 1e6;
-  return o;
-}
+DriverOptions fast_options() { return testing::fast_driver(); }
 
 // A smooth lamp spectrum with a given scale, as the meter would print it.
 pr650::SpectralReport lamp(double scale, int quality = 0) {

@@ -14,6 +14,7 @@
 #include "data_dir.hpp"
 #include "skinspec/drivers/memory_transport.hpp"
 #include "skinspec/drivers/pr650.hpp"
+#include "support/driver_options.hpp"
 #include "skinspec/simulator/meter.hpp"
 
 namespace skinspec::testing {
@@ -54,18 +55,7 @@ inline simulator::MeterOptions fast_meter() {
   return o;
 }
 
-// Short timeouts, so that silence is noticed quickly; the logic is the same at full length.
-inline drivers::DriverOptions fast_driver() {
-  drivers::DriverOptions o;
-  o.contact_attempts = 3;
-  o.contact_timeout = 100ms;
-  o.modem_settle = 0ms;
-  o.reply_timeout = 300ms;
-  o.measurement_overhead = 300ms;
-  o.adaptive_allowance = 300ms;
-  o.line_bytes_per_second = 1e6;
-  return o;
-}
+using testing::fast_driver;
 
 // A meter serving the device end of a memory pair on a thread; the host end is for the test.
 class MeterRig {
