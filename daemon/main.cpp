@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "options.hpp"
+#include "supervisor.hpp"
 #include "skinspec/api/model_loader.hpp"
 #include "skinspec/store/store.hpp"
 
@@ -32,7 +33,6 @@ int serve(const skinspec::daemon::Options& o) {
     spdlog::error("event=refused message=\"listening on {} needs --token-file (read and operator tokens)\"", listen->first);
     return 2;
   }
-  if (!o.device.empty()) spdlog::info("event=device_ignored device=\"{}\" message=\"instrument support comes later\"", o.device);
 
   auto fitter = api::load_fitter();
   if (!fitter) return spdlog::error("event=model_load_failed message=\"{}\"", fitter.error()), 1;
@@ -42,6 +42,13 @@ int serve(const skinspec::daemon::Options& o) {
     spdlog::warn("event=recovered interrupted_sessions={}", db->recovery().interrupted_sessions.size());
   context.store = &*db;
   context.fitter = &*fitter;
+  std::unique_ptr<daemon::Supervisor> supervisor;
+  if (!o.device.empty()) {
+    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, kVersion);
+    context.acquisition = supervisor.get();
+    supervisor->start();
+    spdlog::info("event=instrument device=\"{}\" message=\"connects when the first job needs it\"", o.device);
+  }
 
   const api::Router router(context);
   api::ServerOptions options;
@@ -67,6 +74,7 @@ int serve(const skinspec::daemon::Options& o) {
   std::cout << "skinspecd listening on http://" << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address)
             << ':' << server.port() << std::endl;
   server.run();
+  if (supervisor) supervisor->stop();
   spdlog::info("event=stopped db=\"{}\"", o.db);
   return 0;
 }
@@ -78,7 +86,7 @@ int main(int argc, char** argv) {
   CLI::App app{"skinspecd: stored skin spectra, sessions and fits over HTTP/JSON"};
   app.add_option("--listen", o.listen, "HOST:PORT to listen on (port 0: any free port)")->capture_default_str();
   app.add_option("--db", o.db, "SQLite database file, created when missing")->capture_default_str();
-  app.add_option("--device", o.device, "instrument connection URI (used by acquisition, not yet)");
+  app.add_option("--device", o.device, "instrument connection URI (serial:, tcp: or usb:), for measurement jobs");
   app.add_option("--token-file", o.token_file, "0600 JSON file with read_token and operator_token; required off loopback");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical or off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))->capture_default_str();

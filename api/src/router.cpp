@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "json_io.hpp"
+#include "skinspec/api/acquisition.hpp"
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/store/export.hpp"
 #include "skinspec/store/store.hpp"
@@ -58,7 +59,69 @@ struct Router::Handlers {
       db["path"] = c.store->path();
       db["schema_version"] = c.store->schema_version();
     }
-    return json_response({{"status", "ok"}, {"version", c.version}, {"database", db}, {"model", {{"loaded", c.fitter != nullptr}}}});
+    return json_response({{"status", "ok"}, {"version", c.version}, {"database", db}, {"model", {{"loaded", c.fitter != nullptr}}},
+                          {"instrument", instrument_status(c)}});
+  }
+  static json instrument_status(const RouterContext& c) {
+    if (c.acquisition == nullptr) return {{"device", nullptr}, {"state", "none"}, {"last_error", nullptr}};
+    return c.acquisition->instrument_status();
+  }
+  static Acquisition& acquisition_of(const RouterContext& c) {
+    if (c.acquisition == nullptr) fail(ErrorKind::unavailable, "no_instrument", "skinspecd was started without --device");
+    return *c.acquisition;
+  }
+
+  // GET /api/v1/instrument
+  static Response instrument(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return json_response(instrument_status(c));
+  }
+  // POST /api/v1/sessions/{id}/measurements
+  static Response measure(const RouterContext& c, const Call& call) {
+    const json body = detail::parse_object(call.request.body);
+    detail::only_fields(body, {"kind", "count", "label", "integration_ms"});
+    MeasureRequest request;
+    const auto kind = detail::required_string(body, "kind", 16);
+    if (kind == "white") request.kind = store::MeasurementKind::white;
+    else if (kind == "sample") request.kind = store::MeasurementKind::sample;
+    else fail(ErrorKind::unprocessable, "invalid_value", "'kind' must be white or sample");
+    request.count = integer_field(body, "count", 1, 100).value_or(1);
+    request.label = detail::optional_string(body, "label", 200).value_or("");
+    request.integration_ms = integer_field(body, "integration_ms", 0, 6000).value_or(0);
+    if (request.integration_ms != 0 && request.integration_ms < 10)
+      fail(ErrorKind::unprocessable, "out_of_range", "'integration_ms' must be 0 (adaptive) or 10 to 6000");
+    std::string key;
+    if (const auto it = call.request.headers.find("idempotency-key"); it != call.request.headers.end()) {
+      key = it->second;
+      if (key.empty() || key.size() > 200) fail(ErrorKind::bad_request, "invalid_parameter", "'Idempotency-Key' must be 1 to 200 characters");
+    }
+    auto created = acquisition_of(c).submit(call.ids[0], request, key);
+    if (!created) throw detail::HandlerError{created.error()};
+    Response r = json_response(job_json(created->job), created->created ? 202 : 200);
+    r.headers.emplace_back("Location", "/api/v1/jobs/" + std::to_string(created->job.id));
+    return r;
+  }
+  static std::optional<int> integer_field(const json& body, const char* key, int min, int max) {
+    const auto it = body.find(key);
+    if (it == body.end()) return std::nullopt;
+    if (!it->is_number_integer()) fail(ErrorKind::unprocessable, "wrong_type", std::string("'") + key + "' must be an integer");
+    const auto v = it->get<std::int64_t>();
+    if (v < min || v > max)
+      fail(ErrorKind::unprocessable, "out_of_range", std::string("'") + key + "' must be " + std::to_string(min) + " to " + std::to_string(max));
+    return static_cast<int>(v);
+  }
+  // GET /api/v1/jobs/{id}
+  static Response get_job(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return json_response(job_json(value(store_of(c).job(call.ids[0]))));
+  }
+  // DELETE /api/v1/jobs/{id}
+  static Response cancel_job(const RouterContext& c, const Call& call) {
+    no_query(call);
+    value(store_of(c).job(call.ids[0]));  // 404 first
+    auto job = acquisition_of(c).cancel(call.ids[0]);
+    if (!job) throw detail::HandlerError{job.error()};
+    return json_response(job_json(*job));
   }
   static Response openapi(const RouterContext& c, const Call&) { return json_response(openapi_document(c.version)); }
   static Response metrics(const RouterContext& c, const Call&) {
@@ -313,6 +376,10 @@ const std::vector<Route>& route_table() {
         {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id", false, "", "Measurement", 200}, &H::get_measurement, {}},
         {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true, "RefitRequest", "Fit", 201}, &H::refit, {}},
         {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200}, &H::get_fit, {}},
+        {{"GET", "/api/v1/instrument", "The instrument's state: connected, measuring, lost; the last error", false, "", "Instrument", 200}, &H::instrument, {}},
+        {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true, "MeasureRequest", "Job", 202}, &H::measure, {}},
+        {{"GET", "/api/v1/jobs/{id}", "One job: state, error, the ids it produced", false, "", "Job", 200}, &H::get_job, {}},
+        {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;
@@ -362,6 +429,28 @@ bool is_json_content_type(const Request& request) {
 }
 
 }  // namespace
+
+store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
+                      const std::string& tables_digest) {
+  return detail::to_store_fit(result, options, model_version, tables_digest);
+}
+
+json job_json(const store::Job& job) {
+  json result = json::parse(job.result, nullptr, false);
+  json request = json::parse(job.request, nullptr, false);
+  return {{"id", job.id},
+          {"job_id", job.id},
+          {"kind", job.kind},
+          {"session_id", job.session_id ? json(*job.session_id) : json(nullptr)},
+          {"state", std::string(store::to_string(job.state))},
+          {"error", job.error.empty() ? json(nullptr) : json(job.error)},
+          {"request", request.is_discarded() ? json::object() : request},
+          {"result", result.is_discarded() ? json::object() : result},
+          {"idempotency_key", job.idempotency_key.empty() ? json(nullptr) : json(job.idempotency_key)},
+          {"created_at", detail::format_time(job.created_at)},
+          {"started_at", job.started_at ? json(detail::format_time(*job.started_at)) : json(nullptr)},
+          {"finished_at", job.finished_at ? json(detail::format_time(*job.finished_at)) : json(nullptr)}};
+}
 
 Response error_response(const ApiError& error) {
   return Response{http_status(error.kind), "application/json", error_body(error), {}};

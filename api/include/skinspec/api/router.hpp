@@ -24,6 +24,8 @@ class Store;
 
 namespace skinspec::api {
 
+class Acquisition;
+
 struct Request {
   std::string method;  // "GET", "POST", ...
   std::string target;  // path and query, as sent: "/api/v1/sessions?site=forearm"
@@ -49,6 +51,7 @@ struct AccessPolicy {
 struct RouterContext {
   store::Store* store = nullptr;       // null: data routes answer 503
   const Fitter* fitter = nullptr;      // null: fitting routes answer 503
+  Acquisition* acquisition = nullptr;  // null: no instrument; measurement routes answer 503
   std::shared_ptr<Metrics> metrics;    // created when null
   AccessPolicy access;
   std::string version = "0.0.0";

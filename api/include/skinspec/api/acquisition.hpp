@@ -1,0 +1,43 @@
+#pragma once
+// What the router needs from acquisition: the instrument's state, and a queue of measurement
+// jobs. The daemon implements it with the drivers, the fitter and the store; the router knows
+// only this interface, so that api/ does not depend on drivers/.
+
+#include <expected>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "skinspec/api/errors.hpp"
+#include "skinspec/fit/fitter.hpp"
+#include "skinspec/store/store.hpp"
+
+namespace skinspec::api {
+
+struct MeasureRequest {
+  store::MeasurementKind kind = store::MeasurementKind::sample;
+  int count = 1;            // readings averaged into one measurement (1-100)
+  std::string label;
+  int integration_ms = 0;   // 0: adaptive
+};
+
+class Acquisition {
+ public:
+  virtual ~Acquisition() = default;
+  // {"device", "state": connected|measuring|lost|disconnected, "last_error", "serial_number", "queued"}
+  virtual nlohmann::json instrument_status() const = 0;
+  // Queues a measurement of an open session; an idempotency key seen before returns that job.
+  virtual std::expected<store::CreatedJob, ApiError> submit(store::Id session_id, const MeasureRequest& request,
+                                                            const std::string& idempotency_key) = 0;
+  // Cancels a queued or running job; the job as it is afterwards.
+  virtual std::expected<store::Job, ApiError> cancel(store::Id job_id) = 0;
+};
+
+// A fit result as the store keeps it, with the options, program version and tables digest.
+store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
+                      const std::string& tables_digest);
+
+// A job as the API shows it.
+nlohmann::json job_json(const store::Job& job);
+
+}  // namespace skinspec::api

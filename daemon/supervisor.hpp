@@ -1,0 +1,72 @@
+#pragma once
+// The instrument supervisor: owns the one meter named by --device, connects when a job first
+// needs it and again after it was lost, and runs measurement jobs one at a time from a FIFO
+// queue (one measurement on the wire at a time). White readings are stored as the session's
+// white reference; samples become reflectance against the latest white and are fitted, the
+// reading, reflectance and fit stored in one transaction.
+
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "skinspec/api/acquisition.hpp"
+#include "skinspec/drivers/pr650.hpp"
+#include "skinspec/fit/fitter.hpp"
+#include "skinspec/store/store.hpp"
+
+namespace skinspec::daemon {
+
+class Supervisor final : public api::Acquisition {
+ public:
+  Supervisor(std::string device, store::Store& db, const Fitter& fitter, std::string version);
+  ~Supervisor() override;
+  Supervisor(const Supervisor&) = delete;
+  Supervisor& operator=(const Supervisor&) = delete;
+
+  // Starts the worker thread; stop() cancels the running job, marks queued ones cancelled and
+  // joins it.
+  void start();
+  void stop();
+
+  nlohmann::json instrument_status() const override;
+  std::expected<store::CreatedJob, api::ApiError> submit(store::Id session_id, const api::MeasureRequest& request,
+                                                         const std::string& idempotency_key) override;
+  std::expected<store::Job, api::ApiError> cancel(store::Id job_id) override;
+
+ private:
+  struct Outcome {
+    store::JobState state = store::JobState::succeeded;
+    std::string error;
+    nlohmann::json result = nlohmann::json::object();
+  };
+  void run();
+  Outcome execute(const store::Job& job, const api::MeasureRequest& request);
+  std::optional<drivers::InstrumentError> ensure_connected();
+  void note_instrument_error(const drivers::InstrumentError& error);
+  void set_state(std::string state);
+
+  const std::string device_;
+  store::Store& db_;
+  const Fitter& fitter_;
+  const std::string version_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<std::pair<store::Id, api::MeasureRequest>> queue_;
+  std::optional<store::Id> running_;
+  bool cancel_running_ = false;
+  bool stopping_ = false;
+  std::string state_ = "disconnected";
+  std::string last_error_;
+  std::string serial_number_;
+  std::optional<store::Id> instrument_id_;
+  std::shared_ptr<drivers::Pr650> meter_;
+  std::thread worker_;
+};
+
+}  // namespace skinspec::daemon

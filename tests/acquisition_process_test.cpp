@@ -1,0 +1,196 @@
+// Acquisition end to end with real processes on loopback: skinspec-sim as the meter and
+// skinspecd driving it through measurement jobs.
+
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "support/http_client.hpp"
+#include "support/process.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec::testing {
+namespace {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+const std::string kDaemon = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspecd";
+const std::string kSim = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspec-sim";
+const std::string kForearm = std::string(SKINSPEC_TEST_DATA_DIR) + "/examples/forearm.csv";
+
+struct Rig {
+  std::unique_ptr<BackgroundProcess> sim, daemon;
+  unsigned short sim_port = 0, port = 0;
+
+  Rig(ScratchDirectory& dir, std::vector<std::string> sim_args) {
+    const std::string white = dir.file("white.csv");
+    std::ofstream(white) << "wavelength_nm,white\n380,0.99\n780,0.99\n";
+    std::vector<std::string> args = {"--listen", "127.0.0.1:0", "--time-scale", "0", "--boot-window", "inf", "--white", white,
+                                      "--reflectance", kForearm};
+    args.insert(args.end(), sim_args.begin(), sim_args.end());
+    sim = std::make_unique<BackgroundProcess>(kSim, args);
+    if (auto line = sim->wait_for_stdout_line("listening on ", 20s))
+      sim_port = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1)));
+    daemon = std::make_unique<BackgroundProcess>(
+        kDaemon, std::vector<std::string>{"--listen", "127.0.0.1:0", "--db", dir.file("lab.db"), "--log-level", "debug",
+                                          "--device", "tcp:127.0.0.1:" + std::to_string(sim_port)});
+    if (auto line = daemon->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s))
+      port = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1)));
+  }
+  ~Rig() {
+    for (auto* process : {daemon.get(), sim.get()}) {
+      if (process == nullptr) continue;
+      process->send_signal(SIGTERM);
+      (void)process->wait(20s);
+    }
+  }
+};
+
+json wait_for_job(unsigned short port, const json& accepted) {
+  const std::string path = "/api/v1/jobs/" + std::to_string(accepted["job_id"].get<long long>());
+  json job;
+  for (int i = 0; i < 600; ++i) {
+    job = http_request(port, "GET", path).json();
+    const auto state = job.value("state", "");
+    if (state != "queued" && state != "running") return job;
+    std::this_thread::sleep_for(50ms);
+  }
+  return job;
+}
+
+json submit(unsigned short port, long long session, const json& body, const std::vector<std::pair<std::string, std::string>>& headers = {}) {
+  const auto r = http_request(port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", body.dump(), headers);
+  EXPECT_TRUE(r.status == 202 || r.status == 200) << r.status << r.body;
+  return r.json();
+}
+
+// The forearm file's first subject, resampled as the simulator does: linearly onto 380-780
+// nm every 4 nm, the ends held.
+std::vector<double> first_subject_on_4nm() {
+  std::ifstream in(kForearm);
+  std::vector<double> wl, r;
+  bool header = false;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    if (!header) { header = true; continue; }
+    std::stringstream cells(line);
+    std::string a, b;
+    std::getline(cells, a, ',');
+    std::getline(cells, b, ',');
+    wl.push_back(std::stod(a));
+    r.push_back(std::stod(b));
+  }
+  std::vector<double> out;
+  for (int w = 380; w <= 780; w += 4) {
+    if (w <= wl.front()) { out.push_back(r.front()); continue; }
+    if (w >= wl.back()) { out.push_back(r.back()); continue; }
+    std::size_t i = 1;
+    while (wl[i] < w) ++i;
+    const double t = (w - wl[i - 1]) / (wl[i] - wl[i - 1]);
+    out.push_back(r[i - 1] + t * (r[i] - r[i - 1]));
+  }
+  return out;
+}
+
+class AcquisitionTest : public ::testing::Test {
+ protected:
+  ScratchDirectory dir_;
+};
+
+TEST_F(AcquisitionTest, WhiteThenSampleStoresTheSourceReflectanceAndItsFit) {
+  Rig rig(dir_, {});
+  ASSERT_NE(rig.port, 0) << rig.daemon->err();
+  const auto p = rig.port;
+  EXPECT_EQ(http_request(p, "GET", "/api/v1/instrument").json()["state"], "disconnected");
+  const auto s = http_request(p, "POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "V1"}}.dump());
+  ASSERT_EQ(s.status, 201) << s.body;
+  const long long session = s.json()["id"];
+
+  // A sample before any white has nothing to be relative to.
+  const auto early = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  EXPECT_EQ(early["state"], "failed");
+  EXPECT_NE(early["error"].get<std::string>().find("no_white_reference"), std::string::npos) << early;
+
+  const auto white = wait_for_job(p, submit(p, session, {{"kind", "white"}, {"label", "PTFE"}}));
+  ASSERT_EQ(white["state"], "succeeded") << white << rig.daemon->err();
+  const auto instrument = http_request(p, "GET", "/api/v1/instrument").json();
+  EXPECT_EQ(instrument["state"], "connected") << instrument;
+  EXPECT_EQ(instrument["serial_number"], "60912345");
+  EXPECT_EQ(http_request(p, "GET", "/healthz").json()["instrument"]["state"], "connected");
+
+  const std::vector<std::pair<std::string, std::string>> key = {{"Idempotency-Key", "sample-1"}};
+  const auto accepted = submit(p, session, {{"kind", "sample"}}, key);
+  const auto again = http_request(p, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements",
+                                  json{{"kind", "sample"}}.dump(), key);
+  EXPECT_EQ(again.json()["job_id"], accepted["job_id"]);
+  const auto job = wait_for_job(p, accepted);
+  ASSERT_EQ(job["state"], "succeeded") << job << rig.daemon->err();
+  EXPECT_EQ(job["result"]["white_measurement_id"], white["result"]["measurement_id"]);
+
+  const auto m = http_request(p, "GET", "/api/v1/measurements/" + std::to_string(job["result"]["measurement_id"].get<long long>())).json();
+  EXPECT_EQ(m["kind"], "sample");
+  EXPECT_EQ(m["reading_count"], 1);
+  const auto expected = first_subject_on_4nm();
+  const auto& stored = m["reflectance"]["values"];
+  ASSERT_EQ(stored.size(), expected.size()) << m;
+  for (std::size_t i = 0; i < expected.size(); ++i)
+    EXPECT_NEAR(stored[i].get<double>(), expected[i], 1e-3 * expected[i] + 1e-6) << "at " << 380 + 4 * i << " nm";
+
+  const auto fit = http_request(p, "GET", "/api/v1/fits/" + std::to_string(job["result"]["fit_id"].get<long long>())).json();
+  for (const char* field : {"name", "site", "params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations", "converged",
+                            "wavelength_nm", "measured", "fitted"})
+    EXPECT_TRUE(fit.contains(field)) << field << " " << fit;
+  EXPECT_EQ(fit["site"], "forearm");
+  // The same fit as the stateless fitter gives for the stored reflectance.
+  const auto direct = http_request(p, "POST", "/api/v1/fit",
+                                   json{{"wavelength_nm", m["reflectance"]["wavelength_nm"]}, {"reflectance", stored}, {"site", "forearm"}}.dump());
+  ASSERT_EQ(direct.status, 200) << direct.body;
+  for (const auto& name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
+    EXPECT_NEAR(fit["params"][name].get<double>(), direct.json()["params"][name].get<double>(), 1e-9) << name;
+}
+
+TEST_F(AcquisitionTest, ABadQualityCodeFailsTheJobAndTheServiceKeepsServing) {
+  Rig rig(dir_, {"--fault", "d5:quality=19@2"});
+  ASSERT_NE(rig.port, 0) << rig.daemon->err();
+  const auto p = rig.port;
+  const long long session = http_request(p, "POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "V2"}}.dump()).json()["id"];
+  const auto white = wait_for_job(p, submit(p, session, {{"kind", "white"}}));
+  ASSERT_EQ(white["state"], "succeeded") << white << rig.daemon->err();
+  const auto bad = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  ASSERT_EQ(bad["state"], "failed") << bad;
+  EXPECT_NE(bad["error"].get<std::string>().find("bad_reading"), std::string::npos) << bad;
+  EXPECT_NE(bad["error"].get<std::string>().find("19"), std::string::npos) << bad;
+  EXPECT_EQ(http_request(p, "GET", "/healthz").status, 200);
+  const auto detail = http_request(p, "GET", "/api/v1/sessions/" + std::to_string(session)).json();
+  EXPECT_EQ(detail["measurements"].size(), 1u) << detail;  // only the white
+  const auto next = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  EXPECT_EQ(next["state"], "succeeded") << next;
+}
+
+TEST_F(AcquisitionTest, QueuedJobsCanBeCancelledAndUnknownOnesAreNotFound) {
+  Rig rig(dir_, {});
+  ASSERT_NE(rig.port, 0) << rig.daemon->err();
+  const auto p = rig.port;
+  EXPECT_EQ(http_request(p, "GET", "/api/v1/jobs/999").status, 404);
+  EXPECT_EQ(http_request(p, "POST", "/api/v1/sessions/999/measurements", json{{"kind", "white"}}.dump()).status, 404);
+  const long long session = http_request(p, "POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "V3"}}.dump()).json()["id"];
+  EXPECT_EQ(http_request(p, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", json{{"kind", "dark"}}.dump()).status, 422);
+  std::vector<json> jobs;
+  for (int i = 0; i < 5; ++i) jobs.push_back(submit(p, session, {{"kind", "white"}, {"count", 3}}));
+  const auto cancelled = http_request(p, "DELETE", "/api/v1/jobs/" + std::to_string(jobs.back()["job_id"].get<long long>()));
+  EXPECT_EQ(cancelled.status == 200 || cancelled.status == 409, true) << cancelled.body;
+  for (auto& j : jobs) j = wait_for_job(p, j);
+  for (std::size_t i = 0; i + 1 < jobs.size(); ++i) EXPECT_EQ(jobs[i]["state"], "succeeded") << jobs[i];
+  if (cancelled.status == 200) {
+    EXPECT_EQ(jobs.back()["state"], "cancelled") << jobs.back();
+  }
+  // Finished in the order submitted.
+  for (std::size_t i = 1; i + 1 < jobs.size(); ++i) EXPECT_LE(jobs[i - 1]["finished_at"].get<std::string>(), jobs[i]["started_at"].get<std::string>());
+}
+
+}  // namespace
+}  // namespace skinspec::testing
