@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <random>
 
-#include "data_dir.hpp"
+#include "fitter_loader.hpp"
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/fit/parallel.hpp"
 
@@ -16,15 +16,12 @@ namespace {
 
 const Fitter& fitter() {
   static const Fitter instance = [] {
-    const auto read = directory_reader(find_data_dir());
-    auto optics = SkinOptics::load(read);
-    auto cmf = parse_table(*read("colour/cie1931_2deg_cmf.csv"), "cmf", {});
-    auto illuminants = parse_table(*read("colour/cie_illuminants.csv"), "illuminants", {});
-    if (!optics || !cmf || !illuminants) {
-      std::fprintf(stderr, "fit_bench: cannot load the data tables (set SKINSPEC_DATA_DIR)\n");
+    auto loaded = load_fitter();
+    if (!loaded) {
+      std::fprintf(stderr, "fit_bench: %s (set SKINSPEC_DATA_DIR)\n", loaded.error().c_str());
       std::exit(1);
     }
-    return Fitter(*optics, *Colorimetry::from_tables(*cmf, *illuminants));
+    return std::move(*loaded);
   }();
   return instance;
 }

@@ -5,6 +5,7 @@
 #include <iterator>
 
 #include "data_dir.hpp"
+#include "fitter_loader.hpp"
 
 namespace skinspec::cli {
 
@@ -26,31 +27,12 @@ std::vector<NamedSpectrum> read_spectra(const std::string& path) {
   return std::move(*spectra);
 }
 
-namespace {
-
-Fitter load_fitter() {
-  const auto dir = find_data_dir();
-  const DataReader read = directory_reader(dir);
-  auto optics = SkinOptics::load(read);
-  if (!optics) throw Failure{kBadInput, (dir / optics.error().what()).string()};
-  Table tables[2];
-  const char* names[] = {"colour/cie1931_2deg_cmf.csv", "colour/cie_illuminants.csv"};
-  for (int i = 0; i < 2; ++i) {
-    auto bytes = read(names[i]);
-    if (!bytes) throw Failure{kBadInput, bytes.error()};
-    auto table = parse_table(*bytes, (dir / names[i]).string(), {});
-    if (!table) throw Failure{kBadInput, table.error().what()};
-    tables[i] = std::move(*table);
-  }
-  auto colorimetry = Colorimetry::from_tables(tables[0], tables[1]);
-  if (!colorimetry) throw Failure{kBadInput, colorimetry.error().what()};
-  return Fitter(std::move(*optics), std::move(*colorimetry));
-}
-
-}  // namespace
-
 const Fitter& fitter() {
-  static const Fitter instance = load_fitter();
+  static const Fitter instance = [] {
+    auto loaded = load_fitter();
+    if (!loaded) throw Failure{kBadInput, loaded.error()};
+    return std::move(*loaded);
+  }();
   return instance;
 }
 

@@ -12,7 +12,7 @@
 
 #include "options.hpp"
 #include "supervisor.hpp"
-#include "skinspec/api/model_loader.hpp"
+#include "fitter_loader.hpp"
 #include "skinspec/store/store.hpp"
 
 namespace {
@@ -34,7 +34,7 @@ int serve(const skinspec::daemon::Options& o) {
     return 2;
   }
 
-  auto fitter = api::load_fitter();
+  auto fitter = skinspec::load_fitter();
   if (!fitter) return spdlog::error("event=model_load_failed message=\"{}\"", fitter.error()), 1;
   auto db = store::Store::open(o.db);
   if (!db) return spdlog::error("event=db_open_failed path=\"{}\" kind={} message=\"{}\"", o.db, store::to_string(db.error().kind), db.error().message), 1;

@@ -6,7 +6,7 @@
 #include <set>
 
 #include "fit_json.hpp"
-#include "skinspec/api/model_loader.hpp"
+#include "fitter_loader.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/store/store.hpp"
 #include "support/store_samples.hpp"

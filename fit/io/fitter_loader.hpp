@@ -1,5 +1,5 @@
 #pragma once
-// The model the service fits with: the optical tables and colorimetry from a data directory.
+// The model the programs fit with: the optical tables and colorimetry from a data directory.
 
 #include <expected>
 #include <filesystem>
@@ -7,9 +7,9 @@
 
 #include "skinspec/fit/fitter.hpp"
 
-namespace skinspec::api {
+namespace skinspec {
 
 // Loads data/ at `dir` (find_data_dir() when empty); an explanation naming the file otherwise.
 std::expected<Fitter, std::string> load_fitter(const std::filesystem::path& dir = {});
 
-}  // namespace skinspec::api
+}  // namespace skinspec

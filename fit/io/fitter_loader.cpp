@@ -1,10 +1,10 @@
-#include "skinspec/api/model_loader.hpp"
+#include "fitter_loader.hpp"
 
 #include "data_dir.hpp"
 #include "skinspec/fit/colour.hpp"
 #include "skinspec/fit/table.hpp"
 
-namespace skinspec::api {
+namespace skinspec {
 
 std::expected<Fitter, std::string> load_fitter(const std::filesystem::path& dir_given) {
   const auto dir = dir_given.empty() ? find_data_dir() : dir_given;
@@ -25,4 +25,4 @@ std::expected<Fitter, std::string> load_fitter(const std::filesystem::path& dir_
   return Fitter(std::move(*optics), std::move(*colorimetry));
 }
 
-}  // namespace skinspec::api
+}  // namespace skinspec
