@@ -55,18 +55,22 @@ class Supervisor final : public api::Acquisition {
   const Fitter& fitter_;
   const std::string version_;
 
-  mutable std::mutex mutex_;
+  mutable std::mutex mutex_;  // guards everything below
+
+  // The job queue (supervisor.cpp).
   std::condition_variable wake_;
   std::deque<std::pair<store::Id, api::MeasureRequest>> queue_;
   std::optional<store::Id> running_;
   bool cancel_running_ = false;
   bool stopping_ = false;
+  std::thread worker_;
+
+  // The instrument (supervisor_connection.cpp).
   std::string state_ = "disconnected";
   std::string last_error_;
   std::string serial_number_;
   std::optional<store::Id> instrument_id_;
   std::shared_ptr<drivers::Pr650> meter_;
-  std::thread worker_;
 };
 
 }  // namespace skinspec::daemon
