@@ -1,5 +1,7 @@
 #include "supervisor.hpp"
 
+#include <algorithm>
+
 #include <spdlog/spdlog.h>
 
 #include "supervisor_common.hpp"
@@ -45,8 +47,12 @@ void Supervisor::stop() {
   }
   wake_.notify_all();
   if (worker_.joinable()) worker_.join();
-  for (const auto& [id, request] : left)
+  std::lock_guard lock(mutex_);
+  for (const auto& [id, request] : left) {
     (void)db_.update_job(id, {store::JobState::cancelled, std::string("the service stopped"), std::nullopt});
+    live_.erase(id);
+  }
+  if (!left.empty()) job_changed();
 }
 
 std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id session_id, const api::MeasureRequest& request,
@@ -74,6 +80,8 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
   if (!created) return std::unexpected(store_failure(created.error()));
   if (created->created) {
     queue_.emplace_back(created->job.id, request);
+    live_[created->job.id].readings_total = request.count;
+    job_changed();
     wake_.notify_all();
   }
   return *created;
@@ -87,6 +95,8 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
       if (it->first != job_id) continue;
       queue_.erase(it);
       auto job = db_.update_job(job_id, {store::JobState::cancelled, std::string("cancelled by request"), std::nullopt});
+      live_.erase(job_id);
+      job_changed();  // the jobs behind it moved up
       if (!job) return std::unexpected(store_failure(job.error()));
       return *job;
     }
@@ -107,6 +117,7 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
 void Supervisor::run() {
   for (;;) {
     std::pair<store::Id, api::MeasureRequest> next;
+    std::expected<store::Job, store::StoreError> job;
     {
       std::unique_lock lock(mutex_);
       wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
@@ -115,8 +126,12 @@ void Supervisor::run() {
       queue_.pop_front();
       running_ = next.first;
       cancel_running_ = false;
+      // Under the lock, so that followers never see the job running in one place and queued
+      // in the other.
+      job = db_.update_job(next.first, {store::JobState::running, std::nullopt, std::nullopt});
+      live_[next.first].phase = "connecting";
+      job_changed();
     }
-    auto job = db_.update_job(next.first, {store::JobState::running, std::nullopt, std::nullopt});
     Outcome outcome;
     if (!job) {
       outcome = {store::JobState::failed, "database: " + job.error().message, json::object()};
@@ -135,11 +150,56 @@ void Supervisor::run() {
       }
       running_.reset();
       if (state_ == "measuring") state_ = meter_ ? "connected" : "disconnected";
+      (void)db_.update_job(next.first, {outcome.state, outcome.error.empty() ? std::nullopt : std::optional<std::string>(outcome.error),
+                                        outcome.result.dump()});
+      live_.erase(next.first);
+      job_changed();
     }
-    (void)db_.update_job(next.first, {outcome.state, outcome.error.empty() ? std::nullopt : std::optional<std::string>(outcome.error),
-                                      outcome.result.dump()});
     spdlog::info("event=job_finished job={} state={} error=\"{}\"", next.first, store::to_string(outcome.state), outcome.error);
   }
+}
+
+void Supervisor::report_progress(const char* phase, int readings_done) {
+  std::lock_guard lock(mutex_);
+  if (!running_) return;
+  auto& live = live_[*running_];
+  live.phase = phase;
+  live.readings_done = readings_done;
+  job_changed();
+}
+
+void Supervisor::job_changed() {
+  ++changes_;
+  changed_.notify_all();
+}
+
+std::optional<api::JobProgress> Supervisor::progress(store::Id job_id) const {
+  std::lock_guard lock(mutex_);
+  const auto it = live_.find(job_id);
+  if (it == live_.end()) return std::nullopt;
+  api::JobProgress out{0, it->second.phase, it->second.readings_done, it->second.readings_total};
+  if (running_ != job_id) {
+    const auto queued = std::find_if(queue_.begin(), queue_.end(), [job_id](const auto& entry) { return entry.first == job_id; });
+    out.position = static_cast<int>(queued - queue_.begin()) + 1;
+  }
+  return out;
+}
+
+std::uint64_t Supervisor::changes() const {
+  std::lock_guard lock(mutex_);
+  return changes_;
+}
+
+std::uint64_t Supervisor::wait_for_change(std::uint64_t seen, std::chrono::milliseconds timeout,
+                                          const std::atomic<bool>& abandoned) const {
+  std::unique_lock lock(mutex_);
+  changed_.wait_for(lock, timeout, [&] { return changes_ > seen || abandoned.load(); });
+  return changes_;
+}
+
+void Supervisor::wake_waiters() const {
+  std::lock_guard lock(mutex_);  // so that a follower between its check and its wait still wakes
+  changed_.notify_all();
 }
 
 }  // namespace skinspec::daemon

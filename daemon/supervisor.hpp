@@ -37,6 +37,11 @@ class Supervisor final : public api::Acquisition {
   std::expected<store::CreatedJob, api::ApiError> submit(store::Id session_id, const api::MeasureRequest& request,
                                                          const std::string& idempotency_key) override;
   std::expected<store::Job, api::ApiError> cancel(store::Id job_id) override;
+  std::optional<api::JobProgress> progress(store::Id job_id) const override;
+  std::uint64_t changes() const override;
+  std::uint64_t wait_for_change(std::uint64_t seen, std::chrono::milliseconds timeout,
+                                const std::atomic<bool>& abandoned) const override;
+  void wake_waiters() const override;
 
  private:
   struct Outcome {
@@ -49,6 +54,11 @@ class Supervisor final : public api::Acquisition {
   std::optional<drivers::InstrumentError> ensure_connected();
   void note_instrument_error(const drivers::InstrumentError& error);
   void set_state(std::string state);
+  // The running job's phase and readings so far, told to its followers.
+  void report_progress(const char* phase, int readings_done);
+  // With mutex_ held, after the job's store record was written: counts a change and wakes the
+  // followers.
+  void job_changed();
 
   const std::string device_;
   store::Store& db_;
@@ -64,6 +74,16 @@ class Supervisor final : public api::Acquisition {
   bool cancel_running_ = false;
   bool stopping_ = false;
   std::thread worker_;
+
+  // Progress of the queued and running jobs, and the change count their followers wait on.
+  struct LiveJob {
+    std::string phase = "queued";
+    int readings_done = 0;
+    int readings_total = 1;
+  };
+  std::map<store::Id, LiveJob> live_;
+  std::uint64_t changes_ = 0;
+  mutable std::condition_variable changed_;
 
   // The instrument (supervisor_connection.cpp).
   std::string state_ = "disconnected";

@@ -53,6 +53,7 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
   drivers::MeasureOptions options;
   options.integration_ms = request.integration_ms;
   std::vector<drivers::Reading> readings;
+  report_progress("measuring", 0);
   for (int i = 0; i < request.count; ++i) {
     auto reading = meter->measure(options);
     if (!reading) {
@@ -60,6 +61,7 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
       return {store::JobState::failed, describe(reading.error()), json{{"readings", i}}};
     }
     readings.push_back(std::move(*reading));
+    report_progress("measuring", i + 1);
     std::lock_guard lock(mutex_);
     if (cancel_running_) return {store::JobState::cancelled, "cancelled by request", json::object()};
   }
@@ -119,6 +121,7 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
     FitOptions fit_options;
     fit_options.site = session->site;
     if (spectrum) {
+      report_progress("fitting", request.count);
       auto result = fitter_.fit(*spectrum, fit_options);
       if (result)
         fit = api::stored_fit(*result, {{"site", fit_options.site}, {"lateral_diffusion", fit_options.lateral_diffusion}},
@@ -129,6 +132,7 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
       m.warnings.push_back("reflectance not fittable: " + spectrum.error());
     }
   }
+  report_progress("storing", request.count);
   auto recorded = db_.record_measurement(m, fit);
   if (!recorded) return {store::JobState::failed, "database: " + recorded.error().message, json::object()};
   json result = {{"measurement_id", recorded->measurement_id},

@@ -95,10 +95,18 @@ json schemas() {
       {"Job", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"job_id", {{"type", "integer"}}}, {"kind", {{"type", "string"}}},
                                                    {"session_id", nullable("integer")},
                                                    {"state", {{"type", "string"}, {"enum", {"queued", "running", "succeeded", "failed", "cancelled"}}}},
+                                                   {"position", {{"type", json::array({"integer", "null"})}, {"minimum", 0},
+                                                                 {"description", "place in the queue: 1 is next, 0 is running; null once finished"}}},
+                                                   {"progress", ref("JobProgress")},
                                                    {"error", nullable("string")}, {"request", {{"type", "object"}}},
                                                    {"result", {{"type", "object"}}}, {"idempotency_key", nullable("string")},
                                                    {"created_at", {{"type", "string"}}}, {"started_at", nullable("string")},
                                                    {"finished_at", nullable("string")}}}}},
+      {"JobProgress", {{"type", "object"}, {"required", {"phase", "readings_done", "readings_total", "fraction"}},
+                       {"properties", {{"phase", {{"type", "string"}, {"enum", {"queued", "connecting", "measuring", "fitting", "storing", "done"}}}},
+                                       {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
+                                       {"readings_total", {{"type", "integer"}, {"minimum", 1}}},
+                                       {"fraction", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}}}}}},
       {"Measurement", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
                                                            {"kind", {{"type", "string"}}}, {"label", {{"type", "string"}}},
                                                            {"quality", {{"type", "object"}}}, {"units", {{"type", "string"}}},
@@ -133,7 +141,7 @@ json Router::openapi_document(const std::string& version) {
   for (const RouteInfo& r : routes()) {
     json op = {{"summary", r.summary}, {"operationId", r.method + " " + r.path}};
     json content;
-    if (r.response_schema == "text/csv" || r.response_schema == "text/plain")
+    if (r.response_schema == "text/csv" || r.response_schema == "text/plain" || r.response_schema == "text/event-stream")
       content = {{r.response_schema, {{"schema", {{"type", "string"}}}}}};
     else
       content = {{"application/json", {{"schema", ref(r.response_schema)}}}};

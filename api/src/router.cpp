@@ -4,6 +4,7 @@
 #include <charconv>
 #include <sstream>
 
+#include "jobs.hpp"
 #include "json_io.hpp"
 #include "skinspec/api/acquisition.hpp"
 #include "skinspec/fit/fitter.hpp"
@@ -97,7 +98,7 @@ struct Router::Handlers {
     }
     auto created = acquisition_of(c).submit(call.ids[0], request, key);
     if (!created) throw detail::HandlerError{created.error()};
-    Response r = json_response(job_json(created->job), created->created ? 202 : 200);
+    Response r = json_response(job_view(c, created->job), created->created ? 202 : 200);
     r.headers.emplace_back("Location", "/api/v1/jobs/" + std::to_string(created->job.id));
     return r;
   }
@@ -110,10 +111,22 @@ struct Router::Handlers {
       fail(ErrorKind::unprocessable, "out_of_range", std::string("'") + key + "' must be " + std::to_string(min) + " to " + std::to_string(max));
     return static_cast<int>(v);
   }
+  static json job_view(const RouterContext& c, const store::Job& job) {
+    return job_json(job, c.acquisition ? c.acquisition->progress(job.id) : std::nullopt);
+  }
   // GET /api/v1/jobs/{id}
   static Response get_job(const RouterContext& c, const Call& call) {
     no_query(call);
-    return json_response(job_json(value(store_of(c).job(call.ids[0]))));
+    return json_response(job_view(c, value(store_of(c).job(call.ids[0]))));
+  }
+  // GET /api/v1/jobs/{id}/events
+  static Response job_events(const RouterContext& c, const Call& call) {
+    no_query(call);
+    store::Store& db = store_of(c);
+    value(db.job(call.ids[0]));  // 404 before the stream starts
+    Response r{200, "text/event-stream", "", {{"Cache-Control", "no-cache"}}};
+    r.events = std::make_shared<JobEvents>(db, c.acquisition, call.ids[0]);
+    return r;
   }
   // DELETE /api/v1/jobs/{id}
   static Response cancel_job(const RouterContext& c, const Call& call) {
@@ -121,7 +134,7 @@ struct Router::Handlers {
     value(store_of(c).job(call.ids[0]));  // 404 first
     auto job = acquisition_of(c).cancel(call.ids[0]);
     if (!job) throw detail::HandlerError{job.error()};
-    return json_response(job_json(*job));
+    return json_response(job_view(c, *job));
   }
   static Response openapi(const RouterContext& c, const Call&) { return json_response(openapi_document(c.version)); }
   static Response metrics(const RouterContext& c, const Call&) {
@@ -378,8 +391,9 @@ const std::vector<Route>& route_table() {
         {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200}, &H::get_fit, {}},
         {{"GET", "/api/v1/instrument", "The instrument's state: connected, measuring, lost; the last error", false, "", "Instrument", 200}, &H::instrument, {}},
         {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true, "MeasureRequest", "Job", 202}, &H::measure, {}},
-        {{"GET", "/api/v1/jobs/{id}", "One job: state, error, the ids it produced", false, "", "Job", 200}, &H::get_job, {}},
+        {{"GET", "/api/v1/jobs/{id}", "One job: state, queue position, progress, error, the ids it produced", false, "", "Job", 200}, &H::get_job, {}},
         {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
+        {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", false, "", "text/event-stream", 200}, &H::job_events, {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;
@@ -433,23 +447,6 @@ bool is_json_content_type(const Request& request) {
 store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
                       const std::string& tables_digest) {
   return detail::to_store_fit(result, options, model_version, tables_digest);
-}
-
-json job_json(const store::Job& job) {
-  json result = json::parse(job.result, nullptr, false);
-  json request = json::parse(job.request, nullptr, false);
-  return {{"id", job.id},
-          {"job_id", job.id},
-          {"kind", job.kind},
-          {"session_id", job.session_id ? json(*job.session_id) : json(nullptr)},
-          {"state", std::string(store::to_string(job.state))},
-          {"error", job.error.empty() ? json(nullptr) : json(job.error)},
-          {"request", request.is_discarded() ? json::object() : request},
-          {"result", result.is_discarded() ? json::object() : result},
-          {"idempotency_key", job.idempotency_key.empty() ? json(nullptr) : json(job.idempotency_key)},
-          {"created_at", detail::format_time(job.created_at)},
-          {"started_at", job.started_at ? json(detail::format_time(*job.started_at)) : json(nullptr)},
-          {"finished_at", job.finished_at ? json(detail::format_time(*job.finished_at)) : json(nullptr)}};
 }
 
 Response error_response(const ApiError& error) {

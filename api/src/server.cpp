@@ -16,6 +16,8 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 
+#include "event_pipe.hpp"
+
 namespace skinspec::api {
 
 namespace asio = boost::asio;
@@ -35,6 +37,7 @@ struct Server::State {
   std::set<std::weak_ptr<Session>, std::owner_less<std::weak_ptr<Session>>> sessions;
   std::atomic<std::size_t> open{0};
   bool stopping = false;
+  detail::EventPullers pullers;
 
   State(const Router& r, ServerOptions o)
       : router(r), options(std::move(o)), workers(static_cast<std::size_t>(std::max(1, options.worker_threads))) {}
@@ -81,6 +84,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void shut_down() {
     asio::dispatch(stream_.get_executor(), [self = shared_from_this()] {
       self->stopping_ = true;
+      if (self->events_) self->events_->source().close();
       if (!self->busy_) self->do_close();
     });
   }
@@ -114,6 +118,7 @@ class Session : public std::enable_shared_from_this<Session> {
       auto response = std::make_shared<Response>(self->state_->router.handle(to_request(*request)));
       auto executor = self->stream_.get_executor();
       asio::post(executor, [self = std::move(self), request, response, guard = std::move(guard)] {
+        if (response->events) return self->start_events(*response, request->version());
         self->write(to_beast(*response, request->version(), request->keep_alive() && !self->stopping_));
       });
     });
@@ -137,6 +142,65 @@ class Session : public std::enable_shared_from_this<Session> {
     });
   }
 
+  // A streamed body (Server-Sent Events): the header, then each piece of the source as one
+  // chunk, then the last chunk and the end of the connection. The source is pulled on a thread
+  // of its own (it blocks); the stream is free of the read timeout, and a client that hangs up
+  // ends it at once.
+  void start_events(const Response& r, unsigned version) {
+    events_ = std::make_shared<detail::EventPipe>(r.events);
+    if (stopping_) events_->source().close();
+    auto header = std::make_shared<http::response<http::empty_body>>(static_cast<http::status>(r.status), version);
+    header->set(http::field::server, "skinspecd");
+    header->set(http::field::content_type, r.content_type);
+    for (const auto& [name, value] : r.headers) header->set(name, value);
+    header->keep_alive(false);
+    header->chunked(true);
+    auto serializer = std::make_shared<http::response_serializer<http::empty_body>>(*header);
+    stream_.expires_after(state_->options.write_timeout);
+    http::async_write_header(stream_, *serializer, [self = shared_from_this(), header, serializer](beast::error_code ec, std::size_t) {
+      self->stream_.expires_never();
+      if (ec) {
+        self->events_->hang_up();
+        return self->do_close();
+      }
+      self->watch_for_hang_up();
+      self->state_->pullers.start(self->events_, [self] { self->pull_events(); });
+    });
+  }
+
+  // On the puller's thread: until the source ends or the client is gone.
+  void pull_events() {
+    const auto keep_alive = state_->options.event_keep_alive;
+    while (auto piece = events_->source().next(keep_alive)) {
+      if (!events_->claim_write()) break;
+      asio::post(stream_.get_executor(), [self = shared_from_this(), piece = std::make_shared<std::string>(std::move(*piece))] {
+        self->write_chunk(piece);
+      });
+    }
+    const bool client_there = events_->claim_write();
+    asio::post(stream_.get_executor(), [self = shared_from_this(), client_there] {
+      if (!client_there) return self->do_close();
+      self->stream_.expires_after(self->state_->options.write_timeout);
+      asio::async_write(self->stream_, http::make_chunk_last(), [self](beast::error_code, std::size_t) {
+        self->events_->written(false);
+        self->do_close();
+      });
+    });
+  }
+
+  void write_chunk(const std::shared_ptr<std::string>& piece) {
+    stream_.expires_after(state_->options.write_timeout);
+    asio::async_write(stream_, http::make_chunk(asio::buffer(*piece)), [self = shared_from_this(), piece](beast::error_code ec, std::size_t) {
+      self->stream_.expires_never();
+      self->events_->written(!ec);
+    });
+  }
+
+  // A client of a stream sends nothing more; the socket turning readable means it hung up.
+  void watch_for_hang_up() {
+    stream_.socket().async_wait(tcp::socket::wait_read, [self = shared_from_this()](beast::error_code) { self->events_->hang_up(); });
+  }
+
   void do_close() {
     beast::error_code ignored;
     stream_.socket().shutdown(tcp::socket::shutdown_both, ignored);
@@ -148,6 +212,7 @@ class Session : public std::enable_shared_from_this<Session> {
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
   std::shared_ptr<http::response<http::string_body>> response_;
+  std::shared_ptr<detail::EventPipe> events_;  // while a body is streamed
   bool busy_ = false, stopping_ = false;
 };
 
@@ -195,6 +260,7 @@ Server::~Server() {
   stop();
   ioc_.stop();
   state_->workers.join();
+  state_->pullers.hang_up_and_join();
 }
 
 std::expected<void, std::string> Server::listen() {
@@ -220,6 +286,7 @@ void Server::run() {
   ioc_.run();
   for (auto& t : threads) t.join();
   state_->workers.join();
+  state_->pullers.join_all();
 }
 
 void Server::stop() {
@@ -237,6 +304,7 @@ void Server::stop() {
       state->acceptor->close(ignored);
     });
   for (auto& s : sessions) s->shut_down();
+  state_->pullers.close_all();
 }
 
 }  // namespace skinspec::api

@@ -3,7 +3,11 @@
 // jobs. The daemon implements it with the drivers, the fitter and the store; the router knows
 // only this interface, so that api/ does not depend on drivers/.
 
+#include <atomic>
+#include <chrono>
+#include <cstdint>
 #include <expected>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -21,6 +25,15 @@ struct MeasureRequest {
   int integration_ms = 0;   // 0: adaptive
 };
 
+// Where a queued or running job is. Phases in order: queued, connecting, measuring, fitting,
+// storing (then done, which only finished jobs show).
+struct JobProgress {
+  int position = 1;  // in the FIFO queue: 1 is next, 0 is running
+  std::string phase = "queued";
+  int readings_done = 0;
+  int readings_total = 1;
+};
+
 class Acquisition {
  public:
   virtual ~Acquisition() = default;
@@ -31,13 +44,26 @@ class Acquisition {
                                                             const std::string& idempotency_key) = 0;
   // Cancels a queued or running job; the job as it is afterwards.
   virtual std::expected<store::Job, ApiError> cancel(store::Id job_id) = 0;
+
+  // The live progress of a queued or running job; nullopt once it has finished (its state is
+  // in the store by then) or for a job this process does not run.
+  virtual std::optional<JobProgress> progress(store::Id job_id) const = 0;
+  // A count that grows with every change of any job: position, phase, reading count, state.
+  // The job's store record is written before the count grows.
+  virtual std::uint64_t changes() const = 0;
+  // Blocks until changes() exceeds `seen`, `timeout` passes, or `abandoned` is set and
+  // wake_waiters() called; returns changes(). For followers of a job (Server-Sent Events).
+  virtual std::uint64_t wait_for_change(std::uint64_t seen, std::chrono::milliseconds timeout,
+                                        const std::atomic<bool>& abandoned) const = 0;
+  virtual void wake_waiters() const = 0;
 };
 
 // A fit result as the store keeps it, with the options, program version and tables digest.
 store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
                       const std::string& tables_digest);
 
-// A job as the API shows it.
-nlohmann::json job_json(const store::Job& job);
+// A job as the API shows it, with `position` (null once finished) and `progress`: its live
+// progress when given, else what the store says (phase done, fraction 1 when it succeeded).
+nlohmann::json job_json(const store::Job& job, const std::optional<JobProgress>& live);
 
 }  // namespace skinspec::api

@@ -4,8 +4,10 @@
 // it directly. The route table is the single list of what the service offers; GET /openapi.json
 // is generated from it.
 
+#include <chrono>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -33,11 +35,25 @@ struct Request {
   std::string body;
 };
 
+// A body that comes piece by piece after the response's header, such as Server-Sent Events.
+// The server pulls it on a thread of its own, so next() may block.
+class EventSource {
+ public:
+  virtual ~EventSource() = default;
+  // The next piece to send; when nothing came within `keep_alive`, a piece that keeps the
+  // connection alive; nullopt when the stream has ended.
+  virtual std::optional<std::string> next(std::chrono::milliseconds keep_alive) = 0;
+  // Ends the stream (the client left, the server stops): a blocked or later next() returns
+  // nullopt at once. Thread-safe.
+  virtual void close() = 0;
+};
+
 struct Response {
   int status = 200;
   std::string content_type = "application/json";
   std::string body;
   std::vector<std::pair<std::string, std::string>> headers;  // extra headers (Allow, Location)
+  std::shared_ptr<EventSource> events = nullptr;  // when set, the body: sent in chunks after the header
 };
 
 // Bearer tokens; when `required`, every route but /healthz needs one, and mutating routes need

@@ -2,7 +2,8 @@
 // The Beast HTTP server in front of a Router: a listener that accepts connections (up to a cap)
 // and one session per connection that reads requests with limits and timeouts, hands them to
 // the router on a worker pool, and writes the responses back, keeping the connection alive
-// when the client asks for it.
+// when the client asks for it. A response with an event source is streamed in chunks, pulled
+// on a thread per stream, until the source ends, the client hangs up or the server stops.
 
 #include <atomic>
 #include <chrono>
@@ -27,6 +28,8 @@ struct ServerOptions {
   // end of the previous response on a kept-alive connection; otherwise the connection is closed.
   std::chrono::milliseconds read_timeout{10000};
   std::chrono::milliseconds write_timeout{30000};
+  // A streamed body (Server-Sent Events) sends a keep-alive comment after this much silence.
+  std::chrono::milliseconds event_keep_alive{15000};
   std::size_t max_connections = 512;  // beyond it, new connections get a 503 and are closed
   int io_threads = 2;
   int worker_threads = 2;  // where the router runs (fits take milliseconds)
