@@ -11,7 +11,9 @@
 
 namespace skinspec::cli {
 
-enum ExitStatus : int { kOk = 0, kFailure = 1, kBadInput = 2, kInstrumentError = 3 };
+// kInstrumentError is also a measurement job of skinspecd that failed or was cancelled;
+// kUnreachable: skinspecd could not be reached (or went away mid-answer).
+enum ExitStatus : int { kOk = 0, kFailure = 1, kBadInput = 2, kInstrumentError = 3, kUnreachable = 4 };
 
 // A failure that ends the subcommand with a message on stderr and the given status.
 struct Failure {
@@ -39,5 +41,6 @@ void add_tune_command(CLI::App& app);
 void add_ports_command(CLI::App& app);
 void add_measure_command(CLI::App& app);
 void add_export_command(CLI::App& app);
+void add_session_command(CLI::App& app);
 
 }  // namespace skinspec::cli

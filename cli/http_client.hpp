@@ -1,0 +1,54 @@
+#pragma once
+// The command line's client of skinspecd: synchronous HTTP/1.1 over Boost.Beast, one
+// connection per request, a bearer token when one is given, and Server-Sent Events read as
+// they come. A server that cannot be reached ends the command with kUnreachable.
+
+#include <functional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace skinspec::cli {
+
+struct ServerUrl {
+  std::string host;
+  std::string port = "80";
+  std::string base;  // a path prefix without the trailing slash, often empty
+  std::string text;  // as given, for messages
+};
+
+// "http://HOST[:PORT][/PREFIX]"; Failure kBadInput otherwise.
+ServerUrl parse_server_url(const std::string& text);
+
+struct HttpResult {
+  int status = 0;
+  std::string body;
+};
+
+class ApiClient {
+ public:
+  ApiClient(ServerUrl server, std::string token) : server_(std::move(server)), token_(std::move(token)) {}
+
+  HttpResult request(const std::string& method, const std::string& target, const std::string& body = "") const;
+  // The body as JSON when the status is 2xx; Failure kBadInput with the server's message for
+  // a 4xx, kFailure for anything else.
+  nlohmann::json call(const std::string& method, const std::string& target, const nlohmann::json& body = nullptr) const;
+  // GETs `target` as Server-Sent Events, calling `on_event(name, data)` for each event until
+  // the server ends the stream. A reply other than 200 is refused as call() refuses it.
+  void follow_events(const std::string& target, const std::function<void(const std::string&, const std::string&)>& on_event) const;
+
+  const ServerUrl& server() const { return server_; }
+
+ private:
+  ServerUrl server_;
+  std::string token_;
+};
+
+// The token for --token-file FILE (the service's token file, whose operator_token is used, or
+// a file holding the token alone), else $SKINSPEC_TOKEN, else none.
+std::string resolve_token(const std::string& token_file);
+
+// Percent-encodes a query parameter's value.
+std::string url_encode(const std::string& text);
+
+}  // namespace skinspec::cli

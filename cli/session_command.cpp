@@ -1,0 +1,138 @@
+// skinspec session new|measure|show|list: acquisition sessions of a running skinspecd, over
+// its HTTP API.
+
+#include <fmt/format.h>
+
+#include <iostream>
+
+#include "common.hpp"
+#include "session_client.hpp"
+
+namespace skinspec::cli {
+
+namespace {
+
+using nlohmann::json;
+
+std::string text_or(const json& value, const std::string& fallback = "-") {
+  if (value.is_string()) return value.get<std::string>().empty() ? fallback : value.get<std::string>();
+  if (value.is_null()) return fallback;
+  return value.dump();
+}
+
+struct NewArgs {
+  std::string site, subject = "anonymous", operator_name, notes;
+  long long white_standard = 0;
+};
+
+void run_new(const ServerArgs& server, const NewArgs& args) {
+  json body = {{"site", args.site}, {"subject", args.subject}};
+  if (!args.operator_name.empty()) body["operator"] = args.operator_name;
+  if (!args.notes.empty()) body["notes"] = args.notes;
+  if (args.white_standard > 0) body["white_standard_id"] = args.white_standard;
+  const auto client = server.client();
+  const json session = client.call("POST", "/api/v1/sessions", body);
+  if (server.json) {
+    std::cout << session.dump() << '\n';
+    return;
+  }
+  std::cout << fmt::format("session {} opened: site {}, subject {}\n", session["id"].get<long long>(), text_or(session["site"]),
+                           text_or(session["subject"]));
+  std::cout << fmt::format("url: {}/api/v1/sessions/{}\n", client.server().text, session["id"].get<long long>());
+}
+
+void print_session_detail(const json& s) {
+  std::cout << fmt::format("session {}  {}  site {}  subject {}  operator {}\n", s["id"].get<long long>(), text_or(s["state"]),
+                           text_or(s["site"]), text_or(s["subject"]), text_or(s["operator"]));
+  std::cout << fmt::format("created {}  white standard {}\n", text_or(s["created_at"]), text_or(s["white_standard_id"], "default (flat 0.99)"));
+  if (const auto notes = text_or(s["notes"], ""); !notes.empty()) std::cout << "notes: " << notes << '\n';
+  std::cout << fmt::format("\n{:>6} {:<7} {:<16} {:>8} {:>6}  {}\n", "id", "kind", "label", "readings", "fit", "created");
+  for (const auto& m : s["measurements"])
+    std::cout << fmt::format("{:>6} {:<7} {:<16} {:>8} {:>6}  {}\n", m["id"].get<long long>(), text_or(m["kind"]), text_or(m["label"], ""),
+                             text_or(m["reading_count"]), text_or(m["fit_id"]), text_or(m["created_at"]));
+  if (s["fits"].empty()) return;
+  std::cout << fmt::format("\n{:>6} {:>11} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>7}\n", "fit", "measurement", "surface", "melanin",
+                           "oxy_hb", "deoxy_hb", "bilirubin", "rmse", "dE2000");
+  const auto param = [](const json& fit, const char* name) {
+    const auto& v = fit["params"][name];
+    return v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("-");
+  };
+  for (const auto& f : s["fits"])
+    std::cout << fmt::format("{:>6} {:>11} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8.4f} {:>7.2f}\n", f["id"].get<long long>(),
+                             f["measurement_id"].get<long long>(), param(f, "surface_reflectance"), param(f, "melanin"),
+                             param(f, "oxyhemoglobin"), param(f, "deoxyhemoglobin"), param(f, "bilirubin"), f.value("rmse", 0.0),
+                             f.value("delta_e00_d65", 0.0));
+}
+
+void run_show(const ServerArgs& server, long long id) {
+  const json session = server.client().call("GET", "/api/v1/sessions/" + std::to_string(id));
+  if (server.json) std::cout << session.dump() << '\n';
+  else print_session_detail(session);
+}
+
+struct ListArgs {
+  std::string site, state;
+  int limit = 50;
+};
+
+void run_list(const ServerArgs& server, const ListArgs& args) {
+  std::string target = "/api/v1/sessions?limit=" + std::to_string(args.limit);
+  if (!args.site.empty()) target += "&site=" + url_encode(args.site);
+  if (!args.state.empty()) target += "&state=" + url_encode(args.state);
+  const json page = server.client().call("GET", target);
+  if (server.json) {
+    std::cout << page.dump() << '\n';
+    return;
+  }
+  if (page["sessions"].empty()) {
+    std::cout << "no sessions\n";
+    return;
+  }
+  std::cout << fmt::format("{:>6} {:<11} {:<13} {:<20} {:<16} {}\n", "id", "state", "site", "subject", "operator", "created");
+  for (const auto& s : page["sessions"])
+    std::cout << fmt::format("{:>6} {:<11} {:<13} {:<20} {:<16} {}\n", s["id"].get<long long>(), text_or(s["state"]), text_or(s["site"]),
+                             text_or(s["subject"]), text_or(s["operator"]), text_or(s["created_at"]));
+  if (!page["next_cursor"].is_null()) std::cout << "(more: the API's cursor " << page["next_cursor"] << ")\n";
+}
+
+}  // namespace
+
+void add_server_options(CLI::App& command, ServerArgs& args) {
+  command.add_option("--server", args.server, "skinspecd's URL")->capture_default_str();
+  command.add_option("--token-file", args.token_file, "bearer token: skinspecd's token file or a file holding the token (else $SKINSPEC_TOKEN)");
+  command.add_flag("--json", args.json, "print the server's JSON instead of text");
+}
+
+void add_session_command(CLI::App& app) {
+  auto* session = app.add_subcommand("session", "acquisition sessions of a running skinspecd: new, measure, show, list");
+  session->require_subcommand(1);
+  auto server = std::make_shared<ServerArgs>();
+
+  auto new_args = std::make_shared<NewArgs>();
+  auto* create = session->add_subcommand("new", "open a session");
+  create->add_option("--site", new_args->site, "body site: forearm, back_of_hand, cheek, forehead, palm")->required();
+  create->add_option("--subject", new_args->subject, "who is measured (a code, not a name)")->capture_default_str();
+  create->add_option("--operator", new_args->operator_name, "who measures");
+  create->add_option("--white-standard", new_args->white_standard, "id of a stored white standard (default: a flat 0.99)")->check(CLI::PositiveNumber);
+  create->add_option("--notes", new_args->notes, "free text");
+  add_server_options(*create, *server);
+  create->callback([server, new_args] { run_new(*server, *new_args); });
+
+  add_session_measure_command(*session, server);
+
+  auto show_id = std::make_shared<long long>(0);
+  auto* show = session->add_subcommand("show", "a session with its measurements and fits");
+  show->add_option("SESSION_ID", *show_id, "session id")->required()->check(CLI::PositiveNumber);
+  add_server_options(*show, *server);
+  show->callback([server, show_id] { run_show(*server, *show_id); });
+
+  auto list_args = std::make_shared<ListArgs>();
+  auto* list = session->add_subcommand("list", "sessions, newest first");
+  list->add_option("--site", list_args->site, "only this body site");
+  list->add_option("--state", list_args->state, "only this state")->check(CLI::IsMember({"open", "complete", "interrupted", "aborted"}));
+  list->add_option("--limit", list_args->limit, "at most this many")->check(CLI::Range(1, 1000))->capture_default_str();
+  add_server_options(*list, *server);
+  list->callback([server, list_args] { run_list(*server, *list_args); });
+}
+
+}  // namespace skinspec::cli

@@ -1,0 +1,145 @@
+// skinspec session measure: queues a white or sample measurement on skinspecd, follows the
+// job's events (a progress bar on a terminal, one line per change otherwise, both on stderr)
+// and prints the result: for a sample the fitted parameters with their standard errors.
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <iostream>
+
+#include "common.hpp"
+#include "session_client.hpp"
+
+namespace skinspec::cli {
+
+namespace {
+
+using nlohmann::json;
+
+struct MeasureArgs {
+  long long session = 0;
+  std::string kind;
+  int count = 1;
+  std::string label;
+  int integration_ms = 0;
+  bool no_wait = false;
+};
+
+bool finished(const json& job) {
+  const auto state = job.value("state", "");
+  return state == "succeeded" || state == "failed" || state == "cancelled";
+}
+
+// The job's progress on stderr: a bar redrawn in place on a terminal, else a line per change.
+class ProgressView {
+ public:
+  explicit ProgressView(bool terminal) : terminal_(terminal) {}
+
+  void show(const json& job) {
+    const json& p = job["progress"];
+    std::string status = job.value("state", "?");
+    if (job["position"].is_number_integer() && job["position"].get<int>() > 0)
+      status += fmt::format(", position {}", job["position"].get<int>());
+    status += fmt::format(", {} {}/{}", p.value("phase", "?"), p.value("readings_done", 0), p.value("readings_total", 0));
+    if (!terminal_) {
+      std::cerr << fmt::format("job {}: {}\n", job.value("id", 0LL), status);
+      return;
+    }
+    constexpr int kWidth = 30;
+    const int filled = static_cast<int>(p.value("fraction", 0.0) * kWidth + 0.5);
+    std::cerr << fmt::format("\r[{}{}] {:3.0f}%  {:<40}", std::string(static_cast<std::size_t>(filled), '#'),
+                             std::string(static_cast<std::size_t>(kWidth - filled), '-'), p.value("fraction", 0.0) * 100, status)
+              << std::flush;
+    drawn_ = true;
+  }
+  ~ProgressView() {
+    if (drawn_) std::cerr << '\n';
+  }
+
+ private:
+  bool terminal_;
+  bool drawn_ = false;
+};
+
+json follow(const ApiClient& client, long long job_id) {
+  json last;
+  {
+    ProgressView view(::isatty(STDERR_FILENO) == 1);
+    client.follow_events("/api/v1/jobs/" + std::to_string(job_id) + "/events", [&](const std::string& name, const std::string& data) {
+      if (name != "job") return;
+      json job = json::parse(data, nullptr, false);
+      if (!job.is_object()) return;
+      view.show(job);
+      last = std::move(job);
+    });
+  }
+  if (!finished(last)) last = client.call("GET", "/api/v1/jobs/" + std::to_string(job_id));
+  if (!finished(last))
+    throw Failure{kUnreachable, fmt::format("the events of job {} ended before the job did (is skinspecd stopping?)", job_id)};
+  return last;
+}
+
+std::string id_text(const json& value) { return value.is_number_integer() ? std::to_string(value.get<long long>()) : "-"; }
+
+void print_fit(const json& fit) {
+  for (const char* name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"}) {
+    const json& value = fit["params"][name];
+    const json& error = fit["stderr"][name];
+    if (!value.is_number()) continue;
+    std::cout << fmt::format("  {:<20} {:>12.6g}", name, value.get<double>());
+    if (error.is_number()) std::cout << fmt::format(" ± {:.6g}", error.get<double>());
+    std::cout << '\n';
+  }
+  std::cout << fmt::format("  rmse {:.6g}   max |error| {:.6g}   dE2000 (D65) {:.6g}   converged {}\n", fit.value("rmse", 0.0),
+                           fit.value("max_abs_error", 0.0), fit.value("delta_e00_d65", 0.0), fit.value("converged", false));
+}
+
+void print_result(const json& job, const json& fit) {
+  const json& result = job["result"];
+  std::cout << fmt::format("job {} succeeded: measurement {}", job.value("id", 0LL), id_text(result["measurement_id"]));
+  if (result.contains("white_measurement_id") && result["white_measurement_id"].is_number_integer())
+    std::cout << fmt::format(" (white {})", id_text(result["white_measurement_id"]));
+  if (result.contains("fit_id") && result["fit_id"].is_number_integer()) std::cout << ", fit " << id_text(result["fit_id"]);
+  std::cout << '\n';
+  if (fit.is_object()) print_fit(fit);
+  if (result.contains("warnings"))
+    for (const auto& w : result["warnings"]) std::cout << "warning: " << w.get<std::string>() << '\n';
+}
+
+void run_measure(const ServerArgs& server, const MeasureArgs& args) {
+  const auto client = server.client();
+  json body = {{"kind", args.kind}, {"count", args.count}};
+  if (!args.label.empty()) body["label"] = args.label;
+  if (args.integration_ms != 0) body["integration_ms"] = args.integration_ms;
+  const json accepted = client.call("POST", "/api/v1/sessions/" + std::to_string(args.session) + "/measurements", body);
+  const long long job_id = accepted.value("id", 0LL);
+  if (args.no_wait) {
+    if (server.json) std::cout << accepted.dump() << '\n';
+    else std::cout << fmt::format("job {} queued: {}/api/v1/jobs/{}\n", job_id, client.server().text, job_id);
+    return;
+  }
+  const json job = follow(client, job_id);
+  if (job["state"] != "succeeded")
+    throw Failure{kInstrumentError, fmt::format("job {} {}: {}", job_id, job["state"].get<std::string>(), job["error"].is_string() ? job["error"].get<std::string>() : "no reason given")};
+  json fit = nullptr;
+  if (const auto& id = job["result"]["fit_id"]; id.is_number_integer()) fit = client.call("GET", "/api/v1/fits/" + std::to_string(id.get<long long>()));
+  if (server.json) std::cout << json{{"job", job}, {"fit", fit}}.dump() << '\n';
+  else print_result(job, fit);
+}
+
+}  // namespace
+
+void add_session_measure_command(CLI::App& session, const std::shared_ptr<ServerArgs>& server) {
+  auto args = std::make_shared<MeasureArgs>();
+  auto* measure = session.add_subcommand("measure", "measure the white standard or the skin, and wait for the result");
+  measure->add_option("SESSION_ID", args->session, "session id")->required()->check(CLI::PositiveNumber);
+  measure->add_option("--kind", args->kind, "white or sample")->required()->check(CLI::IsMember({"white", "sample"}));
+  measure->add_option("--count", args->count, "readings averaged")->check(CLI::Range(1, 100))->capture_default_str();
+  measure->add_option("--label", args->label, "a label for the measurement");
+  measure->add_option("--integration-ms", args->integration_ms, "integration time, 10-6000 ms (default: adaptive)")->check(CLI::Range(10, 6000));
+  measure->add_flag("--no-wait", args->no_wait, "print the queued job and return at once");
+  add_server_options(*measure, *server);
+  measure->callback([server, args] { run_measure(*server, *args); });
+}
+
+}  // namespace skinspec::cli
