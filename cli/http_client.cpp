@@ -148,7 +148,7 @@ void ApiClient::follow_events(const std::string& target,
   Connection connection(server_);
   connection.send("GET", target, "", token_);
   http::response_parser<http::string_body> parser;
-  parser.body_limit(boost::none);
+  parser.body_limit(std::uint64_t{1} << 40);  // a stream is as long as its job
   beast::error_code ec;
   connection.stream.expires_after(kReplyTimeout);
   http::read_header(connection.stream, connection.buffer, parser, ec);

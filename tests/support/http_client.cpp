@@ -93,6 +93,63 @@ HttpReply http_request(unsigned short port, const std::string& method, const std
   return connection.request(method, target, body, headers);
 }
 
+HttpReply follow_events(unsigned short port, const std::string& target, const std::function<bool(const std::string&)>& on_event,
+                        std::chrono::milliseconds timeout) {
+  HttpReply reply;
+  asio::io_context ioc;
+  beast::tcp_stream stream(ioc);
+  beast::error_code ec;
+  const auto failed = [&](const char* what) {
+    reply.error = std::string(what) + ": " + ec.message();
+    return reply;
+  };
+  stream.expires_after(timeout);
+  stream.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), port), ec);
+  if (ec) return failed("connect");
+  http::request<http::empty_body> req{http::verb::get, target, 11};
+  req.set(http::field::host, "127.0.0.1");
+  req.set(http::field::accept, "text/event-stream");
+  http::write(stream, req, ec);
+  if (ec) return failed("write");
+  beast::flat_buffer buffer;
+  http::response_parser<http::string_body> parser;
+  parser.body_limit(std::uint64_t{1} << 40);  // a stream is as long as its job
+  http::read_header(stream, buffer, parser, ec);
+  if (ec) return failed("read");
+  reply.status = static_cast<int>(parser.get().result_int());
+  for (const auto& field : parser.get()) {
+    std::string name(field.name_string());
+    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    reply.headers[name] = std::string(field.value());
+  }
+  if (reply.status != 200) {
+    http::read(stream, buffer, parser, ec);
+    reply.body = parser.get().body();
+    return reply;
+  }
+  std::string pending;
+  bool hung_up = false;
+  auto on_chunk = [&](std::uint64_t, beast::string_view piece, beast::error_code& stop) -> std::size_t {
+    pending.append(piece.data(), piece.size());
+    for (auto end = pending.find("\n\n"); end != std::string::npos && !hung_up; end = pending.find("\n\n")) {
+      const std::string event = pending.substr(0, end);
+      pending.erase(0, end + 2);
+      if (!on_event(event)) {
+        hung_up = true;
+        stop = beast::error::timeout;  // any error ends the read
+      }
+    }
+    return piece.size();
+  };
+  parser.on_chunk_body(on_chunk);
+  while (!parser.is_done() && !hung_up) {
+    http::read_some(stream, buffer, parser, ec);
+    if (ec && !hung_up) return failed("read");
+  }
+  stream.socket().close(ec);
+  return reply;
+}
+
 std::string raw_exchange(unsigned short port, const std::string& bytes, std::chrono::milliseconds timeout) {
   asio::io_context ioc;
   beast::tcp_stream stream(ioc);

@@ -3,6 +3,7 @@
 // loopback, and raw byte exchanges for requests a well-behaved client would never send.
 
 #include <chrono>
+#include <functional>
 #include <map>
 #include <string>
 #include <utility>
@@ -44,6 +45,14 @@ class HttpConnection {
  private:
   Impl* impl_;
 };
+
+// GETs `target` and reads its Server-Sent Events as they come, calling `on_event` with each
+// event's text (its lines, without the blank line that ends it; keep-alive comments included);
+// returning false hangs up. Returns the reply's status and headers, with `error` set when the
+// stream did not end normally (a hang-up by `on_event` is normal). A reply other than 200 has
+// its body.
+HttpReply follow_events(unsigned short port, const std::string& target, const std::function<bool(const std::string&)>& on_event,
+                        std::chrono::milliseconds timeout);
 
 // Writes `bytes` as they are and reads until the server closes the connection or `timeout`
 // passes; everything the server sent.
