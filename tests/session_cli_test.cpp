@@ -1,0 +1,155 @@
+// `skinspec session new|measure|show|list` against a real skinspecd driving skinspec-sim: what
+// it prints, its exit statuses, and the fitted parameters equal to the service's stored fit.
+
+#include <gtest/gtest.h>
+
+#include <sstream>
+
+#include "support/daemon_rig.hpp"
+#include "support/http_client.hpp"
+
+namespace skinspec::testing {
+namespace {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+const char* const kParams[] = {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"};
+
+class SessionCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    rig_ = std::make_unique<DaemonRig>(dir_, 0);
+    ASSERT_NE(rig_->port(), 0) << rig_->logs();
+  }
+  // The test's standard error is a pipe: the plain, line-per-event progress.
+  ProcessResult skinspec(std::vector<std::string> args) const {
+    args.insert(args.end(), {"--server", rig_->url()});
+    return run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args, ProcessOptions{std::nullopt, 120s, {}});
+  }
+  long long new_session() const {
+    const auto r = skinspec({"session", "new", "--site", "forearm", "--subject", "C1", "--operator", "op", "--json"});
+    EXPECT_EQ(r.exit_status, 0) << r.describe();
+    return json::parse(r.out, nullptr, false).value("id", 0LL);
+  }
+
+  ScratchDirectory dir_;
+  std::unique_ptr<DaemonRig> rig_;
+};
+
+// "  melanin   13.6003 ± 0.157974" → 13.6003, for the parameter `name`.
+std::optional<double> printed_value(const std::string& out, const std::string& name) {
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream words(line);
+    std::string first;
+    double value = 0;
+    if (words >> first && first == name && words >> value) return value;
+  }
+  return std::nullopt;
+}
+
+TEST_F(SessionCliTest, NewMeasureShowAndListASession) {
+  const auto created = skinspec({"session", "new", "--site", "forearm", "--subject", "V7", "--notes", "left arm"});
+  ASSERT_EQ(created.exit_status, 0) << created.describe();
+  EXPECT_NE(created.out.find("session 1 opened: site forearm, subject V7"), std::string::npos) << created.out;
+  EXPECT_NE(created.out.find(rig_->url() + "/api/v1/sessions/1"), std::string::npos) << created.out;
+
+  const auto white = skinspec({"session", "measure", "1", "--kind", "white", "--label", "PTFE"});
+  ASSERT_EQ(white.exit_status, 0) << white.describe() << rig_->logs();
+  EXPECT_NE(white.out.find("succeeded: measurement 1"), std::string::npos) << white.out;
+
+  const auto sample = skinspec({"session", "measure", "1", "--kind", "sample", "--count", "3"});
+  ASSERT_EQ(sample.exit_status, 0) << sample.describe() << rig_->logs();
+  // Not a terminal: one line per event, never a carriage return.
+  EXPECT_EQ(sample.err.find('\r'), std::string::npos);
+  EXPECT_EQ(sample.out.find('\r'), std::string::npos);
+  std::istringstream progress(sample.err);
+  for (std::string line; std::getline(progress, line);) EXPECT_EQ(line.rfind("job 2: ", 0), 0u) << line;
+  EXPECT_NE(sample.err.find("job 2: succeeded, done 3/3"), std::string::npos) << sample.err;
+  EXPECT_NE(sample.out.find("job 2 succeeded: measurement 2 (white 1), fit 1"), std::string::npos) << sample.out;
+
+  const json fit = http_request(rig_->port(), "GET", "/api/v1/fits/1").json();
+  for (const char* name : kParams) {
+    const auto value = printed_value(sample.out, name);
+    ASSERT_TRUE(value) << name << " missing from\n" << sample.out;
+    EXPECT_NEAR(*value, fit["params"][name].get<double>(), 1e-5 * std::abs(fit["params"][name].get<double>())) << name;
+    const auto line = sample.out.find(name);
+    EXPECT_NE(sample.out.find("± ", line), std::string::npos) << name << ": no standard error";
+  }
+  EXPECT_TRUE(printed_value(sample.out, "rmse")) << sample.out;
+  EXPECT_NEAR(*printed_value(sample.out, "rmse"), fit["rmse"].get<double>(), 1e-5 * fit["rmse"].get<double>());
+  EXPECT_NE(sample.out.find("dE2000"), std::string::npos);
+
+  const auto show = skinspec({"session", "show", "1"});
+  ASSERT_EQ(show.exit_status, 0) << show.describe();
+  EXPECT_NE(show.out.find("subject V7"), std::string::npos) << show.out;
+  EXPECT_NE(show.out.find("notes: left arm"), std::string::npos) << show.out;
+  EXPECT_NE(show.out.find("PTFE"), std::string::npos) << show.out;
+  const auto shown = json::parse(skinspec({"session", "show", "1", "--json"}).out, nullptr, false);
+  EXPECT_EQ(shown["measurements"].size(), 2u) << shown;
+  EXPECT_EQ(shown["fits"].size(), 1u);
+
+  new_session();
+  const auto list = skinspec({"session", "list", "--site", "forearm", "--limit", "1", "--json"});
+  ASSERT_EQ(list.exit_status, 0) << list.describe();
+  const json page = json::parse(list.out, nullptr, false);
+  ASSERT_EQ(page["sessions"].size(), 1u) << list.out;
+  EXPECT_EQ(page["sessions"][0]["subject"], "C1");  // newest first
+  const auto table = skinspec({"session", "list", "--state", "open"});
+  EXPECT_NE(table.out.find("V7"), std::string::npos) << table.out;
+  EXPECT_NE(table.out.find("C1"), std::string::npos) << table.out;
+}
+
+TEST_F(SessionCliTest, JsonOutputCarriesTheJobAndItsFit) {
+  const long long session = new_session();
+  const std::string id = std::to_string(session);
+  ASSERT_EQ(skinspec({"session", "measure", id, "--kind", "white"}).exit_status, 0);
+  const auto r = skinspec({"session", "measure", id, "--kind", "sample", "--json"});
+  ASSERT_EQ(r.exit_status, 0) << r.describe();
+  const json out = json::parse(r.out, nullptr, false);
+  ASSERT_TRUE(out.is_object()) << r.out;
+  EXPECT_EQ(out["job"]["state"], "succeeded");
+  const auto fit = http_request(rig_->port(), "GET", "/api/v1/fits/" + std::to_string(out["job"]["result"]["fit_id"].get<long long>())).json();
+  EXPECT_EQ(out["fit"], fit);
+
+  const auto queued = skinspec({"session", "measure", id, "--kind", "white", "--no-wait", "--json"});
+  ASSERT_EQ(queued.exit_status, 0) << queued.describe();
+  EXPECT_TRUE(json::parse(queued.out, nullptr, false)["id"].is_number_integer()) << queued.out;
+}
+
+TEST_F(SessionCliTest, AFailedJobExitsWith3) {
+  const long long session = new_session();
+  // A sample without a white reference fails.
+  const auto r = skinspec({"session", "measure", std::to_string(session), "--kind", "sample"});
+  EXPECT_EQ(r.exit_status, 3) << r.describe();
+  EXPECT_NE(r.err.find("failed: no_white_reference"), std::string::npos) << r.err;
+}
+
+TEST_F(SessionCliTest, RefusedRequestsExitWith2AndTheServersMessage) {
+  const auto missing = skinspec({"session", "show", "42"});
+  EXPECT_EQ(missing.exit_status, 2) << missing.describe();
+  EXPECT_NE(missing.err.find("404"), std::string::npos) << missing.err;
+  EXPECT_NE(missing.err.find("session 42 does not exist"), std::string::npos) << missing.err;
+  const auto measure = skinspec({"session", "measure", "42", "--kind", "white"});
+  EXPECT_EQ(measure.exit_status, 2) << measure.describe();
+  const auto site = skinspec({"session", "new", "--site", "elbow"});
+  EXPECT_EQ(site.exit_status, 2) << site.describe();
+  EXPECT_NE(site.err.find("unknown_site"), std::string::npos) << site.err;
+  const auto kind = skinspec({"session", "measure", "1", "--kind", "dark"});
+  EXPECT_EQ(kind.exit_status, 2) << kind.describe();
+}
+
+TEST_F(SessionCliTest, AnUnreachableServerExitsWith4) {
+  // A port nothing listens on: the daemon's, once it has stopped.
+  const std::string url = rig_->url();
+  rig_.reset();
+  const auto r = run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", {"session", "list", "--server", url}, ProcessOptions{std::nullopt, 60s, {}});
+  EXPECT_EQ(r.exit_status, 4) << r.describe();
+  EXPECT_NE(r.err.find("cannot reach skinspecd at " + url), std::string::npos) << r.err;
+  const auto bad = run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", {"session", "list", "--server", "ftp://x"}, ProcessOptions{std::nullopt, 60s, {}});
+  EXPECT_EQ(bad.exit_status, 2) << bad.describe();
+}
+
+}  // namespace
+}  // namespace skinspec::testing
