@@ -56,6 +56,36 @@ std::vector<Event> all_events(unsigned short port, long long job, HttpReply* rep
   return events;
 }
 
+struct Stream {
+  HttpReply reply;
+  std::vector<Event> events;
+};
+
+// Follows a job's events on another thread; returns once the first event has come (or the
+// stream ended without one), with the whole stream to come.
+std::future<Stream> follow_in_background(unsigned short port, long long job) {
+  auto first = std::make_shared<std::promise<void>>();
+  auto arrived = first->get_future();
+  auto stream = std::async(std::launch::async, [port, job, first] {
+    Stream out;
+    bool told = false;
+    const auto tell = [&] {
+      if (told) return;
+      first->set_value();
+      told = true;
+    };
+    out.reply = follow_events(port, events_path(job), [&](const std::string& text) {
+      if (auto e = parse_event(text)) out.events.push_back(std::move(*e));
+      tell();
+      return true;
+    }, 120s);
+    tell();
+    return out;
+  });
+  EXPECT_EQ(arrived.wait_for(60s), std::future_status::ready);
+  return stream;
+}
+
 class JobEventsTest : public ::testing::Test {
  protected:
   long long open_session() {
@@ -95,21 +125,9 @@ TEST_F(JobEventsTest, QueuedJobsShowTheirPlaceAndASampleStreamsItsReadingsToItsR
   EXPECT_EQ(job(blocker)["position"], 0);
 
   // Follow the sample from its place in the queue; cancel the blocker once following.
-  std::promise<void> following;
-  auto events = std::async(std::launch::async, [&] {
-    std::vector<Event> seen;
-    bool told = false;
-    follow_events(port(), events_path(sample), [&](const std::string& text) {
-      if (auto e = parse_event(text)) seen.push_back(std::move(*e));
-      if (!told) following.set_value(), told = true;
-      return true;
-    }, 120s);
-    if (!told) following.set_value();
-    return seen;
-  });
-  ASSERT_EQ(following.get_future().wait_for(60s), std::future_status::ready);
+  auto stream = follow_in_background(port(), sample);
   EXPECT_EQ(http_request(port(), "DELETE", "/api/v1/jobs/" + std::to_string(blocker)).status, 200);
-  const auto seen = events.get();
+  const auto seen = stream.get().events;
 
   ASSERT_GE(seen.size(), 3u);
   EXPECT_EQ(seen.front().job["state"], "queued");
@@ -174,6 +192,22 @@ TEST_F(JobEventsTest, AClientHangingUpMidStreamDoesNotDisturbTheService) {
   const auto next = all_events(port(), submit(session, {{"kind", "sample"}}));
   ASSERT_FALSE(next.empty());
   EXPECT_EQ(next.back().job["state"], "succeeded") << next.back().job;
+}
+
+TEST_F(JobEventsTest, StoppingTheServiceEndsItsStreams) {
+  rig_ = std::make_unique<DaemonRig>(dir_, kSlow);
+  ASSERT_NE(port(), 0) << rig_->logs();
+  const long long job = submit(open_session(), {{"kind", "white"}, {"count", 100}});
+  auto stream = follow_in_background(port(), job);
+  const auto stopped = rig_->stop_daemon();
+  EXPECT_EQ(stopped.exit_status, 0) << stopped.describe();
+  // The stream ended with its last chunk, well before the job would have.
+  const auto r = stream.get();
+  EXPECT_EQ(r.reply.status, 200);
+  EXPECT_TRUE(r.reply.error.empty()) << r.reply.error;
+  ASSERT_FALSE(r.events.empty());
+  const auto state = r.events.back().job["state"].get<std::string>();
+  EXPECT_TRUE(state == "queued" || state == "running") << state;
 }
 
 }  // namespace

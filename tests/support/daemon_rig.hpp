@@ -43,6 +43,11 @@ class DaemonRig {
   DaemonRig(const DaemonRig&) = delete;
   DaemonRig& operator=(const DaemonRig&) = delete;
 
+  // Stops skinspecd (SIGTERM) and waits for it to end.
+  ProcessResult stop_daemon() {
+    daemon_->send_signal(SIGTERM);
+    return daemon_->wait(std::chrono::seconds(20));
+  }
   // 0 when the daemon did not come up.
   unsigned short port() const { return port_; }
   std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
