@@ -23,7 +23,9 @@ namespace {
 using Kind = drivers::InstrumentError::Kind;
 
 // Failures that leave the link unusable, so that the next use starts again from first contact.
-bool is_link_failure(Kind kind) { return kind == Kind::lost || kind == Kind::no_contact || kind == Kind::transport || kind == Kind::protocol; }
+bool is_link_failure(Kind kind) {
+  return kind == Kind::lost || kind == Kind::no_contact || kind == Kind::transport || kind == Kind::protocol;
+}
 
 // The worker does not announce the end of a job; while one runs the connector looks again
 // this often.
@@ -34,7 +36,7 @@ constexpr milliseconds kBusyRecheck{250};
 json Supervisor::instrument_status() const {
   std::lock_guard lock(mutex_);
   json next_attempt_in_ms = nullptr;
-  if (!meter_ && next_attempt_)
+  if (!meter_ && next_attempt_ && state_ != "connecting")
     next_attempt_in_ms = std::max<long long>(0, std::chrono::duration_cast<milliseconds>(*next_attempt_ - SteadyClock::now()).count());
   return {{"device", device_},
           {"port", port_.empty() ? json(nullptr) : json(port_)},
