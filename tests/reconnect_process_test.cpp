@@ -207,7 +207,8 @@ TEST_F(ReconnectTest, PortsWithoutAnInstrumentIsUnavailable) {
 TEST_F(ReconnectTest, AutoWithoutAnAdapterSaysSoAndJobsFailCleanly) {
   auto daemon = start_daemon(dir_, {"--device", "auto", "--reconnect-initial-ms", "100", "--reconnect-max-ms", "200"});
   ASSERT_NE(daemon.port, 0) << daemon.process->err();
-  for (const auto& port : http_request(daemon.port, "GET", "/api/v1/ports").json()["ports"])
+  const auto listing = http_request(daemon.port, "GET", "/api/v1/ports").json();
+  for (const auto& port : listing["ports"])
     if (!port["usb"].is_null()) GTEST_SKIP() << "this machine has a USB serial adapter: " << port;
 
   const auto status = wait_for_instrument(daemon.port, has_failed_attempts);
