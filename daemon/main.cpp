@@ -42,12 +42,18 @@ int serve(const skinspec::daemon::Options& o) {
     spdlog::warn("event=recovered interrupted_sessions={}", db->recovery().interrupted_sessions.size());
   context.store = &*db;
   context.fitter = &*fitter;
+  if (o.reconnect_initial_ms < 1 || o.reconnect_max_ms < 1 || o.instrument_check_ms < 0)
+    return spdlog::error("event=bad_option message=\"reconnect_initial_ms and reconnect_max_ms must be positive, instrument_check_ms not negative\""), 2;
   std::unique_ptr<daemon::Supervisor> supervisor;
   if (!o.device.empty()) {
     supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, kVersion);
     context.acquisition = supervisor.get();
+    daemon::Supervisor::ConnectionSettings link;
+    link.backoff = {std::chrono::milliseconds(o.reconnect_initial_ms), std::chrono::milliseconds(o.reconnect_max_ms)};
+    link.check_interval = std::chrono::milliseconds(o.instrument_check_ms);
+    supervisor->start_connection(std::move(link));
     supervisor->start();
-    spdlog::info("event=instrument device=\"{}\" message=\"connects when the first job needs it\"", o.device);
+    spdlog::info("event=instrument device=\"{}\" message=\"connecting in the background\"", o.device);
   }
 
   const api::Router router(context);
@@ -86,7 +92,13 @@ int main(int argc, char** argv) {
   CLI::App app{"skinspecd: stored skin spectra, sessions and fits over HTTP/JSON"};
   app.add_option("--listen", o.listen, "HOST:PORT to listen on (port 0: any free port)")->capture_default_str();
   app.add_option("--db", o.db, "SQLite database file, created when missing")->capture_default_str();
-  app.add_option("--device", o.device, "instrument connection URI (serial:, tcp: or usb:), for measurement jobs");
+  app.add_option("--device", o.device, "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (the first USB serial adapter)");
+  app.add_option("--reconnect-initial-ms", o.reconnect_initial_ms, "wait after the first failed connection attempt; doubles on each failure")
+      ->check(CLI::Range(1, 3600000))->capture_default_str();
+  app.add_option("--reconnect-max-ms", o.reconnect_max_ms, "longest wait between connection attempts")
+      ->check(CLI::Range(1, 3600000))->capture_default_str();
+  app.add_option("--instrument-check-ms", o.instrument_check_ms, "how often an idle meter is checked (0: never)")
+      ->check(CLI::Range(0, 3600000))->capture_default_str();
   app.add_option("--token-file", o.token_file, "0600 JSON file with read_token and operator_token; required off loopback");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical or off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))->capture_default_str();

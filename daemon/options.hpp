@@ -13,7 +13,7 @@ namespace skinspec::daemon {
 struct Options {
   std::string listen = "127.0.0.1:8650";
   std::string db = "skinspec.db";
-  std::string device;  // used by the instrument supervisor (next issue)
+  std::string device;  // serial:, tcp:, usb: URI or "auto"; empty: no instrument
   std::string token_file;
   std::string log_level = "info";
   std::string config;
@@ -21,6 +21,11 @@ struct Options {
   std::size_t max_connections = 512;
   int read_timeout_ms = 10000;
   int threads = 2;
+  // The instrument connection: backoff between attempts while it is unreachable, and how
+  // often an idle meter is checked (0: never).
+  int reconnect_initial_ms = 500;
+  int reconnect_max_ms = 30000;
+  int instrument_check_ms = 2000;
 };
 
 // Fills the fields of `options` not given on the command line (`given(flag name)` false) from

@@ -3,7 +3,9 @@
 // needs it and again after it was lost, and runs measurement jobs one at a time from a FIFO
 // queue (one measurement on the wire at a time). White readings are stored as the session's
 // white reference; samples become reflectance against the latest white and are fitted, the
-// reading, reflectance and fit stored in one transaction.
+// reading, reflectance and fit stored in one transaction. In the background it connects at
+// start, notices a meter that went away (a periodic check while idle, USB hot-plug), and
+// reconnects with backoff (docs/architecture.md, "The instrument connection").
 
 #include <condition_variable>
 #include <deque>
@@ -12,12 +14,15 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <thread>
 
 #include "skinspec/api/acquisition.hpp"
 #include "skinspec/drivers/pr650.hpp"
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/store/store.hpp"
+#include "instrument_link.hpp"
+#include "reconnect.hpp"
 
 namespace skinspec::daemon {
 
@@ -86,11 +91,73 @@ class Supervisor final : public api::Acquisition {
   mutable std::condition_variable changed_;
 
   // The instrument (supervisor_connection.cpp).
-  std::string state_ = "disconnected";
+
+  // The state's name and when it last changed; any assignment of another name restarts the clock.
+  class TrackedState {
+   public:
+    TrackedState& operator=(const std::string& name) {
+      if (name != name_) {
+        name_ = name;
+        since_ = std::chrono::system_clock::now();
+      }
+      return *this;
+    }
+    bool operator==(std::string_view name) const { return name_ == name; }
+    const std::string& name() const { return name_; }
+    std::chrono::system_clock::time_point since() const { return since_; }
+
+   private:
+    std::string name_ = "disconnected";
+    std::chrono::system_clock::time_point since_ = std::chrono::system_clock::now();
+  };
+
+  TrackedState state_;
   std::string last_error_;
   std::string serial_number_;
   std::optional<store::Id> instrument_id_;
   std::shared_ptr<drivers::Pr650> meter_;
+
+ public:
+  struct ConnectionSettings {
+    BackoffPolicy backoff;
+    // How often an idle connected meter is asked for its serial number, to notice that it went
+    // away while nobody measured; 0: never.
+    std::chrono::milliseconds check_interval{2000};
+    DeviceResolver resolver = resolve_device;
+    bool hotplug = true;  // watch USB adapters for usb: and auto devices
+  };
+  // Starts keeping the instrument connected in the background: call once, before start().
+  // Without it, the supervisor connects only when a job needs the meter.
+  void start_connection(ConnectionSettings settings);
+  // A USB adapter came or went: a reconnect attempt at once, or the instrument marked lost.
+  void on_usb_event(const drivers::UsbDeviceEvent& event);
+  nlohmann::json ports() const override;
+
+ private:
+  void keep_connected();
+  std::optional<std::chrono::steady_clock::time_point> next_link_action() const;
+  void connect_or_check();
+  std::optional<drivers::InstrumentError> connect_holding_wire();
+  void check_holding_wire(const std::shared_ptr<drivers::Pr650>& meter);
+  void note_connect_failure(const drivers::InstrumentError& error, const std::string& port);
+  void note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
+                      const std::string& serial_number);
+  const char* unreachable_state() const { return ever_connected_ ? "lost" : "disconnected"; }
+
+  ConnectionSettings link_;
+  // Held by whoever connects, checks or (through ensure_connected) is about to measure, so that
+  // only one of them owns the meter; always taken before mutex_, never while holding it.
+  std::mutex wire_mutex_;
+  std::string port_;                     // the concrete URI of the last connection
+  std::optional<UsbIdentity> adapter_;   // the USB adapter of that connection
+  bool ever_connected_ = false;          // "lost" rather than "disconnected" when unreachable
+  int failed_attempts_ = 0;              // in a row, reset on success
+  std::optional<std::chrono::steady_clock::time_point> next_attempt_;  // while unreachable
+  std::chrono::steady_clock::time_point next_check_{};
+  // Last members: stopped and joined first when the supervisor is destroyed, while everything
+  // they use is still alive (stop() has already told them to end).
+  std::unique_ptr<drivers::HotplugMonitor> hotplug_;
+  std::jthread connector_;
 };
 
 }  // namespace skinspec::daemon

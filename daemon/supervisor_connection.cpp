@@ -1,75 +1,236 @@
-// The supervisor's side facing the instrument: connecting, identifying, and what its state is.
+// The supervisor's side facing the instrument: finding it (instrument_link.hpp), connecting
+// and identifying, keeping it connected in the background, following USB hot-plug, and what
+// its state is.
+//
+// Two threads may want the meter: the job worker (through ensure_connected, before it
+// measures) and the connector (keep_connected). wire_mutex_ makes one of them its owner at a
+// time, and the connector leaves the meter alone while a job is queued or running.
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "skinspec/drivers/transport.hpp"
 #include "supervisor.hpp"
 #include "supervisor_common.hpp"
 
 namespace skinspec::daemon {
 
 using nlohmann::json;
+using SteadyClock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+namespace {
+
+using Kind = drivers::InstrumentError::Kind;
+
+// Failures that leave the link unusable, so that the next use starts again from first contact.
+bool is_link_failure(Kind kind) {
+  return kind == Kind::lost || kind == Kind::no_contact || kind == Kind::transport || kind == Kind::protocol;
+}
+
+// The worker does not announce the end of a job; while one runs the connector looks again
+// this often.
+constexpr milliseconds kBusyRecheck{250};
+
+}  // namespace
 
 json Supervisor::instrument_status() const {
   std::lock_guard lock(mutex_);
+  json next_attempt_in_ms = nullptr;
+  if (!meter_ && next_attempt_ && state_ != "connecting")
+    next_attempt_in_ms = std::max<long long>(0, std::chrono::duration_cast<milliseconds>(*next_attempt_ - SteadyClock::now()).count());
   return {{"device", device_},
-          {"state", state_},
+          {"port", port_.empty() ? json(nullptr) : json(port_)},
+          {"state", state_.name()},
+          {"since", api::api_time(to_store_time(state_.since()))},
           {"last_error", last_error_.empty() ? json(nullptr) : json(last_error_)},
           {"serial_number", serial_number_.empty() ? json(nullptr) : json(serial_number_)},
+          {"attempts", failed_attempts_},
+          {"next_attempt_in_ms", next_attempt_in_ms},
           {"running_job", running_ ? json(*running_) : json(nullptr)},
           {"queued", queue_.size()}};
 }
 
+json Supervisor::ports() const { return ports_json(drivers::list_ports()); }
+
 void Supervisor::set_state(std::string state) {
   std::lock_guard lock(mutex_);
-  state_ = std::move(state);
+  state_ = state;
 }
 
 void Supervisor::note_instrument_error(const drivers::InstrumentError& e) {
-  using K = drivers::InstrumentError::Kind;
   std::lock_guard lock(mutex_);
   last_error_ = describe(e);
-  if (e.kind == K::lost || e.kind == K::no_contact || e.kind == K::transport || e.kind == K::protocol) {
-    // Start again from first contact on the next job.
-    state_ = "lost";
+  if (is_link_failure(e.kind) && meter_) {
+    // Lost while in use: start again from first contact, the first attempt at once.
+    spdlog::warn("event=instrument_lost device=\"{}\" error=\"{}\"", device_, last_error_);
     meter_.reset();
-  } else {
-    state_ = meter_ ? "connected" : "disconnected";
+    failed_attempts_ = 0;
+    next_attempt_ = SteadyClock::now();
   }
+  state_ = meter_ ? "connected" : unreachable_state();
+  wake_.notify_all();
 }
 
 std::optional<drivers::InstrumentError> Supervisor::ensure_connected() {
-  using K = drivers::InstrumentError::Kind;
+  std::lock_guard wire(wire_mutex_);
+  return connect_holding_wire();
+}
+
+std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
   {
     std::lock_guard lock(mutex_);
     if (meter_ && meter_->connected()) return std::nullopt;
+    if (stopping_) return drivers::InstrumentError{Kind::cancelled, "the service is stopping", -1, {}};
+    state_ = "connecting";
   }
-  auto uri = drivers::parse_connection_uri(device_);
-  if (!uri) return drivers::InstrumentError{K::transport, "--device '" + device_ + "': " + uri.error(), -1, {}};
-  auto transport = drivers::make_transport(*uri);
-  if (!transport) return drivers::InstrumentError{K::transport, transport.error(), -1, {}};
+  // Looked up on every attempt: an adapter may come back under another tty name.
+  auto resolved = link_.resolver(device_);
+  if (!resolved) {
+    const drivers::InstrumentError error{Kind::transport, resolved.error(), -1, {}};
+    note_connect_failure(error, {});
+    return error;
+  }
+  const std::string port = resolved->uri.to_string();
+  auto transport = drivers::make_transport(resolved->uri);
+  if (!transport) {
+    const drivers::InstrumentError error{Kind::transport, transport.error(), -1, {}};
+    note_connect_failure(error, port);
+    return error;
+  }
   drivers::DriverOptions options;
-  options.style.terminator = uri->terminator;
+  options.style.terminator = resolved->uri.terminator;
   auto meter = std::make_shared<drivers::Pr650>(std::move(*transport), options);
   {
     std::lock_guard lock(mutex_);
-    meter_ = meter;  // visible to cancel() while connecting
+    if (stopping_) return drivers::InstrumentError{Kind::cancelled, "the service is stopping", -1, {}};
+    port_ = port;
+    meter_ = meter;  // visible to cancel() and stop() while connecting
   }
-  if (auto ok = meter->connect(); !ok) return ok.error();
+  if (auto contact = meter->connect(); !contact) {
+    note_connect_failure(contact.error(), port);
+    return contact.error();
+  }
   auto identity = meter->identify();
-  if (!identity) return identity.error();
+  if (!identity) {
+    note_connect_failure(identity.error(), port);
+    return identity.error();
+  }
+  note_connected(meter, *resolved, identity->serial_number);
+  return std::nullopt;
+}
+
+void Supervisor::note_connect_failure(const drivers::InstrumentError& error, const std::string& port) {
+  std::lock_guard lock(mutex_);
+  meter_.reset();
+  port_ = port;
+  ++failed_attempts_;
+  last_error_ = describe(error);
+  state_ = unreachable_state();
+  const auto delay = backoff_delay(link_.backoff, failed_attempts_);
+  next_attempt_ = SteadyClock::now() + delay;
+  spdlog::info("event=instrument_unreachable device=\"{}\" attempts={} next_attempt_in_ms={} error=\"{}\"", device_,
+               failed_attempts_, delay.count(), last_error_);
+  wake_.notify_all();
+}
+
+void Supervisor::note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
+                                const std::string& serial_number) {
   store::Instrument instrument;
   instrument.model = "PR-650";
-  instrument.serial_number = identity->serial_number;
+  instrument.serial_number = serial_number;
   instrument.spectral_configuration = json{{"grid_nm", "380-780/4"}}.dump();
   instrument.connection = device_;
   auto id = db_.ensure_instrument(instrument);
   std::lock_guard lock(mutex_);
-  serial_number_ = identity->serial_number;
+  meter_ = meter;  // again: a detach reported while connecting is outdated by this contact
+  serial_number_ = serial_number;
   if (id) instrument_id_ = *id;
+  adapter_ = resolved.adapter;
+  ever_connected_ = true;
+  failed_attempts_ = 0;
+  next_attempt_.reset();
+  next_check_ = SteadyClock::now() + link_.check_interval;
   state_ = "connected";
-  spdlog::info("event=instrument_connected device=\"{}\" serial={}", device_, serial_number_);
-  return std::nullopt;
+  spdlog::info("event=instrument_connected device=\"{}\" port=\"{}\" serial={}", device_, port_, serial_number_);
+}
+
+// ---- In the background ------------------------------------------------------------------
+
+void Supervisor::start_connection(ConnectionSettings settings) {
+  {
+    std::lock_guard lock(mutex_);
+    link_ = std::move(settings);
+    next_attempt_ = SteadyClock::now();
+  }
+  if (link_.hotplug && follows_usb_adapters(device_)) {
+    hotplug_ = drivers::HotplugMonitor::start([this](const drivers::UsbDeviceEvent& event) { on_usb_event(event); });
+    if (hotplug_) spdlog::info("event=hotplug_monitor mode={}", hotplug_->polling() ? "polling" : "libusb");
+  }
+  connector_ = std::jthread([this] { keep_connected(); });
+}
+
+void Supervisor::keep_connected() {
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    const auto due = next_link_action();
+    if (!due) {
+      wake_.wait(lock);
+    } else if (SteadyClock::now() < *due) {
+      wake_.wait_until(lock, *due);
+    } else {
+      lock.unlock();
+      connect_or_check();
+      lock.lock();
+    }
+  }
+}
+
+// When the connector has something to do (mutex_ held); nullopt: nothing until woken.
+std::optional<SteadyClock::time_point> Supervisor::next_link_action() const {
+  if (running_ || !queue_.empty()) return SteadyClock::now() + kBusyRecheck;
+  if (meter_) return link_.check_interval > milliseconds::zero() ? std::optional(next_check_) : std::nullopt;
+  return next_attempt_;
+}
+
+void Supervisor::connect_or_check() {
+  std::lock_guard wire(wire_mutex_);
+  std::shared_ptr<drivers::Pr650> meter;
+  {
+    std::lock_guard lock(mutex_);
+    // A job came meanwhile: its worker connects (at once, without waiting for the backoff).
+    if (stopping_ || running_ || !queue_.empty()) return;
+    meter = meter_;
+  }
+  if (meter) check_holding_wire(meter);
+  else (void)connect_holding_wire();
+}
+
+// An idle meter is asked for its serial number, a short exchange that changes none of its
+// settings, to notice a meter that was switched off or a link that broke while nobody measured.
+void Supervisor::check_holding_wire(const std::shared_ptr<drivers::Pr650>& meter) {
+  auto identity = meter->identify();
+  {
+    std::lock_guard lock(mutex_);
+    next_check_ = SteadyClock::now() + link_.check_interval;
+  }
+  if (!identity && identity.error().kind != Kind::cancelled) note_instrument_error(identity.error());
+}
+
+void Supervisor::on_usb_event(const drivers::UsbDeviceEvent& event) {
+  std::lock_guard lock(mutex_);
+  if (event.kind == drivers::UsbDeviceEvent::Kind::attached) {
+    // Perhaps the meter's adapter: try now rather than when the backoff says.
+    if (!meter_) next_attempt_ = SteadyClock::now();
+  } else if (meter_ && adapter_ && concerns(event, *adapter_)) {
+    // The meter cannot be used any more; a running job fails on its own and says why.
+    last_error_ = fmt::format("lost: the USB adapter {:04x}:{:04x} of {} was unplugged", event.vendor_id, event.product_id, port_);
+    spdlog::warn("event=instrument_lost device=\"{}\" error=\"{}\"", device_, last_error_);
+    meter_.reset();
+    state_ = "lost";
+    failed_attempts_ = 0;
+    next_attempt_ = SteadyClock::now();
+  }
+  wake_.notify_all();
 }
 
 }  // namespace skinspec::daemon

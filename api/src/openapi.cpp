@@ -24,6 +24,28 @@ json params_schema() {
   return {{"type", "object"}, {"properties", props}};
 }
 
+json instrument_schema() {
+  const json states = {"none", "disconnected", "connecting", "connected", "measuring", "lost"};
+  return {{"type", "object"},
+          {"properties", {{"device", nullable("string")}, {"port", nullable("string")},
+                          {"state", {{"type", "string"}, {"enum", states}}},
+                          {"since", {{"type", "string"}, {"format", "date-time"}}},
+                          {"last_error", nullable("string")}, {"serial_number", nullable("string")},
+                          {"attempts", {{"type", "integer"}, {"description", "failed connection attempts in a row"}}},
+                          {"next_attempt_in_ms", nullable("integer")},
+                          {"running_job", nullable("integer")}, {"queued", {{"type", "integer"}}}}}};
+}
+
+json port_list_schema() {
+  const json usb = {{"type", json::array({"object", "null"})},
+                    {"properties", {{"vid", {{"type", "string"}}}, {"pid", {{"type", "string"}}}, {"serial", {{"type", "string"}}},
+                                    {"manufacturer", {{"type", "string"}}}, {"product", {{"type", "string"}}}}}};
+  const json port = {{"type", "object"},
+                     {"properties", {{"uri", {{"type", "string"}}}, {"name", {{"type", "string"}}}, {"description", {{"type", "string"}}},
+                                     {"transport", {{"type", "string"}}}, {"usb", usb}}}};
+  return {{"type", "object"}, {"properties", {{"ports", {{"type", "array"}, {"items", port}}}}}};
+}
+
 json schemas() {
   const json fit_fields = {
       {"name", {{"type", "string"}}}, {"site", {{"type", "string"}}}, {"params", params_schema()},
@@ -54,7 +76,8 @@ json schemas() {
                  {"properties", {{"error", {{"type", "object"}, {"required", {"code", "message"}},
                                             {"properties", {{"code", {{"type", "string"}}}, {"message", {{"type", "string"}}}}}}}}}}},
       {"Health", {{"type", "object"}, {"properties", {{"status", {{"type", "string"}}}, {"version", {{"type", "string"}}},
-                                                     {"database", {{"type", "object"}}}, {"model", {{"type", "object"}}}}}}},
+                                                     {"database", {{"type", "object"}}}, {"model", {{"type", "object"}}},
+                                                     {"instrument", ref("Instrument")}}}}},
       {"OpenApi", {{"type", "object"}}},
       {"FitRequest", {{"type", "object"}, {"required", {"wavelength_nm"}}, {"additionalProperties", false},
                       {"properties", {{"wavelength_nm", numbers()}, {"reflectance", numbers()},
@@ -83,10 +106,8 @@ json schemas() {
       {"SessionDetail", {{"type", "object"}, {"properties", detail_props}}},
       {"SessionPage", {{"type", "object"}, {"properties", {{"sessions", {{"type", "array"}, {"items", ref("Session")}}},
                                                            {"next_cursor", nullable("integer")}}}}},
-      {"Instrument", {{"type", "object"}, {"properties", {{"device", nullable("string")},
-                                                          {"state", {{"type", "string"}, {"enum", {"none", "disconnected", "connected", "measuring", "lost"}}}},
-                                                          {"last_error", nullable("string")}, {"serial_number", nullable("string")},
-                                                          {"queued", {{"type", "integer"}}}}}}},
+      {"Instrument", instrument_schema()},
+      {"PortList", port_list_schema()},
       {"MeasureRequest", {{"type", "object"}, {"required", {"kind"}}, {"additionalProperties", false},
                           {"properties", {{"kind", {{"type", "string"}, {"enum", {"white", "sample"}}}},
                                           {"count", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}, {"default", 1}}},

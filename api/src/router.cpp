@@ -77,6 +77,11 @@ struct Router::Handlers {
     no_query(call);
     return json_response(instrument_status(c));
   }
+  // GET /api/v1/ports
+  static Response ports(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return json_response(acquisition_of(c).ports());
+  }
   // POST /api/v1/sessions/{id}/measurements
   static Response measure(const RouterContext& c, const Call& call) {
     const json body = detail::parse_object(call.request.body);
@@ -389,11 +394,12 @@ const std::vector<Route>& route_table() {
         {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id", false, "", "Measurement", 200}, &H::get_measurement, {}},
         {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true, "RefitRequest", "Fit", 201}, &H::refit, {}},
         {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200}, &H::get_fit, {}},
-        {{"GET", "/api/v1/instrument", "The instrument's state: connected, measuring, lost; the last error", false, "", "Instrument", 200}, &H::instrument, {}},
+        {{"GET", "/api/v1/instrument", "The instrument's state (connected, measuring, lost ...), port, last error and reconnection", false, "", "Instrument", 200}, &H::instrument, {}},
         {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true, "MeasureRequest", "Job", 202}, &H::measure, {}},
         {{"GET", "/api/v1/jobs/{id}", "One job: state, queue position, progress, error, the ids it produced", false, "", "Job", 200}, &H::get_job, {}},
         {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
         {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", false, "", "text/event-stream", 200}, &H::job_events, {}},
+        {{"GET", "/api/v1/ports", "Serial ports and USB serial adapters present, with the --device URI of each", false, "", "PortList", 200}, &H::ports, {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;

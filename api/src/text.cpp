@@ -1,5 +1,7 @@
 #include "text.hpp"
 
+#include "skinspec/api/acquisition.hpp"
+
 #include <charconv>
 #include <cstdio>
 
@@ -124,3 +126,9 @@ std::string format_time(store::Time time) {
 }
 
 }  // namespace skinspec::api::detail
+
+namespace skinspec::api {
+
+std::string api_time(store::Time time) { return detail::format_time(time); }
+
+}  // namespace skinspec::api

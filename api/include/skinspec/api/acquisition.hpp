@@ -37,8 +37,11 @@ struct JobProgress {
 class Acquisition {
  public:
   virtual ~Acquisition() = default;
-  // {"device", "state": connected|measuring|lost|disconnected, "last_error", "serial_number", "queued"}
+  // {"device", "port", "state": disconnected|connecting|connected|measuring|lost, "since",
+  //  "last_error", "serial_number", "attempts", "next_attempt_in_ms", "queued", ...}
   virtual nlohmann::json instrument_status() const = 0;
+  // The serial ports and USB serial adapters present: {"ports": [...]} (GET /api/v1/ports).
+  virtual nlohmann::json ports() const = 0;
   // Queues a measurement of an open session; an idempotency key seen before returns that job.
   virtual std::expected<store::CreatedJob, ApiError> submit(store::Id session_id, const MeasureRequest& request,
                                                             const std::string& idempotency_key) = 0;
@@ -61,6 +64,9 @@ class Acquisition {
 // A fit result as the store keeps it, with the options, program version and tables digest.
 store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
                       const std::string& tables_digest);
+
+// A time as every answer of the API shows it: RFC 3339, UTC, with microseconds.
+std::string api_time(store::Time time);
 
 // A job as the API shows it, with `position` (null once finished) and `progress`: its live
 // progress when given, else what the store says (phase done, fraction 1 when it succeeded).

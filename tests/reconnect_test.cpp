@@ -1,0 +1,167 @@
+// The instrument connection's parts in-process: the backoff schedule, the choice of an adapter
+// for `auto`, the ports listing, and the supervisor following a USB adapter that comes back
+// under another tty name (a resolver standing in for discovery maps it to one of two simulators).
+
+#include <gtest/gtest.h>
+
+#include <mutex>
+#include <thread>
+
+#include "fitter_loader.hpp"
+#include "instrument_link.hpp"
+#include "reconnect.hpp"
+#include "supervisor.hpp"
+#include "support/service_processes.hpp"
+
+namespace skinspec::daemon {
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+using std::chrono::milliseconds;
+
+TEST(BackoffSchedule, RetriesAtOnceAfterALossThenDoublesUpToTheMaximum) {
+  const BackoffPolicy policy{500ms, 30000ms};
+  EXPECT_EQ(backoff_delay(policy, 0), 0ms);
+  EXPECT_EQ(backoff_delay(policy, 1), 500ms);
+  EXPECT_EQ(backoff_delay(policy, 2), 1000ms);
+  EXPECT_EQ(backoff_delay(policy, 3), 2000ms);
+  EXPECT_EQ(backoff_delay(policy, 6), 16000ms);
+  EXPECT_EQ(backoff_delay(policy, 7), 30000ms);
+  EXPECT_EQ(backoff_delay(policy, 1'000'000), 30000ms);
+}
+
+TEST(BackoffSchedule, AMaximumBelowTheInitialWaitIsTheInitialWait) {
+  EXPECT_EQ(backoff_delay({800ms, 100ms}, 1), 800ms);
+  EXPECT_EQ(backoff_delay({800ms, 100ms}, 5), 800ms);
+}
+
+drivers::PortInfo port(std::string path, std::optional<unsigned short> vid = {}, std::string serial = {}) {
+  drivers::PortInfo p;
+  p.path = std::move(path);
+  p.kind = vid ? "usb" : "native";
+  p.description = "a port";
+  p.vendor_id = vid;
+  p.product_id = vid ? std::optional<unsigned short>(0x6001) : std::nullopt;
+  p.serial_number = std::move(serial);
+  return p;
+}
+
+TEST(AutoDevice, IsTheFirstUsbAdapterInPathOrder) {
+  const auto chosen = first_usb_adapter({port("/dev/ttyUSB1", 0x0403, "B"), port("/dev/ttyS0"), port("/dev/ttyUSB0", 0x067b, "A")});
+  ASSERT_TRUE(chosen);
+  EXPECT_EQ(chosen->path, "/dev/ttyUSB0");
+  EXPECT_FALSE(first_usb_adapter({port("/dev/ttyS0"), port("/dev/ttyS1")}));
+  EXPECT_FALSE(first_usb_adapter({}));
+}
+
+TEST(PortsJson, GivesTheDeviceUriAndTheUsbIdentity) {
+  const auto body = ports_json({port("/dev/ttyUSB0", 0x0403, "FT1"), port("/dev/ttyS0")});
+  ASSERT_EQ(body["ports"].size(), 2u);
+  EXPECT_EQ(body["ports"][0]["uri"], "usb:0403:6001:FT1");
+  EXPECT_EQ(body["ports"][0]["name"], "/dev/ttyUSB0");
+  EXPECT_EQ(body["ports"][0]["usb"]["vid"], "0403");
+  EXPECT_EQ(body["ports"][0]["usb"]["pid"], "6001");
+  EXPECT_EQ(body["ports"][0]["usb"]["serial"], "FT1");
+  EXPECT_EQ(body["ports"][1]["uri"], "serial:/dev/ttyS0");
+  EXPECT_EQ(body["ports"][1]["transport"], "native");
+  EXPECT_TRUE(body["ports"][1]["usb"].is_null());
+}
+
+TEST(HotplugEvents, ConcernTheAdapterByIdentity) {
+  const UsbIdentity adapter{0x0403, 0x6001, "FT1"};
+  using K = drivers::UsbDeviceEvent::Kind;
+  EXPECT_TRUE(concerns({K::detached, 0x0403, 0x6001, "FT1"}, adapter));
+  EXPECT_TRUE(concerns({K::detached, 0x0403, 0x6001, ""}, adapter));  // serial unreadable
+  EXPECT_FALSE(concerns({K::detached, 0x0403, 0x6001, "FT2"}, adapter));
+  EXPECT_FALSE(concerns({K::detached, 0x067b, 0x6001, "FT1"}, adapter));
+  EXPECT_TRUE(concerns({K::detached, 0x0403, 0x6001, "FT2"}, UsbIdentity{0x0403, 0x6001, ""}));
+}
+
+TEST(DeviceResolution, RefusesABadUriAndKeepsTcpAsItIs) {
+  EXPECT_FALSE(resolve_device("bogus:thing"));
+  const auto tcp = resolve_device("tcp:127.0.0.1:4001");
+  ASSERT_TRUE(tcp) << tcp.error();
+  EXPECT_EQ(tcp->uri.to_string(), "tcp:127.0.0.1:4001");
+  EXPECT_FALSE(tcp->adapter);
+  EXPECT_FALSE(resolve_device("usb:0403:6001:NO-SUCH-ADAPTER-HERE"));
+}
+
+// Where a fake adapter "is" today: a simulator's TCP port, or nowhere (0).
+class FakeAdapterPlace {
+ public:
+  void move_to(unsigned short port) {
+    std::lock_guard lock(mutex_);
+    port_ = port;
+  }
+  std::expected<ResolvedDevice, std::string> resolve(const std::string&) const {
+    std::lock_guard lock(mutex_);
+    if (port_ == 0) return std::unexpected("no adapter 0403:6001 FT1");
+    auto uri = drivers::parse_connection_uri("tcp:127.0.0.1:" + std::to_string(port_));
+    return ResolvedDevice{*uri, UsbIdentity{0x0403, 0x6001, "FT1"}};
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  unsigned short port_ = 0;
+};
+
+json wait_for(const Supervisor& supervisor, const std::function<bool(const json&)>& done) {
+  json status;
+  for (int i = 0; i < 1500; ++i) {
+    status = supervisor.instrument_status();
+    if (done(status)) return status;
+    std::this_thread::sleep_for(20ms);
+  }
+  return status;
+}
+
+TEST(Hotplug, AUsbAdapterBackUnderANewTtyIsFollowed) {
+  testing::ScratchDirectory dir;
+  auto first = testing::start_simulator(dir, "127.0.0.1:0");
+  auto second = testing::start_simulator(dir, "127.0.0.1:0");
+  ASSERT_TRUE(first.port != 0 && second.port != 0) << first.process->err() << second.process->err();
+  auto db = store::Store::open(dir.file("lab.db"));
+  ASSERT_TRUE(db) << db.error().message;
+  auto fitter = load_fitter(SKINSPEC_TEST_DATA_DIR);
+  ASSERT_TRUE(fitter) << fitter.error();
+
+  FakeAdapterPlace place;
+  place.move_to(first.port);
+  Supervisor supervisor("usb:0403:6001:FT1", *db, *fitter, "test");
+  Supervisor::ConnectionSettings settings;
+  // Retries an hour apart and no idle checks: within this test only hot-plug events can make
+  // the supervisor notice anything.
+  settings.backoff = {std::chrono::hours(1), std::chrono::hours(1)};
+  settings.check_interval = 0ms;
+  settings.resolver = [&place](const std::string& device) { return place.resolve(device); };
+  settings.hotplug = false;  // the test delivers the events
+  supervisor.start_connection(settings);
+  supervisor.start();
+
+  auto status = wait_for(supervisor, [](const json& s) { return s["state"] == "connected"; });
+  ASSERT_EQ(status["state"], "connected") << status;
+  EXPECT_EQ(status["port"], "tcp:127.0.0.1:" + std::to_string(first.port));
+
+  using K = drivers::UsbDeviceEvent::Kind;
+  supervisor.on_usb_event({K::detached, 0x0403, 0x6001, "OTHER"});  // someone else's adapter
+  EXPECT_EQ(supervisor.instrument_status()["state"], "connected");
+
+  place.move_to(0);
+  supervisor.on_usb_event({K::detached, 0x0403, 0x6001, "FT1"});
+  EXPECT_EQ(supervisor.instrument_status()["state"], "lost");
+  // The attempt made at once fails (the adapter is nowhere); the next is an hour away.
+  status = wait_for(supervisor, [](const json& s) { return s.value("attempts", 0) >= 1; });
+  ASSERT_EQ(status["attempts"], 1) << status;
+  EXPECT_EQ(status["state"], "lost") << status;
+
+  place.move_to(second.port);
+  supervisor.on_usb_event({K::attached, 0x0403, 0x6001, "FT1"});
+  status = wait_for(supervisor, [](const json& s) { return s["state"] == "connected"; });
+  EXPECT_EQ(status["state"], "connected") << status;
+  EXPECT_EQ(status["port"], "tcp:127.0.0.1:" + std::to_string(second.port));
+  supervisor.stop();
+}
+
+}  // namespace
+}  // namespace skinspec::daemon
