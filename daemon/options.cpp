@@ -32,6 +32,9 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       else if (key == "max_connections") o.max_connections = v.get<std::size_t>();
       else if (key == "read_timeout_ms") o.read_timeout_ms = v.get<int>();
       else if (key == "threads") o.threads = v.get<int>();
+      else if (key == "max_rejected_readings") o.measure.max_rejected_readings = v.get<int>();
+      else if (key == "white_max_age_s") o.measure.white_max_age_s = v.get<double>();
+      else if (key == "lamp_change_tolerance") o.measure.lamp_change_tolerance = v.get<double>();
       else return std::unexpected("unknown config key '" + key + "'");
     }
   } catch (const json::exception& e) {

@@ -7,13 +7,14 @@
 
 #include "skinspec/api/router.hpp"
 #include "skinspec/api/server.hpp"
+#include "measure_policy.hpp"
 
 namespace skinspec::daemon {
 
 struct Options {
   std::string listen = "127.0.0.1:8650";
   std::string db = "skinspec.db";
-  std::string device;  // used by the instrument supervisor (next issue)
+  std::string device;  // the instrument supervisor's meter; none: no measurement jobs
   std::string token_file;
   std::string log_level = "info";
   std::string config;
@@ -21,6 +22,7 @@ struct Options {
   std::size_t max_connections = 512;
   int read_timeout_ms = 10000;
   int threads = 2;
+  MeasurePolicy measure;  // max_rejected_readings, white_max_age_s, lamp_change_tolerance
 };
 
 // Fills the fields of `options` not given on the command line (`given(flag name)` false) from
