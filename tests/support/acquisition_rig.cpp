@@ -18,6 +18,12 @@ unsigned short port_of(const std::optional<std::string>& line) {
   return line ? static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1))) : 0;
 }
 
+// `flag value` unless `given` sets that flag itself.
+void add_default(std::vector<std::string>& args, const std::vector<std::string>& given, const std::string& flag,
+                 const std::string& value) {
+  if (std::ranges::find(given, flag) == given.end()) args.insert(args.end(), {flag, value});
+}
+
 void stop(std::unique_ptr<BackgroundProcess>& process) {
   if (!process) return;
   process->send_signal(SIGTERM);
@@ -43,7 +49,7 @@ std::string AcquisitionRig::logs() const {
 
 void AcquisitionRig::start_sim(const std::string& listen) {
   std::vector<std::string> args = {"--listen", listen, "--boot-window", "inf"};
-  if (std::ranges::find(options_.sim_args, "--time-scale") == options_.sim_args.end()) args.insert(args.end(), {"--time-scale", "0"});
+  add_default(args, options_.sim_args, "--time-scale", "0");
   if (options_.default_scenes) {
     const std::string white = options_.work_dir + "/white.csv";
     std::ofstream(white) << "wavelength_nm,white\n380,0.99\n780,0.99\n";
@@ -55,8 +61,9 @@ void AcquisitionRig::start_sim(const std::string& listen) {
 }
 
 void AcquisitionRig::start_daemon(const std::vector<std::string>& extra_args) {
-  std::vector<std::string> args = {"--listen", "127.0.0.1:0", "--db", db_path(), "--log-level", "debug",
-                                   "--device", "tcp:127.0.0.1:" + std::to_string(sim_port)};
+  std::vector<std::string> args = {"--listen", "127.0.0.1:0", "--db", db_path(), "--device",
+                                   "tcp:127.0.0.1:" + std::to_string(sim_port)};
+  add_default(args, options_.daemon_args, "--log-level", "debug");
   args.insert(args.end(), options_.daemon_args.begin(), options_.daemon_args.end());
   args.insert(args.end(), extra_args.begin(), extra_args.end());
   daemon = std::make_unique<BackgroundProcess>(options_.bin_dir + "/skinspecd", args);

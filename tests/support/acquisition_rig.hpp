@@ -23,7 +23,7 @@ struct RigOptions {
   // white standard measured first, then the forearm example's subjects.
   std::vector<std::string> sim_args;
   bool default_scenes = true;  // false: sim_args name the readings' source
-  std::vector<std::string> daemon_args;
+  std::vector<std::string> daemon_args;  // added to the daemon's (log level debug unless given)
 };
 
 #ifdef SKINSPEC_TEST_BIN_DIR
