@@ -69,27 +69,27 @@ std::expected<Supervisor::Readings, Supervisor::Outcome> Supervisor::take_readin
   for (int attempt = 1; std::cmp_less(out.good.size(), request.count); ++attempt) {
     auto reading = meter.measure(options);
     const auto received = std::chrono::system_clock::now();
-    {
-      std::lock_guard lock(mutex_);
-      if (cancel_running_) return std::unexpected(Outcome{store::JobState::cancelled, "cancelled by request", json::object()});
-    }
     if (reading) {
       out.good.push_back(std::move(*reading));
       out.last_reply_at = received;
-      continue;
+    } else if (const auto& error = reading.error(); error.kind != drivers::InstrumentError::Kind::bad_reading) {
+      note_instrument_error(error);
+      return failed(describe(error));
+    } else {
+      // Raw data is kept even when the job fails later: it is the record of what the meter said.
+      auto id = keep_rejected(job, attempt, error);
+      if (!id) return std::unexpected(id.error());
+      out.rejected_ids.push_back(*id);
+      out.warnings.push_back(rejection_warning(attempt, error, *id));
+      spdlog::warn("event=reading_rejected job={} attempt={} quality={} rejected_reading={}", job.id, attempt, error.quality_code, *id);
+      if (std::cmp_greater(out.rejected_ids.size(), policy_.max_rejected_readings)) {
+        note_instrument_error(error);
+        return failed(fmt::format("{} ({} readings rejected, at most {} allowed per job)", describe(error),
+                                  out.rejected_ids.size(), policy_.max_rejected_readings));
+      }
     }
-    const auto& error = reading.error();
-    note_instrument_error(error);
-    if (error.kind != drivers::InstrumentError::Kind::bad_reading) return failed(describe(error));
-    // Raw data is kept even when the job fails later: it is the record of what the meter said.
-    auto id = keep_rejected(job, attempt, error);
-    if (!id) return std::unexpected(id.error());
-    out.rejected_ids.push_back(*id);
-    out.warnings.push_back(rejection_warning(attempt, error, *id));
-    spdlog::warn("event=reading_rejected job={} attempt={} quality={} rejected_reading={}", job.id, attempt, error.quality_code, *id);
-    if (std::cmp_greater(out.rejected_ids.size(), policy_.max_rejected_readings))
-      return failed(fmt::format("{} ({} readings rejected, at most {} allowed per job)", describe(error), out.rejected_ids.size(),
-                                policy_.max_rejected_readings));
+    std::lock_guard lock(mutex_);
+    if (cancel_running_) return std::unexpected(Outcome{store::JobState::cancelled, "cancelled by request", json::object()});
   }
   return out;
 }
@@ -171,7 +171,7 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
   m.label = request.label;
   m.instrument_id = instrument_id_;
   m.job_id = job.id;
-  m.settings = json{{"integration_ms", request.integration_ms}, {"averages", 1}, {"count", request.count},
+  m.settings = json{{"integration_ms", request.integration_ms}, {"averages", readings->good.front().averages}, {"count", request.count},
                     {"sync", readings->good.front().sync}, {"rejected_readings", readings->rejected_ids.size()}}
                    .dump();
   m.warnings = readings->warnings;

@@ -142,13 +142,18 @@ TEST_F(AcquisitionFaultsTest, ADaemonKilledMidSessionLeavesAnIntactDatabaseAndAn
   ASSERT_EQ(sample["state"], "succeeded") << sample << rig.logs();
   const auto before = get_json(p, session_path(session));
 
+  const auto measurements_on_the_wire = [&] {
+    const auto log = rig.sim->err();
+    long n = 0;
+    for (auto at = log.find("measured '"); at != std::string::npos; at = log.find("measured '", at + 1)) ++n;
+    return n;
+  };
+  const auto measured_before = measurements_on_the_wire();
   const auto long_job = submit(p, session, {{"kind", "sample"}, {"count", 40}});
   const std::string job_path = "/api/v1/jobs/" + std::to_string(long_job["job_id"].get<long long>());
-  ASSERT_TRUE(rig.daemon->wait_for_stderr("event=instrument", 10s));
-  // Running, and a reading or more under way on the wire.
-  for (int i = 0; i < 500 && get_json(p, job_path)["state"] != "running"; ++i) std::this_thread::sleep_for(10ms);
-  ASSERT_EQ(get_json(p, job_path)["state"], "running");
-  ASSERT_TRUE(rig.sim->wait_for_stderr("measured", 10s));
+  // Killed once the job's first reading is done: in the middle of it (it ends failed, not
+  // succeeded, below).
+  ASSERT_TRUE(eventually([&] { return measurements_on_the_wire() > measured_before; })) << rig.logs();
   rig.daemon->send_signal(SIGKILL);
   EXPECT_EQ(rig.daemon->wait(10s).signal, SIGKILL);
 
