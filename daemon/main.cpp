@@ -47,6 +47,7 @@ int serve(const skinspec::daemon::Options& o) {
   std::unique_ptr<daemon::Supervisor> supervisor;
   if (!o.device.empty()) {
     supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, kVersion);
+    supervisor->set_policy(o.measure);
     context.acquisition = supervisor.get();
     daemon::Supervisor::ConnectionSettings link;
     link.backoff = {std::chrono::milliseconds(o.reconnect_initial_ms), std::chrono::milliseconds(o.reconnect_max_ms)};
@@ -107,6 +108,13 @@ int main(int argc, char** argv) {
   app.add_option("--max-connections", o.max_connections, "connections served at once")->capture_default_str();
   app.add_option("--read-timeout-ms", o.read_timeout_ms, "time a client has to send a whole request")->capture_default_str();
   app.add_option("--threads", o.threads, "I/O and worker threads each")->check(CLI::Range(1, 64))->capture_default_str();
+  app.add_option("--max-rejected-readings", o.measure.max_rejected_readings,
+                 "readings with a bad quality code a job stores and retries before it fails")->capture_default_str();
+  app.add_option("--white-max-age-s", o.measure.white_max_age_s, "warn on samples measured against an older white")
+      ->capture_default_str();
+  app.add_option("--lamp-change-tolerance", o.measure.lamp_change_tolerance,
+                 "warn when a white's band-integrated radiance differs from the previous white's by more (0.05 = 5 %)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   auto logger = spdlog::stderr_color_mt("skinspecd");
@@ -124,6 +132,7 @@ int main(int argc, char** argv) {
     if (!applied) return spdlog::error("event=bad_config path=\"{}\" message=\"{}\"", o.config, applied.error()), 2;
   }
   spdlog::set_level(spdlog::level::from_str(o.log_level));
+  if (auto bad = skinspec::daemon::check(o.measure)) return spdlog::error("event=bad_option message=\"{}\"", *bad), 2;
   try {
     return serve(o);
   } catch (const std::exception& e) {

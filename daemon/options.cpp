@@ -35,6 +35,9 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       else if (key == "reconnect_initial_ms") o.reconnect_initial_ms = v.get<int>();
       else if (key == "reconnect_max_ms") o.reconnect_max_ms = v.get<int>();
       else if (key == "instrument_check_ms") o.instrument_check_ms = v.get<int>();
+      else if (key == "max_rejected_readings") o.measure.max_rejected_readings = v.get<int>();
+      else if (key == "white_max_age_s") o.measure.white_max_age_s = v.get<double>();
+      else if (key == "lamp_change_tolerance") o.measure.lamp_change_tolerance = v.get<double>();
       else return std::unexpected("unknown config key '" + key + "'");
     }
   } catch (const json::exception& e) {

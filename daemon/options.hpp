@@ -7,6 +7,7 @@
 
 #include "skinspec/api/router.hpp"
 #include "skinspec/api/server.hpp"
+#include "measure_policy.hpp"
 
 namespace skinspec::daemon {
 
@@ -26,6 +27,7 @@ struct Options {
   int reconnect_initial_ms = 500;
   int reconnect_max_ms = 30000;
   int instrument_check_ms = 2000;
+  MeasurePolicy measure;  // max_rejected_readings, white_max_age_s, lamp_change_tolerance
 };
 
 // Fills the fields of `options` not given on the command line (`given(flag name)` false) from

@@ -23,6 +23,7 @@
 #include "skinspec/store/store.hpp"
 #include "instrument_link.hpp"
 #include "reconnect.hpp"
+#include "measure_policy.hpp"
 
 namespace skinspec::daemon {
 
@@ -32,6 +33,9 @@ class Supervisor final : public api::Acquisition {
   ~Supervisor() override;
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
+
+  // What jobs do with rejected readings and old or changed whites; before start().
+  void set_policy(const MeasurePolicy& policy) { policy_ = policy; }
 
   // Starts the worker thread; stop() cancels the running job, marks queued ones cancelled and
   // joins it.
@@ -54,8 +58,19 @@ class Supervisor final : public api::Acquisition {
     std::string error;
     nlohmann::json result = nlohmann::json::object();
   };
+  // The good readings of one job, and what was rejected on the way (supervisor_measure.cpp).
+  struct Readings {
+    std::vector<drivers::Reading> good;
+    std::vector<store::Id> rejected_ids;
+    std::vector<std::string> warnings;
+    std::chrono::system_clock::time_point last_reply_at;  // when the meter's last reply was in
+  };
   void run();
   Outcome execute(const store::Job& job, const api::MeasureRequest& request);
+  std::expected<Readings, Outcome> take_readings(const store::Job& job, const api::MeasureRequest& request, drivers::Pr650& meter);
+  std::expected<store::Id, Outcome> keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error);
+  std::optional<Outcome> derive_sample(const store::Session& session, const store::Measurement& white, store::Measurement& m,
+                                       std::optional<store::Fit>& fit, nlohmann::json& timing) const;
   std::optional<drivers::InstrumentError> ensure_connected();
   void note_instrument_error(const drivers::InstrumentError& error);
   void set_state(std::string state);
@@ -69,6 +84,7 @@ class Supervisor final : public api::Acquisition {
   store::Store& db_;
   const Fitter& fitter_;
   const std::string version_;
+  MeasurePolicy policy_;
 
   mutable std::mutex mutex_;  // guards everything below
 

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <thread>
 
+#include "support/acquisition_rig.hpp"
 #include "support/http_client.hpp"
 #include "support/process.hpp"
 #include "support/store_samples.hpp"
@@ -18,55 +19,7 @@ namespace {
 using nlohmann::json;
 using namespace std::chrono_literals;
 
-const std::string kDaemon = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspecd";
-const std::string kSim = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspec-sim";
 const std::string kForearm = std::string(SKINSPEC_TEST_DATA_DIR) + "/examples/forearm.csv";
-
-struct Rig {
-  std::unique_ptr<BackgroundProcess> sim, daemon;
-  unsigned short sim_port = 0, port = 0;
-
-  Rig(ScratchDirectory& dir, std::vector<std::string> sim_args) {
-    const std::string white = dir.file("white.csv");
-    std::ofstream(white) << "wavelength_nm,white\n380,0.99\n780,0.99\n";
-    std::vector<std::string> args = {"--listen", "127.0.0.1:0", "--time-scale", "0", "--boot-window", "inf", "--white", white,
-                                      "--reflectance", kForearm};
-    args.insert(args.end(), sim_args.begin(), sim_args.end());
-    sim = std::make_unique<BackgroundProcess>(kSim, args);
-    if (auto line = sim->wait_for_stdout_line("listening on ", 20s))
-      sim_port = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1)));
-    daemon = std::make_unique<BackgroundProcess>(
-        kDaemon, std::vector<std::string>{"--listen", "127.0.0.1:0", "--db", dir.file("lab.db"), "--log-level", "debug",
-                                          "--device", "tcp:127.0.0.1:" + std::to_string(sim_port)});
-    if (auto line = daemon->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s))
-      port = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1)));
-  }
-  ~Rig() {
-    for (auto* process : {daemon.get(), sim.get()}) {
-      if (process == nullptr) continue;
-      process->send_signal(SIGTERM);
-      (void)process->wait(20s);
-    }
-  }
-};
-
-json wait_for_job(unsigned short port, const json& accepted) {
-  const std::string path = "/api/v1/jobs/" + std::to_string(accepted["job_id"].get<long long>());
-  json job;
-  for (int i = 0; i < 600; ++i) {
-    job = http_request(port, "GET", path).json();
-    const auto state = job.value("state", "");
-    if (state != "queued" && state != "running") return job;
-    std::this_thread::sleep_for(50ms);
-  }
-  return job;
-}
-
-json submit(unsigned short port, long long session, const json& body, const std::vector<std::pair<std::string, std::string>>& headers = {}) {
-  const auto r = http_request(port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", body.dump(), headers);
-  EXPECT_TRUE(r.status == 202 || r.status == 200) << r.status << r.body;
-  return r.json();
-}
 
 // The forearm file's first subject, resampled as the simulator does: linearly onto 380-780
 // nm every 4 nm, the ends held.
@@ -102,8 +55,8 @@ class AcquisitionTest : public ::testing::Test {
 };
 
 TEST_F(AcquisitionTest, WhiteThenSampleStoresTheSourceReflectanceAndItsFit) {
-  Rig rig(dir_, {});
-  ASSERT_NE(rig.port, 0) << rig.daemon->err();
+  AcquisitionRig rig(rig_options(dir_.path().string(), {}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
   const auto p = rig.port;
   // The supervisor connects in the background from the start.
   const std::string initial = http_request(p, "GET", "/api/v1/instrument").json()["state"];
@@ -155,27 +108,39 @@ TEST_F(AcquisitionTest, WhiteThenSampleStoresTheSourceReflectanceAndItsFit) {
     EXPECT_NEAR(fit["params"][name].get<double>(), direct.json()["params"][name].get<double>(), 1e-9) << name;
 }
 
-TEST_F(AcquisitionTest, ABadQualityCodeFailsTheJobAndTheServiceKeepsServing) {
-  Rig rig(dir_, {"--fault", "d5:quality=19@2"});
-  ASSERT_NE(rig.port, 0) << rig.daemon->err();
+// One reading with a bad quality code is stored apart with its raw reply and measured again.
+TEST_F(AcquisitionTest, ABadQualityCodeIsRejectedKeptAndMeasuredAgain) {
+  AcquisitionRig rig(rig_options(dir_.path().string(), {"--fault", "d5:quality=19@2"}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
   const auto p = rig.port;
-  const long long session = http_request(p, "POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "V2"}}.dump()).json()["id"];
+  const long long session = new_session(p, "V2");
   const auto white = wait_for_job(p, submit(p, session, {{"kind", "white"}}));
-  ASSERT_EQ(white["state"], "succeeded") << white << rig.daemon->err();
-  const auto bad = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
-  ASSERT_EQ(bad["state"], "failed") << bad;
-  EXPECT_NE(bad["error"].get<std::string>().find("bad_reading"), std::string::npos) << bad;
-  EXPECT_NE(bad["error"].get<std::string>().find("19"), std::string::npos) << bad;
-  EXPECT_EQ(http_request(p, "GET", "/healthz").status, 200);
-  const auto detail = http_request(p, "GET", "/api/v1/sessions/" + std::to_string(session)).json();
-  EXPECT_EQ(detail["measurements"].size(), 1u) << detail;  // only the white
-  const auto next = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
-  EXPECT_EQ(next["state"], "succeeded") << next;
+  ASSERT_EQ(white["state"], "succeeded") << white << rig.logs();
+  const auto job = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  ASSERT_EQ(job["state"], "succeeded") << job;
+  ASSERT_EQ(job["result"]["rejected_reading_ids"].size(), 1u) << job;
+  ASSERT_EQ(job["result"]["warnings"].size(), 1u) << job;
+  EXPECT_TRUE(job["result"]["warnings"][0].get<std::string>().starts_with("rejected_reading:")) << job;
+  const auto detail = get_json(p, "/api/v1/sessions/" + std::to_string(session));
+  EXPECT_EQ(detail["measurements"].size(), 2u) << detail;
+  EXPECT_EQ(detail["measurements"][1]["warnings"], job["result"]["warnings"]);
+  ASSERT_EQ(detail["rejected_readings"].size(), 1u) << detail;
+  const auto& rejected = detail["rejected_readings"][0];
+  EXPECT_EQ(rejected["id"], job["result"]["rejected_reading_ids"][0]);
+  EXPECT_EQ(rejected["job_id"], job["id"]);
+  EXPECT_EQ(rejected["attempt"], 1);
+  EXPECT_EQ(rejected["quality"]["code"], 19);
+  EXPECT_NE(rejected["reason"].get<std::string>().find("bad_reading"), std::string::npos) << rejected;
+  EXPECT_FALSE(rejected.contains("raw_reply")) << rejected;
+  // The stored raw reply is the meter's D5 report with its quality code.
+  const auto raw = sqlite_text(rig.db_path(), "SELECT CAST(raw_reply AS TEXT) FROM rejected_readings");
+  EXPECT_TRUE(raw.starts_with("19,0")) << raw;
+  EXPECT_GT(raw.size(), 1000u);
 }
 
 TEST_F(AcquisitionTest, QueuedJobsCanBeCancelledAndUnknownOnesAreNotFound) {
-  Rig rig(dir_, {});
-  ASSERT_NE(rig.port, 0) << rig.daemon->err();
+  AcquisitionRig rig(rig_options(dir_.path().string(), {}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
   const auto p = rig.port;
   EXPECT_EQ(http_request(p, "GET", "/api/v1/jobs/999").status, 404);
   EXPECT_EQ(http_request(p, "POST", "/api/v1/sessions/999/measurements", json{{"kind", "white"}}.dump()).status, 404);

@@ -86,6 +86,14 @@ class ExportTest : public ::testing::Test {
     refit.measurement_id = sample_id_;
     value_of(store.add_fit(refit));
     value_of(store.record_measurement(testing::sample_measurement(first_, 3), std::nullopt));
+    RejectedReading rejected;
+    rejected.session_id = first_;
+    rejected.instrument_id = instrument;
+    rejected.quality_code = 19;
+    rejected.quality = "overload";
+    rejected.reason = "bad_reading: quality 19: overload";
+    rejected.raw_reply = "19,0\r\n";
+    value_of(store.record_rejected_reading(rejected));
     second_ = value_of(store.create_session(testing::sample_session(4)));
     value_of(store.record_measurement(testing::sample_measurement(second_, 4), testing::sample_fit(4)));
     return store;
@@ -139,6 +147,13 @@ TEST_F(ExportTest, JsonHoldsTheSessionItsSpectraFitsAndProvenance) {
   EXPECT_EQ(fit["fitted"].get<std::vector<double>>(), testing::sample_fit(1).fitted);
   EXPECT_TRUE(json["measurements"][0]["reflectance"].is_null());
   EXPECT_TRUE(json["measurements"][2]["fits"].empty());
+
+  ASSERT_EQ(json["rejected_readings"].size(), 1u);
+  const auto& rejected = json["rejected_readings"][0];
+  EXPECT_EQ(rejected["quality_code"], 19);
+  EXPECT_EQ(rejected["reason"], "bad_reading: quality 19: overload");
+  EXPECT_EQ(rejected["raw_reply_base64"], "MTksMA0K");  // "19,0\r\n"
+  EXPECT_EQ(rejected["attempt"], 1);
 }
 
 TEST_F(ExportTest, WithoutASessionEverySessionIsOneJsonLineOldestFirst) {

@@ -28,23 +28,33 @@ T value_of(Result<T> result) {
 
 // Rows as a skinspec of each earlier schema version wrote them, by hand, with the spectra in
 // their documented encoding: 400 nm -> 0.5, 700 nm -> 0.25 (little-endian float64 pairs).
-const std::map<int, std::string> kRowsAtVersion = {
-    {1, R"sql(
+// `job_column` is what a version >= 2 adds at the end of a measurement row.
+std::string rows_written_by_version(const std::string& job_column) {
+  return R"sql(
 INSERT INTO instruments VALUES (1, 'PR-650', '60950', '', 'serial:/dev/ttyUSB0', 1700000000000000, 1700000000000000);
 INSERT INTO white_standards VALUES (1, 'Spectralon', 'cert 7',
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 1700000000000001);
 INSERT INTO sessions VALUES (1, 'S-1', 'forearm', 'op', 'first', 1, 'open', 1700000000000002, 1700000000000002, NULL);
 INSERT INTO measurements VALUES (1, 1, 'white', 'w', 1, NULL, 0, 0, 'OK', 'W/(sr m2 nm)', '{}', 1,
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL, NULL, '[]', X'303030302C300D0A',
-  1700000000000003, 1700000000000004, 1700000000000005);
+  1700000000000003, 1700000000000004, 1700000000000005)sql" + job_column + R"sql();
 INSERT INTO measurements VALUES (2, 1, 'sample', 's', 1, 1, 1, 0, 'OK', 'W/(sr m2 nm)', '{"averages":2}', 2,
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL,
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', '["old white"]', X'00FF',
-  1700000000000006, 1700000000000007, 1700000000000008);
+  1700000000000006, 1700000000000007, 1700000000000008)sql" + job_column + R"sql();
 INSERT INTO fits VALUES (1, 2, 'forearm', 0.1, 7, 3, 2, 1, 0.01, 0.2, 0.3, 0.2, NULL, 0.012, 0.03, 0.9, 14, 1,
   'converged', '{"site":"forearm"}', 'skinspec 0.1.0', 'abc123',
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F',
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 0, 1700000000000009);
+)sql";
+}
+
+const std::map<int, std::string> kRowsAtVersion = {
+    {1, rows_written_by_version("")},
+    // Version 2 had jobs; a finished one that produced nothing stored.
+    {2, rows_written_by_version(", NULL") + R"sql(
+INSERT INTO jobs VALUES (1, 'measure', '{"kind":"sample"}', '', 1, 'k-1', 'failed', 'bad_reading: quality 19', '{}',
+  1700000000000010, 1700000000000011, 1700000000000012);
 )sql"},
 };
 
@@ -104,6 +114,15 @@ TEST_F(StoreMigrationTest, EveryEarlierVersionOpensWithItsRowsIntact) {
       const auto ids = value_of(store.record_measurement(m, testing::sample_fit(1)));
       EXPECT_EQ(value_of(store.measurement(ids.measurement_id)).job_id, created.job.id);
       EXPECT_EQ(value_of(store.sessions({.site = "forearm"})).sessions.size(), 1u);
+      RejectedReading rejected;
+      rejected.session_id = 1;
+      rejected.job_id = created.job.id;
+      rejected.instrument_id = 1;
+      rejected.quality_code = 19;
+      rejected.raw_reply = std::string("19,0\r\n\x00", 7);
+      const auto rejected_id = value_of(store.record_rejected_reading(rejected));
+      EXPECT_EQ(value_of(store.rejected_reading(rejected_id)).raw_reply, rejected.raw_reply);
+      EXPECT_EQ(value_of(store.session_detail(1)).rejected_readings.size(), 1u);
     }
     EXPECT_EQ(testing::sqlite_integer(path, "PRAGMA user_version"), current_schema_version());
     EXPECT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");

@@ -208,12 +208,66 @@ TEST_F(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
   EXPECT_TRUE(std::isnan(value_of(store.fit(refit_id)).standard_error[0]));
   EXPECT_EQ(value_of(store.fits_of_measurement(ids.measurement_id)).size(), 2u);
 
+  EXPECT_EQ(value_of(store.latest_measurement(session, MeasurementKind::white))->id, white_ids.measurement_id);
+  EXPECT_EQ(value_of(store.latest_measurement(session, MeasurementKind::sample))->id, ids.measurement_id);
+  EXPECT_FALSE(value_of(store.latest_measurement(session, MeasurementKind::dark)));
+  EXPECT_EQ(store.latest_measurement(999, MeasurementKind::white).error().kind, Kind::not_found);
+
   const auto detail = value_of(store.session_detail(session));
   EXPECT_EQ(detail.session.id, session);
   ASSERT_EQ(detail.measurements.size(), 2u);
   EXPECT_EQ(detail.measurements[0].id, white_ids.measurement_id);
   ASSERT_EQ(detail.fits.size(), 2u);
   EXPECT_EQ(detail.fits[1].id, refit_id);
+}
+
+TEST_F(StoreTest, RejectedReadingsKeepTheirRawBytesInAnySessionState) {
+  auto store = open();
+  const Id instrument = value_of(store.ensure_instrument(testing::sample_instrument(1)));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  Job job;
+  job.kind = "measure";
+  job.session_id = session;
+  const Id job_id = value_of(store.create_job(job)).job.id;
+  RejectedReading r;
+  r.session_id = session;
+  r.job_id = job_id;
+  r.instrument_id = instrument;
+  r.attempt = 2;
+  r.quality_code = 18;
+  r.quality = "low light";
+  r.reason = "bad_reading: quality 18: low light";
+  r.raw_reply = std::string("18,0\r\n\x00\xff 380.,1.0E-3\r\n", 24);
+  r.measured_at = Time(std::chrono::microseconds(1700000000123456));
+  const Id id = value_of(store.record_rejected_reading(r));
+
+  const auto back = value_of(store.rejected_reading(id));
+  EXPECT_EQ(back.session_id, session);
+  EXPECT_EQ(back.job_id, job_id);
+  EXPECT_EQ(back.instrument_id, instrument);
+  EXPECT_EQ(back.attempt, 2);
+  EXPECT_EQ(back.quality_code, 18);
+  EXPECT_EQ(back.quality, "low light");
+  EXPECT_EQ(back.reason, r.reason);
+  EXPECT_EQ(back.raw_reply, r.raw_reply);
+  EXPECT_EQ(back.measured_at, r.measured_at);
+  EXPECT_EQ(back.created_at, *clock_.now);
+
+  // Raw data is kept whatever became of the session, and it is never a measurement.
+  value_of(store.update_session(session, {.state = SessionState::aborted}));
+  const Id later = value_of(store.record_rejected_reading(r));
+  const auto detail = value_of(store.session_detail(session));
+  EXPECT_TRUE(detail.measurements.empty());
+  ASSERT_EQ(detail.rejected_readings.size(), 2u);
+  EXPECT_EQ(detail.rejected_readings[0].id, id);
+  EXPECT_EQ(detail.rejected_readings[1].id, later);
+
+  r.session_id = 999;
+  EXPECT_EQ(store.record_rejected_reading(r).error().kind, StoreError::Kind::not_found);
+  r.session_id = session;
+  r.attempt = 0;
+  EXPECT_EQ(store.record_rejected_reading(r).error().kind, StoreError::Kind::invalid_argument);
+  EXPECT_EQ(store.rejected_reading(12345).error().kind, StoreError::Kind::not_found);
 }
 
 TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {

@@ -154,6 +154,18 @@ json to_json(const store::Measurement& m, std::optional<store::Id> fit_id) {
           {"fit_id", optional_value(fit_id)}};
 }
 
+json to_json(const store::RejectedReading& r) {
+  return {{"id", r.id},
+          {"job_id", optional_value(r.job_id)},
+          {"instrument_id", optional_value(r.instrument_id)},
+          {"attempt", r.attempt},
+          {"quality", {{"code", r.quality_code}, {"text", r.quality}}},
+          {"reason", r.reason},
+          {"raw_reply_bytes", r.raw_reply.size()},
+          {"measured_at", format_time(r.measured_at)},
+          {"created_at", format_time(r.created_at)}};
+}
+
 json to_json(const store::Fit& f) {
   FitResult r;
   r.site = f.site;

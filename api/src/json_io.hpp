@@ -36,6 +36,8 @@ std::vector<double> number_array(const nlohmann::json& value, const std::string&
 nlohmann::json to_json(const store::WhiteStandard& standard);
 nlohmann::json to_json(const store::Session& session);
 nlohmann::json to_json(const store::Measurement& measurement, std::optional<store::Id> fit_id);
+// Without the raw reply bytes (they are in the store and its export, not in listings).
+nlohmann::json to_json(const store::RejectedReading& reading);
 // The fields of `skinspec fit` (fit_to_json), plus the stored record's id and provenance.
 nlohmann::json to_json(const store::Fit& fit);
 store::Fit to_store_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,

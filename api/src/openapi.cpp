@@ -71,6 +71,7 @@ json schemas() {
   json detail_props = session_props;
   detail_props["measurements"] = {{"type", "array"}, {"items", ref("Measurement")}};
   detail_props["fits"] = {{"type", "array"}, {"items", ref("Fit")}};
+  detail_props["rejected_readings"] = {{"type", "array"}, {"items", ref("RejectedReading")}};
   return {
       {"Error", {{"type", "object"}, {"required", {"error"}},
                  {"properties", {{"error", {{"type", "object"}, {"required", {"code", "message"}},
@@ -128,6 +129,11 @@ json schemas() {
                                        {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
                                        {"readings_total", {{"type", "integer"}, {"minimum", 1}}},
                                        {"fraction", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}}}}}},
+      {"RejectedReading", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"job_id", nullable("integer")},
+                                                               {"instrument_id", nullable("integer")}, {"attempt", {{"type", "integer"}}},
+                                                               {"quality", {{"type", "object"}}}, {"reason", {{"type", "string"}}},
+                                                               {"raw_reply_bytes", {{"type", "integer"}}},
+                                                               {"measured_at", {{"type", "string"}}}, {"created_at", {{"type", "string"}}}}}}},
       {"Measurement", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
                                                            {"kind", {{"type", "string"}}}, {"label", {{"type", "string"}}},
                                                            {"quality", {{"type", "object"}}}, {"units", {{"type", "string"}}},

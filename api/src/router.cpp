@@ -290,8 +290,11 @@ struct Router::Handlers {
       measurements.push_back(detail::to_json(m, latest));
     }
     for (const auto& f : detail_.fits) fits.push_back(detail::to_json(f));
+    json rejected = json::array();
+    for (const auto& r : detail_.rejected_readings) rejected.push_back(detail::to_json(r));
     out["measurements"] = measurements;
     out["fits"] = fits;
+    out["rejected_readings"] = rejected;
     return json_response(out);
   }
   static Response patch_session(const RouterContext& c, const Call& call) {
@@ -388,7 +391,7 @@ const std::vector<Route>& route_table() {
         {{"GET", "/api/v1/white-standards/{id}", "One white standard", false, "", "WhiteStandard", 200}, &H::get_white_standard, {}},
         {{"POST", "/api/v1/sessions", "Open a session", true, "SessionCreate", "Session", 201}, &H::create_session, {}},
         {{"GET", "/api/v1/sessions", "List sessions, newest first, with cursor pagination", false, "", "SessionPage", 200}, &H::list_sessions, {}},
-        {{"GET", "/api/v1/sessions/{id}", "One session with its measurements and fits", false, "", "SessionDetail", 200}, &H::get_session, {}},
+        {{"GET", "/api/v1/sessions/{id}", "One session with its measurements, fits and rejected readings", false, "", "SessionDetail", 200}, &H::get_session, {}},
         {{"PATCH", "/api/v1/sessions/{id}", "Change a session's notes or close it", true, "SessionUpdate", "Session", 200}, &H::patch_session, {}},
         {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", false, "", "text/csv", 200}, &H::export_csv, {}},
         {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id", false, "", "Measurement", 200}, &H::get_measurement, {}},

@@ -110,6 +110,19 @@ Json measurement_json(const Measurement& m, const std::vector<Fit>& fits) {
           {"fits", std::move(fits_json)}};
 }
 
+Json rejected_reading_json(const RejectedReading& r) {
+  return {{"id", r.id},
+          {"job_id", optional_id(r.job_id)},
+          {"instrument_id", optional_id(r.instrument_id)},
+          {"attempt", r.attempt},
+          {"quality_code", r.quality_code},
+          {"quality", r.quality},
+          {"reason", r.reason},
+          {"raw_reply_base64", base64(r.raw_reply)},
+          {"measured_at", iso8601(r.measured_at)},
+          {"created_at", iso8601(r.created_at)}};
+}
+
 Json session_json(const Session& s) {
   return {{"id", s.id},
           {"subject", s.subject},
@@ -151,6 +164,8 @@ Result<Json> detail_json(const Store& store, const SessionDetail& detail) {
   std::vector<Id> instrument_ids;
   for (const auto& m : detail.measurements)
     if (m.instrument_id) instrument_ids.push_back(*m.instrument_id);
+  for (const auto& r : detail.rejected_readings)
+    if (r.instrument_id) instrument_ids.push_back(*r.instrument_id);
   std::ranges::sort(instrument_ids);
   instrument_ids.erase(std::unique(instrument_ids.begin(), instrument_ids.end()), instrument_ids.end());
   out["instruments"] = Json::array();
@@ -161,6 +176,8 @@ Result<Json> detail_json(const Store& store, const SessionDetail& detail) {
   }
   out["measurements"] = Json::array();
   for (const auto& m : detail.measurements) out["measurements"].push_back(measurement_json(m, detail.fits));
+  out["rejected_readings"] = Json::array();
+  for (const auto& r : detail.rejected_readings) out["rejected_readings"].push_back(rejected_reading_json(r));
   return out;
 }
 

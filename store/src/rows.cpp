@@ -142,4 +142,20 @@ Job read_job(const Statement& row) {
   return out;
 }
 
+RejectedReading read_rejected_reading(const Statement& row) {
+  RejectedReading out;
+  out.id = row.integer(0);
+  out.session_id = row.integer(1);
+  out.job_id = row.optional_integer(2);
+  out.instrument_id = row.optional_integer(3);
+  out.attempt = static_cast<int>(row.integer(4));
+  out.quality_code = static_cast<int>(row.integer(5));
+  out.quality = row.text(6);
+  out.reason = row.text(7);
+  out.raw_reply = row.blob(8);
+  out.measured_at = time_at(row, 9);
+  out.created_at = time_at(row, 10);
+  return out;
+}
+
 }  // namespace skinspec::store::detail

@@ -26,6 +26,8 @@ inline constexpr std::string_view kFitColumns =
 inline constexpr std::string_view kJobColumns =
     "id, kind, request, requested_by, session_id, idempotency_key, state, error, result, created_at, started_at, "
     "finished_at";
+inline constexpr std::string_view kRejectedReadingColumns =
+    "id, session_id, job_id, instrument_id, attempt, quality_code, quality, reason, raw_reply, measured_at, created_at";
 
 Instrument read_instrument(const Statement& row);
 WhiteStandard read_white_standard(const Statement& row);
@@ -33,5 +35,6 @@ Session read_session(const Statement& row);
 Measurement read_measurement(const Statement& row);
 Fit read_fit(const Statement& row);
 Job read_job(const Statement& row);
+RejectedReading read_rejected_reading(const Statement& row);
 
 }  // namespace skinspec::store::detail

@@ -127,7 +127,26 @@ CREATE INDEX sessions_by_site ON sessions (site, id);
 CREATE INDEX sessions_by_state ON sessions (state, id);
 )sql";
 
-constexpr std::array<std::string_view, 2> kMigrations = {kVersion1, kVersion2};
+// Version 3: readings the meter returned with a bad quality code, with their raw reply bytes,
+// kept apart from measurements so that nothing averages or fits them by mistake.
+constexpr std::string_view kVersion3 = R"sql(
+CREATE TABLE rejected_readings (
+  id            INTEGER PRIMARY KEY,
+  session_id    INTEGER NOT NULL REFERENCES sessions (id),
+  job_id        INTEGER REFERENCES jobs (id),
+  instrument_id INTEGER REFERENCES instruments (id),
+  attempt       INTEGER NOT NULL CHECK (attempt >= 1),
+  quality_code  INTEGER NOT NULL,
+  quality       TEXT NOT NULL,
+  reason        TEXT NOT NULL,
+  raw_reply     BLOB NOT NULL,
+  measured_at   INTEGER NOT NULL,
+  created_at    INTEGER NOT NULL
+);
+CREATE INDEX rejected_readings_by_session ON rejected_readings (session_id);
+)sql";
+
+constexpr std::array<std::string_view, 3> kMigrations = {kVersion1, kVersion2, kVersion3};
 
 }  // namespace
 

@@ -85,10 +85,13 @@ Result<SessionDetail> Store::session_detail(Id id) const {
         "SELECT {} FROM fits WHERE measurement_id IN (SELECT id FROM measurements WHERE session_id = ?1) "
         "ORDER BY id",
         detail::kFitColumns);
+    static const std::string rejected = fmt::format(
+        "SELECT {} FROM rejected_readings WHERE session_id = ?1 ORDER BY id", detail::kRejectedReadingColumns);
     SessionDetail detail;
     detail.session = session_in(c, id);
     detail.measurements = all(c, measurements, detail::read_measurement, id);
     detail.fits = all(c, fits, detail::read_fit, id);
+    detail.rejected_readings = all(c, rejected, detail::read_rejected_reading, id);
     return detail;
   });
 }
@@ -126,6 +129,18 @@ Result<Measurement> Store::measurement(Id id) const {
   });
 }
 
+Result<std::optional<Measurement>> Store::latest_measurement(Id session_id, MeasurementKind kind) const {
+  return impl_->read("reading the latest measurement", [&](Connection& c) {
+    session_in(c, session_id);
+    static const std::string sql = fmt::format(
+        "SELECT {} FROM measurements WHERE session_id = ?1 AND kind = ?2 ORDER BY id DESC LIMIT 1",
+        detail::kMeasurementColumns);
+    auto row = c.prepare(sql);
+    row.bind(session_id, to_string(kind));
+    return row.step() ? std::optional<Measurement>(detail::read_measurement(row)) : std::nullopt;
+  });
+}
+
 Result<Fit> Store::fit(Id id) const {
   return impl_->read("reading a fit", [&](Connection& c) {
     static const std::string sql = select_by_id(detail::kFitColumns, "fits");
@@ -140,6 +155,13 @@ Result<std::vector<Fit>> Store::fits_of_measurement(Id measurement_id) const {
     static const std::string sql =
         fmt::format("SELECT {} FROM fits WHERE measurement_id = ?1 ORDER BY id", detail::kFitColumns);
     return all(c, sql, detail::read_fit, measurement_id);
+  });
+}
+
+Result<RejectedReading> Store::rejected_reading(Id id) const {
+  return impl_->read("reading a rejected reading", [&](Connection& c) {
+    static const std::string sql = select_by_id(detail::kRejectedReadingColumns, "rejected_readings");
+    return one(c, sql, id, "rejected reading", detail::read_rejected_reading);
   });
 }
 

@@ -227,6 +227,22 @@ Result<Id> Store::add_fit(const Fit& fit) {
   });
 }
 
+Result<Id> Store::record_rejected_reading(const RejectedReading& r) {
+  return impl_->write("recording a rejected reading", [&](Connection& c) {
+    if (r.attempt < 1) invalid(fmt::format("attempt {} is below 1", r.attempt));
+    require_row(c, "SELECT 1 FROM sessions WHERE id = ?1", r.session_id, "session");
+    if (r.job_id) require_row(c, "SELECT 1 FROM jobs WHERE id = ?1", *r.job_id, "job");
+    if (r.instrument_id) require_row(c, "SELECT 1 FROM instruments WHERE id = ?1", *r.instrument_id, "instrument");
+    c.prepare(
+         "INSERT INTO rejected_readings (session_id, job_id, instrument_id, attempt, quality_code, quality, reason, "
+         "raw_reply, measured_at, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)")
+        .bind(r.session_id, r.job_id, r.instrument_id, r.attempt, r.quality_code, r.quality, r.reason, Blob{r.raw_reply},
+              detail::to_micros(r.measured_at), detail::to_micros(impl_->now()))
+        .run();
+    return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+  });
+}
+
 Result<CreatedJob> Store::create_job(const Job& job) {
   return impl_->write("creating a job", [&](Connection& c) {
     detail::check_not_empty(job.kind, "the job's kind");

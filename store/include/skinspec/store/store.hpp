@@ -62,6 +62,7 @@ struct SessionDetail {
   Session session;
   std::vector<Measurement> measurements;  // in the order stored
   std::vector<Fit> fits;                  // of those measurements, in the order stored
+  std::vector<RejectedReading> rejected_readings;  // in the order stored
 };
 
 struct SessionUpdate {
@@ -124,10 +125,17 @@ class Store {
   // ignored), in one transaction: both or neither.
   Result<RecordedMeasurement> record_measurement(const Measurement& measurement, const std::optional<Fit>& fit);
   Result<Measurement> measurement(Id id) const;
+  // The session's most recently stored measurement of `kind`, if any (the session must exist).
+  Result<std::optional<Measurement>> latest_measurement(Id session_id, MeasurementKind kind) const;
   // Another fit of a stored measurement (a refit), in any session state.
   Result<Id> add_fit(const Fit& fit);
   Result<Fit> fit(Id id) const;
   Result<std::vector<Fit>> fits_of_measurement(Id measurement_id) const;
+
+  // Stores a reading rejected for its quality code, in its own transaction, in any session
+  // state (the raw data of an interrupted session is kept too).
+  Result<Id> record_rejected_reading(const RejectedReading& reading);
+  Result<RejectedReading> rejected_reading(Id id) const;
 
   Result<CreatedJob> create_job(const Job& job);
   Result<Job> update_job(Id id, const JobUpdate& update);

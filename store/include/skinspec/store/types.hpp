@@ -114,6 +114,22 @@ struct Measurement {
   Time created_at{};                       // when it was stored
 };
 
+// A reading the meter returned with a quality code that made it unusable: kept with its raw
+// reply, since raw data is never thrown away, but never averaged into a measurement (v3).
+struct RejectedReading {
+  Id id = 0;
+  Id session_id = 0;
+  std::optional<Id> job_id{};
+  std::optional<Id> instrument_id{};
+  int attempt = 1;             // the job's reading attempt it was (1-based)
+  int quality_code = 0;
+  std::string quality;         // the meter's text for the code
+  std::string reason;          // why it was rejected, as the job reports it
+  std::string raw_reply;       // the meter's reply bytes, as received
+  Time measured_at{};          // from the caller
+  Time created_at{};           // when it was stored
+};
+
 // The fit's five parameters, in this order.
 inline constexpr std::size_t kFitParamCount = 5;
 using FitParams = std::array<double, kFitParamCount>;

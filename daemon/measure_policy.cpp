@@ -1,0 +1,92 @@
+#include "measure_policy.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "supervisor_common.hpp"
+
+namespace skinspec::daemon {
+
+std::optional<std::string> check(const MeasurePolicy& policy) {
+  if (policy.max_rejected_readings < 0 || policy.max_rejected_readings > 100)
+    return fmt::format("max_rejected_readings {} is outside 0-100", policy.max_rejected_readings);
+  if (!(policy.white_max_age_s > 0)) return fmt::format("white_max_age_s {} is not above 0", policy.white_max_age_s);
+  if (!(policy.lamp_change_tolerance > 0) || !std::isfinite(policy.lamp_change_tolerance))
+    return fmt::format("lamp_change_tolerance {} is not above 0", policy.lamp_change_tolerance);
+  return std::nullopt;
+}
+
+std::expected<store::Measurement, std::string> averaged(const std::vector<drivers::Reading>& readings) {
+  if (readings.empty()) return std::unexpected("no readings");
+  const auto& first = readings.front();
+  const std::size_t n = first.radiance.size();
+  const double count = static_cast<double>(readings.size());
+  store::Measurement m;
+  m.quality_code = first.quality_code;
+  m.quality = first.quality;
+  m.units = first.units;
+  m.reading_count = static_cast<int>(readings.size());
+  m.radiance.wavelength_nm = first.wavelength_nm;
+  m.radiance.values.assign(n, 0.0);
+  for (const auto& r : readings) {
+    if (r.wavelength_nm != first.wavelength_nm || r.radiance.size() != n) return std::unexpected("readings on different grids");
+    for (std::size_t i = 0; i < n; ++i) m.radiance.values[i] += r.radiance[i] / count;
+    m.raw_reply += r.raw_reply;
+  }
+  if (readings.size() > 1) {
+    m.radiance_sd.wavelength_nm = first.wavelength_nm;
+    m.radiance_sd.values.assign(n, 0.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      double sum = 0;
+      for (const auto& r : readings) sum += (r.radiance[i] - m.radiance.values[i]) * (r.radiance[i] - m.radiance.values[i]);
+      m.radiance_sd.values[i] = std::sqrt(sum / (count - 1));
+    }
+  }
+  m.started_at = to_store_time(first.started);
+  m.finished_at = to_store_time(readings.back().finished);
+  return m;
+}
+
+double band_integrated(const store::SpectralSamples& radiance) {
+  double sum = 0;
+  const auto& wl = radiance.wavelength_nm;
+  const auto& v = radiance.values;
+  for (std::size_t i = 1; i < wl.size() && i < v.size(); ++i) sum += (wl[i] - wl[i - 1]) * (v[i] + v[i - 1]) / 2;
+  return sum;
+}
+
+std::optional<std::string> white_age_warning(const store::Measurement& white, store::Time sample_started,
+                                             const MeasurePolicy& policy) {
+  const double age_s = std::chrono::duration<double>(sample_started - white.finished_at).count();
+  if (age_s <= policy.white_max_age_s) return std::nullopt;
+  return fmt::format("white_stale: the white reference (measurement {}) was {:.1f} s old, more than white_max_age_s {:g}: "
+                     "measure the white standard again",
+                     white.id, age_s, policy.white_max_age_s);
+}
+
+std::optional<std::string> lamp_change_warning(const store::Measurement& white, const store::Measurement& previous,
+                                               const MeasurePolicy& policy) {
+  const double before = band_integrated(previous.radiance);
+  const double now = band_integrated(white.radiance);
+  if (!(before > 0)) return std::nullopt;  // a dark previous white tells nothing about the lamp
+  const double change = (now - before) / before;
+  if (std::abs(change) <= policy.lamp_change_tolerance) return std::nullopt;
+  return fmt::format("{} the band-integrated radiance of this white ({:.4g}) is {:+.1f} % from the previous white's "
+                     "(measurement {}, {:.4g}), beyond lamp_change_tolerance {:g} %",
+                     kLampChanged, now, 100 * change, previous.id, before, 100 * policy.lamp_change_tolerance);
+}
+
+std::optional<std::string> inherited_lamp_warning(const store::Measurement& white) {
+  for (const auto& w : white.warnings)
+    if (w.starts_with(kLampChanged))
+      return fmt::format("{} measured against white {}, whose lamp level changed from the white before it", kLampChanged, white.id);
+  return std::nullopt;
+}
+
+std::string rejection_warning(int attempt, const drivers::InstrumentError& error, store::Id rejected_id) {
+  return fmt::format("rejected_reading: reading attempt {} rejected ({}); its raw reply is rejected reading {}", attempt,
+                     describe(error), rejected_id);
+}
+
+}  // namespace skinspec::daemon

@@ -1,0 +1,103 @@
+// The measurement job's pure parts: averaging readings, the band-integrated radiance, and when
+// an old white, a changed lamp or a rejected reading draws a warning.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "measure_policy.hpp"
+
+namespace skinspec::daemon {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+drivers::Reading reading(std::vector<double> radiance, int second) {
+  drivers::Reading r;
+  r.wavelength_nm = {400, 500, 600};
+  r.radiance = std::move(radiance);
+  r.units = "W/(sr m2 nm)";
+  r.quality = "OK";
+  r.raw_reply = "r" + std::to_string(second);
+  r.started = std::chrono::system_clock::time_point(std::chrono::seconds(second));
+  r.finished = r.started + std::chrono::milliseconds(500);
+  return r;
+}
+
+store::Measurement white(store::Id id, double level, int finished_s = 0) {
+  store::Measurement m;
+  m.id = id;
+  m.radiance = {{400, 500, 600}, {level, level, level}};
+  m.finished_at = store::Time(std::chrono::seconds(finished_s));
+  return m;
+}
+
+TEST(MeasurePolicyTest, ReadingsAreAveragedWithTheirStandardDeviation) {
+  const auto m = averaged({reading({1, 2, 3}, 10), reading({3, 2, 5}, 11)});
+  ASSERT_TRUE(m) << m.error();
+  EXPECT_EQ(m->radiance.values, std::vector<double>({2, 2, 4}));
+  ASSERT_EQ(m->radiance_sd.values.size(), 3u);
+  EXPECT_DOUBLE_EQ(m->radiance_sd.values[0], std::sqrt(2.0));
+  EXPECT_DOUBLE_EQ(m->radiance_sd.values[1], 0);
+  EXPECT_EQ(m->reading_count, 2);
+  EXPECT_EQ(m->raw_reply, "r10r11");
+  EXPECT_EQ(m->started_at, store::Time(std::chrono::seconds(10)));
+  EXPECT_EQ(m->finished_at, store::Time(std::chrono::milliseconds(11500)));
+  EXPECT_TRUE(averaged({reading({1, 2, 3}, 1)})->radiance_sd.empty());
+  auto other_grid = reading({1, 2, 3}, 2);
+  other_grid.wavelength_nm = {404, 500, 600};
+  EXPECT_FALSE(averaged({reading({1, 2, 3}, 1), other_grid}));
+  EXPECT_FALSE(averaged({}));
+}
+
+TEST(MeasurePolicyTest, BandIntegratedRadianceIsTheTrapezoidSum) {
+  EXPECT_DOUBLE_EQ(band_integrated({{400, 500, 600}, {1, 3, 1}}), 100 * 2 + 100 * 2);
+  EXPECT_EQ(band_integrated({}), 0);
+}
+
+TEST(MeasurePolicyTest, ALampChangeBeyondTheToleranceWarnsEitherWay) {
+  const MeasurePolicy policy;  // 5 %
+  EXPECT_FALSE(lamp_change_warning(white(0, 1.04), white(3, 1.0), policy));
+  EXPECT_FALSE(lamp_change_warning(white(0, 0.96), white(3, 1.0), policy));
+  const auto brighter = lamp_change_warning(white(0, 1.2), white(3, 1.0), policy);
+  ASSERT_TRUE(brighter);
+  EXPECT_THAT(*brighter, StartsWith("lamp_changed:"));
+  EXPECT_THAT(*brighter, HasSubstr("+20.0 %"));
+  EXPECT_THAT(*brighter, HasSubstr("measurement 3"));
+  EXPECT_THAT(*lamp_change_warning(white(0, 0.5), white(3, 1.0), policy), HasSubstr("-50.0 %"));
+  // A dark earlier white says nothing about the lamp.
+  EXPECT_FALSE(lamp_change_warning(white(0, 1.0), white(3, 0.0), policy));
+
+  auto warned = white(4, 1.2);
+  warned.warnings = {*brighter};
+  EXPECT_THAT(*inherited_lamp_warning(warned), HasSubstr("white 4"));
+  EXPECT_FALSE(inherited_lamp_warning(white(5, 1.0)));
+}
+
+TEST(MeasurePolicyTest, AWhiteOlderThanTheLimitWarns) {
+  MeasurePolicy policy;
+  policy.white_max_age_s = 60;
+  const auto w = white(7, 1.0, 1000);
+  EXPECT_FALSE(white_age_warning(w, store::Time(std::chrono::seconds(1060)), policy));
+  const auto stale = white_age_warning(w, store::Time(std::chrono::seconds(1061)), policy);
+  ASSERT_TRUE(stale);
+  EXPECT_THAT(*stale, StartsWith("white_stale:"));
+  EXPECT_THAT(*stale, HasSubstr("61.0 s"));
+  EXPECT_THAT(*stale, HasSubstr("measurement 7"));
+}
+
+TEST(MeasurePolicyTest, SettingsOutOfRangeAreExplained) {
+  EXPECT_FALSE(check(MeasurePolicy{}));
+  EXPECT_THAT(*check(MeasurePolicy{.max_rejected_readings = -1}), HasSubstr("max_rejected_readings"));
+  EXPECT_THAT(*check(MeasurePolicy{.white_max_age_s = 0}), HasSubstr("white_max_age_s"));
+  EXPECT_THAT(*check(MeasurePolicy{.lamp_change_tolerance = std::nan("")}), HasSubstr("lamp_change_tolerance"));
+}
+
+TEST(MeasurePolicyTest, ARejectionNamesItsAttemptReasonAndStoredRow) {
+  const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "quality 19: overload", 19, "19,0"};
+  EXPECT_EQ(rejection_warning(2, error, 12),
+            "rejected_reading: reading attempt 2 rejected (bad_reading: quality 19: overload); its raw reply is rejected reading 12");
+}
+
+}  // namespace
+}  // namespace skinspec::daemon
