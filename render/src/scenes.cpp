@@ -111,7 +111,7 @@ Scene framed_scene(Mesh mesh, double aspect) {
   const Vec3 centre = b.centre();
   Scene scene{std::move(mesh), Camera{centre + Vec3{0, 0, distance}, centre, {0, 1, 0}, fov}, {}};
   const double reach = std::max(b.radius(), 1e-6);
-  scene.lights.push_back({Light::Kind::directional, Vec3{-0.45, 0.55, 0.7}, 0.85});
+  scene.lights.push_back({Light::Kind::directional, Vec3{-0.75, 0.45, 0.5}, 0.9});
   const double fill_distance = 3 * reach;
   scene.lights.push_back({Light::Kind::point, centre + Vec3{0.8, -0.2, 0.6} * fill_distance, 0.3 * fill_distance * fill_distance});
   return scene;

@@ -11,7 +11,7 @@ namespace skinspec::render {
 Mesh capsule(const Vec3& a, double ra, const Vec3& b, double rb, int segments);
 
 // A left hand seen from its back, fingers up, about 19 cm long in centimetres: the palm a
-// flattened capsule, four fingers of three tapering phalanges each, a thumb of two, a wrist.
+// flattened capsule, four fingers of three tapering phalanges each, a thumb of three, a wrist.
 Mesh procedural_hand();
 Mesh sphere(const Vec3& centre, double radius, int segments);
 
