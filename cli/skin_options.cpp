@@ -1,6 +1,5 @@
 #include "skin_options.hpp"
 
-#include <charconv>
 #include <filesystem>
 #include <fmt/format.h>
 #include <fstream>
@@ -77,14 +76,10 @@ render::Skin skin_from(const SkinArgs& args) {
 }
 
 std::pair<int, int> parse_size(const std::string& text) {
-  int w = 0, h = 0;
-  const char* end = text.data() + text.size();
-  const auto [after_w, ec_w] = std::from_chars(text.data(), end, w);
-  const bool x = ec_w == std::errc{} && after_w != end && (*after_w == 'x' || *after_w == 'X');
-  const auto [after_h, ec_h] = x ? std::from_chars(after_w + 1, end, h) : std::from_chars_result{end, std::errc::invalid_argument};
-  if (!x || ec_h != std::errc{} || after_h != end || w < 1 || h < 1 || w > render::kMaxImageSide || h > render::kMaxImageSide)
+  const auto size = render::parse_image_size(text);
+  if (!size)
     throw Failure{kBadInput, fmt::format("--size '{}': expected WxH with each side 1..{}, such as 512x512", text, render::kMaxImageSide)};
-  return {w, h};
+  return *size;
 }
 
 void write_file_atomically(const std::string& path, const std::vector<unsigned char>& bytes) {

@@ -1,6 +1,7 @@
 #include "skinspec/render/renderer.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fmt/format.h>
 #include <numbers>
@@ -136,6 +137,16 @@ std::expected<void, std::string> check_settings(const Scene& scene, const Render
 }
 
 }  // namespace
+
+std::optional<std::pair<int, int>> parse_image_size(std::string_view text, int max_side) {
+  int w = 0, h = 0;
+  const char* last = text.data() + text.size();
+  const auto [after_w, ec_w] = std::from_chars(text.data(), last, w);
+  if (ec_w != std::errc{} || after_w == last || *after_w != 'x') return std::nullopt;
+  const auto [after_h, ec_h] = std::from_chars(after_w + 1, last, h);
+  if (ec_h != std::errc{} || after_h != last || w < 1 || h < 1 || w > max_side || h > max_side) return std::nullopt;
+  return std::pair{w, h};
+}
 
 std::expected<void, std::string> check_surface(const SurfaceParams& s) {
   if (!(s.alpha >= 0 && std::isfinite(s.alpha))) return std::unexpected(fmt::format("alpha must be >= 0, not {}", s.alpha));

@@ -4,6 +4,9 @@
 // to linear sRGB with no chromatic adaptation (docs/render.md says why).
 
 #include <expected>
+#include <optional>
+#include <string_view>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -52,6 +55,9 @@ inline constexpr int kMaxSamplesPerSide = 8;
 // An error for sizes outside 1..kMaxImageSide, bad surface parameters, or lights that are not
 // finite; otherwise the image in linear sRGB (values may exceed 1 in highlights).
 std::expected<Image, std::string> render(const Scene& scene, const SpectralColours& colours, const RenderSettings& settings);
+
+// "WxH" (such as "512x512") with each side 1..max_side; nothing for anything else.
+std::optional<std::pair<int, int>> parse_image_size(std::string_view text, int max_side = kMaxImageSide);
 
 // Checks a surface's parameters: alpha, beta >= 0, roughness in (0, pi/2], index in (1, 5].
 std::expected<void, std::string> check_surface(const SurfaceParams& surface);
