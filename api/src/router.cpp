@@ -11,6 +11,7 @@
 #include "skinspec/store/store.hpp"
 #include "text.hpp"
 #include "fit_json.hpp"
+#include "render_route.hpp"
 
 namespace skinspec::api {
 
@@ -335,6 +336,10 @@ struct Router::Handlers {
     r.headers.emplace_back("Location", "/api/v1/fits/" + std::to_string(id));
     return r;
   }
+  // GET /api/v1/fits/{id}/render.png
+  static Response render_fit(const RouterContext& c, const Call& call) {
+    return detail::render_fit_png(fitter_of(c), value(store_of(c).fit(call.ids[0])), call.query, *c.render_cache);
+  }
 };
 
 namespace {
@@ -380,6 +385,7 @@ const std::vector<Route>& route_table() {
         {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true, "MeasureRequest", "Job", 202}, &H::measure, {}},
         {{"GET", "/api/v1/jobs/{id}", "One job: state, error, the ids it produced", false, "", "Job", 200}, &H::get_job, {}},
         {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
+        {{"GET", "/api/v1/fits/{id}/render.png", "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200}, &H::render_fit, {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;
@@ -458,6 +464,7 @@ Response error_response(const ApiError& error) {
 
 Router::Router(RouterContext context) : context_(std::move(context)) {
   if (!context_.metrics) context_.metrics = std::make_shared<Metrics>();
+  if (!context_.render_cache) context_.render_cache = std::make_shared<RenderCache>();
 }
 Router::~Router() = default;
 
