@@ -105,11 +105,15 @@ TEST(PlyReader, ReadsAsciiWithExtraProperties) {
   EXPECT_EQ(mesh->triangles.size(), 2u);
 }
 
-TEST(PlyReader, RefusesAFaceNamingAMissingVertex) {
-  const std::string text = std::string(kPlyHeader) + "0 0 0 9\n1 0 0 9\n1 1 0 9\n0 1 0 9\n3 0 1 7\n";
-  const auto mesh = parse_ply(text, "quad.ply");
-  ASSERT_FALSE(mesh);
-  EXPECT_THAT(mesh.error().what(), HasSubstr("vertex 7"));
+TEST(PlyReader, RefusesFacesNamingMissingVerticesOrTooFew) {
+  const std::string vertices = "0 0 0 9\n1 0 0 9\n1 1 0 9\n0 1 0 9\n";
+  const auto missing = parse_ply(std::string(kPlyHeader) + vertices + "3 0 1 7\n", "quad.ply");
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().line, 16u);
+  EXPECT_THAT(missing.error().what(), HasSubstr("vertex 7 is not among the 4"));
+  const auto two = parse_ply(std::string(kPlyHeader) + vertices + "2 0 1\n", "quad.ply");
+  ASSERT_FALSE(two);
+  EXPECT_EQ(two.error().line, 16u);
 }
 
 template <typename T>
@@ -144,10 +148,11 @@ TEST(PlyReader, ReadsBinaryLittleEndian) {
 
 TEST(PlyReader, RefusesATruncatedBinaryBody) {
   std::string bytes = binary_triangle_ply();
-  bytes.resize(bytes.size() - 3);
+  bytes.resize(bytes.size() - 3);  // into the face, after three vertices of 16 bytes
   const auto mesh = parse_ply(bytes, "scan.ply");
   ASSERT_FALSE(mesh);
-  EXPECT_THAT(mesh.error().what(), HasSubstr("binary body ends"));
+  EXPECT_THAT(mesh.error().what(), HasSubstr("binary body ends before every element"));
+  EXPECT_THAT(mesh.error().what(), HasSubstr("item at byte 48"));
 }
 
 // Brute force: every triangle tried, by the plane of the triangle and edge signs (a different

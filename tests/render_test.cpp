@@ -215,6 +215,9 @@ TEST(RenderInput, RefusesBadScalesSizesAndSurfaces) {
   RenderSettings index = settings(4, 1, 1);
   index.surface.index = std::nan("");
   EXPECT_FALSE(render(scene, colours, index));
+  Scene looking_up = scene;
+  looking_up.camera.target = looking_up.camera.position + Vec3{0, 5, 0};
+  EXPECT_FALSE(render(looking_up, colours, settings(4, 1, 1)));
   EXPECT_FALSE(encode_png(Image(2, 2), 12));
 }
 

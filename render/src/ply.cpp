@@ -86,19 +86,21 @@ class AsciiBody {
   std::optional<InputError> start_item() {
     do {
       const auto line = lines_.next();
-      if (!line) return error_at(source_, lines_.line(), "the file ends before every element declared in the header");
+      if (!line) return error("the file ends before every element declared in the header");
       words_ = detail::words(*line);
     } while (words_.empty());
     next_ = 0;
     return std::nullopt;
   }
   std::expected<double, InputError> value(Type) {
-    if (next_ >= words_.size()) return std::unexpected(error_at(source_, lines_.line(), "too few values on the line"));
+    if (next_ >= words_.size()) return std::unexpected(error("too few values on the line"));
     const auto v = finite_number(words_[next_]);
-    if (!v) return std::unexpected(error_at(source_, lines_.line(), "not a finite number: '" + std::string(words_[next_]) + "'"));
+    if (!v) return std::unexpected(error("not a finite number: '" + std::string(words_[next_]) + "'"));
     ++next_;
     return *v;
   }
+  // An error at the line being read.
+  InputError error(std::string message) const { return error_at(source_, lines_.line(), std::move(message)); }
 
  private:
   detail::LineReader lines_;
@@ -112,7 +114,10 @@ class BinaryBody {
  public:
   BinaryBody(std::string_view bytes, std::string_view source) : bytes_(bytes), source_(source) {}
 
-  std::optional<InputError> start_item() { return std::nullopt; }
+  std::optional<InputError> start_item() {
+    item_offset_ = offset_;
+    return std::nullopt;
+  }
   std::expected<double, InputError> value(Type type) {
     switch (type) {
       case Type::i8: return read<std::int8_t>();
@@ -124,64 +129,74 @@ class BinaryBody {
       case Type::f32: return read<float>();
       case Type::f64: return read<double>();
     }
-    return std::unexpected(error_at(source_, 0, "unknown property type"));
+    return std::unexpected(error("unknown property type"));
+  }
+  // An error at the item being read, located by its byte offset in the body.
+  InputError error(std::string message) const {
+    return error_at(source_, 0, message + " (binary body, item at byte " + std::to_string(item_offset_) + ")");
   }
 
  private:
   template <typename T>
   std::expected<double, InputError> read() {
     static_assert(std::endian::native == std::endian::little, "binary PLY is read on little-endian machines only");
-    if (bytes_.size() - offset_ < sizeof(T))
-      return std::unexpected(error_at(source_, 0, "the binary body ends at byte " + std::to_string(offset_) +
-                                                      " before every element declared in the header"));
+    if (bytes_.size() - offset_ < sizeof(T)) return std::unexpected(error("the binary body ends before every element declared in the header"));
     T v;
     std::memcpy(&v, bytes_.data() + offset_, sizeof(T));
     offset_ += sizeof(T);
     const auto out = static_cast<double>(v);
-    if (!std::isfinite(out))
-      return std::unexpected(error_at(source_, 0, "a value that is not finite at byte " + std::to_string(offset_ - sizeof(T))));
+    if (!std::isfinite(out)) return std::unexpected(error("a value that is not finite"));
     return out;
   }
 
   std::string_view bytes_;
   std::string_view source_;
-  std::size_t offset_ = 0;
+  std::size_t offset_ = 0, item_offset_ = 0;
 };
 
+// A list property's entries as vertex indices, each naming one of `vertex_count` vertices.
 template <typename Body>
-std::optional<InputError> read_element(Body& body, const Element& element, Mesh& mesh, std::string_view source) {
-  const bool vertices = element.name == "vertex", faces = element.name == "face";
-  for (std::size_t item = 0; item < element.count; ++item) {
-    if (auto failed = body.start_item()) return failed;
-    Vec3 p;
-    for (const Property& property : element.properties) {
-      if (!property.list_count) {
-        const auto v = body.value(property.type);
-        if (!v) return v.error();
-        if (vertices && property.name == "x") p.x = *v;
-        if (vertices && property.name == "y") p.y = *v;
-        if (vertices && property.name == "z") p.z = *v;
-        continue;
-      }
-      const auto n = body.value(*property.list_count);
-      if (!n) return n.error();
-      if (*n < 0 || *n > 1e6) return error_at(source, 0, "a list of " + std::to_string(*n) + " entries in element " + element.name);
-      std::vector<std::uint32_t> corners;
-      for (int i = 0; i < static_cast<int>(*n); ++i) {
-        const auto v = body.value(property.type);
-        if (!v) return v.error();
-        if (*v < 0 || *v >= static_cast<double>(mesh.positions.size()))
-          return error_at(source, 0, "face " + std::to_string(item) + " names vertex " + std::to_string(*v) + " of only " +
-                                         std::to_string(mesh.positions.size()));
-        corners.push_back(static_cast<std::uint32_t>(*v));
-      }
-      const bool indices = property.name == "vertex_indices" || property.name == "vertex_index";
-      if (faces && indices && corners.size() < 3) return error_at(source, 0, "face " + std::to_string(item) + " has fewer than three vertices");
-      if (faces && indices)
-        for (std::size_t i = 1; i + 1 < corners.size(); ++i) mesh.triangles.push_back({corners[0], corners[i], corners[i + 1]});
-    }
-    if (vertices) mesh.positions.push_back(p);
+std::expected<std::vector<std::uint32_t>, InputError> read_index_list(Body& body, const Property& property, std::size_t vertex_count) {
+  const auto n = body.value(*property.list_count);
+  if (!n) return std::unexpected(n.error());
+  if (*n < 0 || *n > 1e6) return std::unexpected(body.error("a list of " + std::to_string(*n) + " entries"));
+  std::vector<std::uint32_t> indices;
+  for (int i = 0; i < static_cast<int>(*n); ++i) {
+    const auto v = body.value(property.type);
+    if (!v) return std::unexpected(v.error());
+    if (*v < 0 || *v >= static_cast<double>(vertex_count))
+      return std::unexpected(body.error("vertex " + std::to_string(static_cast<long long>(*v)) + " is not among the " +
+                                        std::to_string(vertex_count) + " vertices"));
+    indices.push_back(static_cast<std::uint32_t>(*v));
   }
+  return indices;
+}
+
+bool is_face_indices(const Element& element, const Property& property) {
+  return element.name == "face" && (property.name == "vertex_indices" || property.name == "vertex_index");
+}
+
+// One instance of `element`: a vertex's position, a face's triangles, or values read past.
+template <typename Body>
+std::optional<InputError> read_item(Body& body, const Element& element, Mesh& mesh) {
+  if (auto failed = body.start_item()) return failed;
+  Vec3 p;
+  for (const Property& property : element.properties) {
+    if (property.list_count) {
+      const auto corners = read_index_list(body, property, mesh.positions.size());
+      if (!corners) return corners.error();
+      if (!is_face_indices(element, property)) continue;
+      if (corners->size() < 3) return body.error("a face needs at least three vertices");
+      for (std::size_t i = 1; i + 1 < corners->size(); ++i) mesh.triangles.push_back({(*corners)[0], (*corners)[i], (*corners)[i + 1]});
+      continue;
+    }
+    const auto v = body.value(property.type);
+    if (!v) return v.error();
+    if (property.name == "x") p.x = *v;
+    else if (property.name == "y") p.y = *v;
+    else if (property.name == "z") p.z = *v;
+  }
+  if (element.name == "vertex") mesh.positions.push_back(p);
   return std::nullopt;
 }
 
@@ -189,7 +204,8 @@ template <typename Body>
 std::expected<Mesh, InputError> read_body(Body body, const Header& header, std::string_view source) {
   Mesh mesh;
   for (const Element& element : header.elements)
-    if (auto failed = read_element(body, element, mesh, source)) return std::unexpected(*failed);
+    for (std::size_t item = 0; item < element.count; ++item)
+      if (auto failed = read_item(body, element, mesh)) return std::unexpected(*failed);
   return detail::checked_mesh(std::move(mesh), source);
 }
 

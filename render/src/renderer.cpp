@@ -4,7 +4,9 @@
 #include <charconv>
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 #include <numbers>
+#include <optional>
 
 #include "skinspec/fit/parallel.hpp"
 #include "skinspec/render/bvh.hpp"
@@ -129,6 +131,10 @@ std::expected<void, std::string> check_settings(const Scene& scene, const Render
   if (settings.samples_per_side < 1 || settings.samples_per_side > kMaxSamplesPerSide)
     return std::unexpected(fmt::format("samples per side must be 1..{}", kMaxSamplesPerSide));
   if (!(settings.exposure > 0 && std::isfinite(settings.exposure))) return std::unexpected(std::string("exposure must be positive"));
+  const Camera& c = scene.camera;
+  const Vec3 view = c.target - c.position;
+  if (!(length(cross(view, c.up)) > 0 && std::isfinite(length(view)) && c.vertical_fov_degrees > 0 && c.vertical_fov_degrees < 180))
+    return std::unexpected(std::string("the camera needs a view direction not parallel to its up and a field of 0-180 degrees"));
   for (const Light& l : scene.lights)
     if (!(std::isfinite(l.intensity) && l.intensity >= 0 && std::isfinite(length(l.vector)) &&
           (l.kind == Light::Kind::point || length(l.vector) > 0)))
