@@ -7,35 +7,6 @@
 
 namespace skinspec::cli {
 
-namespace {
-
-// D65, A, or a spectra CSV whose first column is the illuminant's relative power.
-Spectrum illuminant_from(const std::string& name) {
-  const auto builtin = fitter().colorimetry().illuminant(name);
-  if (builtin) return *builtin;
-  SpectraLimits limits;
-  limits.max_value = 1e9;
-  limits.must_cover_from_nm = 380;
-  limits.must_cover_to_nm = 780;
-  std::string bytes;
-  try {
-    bytes = read_input(name);
-  } catch (const Failure& unreadable) {
-    // A misspelt built-in name ("d65") is likelier than a missing file: say both.
-    throw Failure{kBadInput, "--illuminant: " + builtin.error() + ", and " + unreadable.message};
-  }
-  auto spectra = parse_spectra_csv(bytes, input_name(name), limits);
-  if (!spectra) throw Failure{kBadInput, spectra.error().what()};
-  // Colours are relative to the illuminant's white; with no power where the observer sees,
-  // that white is black and every XYZ and Lab would come out as NaN.
-  const Spectrum& power = spectra->front().spectrum;
-  if (!(fitter().colorimetry().white(power).y > 0))
-    throw Failure{kBadInput, input_name(name) + ": the illuminant has no power within the observer's 360-830 nm"};
-  return power;
-}
-
-}  // namespace
-
 void add_color_command(CLI::App& app) {
   auto file = std::make_shared<std::string>();
   auto illuminant_name = std::make_shared<std::string>("D65");

@@ -1,6 +1,7 @@
 #include "common.hpp"
 
 #include <filesystem>
+#include <fmt/format.h>
 #include <iostream>
 #include <iterator>
 
@@ -25,6 +26,42 @@ std::vector<NamedSpectrum> read_spectra(const std::string& path) {
   auto spectra = parse_spectra_csv(read_input(path), input_name(path));
   if (!spectra) throw Failure{kBadInput, spectra.error().what()};
   return std::move(*spectra);
+}
+
+Spectrum illuminant_from(const std::string& name) {
+  const auto builtin = fitter().colorimetry().illuminant(name);
+  if (builtin) return *builtin;
+  SpectraLimits limits;
+  limits.max_value = 1e9;
+  limits.must_cover_from_nm = 380;
+  limits.must_cover_to_nm = 780;
+  std::string bytes;
+  try {
+    bytes = read_input(name);
+  } catch (const Failure& unreadable) {
+    // A misspelt built-in name ("d65") is likelier than a missing file: say both.
+    throw Failure{kBadInput, "--illuminant: " + builtin.error() + ", and " + unreadable.message};
+  }
+  auto spectra = parse_spectra_csv(bytes, input_name(name), limits);
+  if (!spectra) throw Failure{kBadInput, spectra.error().what()};
+  // Colours are relative to the illuminant's white; with no power where the observer sees,
+  // that white is black and every XYZ and Lab would come out as NaN.
+  const Spectrum& power = spectra->front().spectrum;
+  if (!(fitter().colorimetry().white(power).y > 0))
+    throw Failure{kBadInput, input_name(name) + ": the illuminant has no power within the observer's 360-830 nm"};
+  return power;
+}
+
+// Like CLI::Range, but NaN is refused: Range only rejects values below or above its bounds, and
+// every comparison with NaN is false, so `--melanin nan` would print a NaN spectrum.
+CLI::Validator finite_range(double min, double max) {
+  const auto check = [min, max](std::string& text) -> std::string {
+    double value = 0;
+    if (!CLI::detail::lexical_cast(text, value)) return "'" + text + "' is not a number";
+    if (value >= min && value <= max) return {};
+    return fmt::format("must be a number in [{}, {}], not {}", min, max, text);
+  };
+  return CLI::Validator(check, fmt::format("FLOAT in [{} - {}]", min, max));
 }
 
 const Fitter& fitter() {

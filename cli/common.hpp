@@ -27,6 +27,12 @@ std::string read_input(const std::string& path);
 std::string input_name(const std::string& path);
 std::vector<NamedSpectrum> read_spectra(const std::string& path);
 
+// D65, A, or a spectra CSV file whose first column is the illuminant's relative power.
+Spectrum illuminant_from(const std::string& name);
+
+// Like CLI::Range, but NaN is refused as well.
+CLI::Validator finite_range(double min, double max);
+
 // The model tables and colorimetry from the data directory (loaded once per process).
 const Fitter& fitter();
 
@@ -42,5 +48,7 @@ void add_ports_command(CLI::App& app);
 void add_measure_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_session_command(CLI::App& app);
+void add_render_command(CLI::App& app);
+void add_figures_command(CLI::App& app);
 
 }  // namespace skinspec::cli

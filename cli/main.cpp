@@ -18,9 +18,11 @@ int main(int argc, char** argv) {
   add_measure_command(app);
   add_export_command(app);
   add_session_command(app);
+  add_render_command(app);
+  add_figures_command(app);
   // CLI11 reports a mistyped subcommand only as "a subcommand is required"; name it instead.
   if (argc > 1 && argv[1][0] != '-' && app.get_subcommands([&](CLI::App* sub) { return sub->get_name() == argv[1]; }).empty()) {
-    std::cerr << "skinspec: unknown command '" << argv[1] << "'; commands: fit, model, optics, color, tune, ports, measure, export, session\n";
+    std::cerr << "skinspec: unknown command '" << argv[1] << "'; commands: fit, model, optics, color, tune, ports, measure, export, session, render, figures\n";
     return kBadInput;
   }
   try {

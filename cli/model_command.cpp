@@ -28,18 +28,6 @@ std::vector<double> parse_grid(const std::string& text) {
   return Spectrum::uniform_grid(first, last, step);
 }
 
-// Like CLI::Range, but NaN is refused: Range only rejects values below or above its bounds, and
-// every comparison with NaN is false, so `--melanin nan` would print a NaN spectrum.
-CLI::Validator finite_range(double min, double max) {
-  const auto check = [min, max](std::string& text) -> std::string {
-    double value = 0;
-    if (!CLI::detail::lexical_cast(text, value)) return "'" + text + "' is not a number";
-    if (value >= min && value <= max) return {};
-    return fmt::format("must be a number in [{}, {}], not {}", min, max, text);
-  };
-  return CLI::Validator(check, fmt::format("FLOAT in [{} - {}]", min, max));
-}
-
 void run_model(const ModelArgs& args) {
   const auto grid = parse_grid(args.grid);
   const auto site = fitter().optics().site(args.site);

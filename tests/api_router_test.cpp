@@ -7,8 +7,10 @@
 
 #include "fit_json.hpp"
 #include "fitter_loader.hpp"
+#include "skinspec/api/render_cache.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/store/store.hpp"
+#include "support/png_reader.hpp"
 #include "support/store_samples.hpp"
 
 namespace skinspec::api {
@@ -274,6 +276,58 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   expect_error(call("GET", "/api/v1/measurements/77"), 404, "not_found");
   expect_error(call("GET", "/api/v1/fits/77"), 404, "not_found");
   expect_error(call("POST", "/api/v1/measurements/77/fit", "{}"), 404, "not_found");
+}
+
+TEST_F(ApiRouterTest, RendersAFitAsPngCachedByItsParameters) {
+  ASSERT_EQ(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}}.dump()).status, 201);
+  const store::Id m = add_measurement(1);
+  const auto refit = call("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", "{}");
+  ASSERT_EQ(refit.status, 201) << refit.body;
+  const std::string base = "/api/v1/fits/" + std::to_string(body(refit)["id"].get<std::int64_t>()) + "/render.png";
+  const auto cache_header = [](const Response& r) {
+    for (const auto& [name, value] : r.headers)
+      if (name == "X-Render-Cache") return value;
+    return std::string("none");
+  };
+
+  const auto first = call("GET", base + "?size=64x48&illuminant=A&scale_melanin=2");
+  ASSERT_EQ(first.status, 200) << first.body;
+  EXPECT_EQ(first.content_type, "image/png");
+  EXPECT_EQ(cache_header(first), "miss");
+  const auto png = testing::decode_png(first.body);
+  ASSERT_TRUE(png.has_value());
+  EXPECT_EQ(png->width, 64);
+  EXPECT_EQ(png->height, 48);
+  // The same parameters in another order: the cached bytes.
+  const auto again = call("GET", base + "?scale_melanin=2&illuminant=A&size=64x48");
+  EXPECT_EQ(cache_header(again), "hit");
+  EXPECT_EQ(again.body, first.body);
+  const auto darker = call("GET", base + "?size=64x48&illuminant=A&scale_melanin=4");
+  EXPECT_EQ(cache_header(darker), "miss");
+  EXPECT_NE(darker.body, first.body);
+  const auto defaults = testing::decode_png(call("GET", base).body);
+  ASSERT_TRUE(defaults.has_value());
+  EXPECT_EQ(defaults->width, 256);
+
+  for (const char* query : {"size=0x5", "size=5000x5000", "size=64", "illuminant=F2", "scale_melanin=-1", "scale_bilirubin=nan",
+                            "scale_oxyhemoglobin=abc", "scale_deoxyhemoglobin=101"})
+    expect_error(call("GET", base + "?" + query), 400, "invalid_parameter");
+  expect_error(call("GET", base + "?colour=red"), 400, "unknown_parameter");
+  expect_error(call("GET", "/api/v1/fits/77/render.png"), 404, "not_found");
+}
+
+TEST(RenderCache, DropsTheLeastRecentlyUsedBeyondItsBudget) {
+  RenderCache cache(25);
+  cache.put("a", std::string(10, 'a'));
+  cache.put("b", std::string(10, 'b'));
+  EXPECT_EQ(cache.find("a"), std::string(10, 'a'));  // a is now the most recent
+  cache.put("c", std::string(10, 'c'));
+  EXPECT_FALSE(cache.find("b"));
+  EXPECT_TRUE(cache.find("a"));
+  EXPECT_TRUE(cache.find("c"));
+  cache.put("huge", std::string(26, 'h'));  // larger than the budget: not kept, nothing evicted
+  EXPECT_FALSE(cache.find("huge"));
+  EXPECT_EQ(cache.size(), 2u);
 }
 
 TEST_F(ApiRouterTest, OpenApiDocumentAndRouteTableAgree) {

@@ -157,6 +157,19 @@ json list_parameters() {
                       q("limit", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}, {"default", 50}}, "page size")});
 }
 
+json render_parameters() {
+  auto q = [](const char* name, json schema, const char* description) {
+    return json{{"name", name}, {"in", "query"}, {"required", false}, {"schema", schema}, {"description", description}};
+  };
+  json params = json::array({q("illuminant", {{"type", "string"}, {"enum", {"D65", "A"}}, {"default", "D65"}}, "CIE illuminant"),
+                             q("size", {{"type", "string"}, {"pattern", "^[0-9]+x[0-9]+$"}, {"default", "256x256"}},
+                               "image size WxH, each side 1 to 1024")});
+  for (const char* pigment : {"melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
+    params.push_back(q(("scale_" + std::string(pigment)).c_str(), {{"type", "number"}, {"minimum", 0}, {"maximum", 100}, {"default", 1}},
+                       "multiplies the fit's weight of this pigment"));
+  return params;
+}
+
 json error_reply(const char* description) {
   return {{"description", description}, {"content", {{"application/json", {{"schema", ref("Error")}}}}}};
 }
@@ -170,6 +183,8 @@ json Router::openapi_document(const std::string& version) {
     json content;
     if (r.response_schema == "text/csv" || r.response_schema == "text/plain" || r.response_schema == "text/event-stream")
       content = {{r.response_schema, {{"schema", {{"type", "string"}}}}}};
+    else if (r.response_schema == "image/png")
+      content = {{r.response_schema, {{"schema", {{"type", "string"}, {"contentMediaType", "image/png"}}}}}};
     else
       content = {{"application/json", {{"schema", ref(r.response_schema)}}}};
     op["responses"] = {{std::to_string(r.success_status), {{"description", "success"}, {"content", content}}},
@@ -182,6 +197,8 @@ json Router::openapi_document(const std::string& version) {
     if (r.path.find("{id}") != std::string::npos)
       params.push_back({{"name", "id"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "integer"}, {"minimum", 1}}}});
     if (r.method == "GET" && r.path == "/api/v1/sessions") params = list_parameters();
+    if (r.path == "/api/v1/fits/{id}/render.png")
+      for (const auto& p : render_parameters()) params.push_back(p);
     if (!params.empty()) op["parameters"] = params;
     if (r.mutating) op["security"] = json::array({{{"bearer", json::array()}}});
     std::string method = r.method;

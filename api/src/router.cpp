@@ -12,6 +12,7 @@
 #include "skinspec/store/store.hpp"
 #include "text.hpp"
 #include "fit_json.hpp"
+#include "render_route.hpp"
 
 namespace skinspec::api {
 
@@ -356,6 +357,10 @@ struct Router::Handlers {
     r.headers.emplace_back("Location", "/api/v1/fits/" + std::to_string(id));
     return r;
   }
+  // GET /api/v1/fits/{id}/render.png
+  static Response render_fit(const RouterContext& c, const Call& call) {
+    return detail::render_fit_png(fitter_of(c), value(store_of(c).fit(call.ids[0])), call.query, *c.render_cache);
+  }
 };
 
 namespace {
@@ -403,6 +408,7 @@ const std::vector<Route>& route_table() {
         {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
         {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", false, "", "text/event-stream", 200}, &H::job_events, {}},
         {{"GET", "/api/v1/ports", "Serial ports and USB serial adapters present, with the --device URI of each", false, "", "PortList", 200}, &H::ports, {}},
+        {{"GET", "/api/v1/fits/{id}/render.png", "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200}, &H::render_fit, {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;
@@ -464,6 +470,7 @@ Response error_response(const ApiError& error) {
 
 Router::Router(RouterContext context) : context_(std::move(context)) {
   if (!context_.metrics) context_.metrics = std::make_shared<Metrics>();
+  if (!context_.render_cache) context_.render_cache = std::make_shared<RenderCache>();
 }
 Router::~Router() = default;
 

@@ -27,6 +27,7 @@ class Store;
 namespace skinspec::api {
 
 class Acquisition;
+class RenderCache;
 
 struct Request {
   std::string method;  // "GET", "POST", ...
@@ -69,6 +70,7 @@ struct RouterContext {
   const Fitter* fitter = nullptr;      // null: fitting routes answer 503
   Acquisition* acquisition = nullptr;  // null: no instrument; measurement routes answer 503
   std::shared_ptr<Metrics> metrics;    // created when null
+  std::shared_ptr<RenderCache> render_cache;  // images of GET /api/v1/fits/{id}/render.png; created when null
   AccessPolicy access;
   std::string version = "0.0.0";
   std::size_t max_spectrum_samples = 10000;

@@ -1,0 +1,40 @@
+#pragma once
+// The spectral side of eq. 2 and eq. 6: the skin's reflectance R(lambda) from the two-layer
+// model with its pigments scaled, and the tristimulus values of the body term R E and of the
+// specular term E under an illuminant.
+
+#include <expected>
+#include <string>
+
+#include "skinspec/fit/colour.hpp"
+#include "skinspec/fit/model.hpp"
+#include "skinspec/fit/optics.hpp"
+
+namespace skinspec::render {
+
+// Multipliers of the four pigment weights: "melanin x 4" is {4, 1, 1, 1}.
+struct PigmentScales {
+  double melanin = 1, oxyhemoglobin = 1, deoxyhemoglobin = 1, bilirubin = 1;
+};
+inline constexpr double kMaxPigmentScale = 100;
+
+// The parameters with each pigment weight multiplied by its scale; an error when a scale is
+// negative, above kMaxPigmentScale or not finite, or a parameter lies outside the fit's bounds.
+std::expected<Params, std::string> scaled_params(const Params& params, const PigmentScales& scales);
+
+// R(lambda) on 380-780 nm every 1 nm. Without the lateral-loss correction: that models light
+// an instrument's aperture misses, while an eye looking at a hand sees all of it.
+Spectrum skin_reflectance_spectrum(const SkinOptics& optics, const Site& site, const Params& params);
+
+// Eq. 6 applied to the two spectra of eq. 2. Because F has no wavelength dependence here (one
+// refractive index) and every light has the illuminant's spectrum, Y(lambda) of a pixel is
+// body R(lambda) E(lambda) + specular E(lambda), and its XYZ is body * body_xyz +
+// specular * specular_xyz: the integral is done once per image, exactly, at 1 nm.
+// Normalised so that a perfect white diffuser (R = 1) lit at unit weight has Y = 1.
+struct SpectralColours {
+  Xyz body;      // XYZ of R(lambda) E(lambda)
+  Xyz specular;  // XYZ of E(lambda): the illuminant's white
+};
+SpectralColours spectral_colours(const Colorimetry& colorimetry, const Spectrum& reflectance, const Spectrum& illuminant);
+
+}  // namespace skinspec::render

@@ -1,0 +1,253 @@
+// The renderer against the seed paper's equations: a flat patch against the colour of
+// R(lambda) E(lambda) computed directly, white under D65 and A, the specular highlight's
+// position, the Fresnel and geometric terms at their limits, shadows, and the pigments' effect.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "skinspec/render/figures.hpp"
+#include "skinspec/render/png.hpp"
+#include "skinspec/render/scenes.hpp"
+#include "support/data.hpp"
+#include "support/png_reader.hpp"
+
+namespace skinspec::render {
+namespace {
+
+const Params kForearm{0.04, 5, 6, 3, 1};
+
+Site forearm() { return *testing::shipped_optics().site("forearm"); }
+Spectrum d65() { return *testing::colorimetry().illuminant("D65"); }
+Spectrum illuminant_a() { return *testing::colorimetry().illuminant("A"); }
+Spectrum perfect_white() { return *Spectrum::create({380, 780}, {1, 1}); }
+
+// A square in the z = 0 plane facing +z, `half` wide either way from (cx, cy).
+Mesh square(double cx, double cy, double z, double half) {
+  Mesh m;
+  m.positions = {{cx - half, cy - half, z}, {cx + half, cy - half, z}, {cx + half, cy + half, z}, {cx - half, cy + half, z}};
+  m.triangles = {{0, 1, 2}, {0, 2, 3}};
+  return with_vertex_normals(std::move(m));
+}
+
+// A camera far up the z axis with a narrow field: nearly orthographic, so a pixel's world x
+// and y follow from its column and row (see world_of).
+constexpr double kDistance = 1000, kHalfView = 1.5;
+Camera overhead() {
+  return {{0, 0, kDistance}, {0, 0, 0}, {0, 1, 0}, 2 * std::atan(kHalfView / kDistance) * 180 / std::numbers::pi};
+}
+std::pair<double, double> world_of(int px, int py, int size) {
+  return {(2.0 * (px + 0.5) / size - 1) * kHalfView, (1 - 2.0 * (py + 0.5) / size) * kHalfView};
+}
+int column_of(double x, int size) { return static_cast<int>((x / kHalfView + 1) / 2 * size); }
+
+RenderSettings settings(int size, double alpha, double beta) {
+  RenderSettings s;
+  s.width = s.height = size;
+  s.surface.alpha = alpha;
+  s.surface.beta = beta;
+  return s;
+}
+
+Light overhead_light() { return {Light::Kind::directional, {0, 0, 1}, 1.0}; }
+
+std::array<int, 3> code_of(const Rgb& linear) {
+  return srgb_8bit({static_cast<double>(linear.r), static_cast<double>(linear.g), static_cast<double>(linear.b)});
+}
+
+Image render_patch(const Spectrum& reflectance, const Spectrum& illuminant) {
+  const Scene scene{square(0, 0, 0, 10), overhead(), {overhead_light()}};
+  return *render(scene, spectral_colours(testing::colorimetry(), reflectance, illuminant), settings(8, 1, 0));
+}
+
+TEST(RenderColour, FlatPatchIsTheSrgbOfReflectanceTimesIlluminant) {
+  const auto grid = Spectrum::uniform_grid(380, 780, 1);
+  const SkinModel model(testing::shipped_optics(), forearm(), grid, false);
+  const Spectrum skin = *Spectrum::create(grid, model.reflectance(kForearm));
+  const auto expected = srgb_8bit(xyz_to_linear_srgb(testing::colorimetry().xyz(skin, d65())));
+
+  const Image image = render_patch(skin_reflectance_spectrum(testing::shipped_optics(), forearm(), kForearm), d65());
+  const auto png = testing::decode_png([&] {
+    const auto bytes = *encode_png(image, 8);
+    return std::string(bytes.begin(), bytes.end());
+  }());
+  ASSERT_TRUE(png.has_value());
+  for (int y = 0; y < image.height(); ++y)
+    for (int x = 0; x < image.width(); ++x)
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(png->pixel(x, y)[c], expected[c], 1) << x << "," << y << " channel " << c;
+  // Skin, not grey: red well above blue.
+  EXPECT_GT(expected[0], expected[2] + 20);
+}
+
+TEST(RenderColour, WhitePatchIsWhiteUnderD65AndWarmerUnderA) {
+  const Image under_d65 = render_patch(perfect_white(), d65());
+  for (const int c : code_of(under_d65.at(4, 4))) EXPECT_NEAR(c, 255, 1);
+  const Image under_a = render_patch(perfect_white(), illuminant_a());
+  const Rgb d = under_d65.at(4, 4), a = under_a.at(4, 4);
+  EXPECT_GT(a.r / a.b, 1.5f * d.r / d.b);
+}
+
+TEST(RenderGeometry, SpecularHighlightSitsWhereTheNormalBisectsLightAndView) {
+  constexpr int kSize = 160;
+  const Vec3 to_light = normalized({0.6, 0.3, 1.0});
+  const Scene scene{sphere({0, 0, 0}, 1.0, 128), overhead(), {{Light::Kind::directional, to_light, 1.0}}};
+  RenderSettings s = settings(kSize, 0, 1);
+  s.surface.roughness = 0.08;
+  const Image image = *render(scene, spectral_colours(testing::colorimetry(), perfect_white(), d65()), s);
+  int best_x = 0, best_y = 0;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x)
+      if (image.at(x, y).g > image.at(best_x, best_y).g) std::tie(best_x, best_y) = std::pair{x, y};
+  const auto [wx, wy] = world_of(best_x, best_y, kSize);
+  const Vec3 normal{wx, wy, std::sqrt(std::max(0.0, 1 - wx * wx - wy * wy))};
+  const Vec3 bisector = normalized(to_light + Vec3{0, 0, 1});
+  const double degrees = std::acos(std::min(1.0, dot(normal, bisector))) * 180 / std::numbers::pi;
+  EXPECT_LT(degrees, 2.0) << "brightest pixel " << best_x << "," << best_y;
+  EXPECT_GT(image.at(best_x, best_y).g, 0.01f);
+  // The mirror point of the light lies up and to the right: the lower left stays dark.
+  EXPECT_LT(image.at(kSize / 2 - 30, kSize / 2 + 30).g, image.at(best_x, best_y).g * 0.01f);
+}
+
+TEST(RenderGeometry, ShadowsFallWhereAnOccluderBlocksTheLight) {
+  constexpr int kSize = 120;
+  // Light from +x at 45 degrees: the square at height 1 over x in [0.6, 1.0] shades x in
+  // [-0.4, 0.0] of the floor, and the camera overhead sees that strip beside it.
+  Mesh mesh = square(0, 0, 0, 20);
+  mesh.append(square(0.8, 0, 1, 0.2));
+  const Scene scene{mesh, overhead(), {{Light::Kind::directional, {1, 0, 1}, 1.0}}};
+  const auto colours = spectral_colours(testing::colorimetry(), perfect_white(), d65());
+  RenderSettings s = settings(kSize, 1, 0);
+  const Image shadowed = *render(scene, colours, s);
+  s.shadows = false;
+  const Image unshadowed = *render(scene, colours, s);
+  const int row = kSize / 2, in_shadow = column_of(-0.2, kSize), lit = column_of(-1.0, kSize);
+  EXPECT_LT(shadowed.at(in_shadow, row).g, 0.001f);
+  EXPECT_NEAR(unshadowed.at(in_shadow, row).g, shadowed.at(lit, row).g, 1e-4);
+  EXPECT_NEAR(shadowed.at(lit, row).g, std::sqrt(0.5), 0.01);  // N.L = cos 45 degrees
+}
+
+TEST(TorranceSparrow, FacetDistributionHalvesAtTheRoughness) {
+  EXPECT_DOUBLE_EQ(facet_distribution(0, 0.3), 1.0);
+  EXPECT_NEAR(facet_distribution(0.3, 0.3), 0.5, 1e-12);
+  EXPECT_NEAR(facet_distribution(0.6, 0.3), 0.0625, 1e-12);
+}
+
+TEST(TorranceSparrow, FresnelGoesFromTheNormalValueToOneAtGrazing) {
+  for (const double n : {1.33, 1.4, 1.55}) {
+    EXPECT_NEAR(fresnel(1.0, n), std::pow((n - 1) / (n + 1), 2), 1e-12) << n;
+    EXPECT_NEAR(fresnel(1e-6, n), 1.0, 1e-4) << n;
+    double previous = fresnel(1.0, n);
+    for (double c = 0.95; c > 0.01; c -= 0.05) {
+      EXPECT_GT(fresnel(c, n), previous) << "n " << n << " cos " << c;
+      previous = fresnel(c, n);
+    }
+  }
+}
+
+TEST(TorranceSparrow, GeometricAttenuationIsOneHeadOnAndVanishesAtGrazing) {
+  EXPECT_DOUBLE_EQ(geometric_attenuation(1, 1, 1, 1), 1.0);
+  // Light grazing the surface: the masking term 2 cos(phi) cos(theta_i) / cos(theta_Q) rules.
+  const Vec3 n{0, 0, 1}, v{0, 0, 1};
+  for (const double grazing_degrees : {80.0, 85.0, 89.0, 89.9}) {
+    const double t = grazing_degrees * std::numbers::pi / 180;
+    const Vec3 l{std::sin(t), 0, std::cos(t)};
+    const Vec3 q = normalized(l + v);
+    const double g = geometric_attenuation(dot(n, q), dot(n, v), dot(n, l), dot(l, q));
+    EXPECT_NEAR(g, 2 * dot(n, q) * std::cos(t) / dot(l, q), 1e-12);
+    EXPECT_LT(g, 2.5 * std::cos(t));
+  }
+  // Symmetric in the light and the viewer.
+  EXPECT_DOUBLE_EQ(geometric_attenuation(0.9, 0.3, 0.7, 0.8), geometric_attenuation(0.9, 0.7, 0.3, 0.8));
+}
+
+TEST(TorranceSparrow, NothingFromBehindTheSurface) {
+  const Shading s = torrance_sparrow({0, 0, 1}, {0, 0.6, -0.8}, {0, 0, 1}, {});
+  EXPECT_EQ(s.body, 0);
+  EXPECT_EQ(s.specular, 0);
+}
+
+Lab skin_lab(const PigmentScales& scales) {
+  const Params p = *scaled_params(kForearm, scales);
+  return testing::colorimetry().lab(skin_reflectance_spectrum(testing::shipped_optics(), forearm(), p), d65());
+}
+
+TEST(RenderPigments, FourTimesTheMelaninIsDarker) {
+  EXPECT_LT(skin_lab({4, 1, 1, 1}).l, skin_lab({}).l - 5);
+}
+
+TEST(RenderPigments, TenTimesTheBilirubinIsYellower) {
+  EXPECT_GT(skin_lab({1, 1, 1, 10}).b, skin_lab({}).b + 3);
+}
+
+TEST(RenderPigments, MelaninDarkensTheRenderedHand) {
+  const auto& c = testing::colorimetry();
+  const Scene scene = builtin_scene(SceneKind::hand, 1.0);
+  const Skin skin{forearm(), kForearm};
+  const auto mean_green = [&](const PigmentScales& scales) {
+    const Image image = *render_skin(testing::shipped_optics(), c, skin, scales, d65(), scene, settings(48, 1, 4));
+    double sum = 0;
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 48; ++x) sum += static_cast<double>(image.at(x, y).g);
+    return sum;
+  };
+  EXPECT_LT(mean_green({4, 1, 1, 1}), 0.8 * mean_green({}));
+}
+
+TEST(RenderInput, RefusesBadScalesSizesAndSurfaces) {
+  EXPECT_FALSE(scaled_params(kForearm, {-1, 1, 1, 1}));
+  EXPECT_FALSE(scaled_params(kForearm, {1, std::nan(""), 1, 1}));
+  EXPECT_FALSE(scaled_params(kForearm, {1, 1, 1, 1e6}));
+  EXPECT_FALSE(scaled_params({0.04, -5, 6, 3, 1}, {}));
+  const Scene scene{square(0, 0, 0, 1), overhead(), {overhead_light()}};
+  const auto colours = spectral_colours(testing::colorimetry(), perfect_white(), d65());
+  for (const auto& [w, h] : {std::pair{0, 10}, {10, -1}, {kMaxImageSide + 1, 10}}) {
+    RenderSettings s = settings(1, 1, 0);
+    s.width = w;
+    s.height = h;
+    const auto image = render(scene, colours, s);
+    ASSERT_FALSE(image);
+    EXPECT_NE(image.error().find("image size"), std::string::npos) << image.error();
+  }
+  RenderSettings rough = settings(4, 1, 1);
+  rough.surface.roughness = 0;
+  EXPECT_FALSE(render(scene, colours, rough));
+  RenderSettings index = settings(4, 1, 1);
+  index.surface.index = std::nan("");
+  EXPECT_FALSE(render(scene, colours, index));
+  Scene looking_up = scene;
+  looking_up.camera.target = looking_up.camera.position + Vec3{0, 5, 0};
+  EXPECT_FALSE(render(looking_up, colours, settings(4, 1, 1)));
+  EXPECT_FALSE(encode_png(Image(2, 2), 12));
+}
+
+TEST(RenderImages, SixteenBitPngKeepsTheImage) {
+  Image image(3, 2, {0.5f, 0.2f, 0.0f});
+  image.at(2, 1) = {2.0f, -1.0f, 1.0f};  // clipped to [0, 1]
+  const auto bytes = *encode_png(image, 16);
+  const auto png = testing::decode_png(std::string(bytes.begin(), bytes.end()));
+  ASSERT_TRUE(png.has_value());
+  EXPECT_EQ(png->bits, 16);
+  EXPECT_EQ(png->width, 3);
+  EXPECT_EQ(png->height, 2);
+  EXPECT_EQ(png->pixel(2, 1), (std::array<int, 3>{255, 0, 255}));
+}
+
+TEST(RenderImages, ContactSheetHoldsEveryCellAndItsLabel) {
+  std::vector<LabelledImage> cells;
+  for (int i = 0; i < 3; ++i) cells.push_back({"X" + std::to_string(i), Image(20, 10, {1, 0, 0})});
+  const Image sheet = contact_sheet("TITLE", cells, 2);
+  int red = 0, ink = 0;
+  for (int y = 0; y < sheet.height(); ++y)
+    for (int x = 0; x < sheet.width(); ++x) {
+      const Rgb& p = sheet.at(x, y);
+      red += p.r == 1 && p.g == 0;
+      ink += p.r == 0 && p.g == 0;
+    }
+  EXPECT_EQ(red, 3 * 20 * 10);
+  EXPECT_GT(ink, 4 * 10);  // the title and three labels drew something
+  EXPECT_GT(sheet.width(), 2 * 20);
+}
+
+}  // namespace
+}  // namespace skinspec::render
