@@ -41,7 +41,7 @@ class WebConsoleTest : public ::testing::Test {
     const auto line = daemon_->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s);
     ASSERT_TRUE(line) << daemon_->err();
     port_ = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1)));
-    browser_ = std::make_unique<Browser>(dir_.file("chromium-profile"));
+    browser_ = std::make_unique<Browser>(dir_.file("chromium-profile"), 1400, 2000);  // tall enough for whole screens
     ASSERT_TRUE(browser_->ready());
   }
   void TearDown() override {
