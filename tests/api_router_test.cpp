@@ -9,6 +9,7 @@
 #include "fitter_loader.hpp"
 #include "skinspec/api/render_cache.hpp"
 #include "skinspec/api/router.hpp"
+#include "skinspec/fit/colour.hpp"
 #include "skinspec/store/store.hpp"
 #include "support/png_reader.hpp"
 #include "support/store_samples.hpp"
@@ -407,6 +408,50 @@ TEST(ApiRouterWithoutDatabase, DataRoutesAnswer503) {
   EXPECT_EQ(r.status, 503);
   EXPECT_EQ(json::parse(r.body)["error"]["code"], "database_unavailable");
   EXPECT_EQ(router.handle(Request{"GET", "/healthz", {}, ""}).status, 200);
+}
+
+
+TEST_F(ApiRouterTest, TheWebConsoleIsServedWithoutATokenAndOutsideTheApiDocument) {
+  const auto page = call("GET", "/");
+  ASSERT_EQ(page.status, 200) << page.body;
+  EXPECT_EQ(page.content_type, "text/html; charset=utf-8");
+  EXPECT_NE(page.body.find("<script type=\"module\" src=\"/ui/app.js\">"), std::string::npos);
+  for (const char* file : {"app.js", "api.js", "plot.js", "views.js"}) {
+    const auto script = call("GET", std::string("/ui/") + file);
+    EXPECT_EQ(script.status, 200) << file;
+    EXPECT_EQ(script.content_type, "text/javascript; charset=utf-8") << file;
+  }
+  EXPECT_EQ(call("GET", "/ui/style.css").content_type, "text/css; charset=utf-8");
+  expect_error(call("GET", "/ui/missing.js"), 404, "not_found");
+  expect_error(call("GET", "/ui/../store.db"), 400, "invalid_path");
+  expect_error(call("POST", "/", "{}"), 404, "not_found");
+  const json doc = body(call("GET", "/openapi.json"));
+  for (const auto& [path, item] : doc["paths"].items()) EXPECT_NE(path.rfind("/ui", 0), 0u) << path;
+}
+
+TEST_F(ApiRouterTest, SitesAndTheColourOfAMeasurementUnderTwoLights) {
+  const json sites = body(call("GET", "/api/v1/sites"))["sites"];
+  std::vector<std::string> names;
+  for (const auto& s : sites) names.push_back(s["name"]);
+  EXPECT_EQ(names, shared_fitter().optics().site_names());
+  EXPECT_GT(sites[0]["dermis_mm"].get<double>(), sites[0]["epidermis_mm"].get<double>());
+
+  ASSERT_EQ(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}}.dump()).status, 201);
+  const store::Id m = add_measurement(1);
+  const json colour = body(call("GET", "/api/v1/measurements/" + std::to_string(m)))["colour"];
+  const auto& colorimetry = shared_fitter().colorimetry();
+  const auto reflectance = *Spectrum::create(grid(), skin_like(grid()));
+  for (const char* light : {"D65", "A"}) {
+    const auto illuminant = *colorimetry.illuminant(light);
+    const Lab lab = colorimetry.lab(reflectance, illuminant);
+    EXPECT_NEAR(colour[light]["lab"][0].get<double>(), lab.l, 1e-9) << light;
+    EXPECT_NEAR(colour[light]["lab"][2].get<double>(), lab.b, 1e-9) << light;
+    const auto rgb = srgb_8bit(xyz_to_linear_srgb(colorimetry.xyz(reflectance, illuminant)));
+    EXPECT_EQ(colour[light]["srgb"], json(rgb)) << light;
+  }
+  // Under the tungsten lamp, unadapted, skin looks warmer than in daylight.
+  const auto ratio = [&](const char* light) { return colour[light]["srgb"][0].get<double>() / colour[light]["srgb"][2].get<double>(); };
+  EXPECT_GT(ratio("A"), ratio("D65"));
 }
 
 }  // namespace

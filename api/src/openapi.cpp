@@ -72,6 +72,9 @@ json schemas() {
   detail_props["measurements"] = {{"type", "array"}, {"items", ref("Measurement")}};
   detail_props["fits"] = {{"type", "array"}, {"items", ref("Fit")}};
   detail_props["rejected_readings"] = {{"type", "array"}, {"items", ref("RejectedReading")}};
+  const json site = {{"type", "object"},
+                     {"properties", {{"name", {{"type", "string"}}}, {"epidermis_mm", {{"type", "number"}}}, {"dermis_mm", {{"type", "number"}}}}}};
+  const json site_list = {{"type", "object"}, {"properties", {{"sites", {{"type", "array"}, {"items", site}}}}}};
   return {
       {"Error", {{"type", "object"}, {"required", {"error"}},
                  {"properties", {{"error", {{"type", "object"}, {"required", {"code", "message"}},
@@ -79,6 +82,7 @@ json schemas() {
       {"Health", {{"type", "object"}, {"properties", {{"status", {{"type", "string"}}}, {"version", {{"type", "string"}}},
                                                      {"database", {{"type", "object"}}}, {"model", {{"type", "object"}}},
                                                      {"instrument", ref("Instrument")}}}}},
+      {"SiteList", site_list},
       {"OpenApi", {{"type", "object"}}},
       {"FitRequest", {{"type", "object"}, {"required", {"wavelength_nm"}}, {"additionalProperties", false},
                       {"properties", {{"wavelength_nm", numbers()}, {"reflectance", numbers()},
@@ -141,7 +145,9 @@ json schemas() {
                                                            {"radiance_sd", samples()}, {"reflectance", samples()},
                                                            {"warnings", {{"type", "array"}, {"items", {{"type", "string"}}}}},
                                                            {"provenance", {{"type", "object"}}}, {"created_at", {{"type", "string"}}},
-                                                           {"fit_id", nullable("integer")}}}}},
+                                                           {"fit_id", nullable("integer")},
+                                                           {"colour", {{"type", json::array({"object", "null"})},
+                                                                       {"description", "GET of one measurement only: xyz, lab and 8-bit srgb under D65 and A"}}}}}}},
   };
 }
 

@@ -7,10 +7,12 @@
 #include "jobs.hpp"
 #include "json_io.hpp"
 #include "skinspec/api/acquisition.hpp"
+#include "skinspec/fit/colour.hpp"
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/store/export.hpp"
 #include "skinspec/store/store.hpp"
 #include "text.hpp"
+#include "web.hpp"
 #include "fit_json.hpp"
 #include "render_route.hpp"
 
@@ -331,7 +333,38 @@ struct Router::Handlers {
     store::Store& db = store_of(c);
     const auto m = value(db.measurement(call.ids[0]));
     const auto fits = value(db.fits_of_measurement(m.id));
-    return json_response(detail::to_json(m, fits.empty() ? std::nullopt : std::optional<store::Id>(fits.back().id)));
+    json body = detail::to_json(m, fits.empty() ? std::nullopt : std::optional<store::Id>(fits.back().id));
+    body["colour"] = colour_of(c, m);
+    return json_response(body);
+  }
+  // A reflectance's colour under D65 and A: XYZ (Y = 1 for white), CIELAB against that
+  // light's white, and the sRGB a display shows for it. Under A the XYZ are not adapted to the
+  // display's D65 white, so the swatch looks as warm as the skin does under a lamp.
+  static json colour_of(const RouterContext& c, const store::Measurement& m) {
+    if (m.reflectance.empty() || c.fitter == nullptr) return nullptr;
+    auto spectrum = Spectrum::create(m.reflectance.wavelength_nm, m.reflectance.values);
+    if (!spectrum) return nullptr;
+    const Colorimetry& colorimetry = c.fitter->colorimetry();
+    json out = json::object();
+    for (const char* name : {"D65", "A"}) {
+      const auto light = colorimetry.illuminant(name);
+      if (!light) continue;
+      const Xyz xyz = colorimetry.xyz(*spectrum, *light);
+      const Lab lab = xyz_to_lab(xyz, colorimetry.white(*light));
+      const auto rgb = srgb_8bit(xyz_to_linear_srgb(xyz));
+      out[name] = {{"xyz", {xyz.x, xyz.y, xyz.z}}, {"lab", {lab.l, lab.a, lab.b}}, {"srgb", {rgb[0], rgb[1], rgb[2]}}};
+    }
+    return out;
+  }
+  // GET /api/v1/sites
+  static Response sites(const RouterContext& c, const Call& call) {
+    no_query(call);
+    json list = json::array();
+    for (const auto& name : fitter_of(c).optics().site_names()) {
+      const auto site = fitter_of(c).optics().site(name);
+      if (site) list.push_back({{"name", site->name}, {"epidermis_mm", site->epidermis_mm}, {"dermis_mm", site->dermis_mm}});
+    }
+    return json_response({{"sites", list}});
   }
   static Response get_fit(const RouterContext& c, const Call& call) {
     no_query(call);
@@ -391,6 +424,7 @@ const std::vector<Route>& route_table() {
         {{"GET", "/openapi.json", "This OpenAPI document", false, "", "OpenApi", 200}, &H::openapi, {}},
         {{"GET", "/metrics", "Prometheus metrics", false, "", "text/plain", 200}, &H::metrics, {}},
         {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest", "FitResponse", 200}, &H::fit, {}},
+        {{"GET", "/api/v1/sites", "The body sites the model knows, with their layer thicknesses", false, "", "SiteList", 200}, &H::sites, {}},
         {{"POST", "/api/v1/white-standards", "Store a white standard", true, "WhiteStandardCreate", "WhiteStandard", 201}, &H::create_white_standard, {}},
         {{"GET", "/api/v1/white-standards", "List white standards", false, "", "WhiteStandardList", 200}, &H::list_white_standards, {}},
         {{"GET", "/api/v1/white-standards/{id}", "One white standard", false, "", "WhiteStandard", 200}, &H::get_white_standard, {}},
@@ -498,6 +532,12 @@ Response Router::handle(const Request& request) const {
     const auto segments = split_path(*path);
     for (const auto& s : segments)
       if (s == ".." || s == ".") fail(ErrorKind::bad_request, "invalid_path", "'.' and '..' are not allowed in paths");
+    if (auto page = console_file(request.method, *path)) {
+      route_label = "GET /ui";
+      response = std::move(*page);
+      context_.metrics->record_request(route_label, response.status, std::chrono::steady_clock::now() - started);
+      return response;
+    }
     const Route* matched = nullptr;
     std::vector<store::Id> ids;
     std::string allow;

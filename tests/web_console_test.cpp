@@ -1,0 +1,202 @@
+// The web console in a real headless Chromium, against real skinspecd and skinspec-sim
+// processes on loopback: a whole session clicked through, the plotted values checked against
+// what the API returns, and a screenshot of each screen kept as a test artefact.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <csignal>
+#include <fstream>
+
+#include "support/http_client.hpp"
+#include "support/process.hpp"
+#include "support/store_samples.hpp"
+#include "support/webdriver.hpp"
+
+namespace skinspec::testing {
+namespace {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+const std::string kDaemon = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspecd";
+const std::string kSim = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspec-sim";
+const std::string kData = SKINSPEC_TEST_DATA_DIR;
+const std::string kArtifacts = SKINSPEC_TEST_ARTIFACT_DIR;
+
+class WebConsoleTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!Browser::available()) GTEST_SKIP() << "needs Debian's chromium and chromium-driver (scripts/setup installs them)";
+    // A little meter time per reading, so that a long job can be watched and cancelled.
+    sim_ = std::make_unique<BackgroundProcess>(
+        kSim, std::vector<std::string>{"--listen", "127.0.0.1:0", "--time-scale", "0.02", "--boot-window", "inf", "--white",
+                                       kData + "/examples/white-standard.csv", "--reflectance", kData + "/examples/forearm.csv",
+                                       "--illuminant", "A"});
+    const auto sim_line = sim_->wait_for_stdout_line("listening on ", 20s);
+    ASSERT_TRUE(sim_line) << sim_->err();
+    daemon_ = std::make_unique<BackgroundProcess>(
+        kDaemon, std::vector<std::string>{"--listen", "127.0.0.1:0", "--db", dir_.file("lab.db"), "--log-level", "warn",
+                                          "--device", "tcp:" + sim_line->substr(std::string("listening on ").size())});
+    const auto line = daemon_->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s);
+    ASSERT_TRUE(line) << daemon_->err();
+    port_ = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1)));
+    browser_ = std::make_unique<Browser>(dir_.file("chromium-profile"), 1400, 2000);  // tall enough for whole screens
+    ASSERT_TRUE(browser_->ready());
+  }
+  void TearDown() override {
+    browser_.reset();
+    for (auto* process : {daemon_.get(), sim_.get()}) {
+      if (process == nullptr) continue;
+      process->send_signal(SIGTERM);
+      (void)process->wait(20s);
+    }
+  }
+
+  std::string url(const std::string& hash) const { return "http://127.0.0.1:" + std::to_string(port_) + "/" + hash; }
+  json get(const std::string& path) const { return http_request(port_, "GET", path).json(); }
+  void shot(const std::string& name) { EXPECT_TRUE(browser_->screenshot(kArtifacts + "/" + name)) << name; }
+  // The numbers a plotted series was drawn from.
+  std::vector<double> plotted(const std::string& plot, const std::string& series) {
+    const json v = browser_->run("const p = document.querySelector(arguments[0]); return p ? JSON.parse(p.dataset.y) : null;",
+                                 json::array({"#" + plot + " path[data-series='" + series + "']"}));
+    return v.is_array() ? v.get<std::vector<double>>() : std::vector<double>{};
+  }
+  // Waits for the job box to show an ended job; its state.
+  std::string job_end_state() {
+    const bool ended = browser_->wait_until(
+        "const j = document.getElementById('job'); return !!j && ['succeeded','failed','cancelled','refused'].includes(j.dataset.state);",
+        60s);
+    if (!ended) return "still running";
+    return browser_->run("return document.getElementById('job').dataset.state;").get<std::string>();
+  }
+
+  ScratchDirectory dir_;
+  std::unique_ptr<BackgroundProcess> sim_, daemon_;
+  std::unique_ptr<Browser> browser_;
+  unsigned short port_ = 0;
+};
+
+void expect_same(const std::vector<double>& shown, const std::vector<double>& api, const std::string& what) {
+  ASSERT_EQ(shown.size(), api.size()) << what;
+  ASSERT_FALSE(api.empty()) << what;
+  for (std::size_t i = 0; i < api.size(); ++i) EXPECT_NEAR(shown[i], api[i], 1e-12 * (1 + std::abs(api[i]))) << what << " at " << i;
+}
+
+TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
+  // Sessions screen: a new session through the form.
+  browser_->open(url("#/sessions"));
+  browser_->find("#new-session");
+  shot("01-sessions.png");
+  browser_->run("document.querySelector('#new-session [name=site]').value = 'forearm';");
+  browser_->type(browser_->find("#new-session [name=subject]"), "volunteer-7");
+  browser_->type(browser_->find("#new-session [name=operator]"), "bench operator");
+  browser_->click(browser_->find("#new-session button[type=submit]"));
+  ASSERT_TRUE(browser_->wait_until("return location.hash === '#/sessions/1';")) << browser_->run("return location.hash;");
+  const json session = get("/api/v1/sessions/1");
+  EXPECT_EQ(session["subject"], "volunteer-7");
+  EXPECT_EQ(session["operator"], "bench operator");
+
+  // Acquisition: W from the keyboard measures the white; then three readings of the skin.
+  browser_->find("#measure-white");
+  browser_->run("document.activeElement.blur();");
+  browser_->type(browser_->find("body"), "w");
+  EXPECT_EQ(job_end_state(), "succeeded");
+  ASSERT_TRUE(browser_->wait_until("return !!document.querySelector(\"#measurements tr[data-measurement='1']\");"));
+  EXPECT_TRUE(browser_->wait_until("return document.getElementById('instrument-state').textContent === 'connected';"))
+      << browser_->run("return document.getElementById('instrument').textContent;");
+  EXPECT_EQ(get("/api/v1/instrument")["state"], "connected");
+  browser_->run("document.getElementById('count').value = '3'; document.getElementById('label').value = 'left forearm';");
+  browser_->click(browser_->find("#measure-sample"));
+  EXPECT_EQ(job_end_state(), "succeeded");
+  const json job = get("/api/v1/jobs/" + browser_->run("return document.getElementById('job').dataset.job;").get<std::string>());
+  EXPECT_EQ(job["state"], "succeeded");
+  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("measurement #" + std::to_string(job["result"]["measurement_id"].get<long long>())),
+            std::string::npos);
+  shot("02-acquisition.png");
+
+  // A long job cancelled from the keyboard.
+  browser_->run("document.getElementById('count').value = '100';");
+  browser_->click(browser_->find("#measure-sample"));
+  ASSERT_TRUE(browser_->wait_until("const j = document.getElementById('job'); return !!j.dataset.job && j.dataset.job !== '"
+                                   + std::to_string(job["id"].get<long long>()) + "';"));
+  browser_->run("document.activeElement.blur();");
+  browser_->type(browser_->find("body"), "\xEE\x80\x8C");  // WebDriver's Escape key
+  EXPECT_EQ(job_end_state(), "cancelled");
+  shot("03-cancelled.png");
+
+  // The measurement: every plotted number is the API's.
+  const long long sample = job["result"]["measurement_id"].get<long long>();
+  browser_->open(url("#/measurements/" + std::to_string(sample)));
+  browser_->find("#fit-params");
+  const json m = get("/api/v1/measurements/" + std::to_string(sample));
+  const json fit = get("/api/v1/fits/" + std::to_string(m["fit_id"].get<long long>()));
+  expect_same(plotted("plot-radiance", "radiance"), m["radiance"]["values"].get<std::vector<double>>(), "radiance");
+  expect_same(plotted("plot-reflectance", "measured"), m["reflectance"]["values"].get<std::vector<double>>(), "reflectance");
+  expect_same(plotted("plot-reflectance", "fitted"), fit["fitted"].get<std::vector<double>>(), "fitted curve");
+  std::vector<double> residuals;
+  for (std::size_t i = 0; i < fit["fitted"].size(); ++i) residuals.push_back(fit["measured"][i].get<double>() - fit["fitted"][i].get<double>());
+  expect_same(plotted("plot-residuals", "residual"), residuals, "residuals");
+  for (const char* p : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"}) {
+    const std::string shown = browser_->text(browser_->find(std::string("#fit-params tr[data-param='") + p + "'] td.value"));
+    const double value = fit["params"][p].get<double>();
+    EXPECT_NEAR(std::stod(shown), value, 1e-3 * std::abs(value) + 1e-9) << p;
+  }
+  EXPECT_NEAR(std::stod(browser_->text(browser_->find("#fit-params tr[data-param='rmse'] td.value"))), fit["rmse"].get<double>(),
+              1e-2 * fit["rmse"].get<double>());
+  for (const char* light : {"D65", "A"}) {
+    const auto rgb = m["colour"][light]["srgb"];
+    const std::string expected = std::to_string(rgb[0].get<int>()) + "," + std::to_string(rgb[1].get<int>()) + "," + std::to_string(rgb[2].get<int>());
+    EXPECT_EQ(browser_->run("return document.querySelector(arguments[0]).dataset.srgb;",
+                            json::array({std::string(".chip[data-illuminant='") + light + "']"})),
+              expected)
+        << light;
+  }
+  shot("04-measurement.png");
+
+  // The rendered hand, re-rendered with four times the melanin.
+  ASSERT_TRUE(browser_->wait_until("const i = document.getElementById('render'); return i.complete && i.naturalWidth > 0;", 60s))
+      << browser_->run("return document.getElementById('render-status').textContent;");
+  browser_->run("const s = document.getElementById('scale-melanin'); s.value = '4'; s.dispatchEvent(new Event('change'));");
+  EXPECT_TRUE(browser_->wait_until("return (document.getElementById('render').dataset.query || '').includes('scale_melanin=4');", 60s));
+  browser_->run("document.getElementById('render').scrollIntoView();");
+  shot("05-render.png");
+
+  // Export: the CSV the button saves is the API's.
+  browser_->open(url("#/sessions/1"));
+  browser_->find("#export-csv");
+  browser_->run(
+      "window.savedFiles = [];"
+      "HTMLAnchorElement.prototype.click = function () { window.savedFiles.push({name: this.download, href: this.href}); };");
+  browser_->click(browser_->find("#export-csv"));
+  ASSERT_TRUE(browser_->wait_until("return window.savedFiles.length === 1;"));
+  const json saved = browser_->run_async(
+      "const done = arguments[arguments.length - 1];"
+      "fetch(window.savedFiles[0].href).then(r => r.text()).then(t => done({name: window.savedFiles[0].name, text: t}));");
+  EXPECT_EQ(saved["name"], "session-1.csv");
+  EXPECT_EQ(saved["text"], http_request(port_, "GET", "/api/v1/sessions/1/export.csv").body);
+
+  // The list, filtered by site, shows the sessions the API lists.
+  browser_->open(url("#/sessions?site=forearm"));
+  browser_->find("#sessions tr[data-session]");
+  EXPECT_EQ(browser_->run("return document.querySelectorAll('#sessions tr[data-session]').length;"),
+            get("/api/v1/sessions?site=forearm")["sessions"].size());
+  browser_->open(url("#/sessions?site=cheek"));
+  EXPECT_TRUE(browser_->wait_until("return document.querySelectorAll('#sessions tr[data-session]').length === 0 && !!document.getElementById('new-session');"));
+}
+
+TEST_F(WebConsoleTest, ARefusedRequestIsShownAndTheConsoleKeepsWorking) {
+  browser_->open(url("#/measurements/999"));
+  const std::string error = browser_->find("main .error");
+  EXPECT_NE(browser_->text(error).find("measurement 999 does not exist"), std::string::npos) << browser_->text(error);
+  // A sample before any white: the job fails and says why.
+  ASSERT_EQ(http_request(port_, "POST", "/api/v1/sessions", R"({"site": "palm", "subject": "v"})").status, 201);
+  browser_->open(url("#/sessions/1"));
+  browser_->click(browser_->find("#measure-sample"));
+  EXPECT_EQ(job_end_state(), "failed");
+  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("no_white_reference"), std::string::npos);
+  shot("06-failed-job.png");
+}
+
+}  // namespace
+}  // namespace skinspec::testing
