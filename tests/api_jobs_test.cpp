@@ -23,6 +23,7 @@ using namespace std::chrono_literals;
 class FakeAcquisition final : public Acquisition {
  public:
   json instrument_status() const override { return {{"device", "fake"}, {"state", "connected"}, {"last_error", nullptr}}; }
+  json ports() const override { return {{"ports", json::array()}}; }
   std::expected<store::CreatedJob, ApiError> submit(store::Id, const MeasureRequest&, const std::string&) override {
     return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "not in this test"});
   }

@@ -237,7 +237,8 @@ TEST_F(StoreTest, RejectedReadingsKeepTheirRawBytesInAnySessionState) {
   r.quality_code = 18;
   r.quality = "low light";
   r.reason = "bad_reading: quality 18: low light";
-  r.raw_reply = std::string("18,0\r\n\x00\xff 380.,1.0E-3\r\n", 24);
+  static constexpr char kReply[] = "18,0\r\n\x00\xff 380.,1.0E-3\r\n";  // a NUL and a high byte on the line
+  r.raw_reply = std::string(kReply, sizeof kReply - 1);
   r.measured_at = Time(std::chrono::microseconds(1700000000123456));
   const Id id = value_of(store.record_rejected_reading(r));
 
