@@ -39,9 +39,12 @@ struct BadMesh {
   std::string_view message;
 };
 
-class ObjRefuses : public ::testing::TestWithParam<BadMesh> {};
+// Names the case in test listings instead of dumping its bytes.
+void PrintTo(const BadMesh& bad, std::ostream* out) { *out << bad.name; }
 
-TEST_P(ObjRefuses, NamingTheLine) {
+class MeshRefuses : public ::testing::TestWithParam<BadMesh> {};
+
+TEST_P(MeshRefuses, NamingTheLine) {
   const auto mesh = parse_mesh(GetParam().text, GetParam().name);
   ASSERT_FALSE(mesh);
   EXPECT_EQ(mesh.error().source, GetParam().name);
@@ -50,7 +53,7 @@ TEST_P(ObjRefuses, NamingTheLine) {
 }
 
 INSTANTIATE_TEST_SUITE_P(
-    Bad, ObjRefuses,
+    Bad, MeshRefuses,
     ::testing::Values(BadMesh{"empty.obj", "", 0, "no faces"},
                       BadMesh{"vertices.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", 0, "no faces"},
                       BadMesh{"short.obj", "v 0 0 0\nv 1 0\n", 2, "x y z"},
