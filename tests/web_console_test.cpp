@@ -158,7 +158,8 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   ASSERT_TRUE(browser_->wait_until("const i = document.getElementById('render'); return i.complete && i.naturalWidth > 0;", 60s))
       << browser_->run("return document.getElementById('render-status').textContent;");
   browser_->run("const s = document.getElementById('scale-melanin'); s.value = '4'; s.dispatchEvent(new Event('change'));");
-  EXPECT_TRUE(browser_->wait_until("return (document.getElementById('render').dataset.query || '').includes('scale_melanin=4');", 60s));
+  EXPECT_TRUE(browser_->wait_until("return (document.getElementById('render').dataset.query || '').includes('scale_melanin=4');", 60s))
+      << browser_->run("return document.getElementById('render-status').textContent + ' ' + document.getElementById('render').dataset.query;");
   browser_->run("document.getElementById('render').scrollIntoView();");
   shot("05-render.png");
 
@@ -166,13 +167,15 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   browser_->open(url("#/sessions/1"));
   browser_->find("#export-csv");
   browser_->run(
-      "window.savedFiles = [];"
-      "HTMLAnchorElement.prototype.click = function () { window.savedFiles.push({name: this.download, href: this.href}); };");
+      "window.savedFiles = []; window.savedBlobs = [];"
+      "const makeUrl = URL.createObjectURL;"
+      "URL.createObjectURL = (blob) => { window.savedBlobs.push(blob); return makeUrl(blob); };"
+      "HTMLAnchorElement.prototype.click = function () { window.savedFiles.push(this.download); };");
   browser_->click(browser_->find("#export-csv"));
   ASSERT_TRUE(browser_->wait_until("return window.savedFiles.length === 1;"));
   const json saved = browser_->run_async(
       "const done = arguments[arguments.length - 1];"
-      "fetch(window.savedFiles[0].href).then(r => r.text()).then(t => done({name: window.savedFiles[0].name, text: t}));");
+      "window.savedBlobs.find(b => b.type === 'text/csv').text().then(t => done({name: window.savedFiles[0], text: t}));");
   EXPECT_EQ(saved["name"], "session-1.csv");
   EXPECT_EQ(saved["text"], http_request(port_, "GET", "/api/v1/sessions/1/export.csv").body);
 

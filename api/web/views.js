@@ -273,7 +273,7 @@ function renderCard(fit) {
   const sliders = PIGMENTS.map(([key, name]) => {
     const input = h("input", { type: "range", min: 0, max: 4, step: 0.25, value: 1, id: `scale-${key}`, "aria-label": `${name} scale` });
     const shown = h("output", { for: `scale-${key}` }, "×1");
-    input.addEventListener("input", () => { shown.textContent = `×${input.value}`; });
+    for (const event of ["input", "change"]) input.addEventListener(event, () => { shown.textContent = `×${input.value}`; });
     return { key, input, row: field(name, h("span", { class: "slider" }, input, shown)) };
   });
   let timer = null, controller = null, url = null;
@@ -282,7 +282,7 @@ function renderCard(fit) {
     timer = setTimeout(async () => {
       if (controller) controller.abort();
       controller = new AbortController();
-      const q = new URLSearchParams({ illuminant: illuminant.value, size: "384" });
+      const q = new URLSearchParams({ illuminant: illuminant.value, size: "384x384" });
       for (const s of sliders) q.set(`scale_${s.key}`, s.input.value);
       note.textContent = "rendering…";
       try {
