@@ -73,7 +73,6 @@ class Supervisor final : public api::Acquisition {
                                        std::optional<store::Fit>& fit, nlohmann::json& timing) const;
   std::optional<drivers::InstrumentError> ensure_connected();
   void note_instrument_error(const drivers::InstrumentError& error);
-  void set_state(std::string state);
   // The running job's phase and readings so far, told to its followers.
   void report_progress(const char* phase, int readings_done);
   // With mutex_ held, after the job's store record was written: counts a change and wakes the

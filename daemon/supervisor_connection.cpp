@@ -52,11 +52,6 @@ json Supervisor::instrument_status() const {
 
 json Supervisor::ports() const { return ports_json(drivers::list_ports()); }
 
-void Supervisor::set_state(std::string state) {
-  std::lock_guard lock(mutex_);
-  state_ = state;
-}
-
 void Supervisor::note_instrument_error(const drivers::InstrumentError& e) {
   std::lock_guard lock(mutex_);
   last_error_ = describe(e);

@@ -158,11 +158,17 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
     std::lock_guard lock(mutex_);
     if (cancel_running_) return {store::JobState::cancelled, "cancelled by request", json::object()};
     meter = meter_;
+    // The adapter can be unplugged between connecting and here; the hot-plug handler has
+    // then already dropped the meter and marked it lost.
+    if (!meter) return failure("lost: the instrument went away before measuring");
     state_ = "measuring";
   }
   auto readings = take_readings(job, request, *meter);
   if (!readings) return readings.error();
-  set_state("connected");
+  {
+    std::lock_guard lock(mutex_);
+    if (state_ == "measuring") state_ = "connected";  // not over a "lost" set meanwhile
+  }
   const auto derive_started = Clock::now();
 
   auto averaged_reading = averaged(readings->good);
