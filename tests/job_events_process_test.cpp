@@ -6,7 +6,8 @@
 #include <future>
 #include <thread>
 
-#include "support/daemon_rig.hpp"
+#include "support/acquisition_rig.hpp"
+#include "support/store_samples.hpp"
 #include "support/http_client.hpp"
 
 namespace skinspec::testing {
@@ -99,14 +100,14 @@ class JobEventsTest : public ::testing::Test {
     return r.json().value("id", 0LL);
   }
   json job(long long id) { return http_request(port(), "GET", "/api/v1/jobs/" + std::to_string(id)).json(); }
-  unsigned short port() const { return rig_->port(); }
+  unsigned short port() const { return rig_->port; }
 
   ScratchDirectory dir_;
-  std::unique_ptr<DaemonRig> rig_;
+  std::unique_ptr<AcquisitionRig> rig_;
 };
 
 TEST_F(JobEventsTest, QueuedJobsShowTheirPlaceAndASampleStreamsItsReadingsToItsResult) {
-  rig_ = std::make_unique<DaemonRig>(dir_, kSlow);
+  rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), kSlow));
   ASSERT_NE(port(), 0) << rig_->logs();
   const long long session = open_session();
   const auto white = all_events(port(), submit(session, {{"kind", "white"}}));
@@ -162,7 +163,7 @@ TEST_F(JobEventsTest, QueuedJobsShowTheirPlaceAndASampleStreamsItsReadingsToItsR
 }
 
 TEST_F(JobEventsTest, UnknownJobsAreNotFound) {
-  rig_ = std::make_unique<DaemonRig>(dir_, 0);
+  rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), 0));
   ASSERT_NE(port(), 0) << rig_->logs();
   const auto r = follow_events(port(), events_path(999), [](const std::string&) { return true; }, 30s);
   EXPECT_EQ(r.status, 404) << r.error;
@@ -173,7 +174,7 @@ TEST_F(JobEventsTest, UnknownJobsAreNotFound) {
 }
 
 TEST_F(JobEventsTest, AClientHangingUpMidStreamDoesNotDisturbTheService) {
-  rig_ = std::make_unique<DaemonRig>(dir_, kSlow);
+  rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), kSlow));
   ASSERT_NE(port(), 0) << rig_->logs();
   const long long session = open_session();
   const long long white = submit(session, {{"kind", "white"}, {"count", 4}});
@@ -195,7 +196,7 @@ TEST_F(JobEventsTest, AClientHangingUpMidStreamDoesNotDisturbTheService) {
 }
 
 TEST_F(JobEventsTest, StoppingTheServiceEndsItsStreams) {
-  rig_ = std::make_unique<DaemonRig>(dir_, kSlow);
+  rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), kSlow));
   ASSERT_NE(port(), 0) << rig_->logs();
   const long long job = submit(open_session(), {{"kind", "white"}, {"count", 100}});
   auto stream = follow_in_background(port(), job);

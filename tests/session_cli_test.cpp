@@ -5,7 +5,8 @@
 
 #include <sstream>
 
-#include "support/daemon_rig.hpp"
+#include "support/acquisition_rig.hpp"
+#include "support/store_samples.hpp"
 #include "support/http_client.hpp"
 
 namespace skinspec::testing {
@@ -19,8 +20,8 @@ const char* const kParams[] = {"surface_reflectance", "melanin", "oxyhemoglobin"
 class SessionCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    rig_ = std::make_unique<DaemonRig>(dir_, 0);
-    ASSERT_NE(rig_->port(), 0) << rig_->logs();
+    rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), 0));
+    ASSERT_NE(rig_->port, 0) << rig_->logs();
   }
   // The test's standard error is a pipe: the plain, line-per-event progress.
   ProcessResult skinspec(std::vector<std::string> args) const {
@@ -34,7 +35,7 @@ class SessionCliTest : public ::testing::Test {
   }
 
   ScratchDirectory dir_;
-  std::unique_ptr<DaemonRig> rig_;
+  std::unique_ptr<AcquisitionRig> rig_;
 };
 
 // "  melanin   13.6003 ± 0.157974" → 13.6003, for the parameter `name`.
@@ -69,7 +70,7 @@ TEST_F(SessionCliTest, NewMeasureShowAndListASession) {
   EXPECT_NE(sample.err.find("job 2: succeeded, done 3/3"), std::string::npos) << sample.err;
   EXPECT_NE(sample.out.find("job 2 succeeded: measurement 2 (white 1), fit 1"), std::string::npos) << sample.out;
 
-  const json fit = http_request(rig_->port(), "GET", "/api/v1/fits/1").json();
+  const json fit = http_request(rig_->port, "GET", "/api/v1/fits/1").json();
   for (const char* name : kParams) {
     const auto value = printed_value(sample.out, name);
     ASSERT_TRUE(value) << name << " missing from\n" << sample.out;
@@ -110,7 +111,7 @@ TEST_F(SessionCliTest, JsonOutputCarriesTheJobAndItsFit) {
   const json out = json::parse(r.out, nullptr, false);
   ASSERT_TRUE(out.is_object()) << r.out;
   EXPECT_EQ(out["job"]["state"], "succeeded");
-  const auto fit = http_request(rig_->port(), "GET", "/api/v1/fits/" + std::to_string(out["job"]["result"]["fit_id"].get<long long>())).json();
+  const auto fit = http_request(rig_->port, "GET", "/api/v1/fits/" + std::to_string(out["job"]["result"]["fit_id"].get<long long>())).json();
   EXPECT_EQ(out["fit"], fit);
 
   const auto queued = skinspec({"session", "measure", id, "--kind", "white", "--no-wait", "--json"});

@@ -5,9 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <csignal>
 #include <fstream>
 
+#include "support/acquisition_rig.hpp"
 #include "support/http_client.hpp"
 #include "support/process.hpp"
 #include "support/store_samples.hpp"
@@ -19,8 +19,6 @@ namespace {
 using nlohmann::json;
 using namespace std::chrono_literals;
 
-const std::string kDaemon = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspecd";
-const std::string kSim = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspec-sim";
 const std::string kData = SKINSPEC_TEST_DATA_DIR;
 const std::string kArtifacts = SKINSPEC_TEST_ARTIFACT_DIR;
 
@@ -29,32 +27,24 @@ class WebConsoleTest : public ::testing::Test {
   void SetUp() override {
     if (!Browser::available()) GTEST_SKIP() << "needs Debian's chromium and chromium-driver (scripts/setup installs them)";
     // A little meter time per reading, so that a long job can be watched and cancelled.
-    sim_ = std::make_unique<BackgroundProcess>(
-        kSim, std::vector<std::string>{"--listen", "127.0.0.1:0", "--time-scale", "0.02", "--boot-window", "inf", "--white",
-                                       kData + "/examples/white-standard.csv", "--reflectance", kData + "/examples/forearm.csv",
-                                       "--illuminant", "A"});
-    const auto sim_line = sim_->wait_for_stdout_line("listening on ", 20s);
-    ASSERT_TRUE(sim_line) << sim_->err();
-    daemon_ = std::make_unique<BackgroundProcess>(
-        kDaemon, std::vector<std::string>{"--listen", "127.0.0.1:0", "--db", dir_.file("lab.db"), "--log-level", "warn",
-                                          "--device", "tcp:" + sim_line->substr(std::string("listening on ").size())});
-    const auto line = daemon_->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s);
-    ASSERT_TRUE(line) << daemon_->err();
-    port_ = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1)));
+    RigOptions options = rig_options(dir_.path().string(),
+                                     {"--time-scale", "0.02", "--white", kData + "/examples/white-standard.csv", "--reflectance",
+                                      kData + "/examples/forearm.csv", "--illuminant", "A"},
+                                     {"--log-level", "warn"});
+    options.default_scenes = false;
+    rig_ = std::make_unique<AcquisitionRig>(std::move(options));
+    ASSERT_TRUE(rig_->ready()) << rig_->logs();
+    port_ = rig_->port;
     browser_ = std::make_unique<Browser>(dir_.file("chromium-profile"), 1400, 2000);  // tall enough for whole screens
     ASSERT_TRUE(browser_->ready());
   }
   void TearDown() override {
     browser_.reset();
-    for (auto* process : {daemon_.get(), sim_.get()}) {
-      if (process == nullptr) continue;
-      process->send_signal(SIGTERM);
-      (void)process->wait(20s);
-    }
+    rig_.reset();
   }
 
   std::string url(const std::string& hash) const { return "http://127.0.0.1:" + std::to_string(port_) + "/" + hash; }
-  json get(const std::string& path) const { return http_request(port_, "GET", path).json(); }
+  json get(const std::string& path) const { return get_json(port_, path); }
   void shot(const std::string& name) { EXPECT_TRUE(browser_->screenshot(kArtifacts + "/" + name)) << name; }
   // The numbers a plotted series was drawn from.
   std::vector<double> plotted(const std::string& plot, const std::string& series) {
@@ -72,7 +62,7 @@ class WebConsoleTest : public ::testing::Test {
   }
 
   ScratchDirectory dir_;
-  std::unique_ptr<BackgroundProcess> sim_, daemon_;
+  std::unique_ptr<AcquisitionRig> rig_;
   std::unique_ptr<Browser> browser_;
   unsigned short port_ = 0;
 };

@@ -70,6 +70,11 @@ void AcquisitionRig::start_daemon(const std::vector<std::string>& extra_args) {
   port = port_of(daemon->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s));
 }
 
+ProcessResult AcquisitionRig::stop_daemon() {
+  daemon->send_signal(SIGTERM);
+  return daemon->wait(20s);
+}
+
 void AcquisitionRig::restart_daemon(std::vector<std::string> extra_args) {
   stop(daemon);
   start_daemon(extra_args);

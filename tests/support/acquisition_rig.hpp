@@ -38,6 +38,11 @@ inline RigOptions rig_options(const std::string& work_dir, std::vector<std::stri
   options.daemon_args = std::move(daemon_args);
   return options;
 }
+// The same with the simulator at `time_scale` (0: it answers at once; 0.05: a reading takes
+// about 0.35 s).
+inline RigOptions rig_options(const std::string& work_dir, double time_scale) {
+  return rig_options(work_dir, {"--time-scale", std::to_string(time_scale)});
+}
 #endif
 
 class AcquisitionRig {
@@ -51,6 +56,9 @@ class AcquisitionRig {
   bool ready() const { return port != 0 && sim_port != 0; }
   std::string logs() const;
 
+  std::string url() const { return "http://127.0.0.1:" + std::to_string(port); }
+  // Stops skinspecd (SIGTERM) and waits for it to end; how it ended.
+  ProcessResult stop_daemon();
   // Starts skinspecd again on the same database (after the test stopped or killed it).
   void restart_daemon(std::vector<std::string> extra_args = {});
   // Starts skinspec-sim again on the port the daemon knows.
