@@ -38,21 +38,30 @@ function askForToken() {
   input.focus();
 }
 
+// Screens are built off-page and shown only if no newer navigation started meanwhile: two
+// quick hash changes must not leave the slower, older screen on top of the newer one.
+let latestRoute = 0;
+
 async function route() {
+  const ticket = ++latestRoute;
   const [path, queryString] = location.hash.replace(/^#/, "").split("?");
   const query = new URLSearchParams(queryString || "");
   const parts = (path || "/sessions").split("/").filter(Boolean);
-  screenKeys = {};
   document.querySelectorAll("nav a").forEach((a) => a.classList.toggle("current", location.hash.startsWith(a.getAttribute("href"))));
   main.setAttribute("aria-busy", "true");
+  const screen = document.createElement("div");
+  let keys = {};
   try {
-    if (parts[0] === "sessions" && parts[1]) screenKeys = (await sessionView(main, Number(parts[1]))).keys || {};
-    else if (parts[0] === "measurements" && parts[1]) await measurementView(main, Number(parts[1]));
-    else await sessionsView(main, query);
+    if (parts[0] === "sessions" && parts[1]) keys = (await sessionView(screen, Number(parts[1]))).keys || {};
+    else if (parts[0] === "measurements" && parts[1]) await measurementView(screen, Number(parts[1]));
+    else await sessionsView(screen, query);
   } catch (e) {
-    main.replaceChildren(h("section", { class: "card error", role: "alert" }, h("h2", {}, "Cannot show this"), h("p", {}, e.message)));
+    screen.replaceChildren(h("section", { class: "card error", role: "alert" }, h("h2", {}, "Cannot show this"), h("p", {}, e.message)));
     if (e.status === 401) askForToken();
   }
+  if (ticket !== latestRoute) return;
+  screenKeys = keys;
+  main.replaceChildren(...screen.childNodes);
   main.setAttribute("aria-busy", "false");
   const heading = main.querySelector("h2");
   if (heading) { heading.tabIndex = -1; heading.focus({ preventScroll: true }); }

@@ -182,7 +182,13 @@ async function startJob(box, sessionId, body) {
     const final = await followJob(jobId, (job) => showJob(job, bar, status, warnings), controller.signal);
     cancel.disabled = true;
     box.dataset.state = final.state;
-    if (final.state === "succeeded") setTimeout(() => window.dispatchEvent(new Event("hashchange")), 600);
+    // Show the new measurement in the list, unless the user has moved on meanwhile (another
+    // screen, or another job started here).
+    const screen = location.hash;
+    const refresh = () => {
+      if (location.hash === screen && box.isConnected && box.dataset.job === String(jobId)) window.dispatchEvent(new Event("hashchange"));
+    };
+    if (final.state === "succeeded") setTimeout(refresh, 600);
   } catch (err) {
     status.textContent = err.message;
     box.dataset.state = "refused";
