@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "common.hpp"
-#include "skinspec/store/export.hpp"
+#include "skinspec/records/export.hpp"
 
 namespace skinspec::cli {
 
@@ -41,17 +41,17 @@ store::Store open_for_export(const std::string& path) {
 }
 
 void run_export(const ExportArgs& args) {
-  const auto format = args.format == "csv" ? store::ExportFormat::csv : store::ExportFormat::json;
+  const auto format = args.format == "csv" ? records::ExportFormat::csv : records::ExportFormat::json;
   const auto db = open_for_export(args.db);
   store::Result<void> written;
   if (args.session) {
     // Held back until complete, so that an unknown session prints nothing on stdout.
     std::ostringstream out;
-    if (format == store::ExportFormat::csv) store::write_csv_header(out);
-    written = store::export_session(db, *args.session, format, out);
+    if (format == records::ExportFormat::csv) records::write_csv_header(out);
+    written = records::export_session(db, *args.session, format, out);
     if (written) std::cout << out.view();
   } else {
-    written = store::export_all(db, format, std::cout);
+    written = records::export_all(db, format, std::cout);
   }
   if (!written) throw store_failure(written.error());
   std::cout.flush();

@@ -3,12 +3,13 @@
 #include <iostream>
 
 #include "common.hpp"
+#include "skinspec/version.hpp"
 
 int main(int argc, char** argv) {
   using namespace skinspec::cli;
   CLI::App app{"skinspec: skin reflectance spectra, the two-layer Kubelka-Munk model and its fit"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "skinspec 0.1.0");
+  app.set_version_flag("--version", "skinspec " + std::string(skinspec::kVersion));
   add_fit_command(app);
   add_model_command(app);
   add_optics_command(app);

@@ -14,17 +14,15 @@
 #include "supervisor.hpp"
 #include "fitter_loader.hpp"
 #include "skinspec/store/store.hpp"
+#include "skinspec/version.hpp"
 
 namespace {
-
-constexpr const char* kVersion = "0.1.0";
 
 int serve(const skinspec::daemon::Options& o) {
   using namespace skinspec;
   const auto listen = daemon::parse_listen(o.listen);
   if (!listen) return spdlog::error("event=bad_option message=\"{}\"", listen.error()), 2;
   api::RouterContext context;
-  context.version = kVersion;
   if (!o.token_file.empty()) {
     auto access = daemon::read_token_file(o.token_file);
     if (!access) return spdlog::error("event=bad_token_file message=\"{}\"", access.error()), 2;
@@ -46,7 +44,7 @@ int serve(const skinspec::daemon::Options& o) {
     return spdlog::error("event=bad_option message=\"reconnect_initial_ms and reconnect_max_ms must be positive, instrument_check_ms not negative\""), 2;
   std::unique_ptr<daemon::Supervisor> supervisor;
   if (!o.device.empty()) {
-    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, kVersion);
+    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter);
     supervisor->set_policy(o.measure);
     context.acquisition = supervisor.get();
     daemon::Supervisor::ConnectionSettings link;
@@ -76,7 +74,7 @@ int serve(const skinspec::daemon::Options& o) {
     server.stop();
   });
   spdlog::info("event=listening address={} port={} db=\"{}\" auth={} version={}", options.address, server.port(), o.db,
-               context.access.required ? "tokens" : "none", kVersion);
+               context.access.required ? "tokens" : "none", skinspec::kVersion);
   // For people and for programs waiting for the service to come up.
   std::cout << "skinspecd listening on http://" << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address)
             << ':' << server.port() << std::endl;
@@ -91,6 +89,7 @@ int serve(const skinspec::daemon::Options& o) {
 int main(int argc, char** argv) {
   skinspec::daemon::Options o;
   CLI::App app{"skinspecd: stored skin spectra, sessions and fits over HTTP/JSON"};
+  app.set_version_flag("--version", "skinspecd " + std::string(skinspec::kVersion));
   app.add_option("--listen", o.listen, "HOST:PORT to listen on (port 0: any free port)")->capture_default_str();
   app.add_option("--db", o.db, "SQLite database file, created when missing")->capture_default_str();
   app.add_option("--device", o.device, "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (the first USB serial adapter)");

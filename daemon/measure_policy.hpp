@@ -1,7 +1,7 @@
 #pragma once
 // What a measurement job does with readings the meter rejects and with white references that
 // may no longer hold: the settings (from skinspecd's flags and config file) and the pure
-// functions that average readings and word the warnings. No I/O here.
+// functions that word the warnings. No I/O here.
 
 #include <expected>
 #include <optional>
@@ -26,11 +26,6 @@ struct MeasurePolicy {
 
 // An explanation when a setting is out of range.
 std::optional<std::string> check(const MeasurePolicy& policy);
-
-// The readings' mean radiance, their standard deviation (more than one reading), quality,
-// units, settings-free provenance (raw replies concatenated, first start, last finish); the
-// caller adds session, kind and the rest. An explanation when the readings differ in grid.
-std::expected<store::Measurement, std::string> averaged(const std::vector<drivers::Reading>& readings);
 
 // ∫ L(λ) dλ by the trapezoid rule: the lamp's level as a white standard sees it.
 double band_integrated(const store::SpectralSamples& radiance);

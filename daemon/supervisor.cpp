@@ -10,24 +10,8 @@ namespace skinspec::daemon {
 
 using nlohmann::json;
 
-namespace {
-
-api::ApiError store_failure(const store::StoreError& e) {
-  using K = store::StoreError::Kind;
-  switch (e.kind) {
-    case K::not_found: return {api::ErrorKind::not_found, "not_found", e.message};
-    case K::conflict: return {api::ErrorKind::conflict, "conflict", e.message};
-    case K::busy: return {api::ErrorKind::unavailable, "database_busy", e.message};
-    case K::full: return {api::ErrorKind::unavailable, "database_full", e.message};
-    case K::read_only: return {api::ErrorKind::unavailable, "database_read_only", e.message};
-    default: return {api::ErrorKind::internal, "database_error", e.message};
-  }
-}
-
-}  // namespace
-
-Supervisor::Supervisor(std::string device, store::Store& db, const Fitter& fitter, std::string version)
-    : device_(std::move(device)), db_(db), fitter_(fitter), version_(std::move(version)) {}
+Supervisor::Supervisor(std::string device, store::Store& db, const Fitter& fitter)
+    : device_(std::move(device)), db_(db), fitter_(fitter) {}
 
 Supervisor::~Supervisor() { stop(); }
 
@@ -59,11 +43,11 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
                                                                    const std::string& idempotency_key) {
   if (!idempotency_key.empty()) {
     auto earlier = db_.job_by_idempotency_key(idempotency_key);
-    if (!earlier) return std::unexpected(store_failure(earlier.error()));
+    if (!earlier) return std::unexpected(api::from_store_error(earlier.error()));
     if (*earlier) return store::CreatedJob{**earlier, false};
   }
   auto session = db_.session(session_id);
-  if (!session) return std::unexpected(store_failure(session.error()));
+  if (!session) return std::unexpected(api::from_store_error(session.error()));
   if (session->state != store::SessionState::open)
     return std::unexpected(api::ApiError{api::ErrorKind::conflict, "conflict",
                                          "session " + std::to_string(session_id) + " is " + std::string(store::to_string(session->state))});
@@ -77,7 +61,7 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
   std::lock_guard lock(mutex_);  // queue order is the order of the jobs' ids
   if (stopping_) return std::unexpected(api::ApiError{api::ErrorKind::unavailable, "unavailable", "the service is stopping"});
   auto created = db_.create_job(job);
-  if (!created) return std::unexpected(store_failure(created.error()));
+  if (!created) return std::unexpected(api::from_store_error(created.error()));
   if (created->created) {
     queue_.emplace_back(created->job.id, request);
     live_[created->job.id].readings_total = request.count;
@@ -97,7 +81,7 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
       auto job = db_.update_job(job_id, {store::JobState::cancelled, std::string("cancelled by request"), std::nullopt});
       live_.erase(job_id);
       job_changed();  // the jobs behind it moved up
-      if (!job) return std::unexpected(store_failure(job.error()));
+      if (!job) return std::unexpected(api::from_store_error(job.error()));
       return *job;
     }
     if (running_ == job_id) {
@@ -107,7 +91,7 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
     }
   }
   auto job = db_.job(job_id);
-  if (!job) return std::unexpected(store_failure(job.error()));
+  if (!job) return std::unexpected(api::from_store_error(job.error()));
   if (job->state != store::JobState::queued && job->state != store::JobState::running && !was_running)
     return std::unexpected(api::ApiError{api::ErrorKind::conflict, "conflict",
                                          "job " + std::to_string(job_id) + " has already " + std::string(store::to_string(job->state))});

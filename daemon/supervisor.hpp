@@ -29,7 +29,7 @@ namespace skinspec::daemon {
 
 class Supervisor final : public api::Acquisition {
  public:
-  Supervisor(std::string device, store::Store& db, const Fitter& fitter, std::string version);
+  Supervisor(std::string device, store::Store& db, const Fitter& fitter);
   ~Supervisor() override;
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
@@ -82,7 +82,6 @@ class Supervisor final : public api::Acquisition {
   const std::string device_;
   store::Store& db_;
   const Fitter& fitter_;
-  const std::string version_;
   MeasurePolicy policy_;
 
   mutable std::mutex mutex_;  // guards everything below
@@ -156,7 +155,7 @@ class Supervisor final : public api::Acquisition {
   void check_holding_wire(const std::shared_ptr<drivers::Pr650>& meter);
   void note_connect_failure(const drivers::InstrumentError& error, const std::string& port);
   void note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
-                      const std::string& serial_number);
+                      const drivers::Identity& identity);
   const char* unreachable_state() const { return ever_connected_ ? "lost" : "disconnected"; }
 
   ConnectionSettings link_;

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "store_records.hpp"
 #include "supervisor.hpp"
 #include "supervisor_common.hpp"
 
@@ -110,7 +111,7 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
     note_connect_failure(identity.error(), port);
     return identity.error();
   }
-  note_connected(meter, *resolved, identity->serial_number);
+  note_connected(meter, *resolved, *identity);
   return std::nullopt;
 }
 
@@ -129,16 +130,11 @@ void Supervisor::note_connect_failure(const drivers::InstrumentError& error, con
 }
 
 void Supervisor::note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
-                                const std::string& serial_number) {
-  store::Instrument instrument;
-  instrument.model = "PR-650";
-  instrument.serial_number = serial_number;
-  instrument.spectral_configuration = json{{"grid_nm", "380-780/4"}}.dump();
-  instrument.connection = device_;
-  auto id = db_.ensure_instrument(instrument);
+                                const drivers::Identity& identity) {
+  auto id = db_.ensure_instrument(instrument_record(identity, device_));
   std::lock_guard lock(mutex_);
   meter_ = meter;  // again: a detach reported while connecting is outdated by this contact
-  serial_number_ = serial_number;
+  serial_number_ = identity.serial_number;
   if (id) instrument_id_ = *id;
   adapter_ = resolved.adapter;
   ever_connected_ = true;

@@ -9,6 +9,8 @@
 #include <utility>
 
 #include "skinspec/fit/spectrum.hpp"
+#include "skinspec/records/fit_record.hpp"
+#include "store_records.hpp"
 #include "supervisor.hpp"
 #include "supervisor_common.hpp"
 
@@ -41,16 +43,10 @@ json optional_id(const std::optional<store::Id>& id) { return id ? json(*id) : j
 
 std::expected<store::Id, Supervisor::Outcome> Supervisor::keep_rejected(const store::Job& job, int attempt,
                                                                        const drivers::InstrumentError& error) {
-  store::RejectedReading r;
+  store::RejectedReading r = rejected_reading_record(error, attempt, to_store_time(std::chrono::system_clock::now()));
   r.session_id = job.session_id.value_or(0);
   r.job_id = job.id;
   r.instrument_id = instrument_id_;
-  r.attempt = attempt;
-  r.quality_code = error.quality_code;
-  r.quality = drivers::pr650::quality_message(error.quality_code);
-  r.reason = describe(error);
-  r.raw_reply = error.raw_reply;
-  r.measured_at = to_store_time(std::chrono::system_clock::now());
   auto id = db_.record_rejected_reading(r);
   if (!id) return std::unexpected(Outcome{store::JobState::failed, "database: " + id.error().message, json::object()});
   return *id;
@@ -125,8 +121,7 @@ std::optional<Supervisor::Outcome> Supervisor::derive_sample(const store::Sessio
   if (spectrum) {
     auto result = fitter_.fit(*spectrum, fit_options);
     if (result)
-      fit = api::stored_fit(*result, {{"site", fit_options.site}, {"lateral_diffusion", fit_options.lateral_diffusion}},
-                            "skinspecd " + version_, fitter_.optics().tables_digest());
+      fit = records::to_store_fit(*result, fit_options, fitter_.optics().tables_digest());
     else
       m.warnings.push_back("fit_failed: " + result.error());
   } else {
@@ -179,9 +174,7 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
   m.label = request.label;
   m.instrument_id = instrument_id_;
   m.job_id = job.id;
-  m.settings = json{{"integration_ms", request.integration_ms}, {"averages", readings->good.front().averages}, {"count", request.count},
-                    {"sync", readings->good.front().sync}, {"rejected_readings", readings->rejected_ids.size()}}
-                   .dump();
+  m.settings = measurement_settings(readings->good, request.integration_ms, request.count, readings->rejected_ids.size());
   m.warnings = readings->warnings;
 
   json timing = {{"reply_received_at_us", wall_micros(readings->last_reply_at)}};

@@ -220,7 +220,7 @@ TEST_F(ApiJobsTest, ClosingTheEventsEndsAWaitingPull) {
 }
 
 TEST_F(ApiJobsTest, TheOpenApiJobSchemaHasPositionAndProgress) {
-  const json doc = Router::openapi_document("test");
+  const json doc = Router::openapi_document();
   const json& job = doc["components"]["schemas"]["Job"]["properties"];
   EXPECT_TRUE(job.contains("position"));
   EXPECT_EQ(job["progress"]["$ref"], "#/components/schemas/JobProgress");

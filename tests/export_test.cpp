@@ -115,42 +115,49 @@ TEST_F(ExportTest, JsonHoldsTheSessionItsSpectraFitsAndProvenance) {
   EXPECT_EQ(json["session"]["subject"], "S-1000, left");
   EXPECT_EQ(json["session"]["state"], "open");
   EXPECT_EQ(json["white_standard"]["name"], testing::sample_white_standard(1).name);
-  EXPECT_EQ(json["white_standard"]["reflectance"]["values"].get<std::vector<double>>(),
-            testing::sample_white_standard(1).reflectance.values);
+  EXPECT_EQ(json["white_standard"]["reflectance"].get<std::vector<double>>(), testing::sample_white_standard(1).reflectance.values);
   ASSERT_EQ(json["instruments"].size(), 1u);
   EXPECT_EQ(json["instruments"][0]["serial_number"], "609501");
+  EXPECT_EQ(json["instruments"][0]["spectral_configuration"]["step_nm"], 4);  // stored JSON, embedded as JSON
   ASSERT_EQ(json["measurements"].size(), 3u);
 
   const auto& sample = json["measurements"][1];
   const auto expected = testing::sample_measurement(first_, 1);
   EXPECT_EQ(sample["id"], sample_id_);
   EXPECT_EQ(sample["kind"], "sample");
-  EXPECT_EQ(sample["white_measurement_id"], white_id_);
-  EXPECT_EQ(sample["settings"]["integration_ms"], 101);
+  EXPECT_EQ(sample["session_id"], first_);
+  EXPECT_EQ(sample["quality"]["code"], expected.quality_code);
+  EXPECT_EQ(sample["provenance"]["white_measurement_id"], white_id_);
+  EXPECT_EQ(sample["provenance"]["settings"]["integration_ms"], 101);
   // Numbers come back bit for bit.
   EXPECT_EQ(sample["radiance"]["wavelength_nm"].get<std::vector<double>>(), expected.radiance.wavelength_nm);
   EXPECT_EQ(sample["radiance"]["values"].get<std::vector<double>>(), expected.radiance.values);
   EXPECT_EQ(sample["reflectance"]["values"].get<std::vector<double>>(), expected.reflectance.values);
   EXPECT_EQ(sample["radiance_sd"]["values"].get<std::vector<double>>(), expected.radiance_sd.values);
-  EXPECT_TRUE(sample["raw_reply_base64"].get<std::string>().starts_with("MDAwMCwwDQo"));  // "0000,0\r\n"
-  EXPECT_EQ(sample["started_at"], "2023-11-14T22:13:21.000123Z");
+  EXPECT_TRUE(sample["provenance"]["raw_reply_base64"].get<std::string>().starts_with("MDAwMCwwDQo"));  // "0000,0\r\n"
+  EXPECT_EQ(sample["provenance"]["started_at"], "2023-11-14T22:13:21.000123Z");
 
   ASSERT_EQ(sample["fits"].size(), 2u);
   const auto& fit = sample["fits"][0];
-  for (const char* field : {"params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations", "converged",
-                            "wavelength_nm", "measured", "fitted", "model_version", "tables_digest", "options"})
+  for (const char* field : {"name", "site", "params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations", "converged",
+                            "wavelength_nm", "measured", "fitted", "id", "measurement_id", "samples_ignored", "solver_summary",
+                            "options", "model_version", "tables_digest", "created_at"})
     EXPECT_TRUE(fit.contains(field)) << field;
   EXPECT_EQ(fit["params"]["melanin"], testing::sample_fit(1).params[1]);
   EXPECT_TRUE(fit["stderr"]["bilirubin"].is_null());  // undetermined
   EXPECT_EQ(fit["tables_digest"], "3f2a9c0d");
+  EXPECT_EQ(fit["solver_summary"], testing::sample_fit(1).solver_summary);
   EXPECT_EQ(fit["options"]["lateral_diffusion"], true);
   EXPECT_EQ(fit["fitted"].get<std::vector<double>>(), testing::sample_fit(1).fitted);
   EXPECT_TRUE(json["measurements"][0]["reflectance"].is_null());
   EXPECT_TRUE(json["measurements"][2]["fits"].empty());
+  EXPECT_EQ(sample["fit_id"], sample["fits"][1]["id"]);  // the latest
+  EXPECT_TRUE(json["measurements"][2]["fit_id"].is_null());
 
   ASSERT_EQ(json["rejected_readings"].size(), 1u);
   const auto& rejected = json["rejected_readings"][0];
-  EXPECT_EQ(rejected["quality_code"], 19);
+  EXPECT_EQ(rejected["quality"]["code"], 19);
+  EXPECT_EQ(rejected["quality"]["text"], "overload");
   EXPECT_EQ(rejected["reason"], "bad_reading: quality 19: overload");
   EXPECT_EQ(rejected["raw_reply_base64"], "MTksMA0K");  // "19,0\r\n"
   EXPECT_EQ(rejected["attempt"], 1);

@@ -1,10 +1,12 @@
-// The measurement job's pure parts: averaging readings, the band-integrated radiance, and when
-// an old white, a changed lamp or a rejected reading draws a warning.
+// The measurement job's pure parts: the meter's values as store records (averaged readings,
+// settings, the instrument, rejected readings), the band-integrated radiance, and when an old
+// white, a changed lamp or a rejected reading draws a warning.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "measure_policy.hpp"
+#include "store_records.hpp"
 
 namespace skinspec::daemon {
 namespace {
@@ -32,7 +34,7 @@ store::Measurement white(store::Id id, double level, int finished_s = 0) {
   return m;
 }
 
-TEST(MeasurePolicyTest, ReadingsAreAveragedWithTheirStandardDeviation) {
+TEST(StoreRecordsTest, ReadingsAreAveragedWithTheirStandardDeviation) {
   const auto m = averaged({reading({1, 2, 3}, 10), reading({3, 2, 5}, 11)});
   ASSERT_TRUE(m) << m.error();
   EXPECT_EQ(m->radiance.values, std::vector<double>({2, 2, 4}));
@@ -48,6 +50,36 @@ TEST(MeasurePolicyTest, ReadingsAreAveragedWithTheirStandardDeviation) {
   other_grid.wavelength_nm = {404, 500, 600};
   EXPECT_FALSE(averaged({reading({1, 2, 3}, 1), other_grid}));
   EXPECT_FALSE(averaged({}));
+}
+
+TEST(StoreRecordsTest, SettingsNameWhatWasAskedAndWhatTheMeterDid) {
+  auto first = reading({1, 2, 3}, 1);
+  first.averages = 3;
+  first.sync = "off";
+  const auto settings = nlohmann::json::parse(measurement_settings({first, reading({1, 2, 3}, 2)}, 0, 2, 1));
+  EXPECT_EQ(settings, (nlohmann::json{{"integration_ms", 0}, {"count", 2}, {"rejected_readings", 1}, {"averages", 3}, {"sync", "off"}}));
+}
+
+TEST(StoreRecordsTest, TheInstrumentKeepsTheConfigurationTheMeterReported) {
+  const drivers::Identity identity{"60912345", {201, 5.0, 360, 830, 2.5}};
+  const auto record = instrument_record(identity, "usb:0403:6001");
+  EXPECT_EQ(record.model, "PR-650");
+  EXPECT_EQ(record.serial_number, "60912345");
+  EXPECT_EQ(record.connection, "usb:0403:6001");
+  EXPECT_EQ(nlohmann::json::parse(record.spectral_configuration),
+            (nlohmann::json{{"points", 201}, {"bandwidth_nm", 5.0}, {"first_nm", 360.0}, {"last_nm", 830.0}, {"step_nm", 2.5}}));
+}
+
+TEST(StoreRecordsTest, ARejectedReadingKeepsItsCodeReasonAndRawReply) {
+  const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "quality 19: overload", 19, "19,0\r\n"};
+  const store::Time at(std::chrono::seconds(5));
+  const auto r = rejected_reading_record(error, 3, at);
+  EXPECT_EQ(r.attempt, 3);
+  EXPECT_EQ(r.quality_code, 19);
+  EXPECT_EQ(r.quality, drivers::pr650::quality_message(19));
+  EXPECT_EQ(r.reason, "bad_reading: quality 19: overload");
+  EXPECT_EQ(r.raw_reply, "19,0\r\n");
+  EXPECT_EQ(r.measured_at, at);
 }
 
 TEST(MeasurePolicyTest, BandIntegratedRadianceIsTheTrapezoidSum) {

@@ -2,6 +2,7 @@
 // nothing is documented that is not a route.
 
 #include "skinspec/api/router.hpp"
+#include "skinspec/version.hpp"
 
 namespace skinspec::api {
 
@@ -59,6 +60,7 @@ json schemas() {
   stored_fit["model_version"] = {{"type", "string"}};
   stored_fit["tables_digest"] = {{"type", "string"}};
   stored_fit["samples_ignored"] = {{"type", "integer"}};
+  stored_fit["solver_summary"] = {{"type", "string"}};
   stored_fit["created_at"] = {{"type", "string"}, {"format", "date-time"}};
   const json session_props = {
       {"id", {{"type", "integer"}}}, {"subject", {{"type", "string"}}}, {"site", {{"type", "string"}}},
@@ -133,10 +135,11 @@ json schemas() {
                                        {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
                                        {"readings_total", {{"type", "integer"}, {"minimum", 1}}},
                                        {"fraction", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}}}}}},
-      {"RejectedReading", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"job_id", nullable("integer")},
+      {"RejectedReading", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
+                                                               {"job_id", nullable("integer")},
                                                                {"instrument_id", nullable("integer")}, {"attempt", {{"type", "integer"}}},
                                                                {"quality", {{"type", "object"}}}, {"reason", {{"type", "string"}}},
-                                                               {"raw_reply_bytes", {{"type", "integer"}}},
+                                                               {"raw_reply_base64", {{"type", "string"}, {"contentEncoding", "base64"}}},
                                                                {"measured_at", {{"type", "string"}}}, {"created_at", {{"type", "string"}}}}}}},
       {"Measurement", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
                                                            {"kind", {{"type", "string"}}}, {"label", {{"type", "string"}}},
@@ -182,7 +185,7 @@ json error_reply(const char* description) {
 
 }  // namespace
 
-json Router::openapi_document(const std::string& version) {
+json Router::openapi_document() {
   json paths = json::object();
   for (const RouteInfo& r : routes()) {
     json op = {{"summary", r.summary}, {"operationId", r.method + " " + r.path}};
@@ -212,7 +215,7 @@ json Router::openapi_document(const std::string& version) {
     paths[r.path][method] = op;
   }
   return {{"openapi", "3.1.0"},
-          {"info", {{"title", "skinspecd"}, {"version", version},
+          {"info", {{"title", "skinspecd"}, {"version", kVersion},
                     {"description", "Stored skin spectra, sessions and fits of the two-layer skin model"}}},
           {"paths", paths},
           {"components", {{"schemas", schemas()},

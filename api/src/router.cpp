@@ -9,8 +9,11 @@
 #include "skinspec/api/acquisition.hpp"
 #include "skinspec/fit/colour.hpp"
 #include "skinspec/fit/fitter.hpp"
-#include "skinspec/store/export.hpp"
+#include "skinspec/records/export.hpp"
+#include "skinspec/records/fit_record.hpp"
+#include "skinspec/records/record_json.hpp"
 #include "skinspec/store/store.hpp"
+#include "skinspec/version.hpp"
 #include "text.hpp"
 #include "web.hpp"
 #include "fit_json.hpp"
@@ -63,7 +66,7 @@ struct Router::Handlers {
       db["path"] = c.store->path();
       db["schema_version"] = c.store->schema_version();
     }
-    return json_response({{"status", "ok"}, {"version", c.version}, {"database", db}, {"model", {{"loaded", c.fitter != nullptr}}},
+    return json_response({{"status", "ok"}, {"version", kVersion}, {"database", db}, {"model", {{"loaded", c.fitter != nullptr}}},
                           {"instrument", instrument_status(c)}});
   }
   static json instrument_status(const RouterContext& c) {
@@ -144,7 +147,7 @@ struct Router::Handlers {
     if (!job) throw detail::HandlerError{job.error()};
     return json_response(job_view(c, *job));
   }
-  static Response openapi(const RouterContext& c, const Call&) { return json_response(openapi_document(c.version)); }
+  static Response openapi(const RouterContext&, const Call&) { return json_response(openapi_document()); }
   static Response metrics(const RouterContext& c, const Call&) {
     return Response{200, "text/plain; version=0.0.4; charset=utf-8", c.metrics->prometheus_text(), {}};
   }
@@ -209,20 +212,19 @@ struct Router::Handlers {
     make_spectrum(s.reflectance.wavelength_nm, s.reflectance.values, "reflectance");  // same checks as a fit's input
     store::Store& db = store_of(c);
     const store::Id id = value(db.add_white_standard(s));
-    Response r = json_response(to_json_ws(value(db.white_standard(id))), 201);
+    Response r = json_response(records::to_json(value(db.white_standard(id))), 201);
     r.headers.emplace_back("Location", "/api/v1/white-standards/" + std::to_string(id));
     return r;
   }
-  static json to_json_ws(const store::WhiteStandard& s) { return detail::to_json(s); }
   static Response list_white_standards(const RouterContext& c, const Call& call) {
     no_query(call);
     json list = json::array();
-    for (const auto& s : value(store_of(c).white_standards())) list.push_back(detail::to_json(s));
+    for (const auto& s : value(store_of(c).white_standards())) list.push_back(records::to_json(s));
     return json_response({{"white_standards", list}});
   }
   static Response get_white_standard(const RouterContext& c, const Call& call) {
     no_query(call);
-    return json_response(detail::to_json(value(store_of(c).white_standard(call.ids[0]))));
+    return json_response(records::to_json(value(store_of(c).white_standard(call.ids[0]))));
   }
 
   // Sessions
@@ -244,7 +246,7 @@ struct Router::Handlers {
       }
     }
     const store::Id id = value(db.create_session(s));
-    Response r = json_response(detail::to_json(value(db.session(id))), 201);
+    Response r = json_response(records::to_json(value(db.session(id))), 201);
     r.headers.emplace_back("Location", "/api/v1/sessions/" + std::to_string(id));
     return r;
   }
@@ -278,23 +280,18 @@ struct Router::Handlers {
     }
     const auto page = value(store_of(c).sessions(filter));
     json list = json::array();
-    for (const auto& s : page.sessions) list.push_back(detail::to_json(s));
+    for (const auto& s : page.sessions) list.push_back(records::to_json(s));
     return json_response({{"sessions", list}, {"next_cursor", page.next_cursor ? json(*page.next_cursor) : json(nullptr)}});
   }
   static Response get_session(const RouterContext& c, const Call& call) {
     no_query(call);
     const auto detail_ = value(store_of(c).session_detail(call.ids[0]));
-    json out = detail::to_json(detail_.session);
+    json out = records::to_json(detail_.session);
     json measurements = json::array(), fits = json::array();
-    for (const auto& m : detail_.measurements) {
-      std::optional<store::Id> latest;
-      for (const auto& f : detail_.fits)
-        if (f.measurement_id == m.id) latest = f.id;
-      measurements.push_back(detail::to_json(m, latest));
-    }
-    for (const auto& f : detail_.fits) fits.push_back(detail::to_json(f));
+    for (const auto& m : detail_.measurements) measurements.push_back(records::to_json(m, records::latest_fit_of(m.id, detail_.fits)));
+    for (const auto& f : detail_.fits) fits.push_back(records::to_json(f));
     json rejected = json::array();
-    for (const auto& r : detail_.rejected_readings) rejected.push_back(detail::to_json(r));
+    for (const auto& r : detail_.rejected_readings) rejected.push_back(records::to_json(r));
     out["measurements"] = measurements;
     out["fits"] = fits;
     out["rejected_readings"] = rejected;
@@ -315,13 +312,13 @@ struct Router::Handlers {
       update.state = store::SessionState::complete;
     }
     if (!update.notes && !update.state) fail(ErrorKind::unprocessable, "missing_field", "nothing to change: give 'notes', 'close' or 'state'");
-    return json_response(detail::to_json(value(store_of(c).update_session(call.ids[0], update))));
+    return json_response(records::to_json(value(store_of(c).update_session(call.ids[0], update))));
   }
   static Response export_csv(const RouterContext& c, const Call& call) {
     no_query(call);
     std::ostringstream out;
-    store::write_csv_header(out);
-    if (auto done = store::export_session(store_of(c), call.ids[0], store::ExportFormat::csv, out); !done) fail_store(done.error());
+    records::write_csv_header(out);
+    if (auto done = records::export_session(store_of(c), call.ids[0], records::ExportFormat::csv, out); !done) fail_store(done.error());
     Response r{200, "text/csv; charset=utf-8", out.str(), {}};
     r.headers.emplace_back("Content-Disposition", "attachment; filename=\"session-" + std::to_string(call.ids[0]) + ".csv\"");
     return r;
@@ -333,7 +330,7 @@ struct Router::Handlers {
     store::Store& db = store_of(c);
     const auto m = value(db.measurement(call.ids[0]));
     const auto fits = value(db.fits_of_measurement(m.id));
-    json body = detail::to_json(m, fits.empty() ? std::nullopt : std::optional<store::Id>(fits.back().id));
+    json body = records::to_json(m, records::latest_fit_of(m.id, fits));
     body["colour"] = colour_of(c, m);
     return json_response(body);
   }
@@ -368,7 +365,7 @@ struct Router::Handlers {
   }
   static Response get_fit(const RouterContext& c, const Call& call) {
     no_query(call);
-    return json_response(detail::to_json(value(store_of(c).fit(call.ids[0]))));
+    return json_response(records::to_json(value(store_of(c).fit(call.ids[0]))));
   }
   static Response refit(const RouterContext& c, const Call& call) {
     const json body = call.request.body.empty() ? json::object() : detail::parse_object(call.request.body);
@@ -382,11 +379,10 @@ struct Router::Handlers {
     checked_site(c, options.site);
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
     const auto result = run_fit(c, make_spectrum(m.reflectance.wavelength_nm, m.reflectance.values, "reflectance"), options);
-    store::Fit f = detail::to_store_fit(result, {{"site", options.site}, {"lateral_diffusion", options.lateral_diffusion}},
-                                        "skinspecd " + c.version, fitter_of(c).optics().tables_digest());
+    store::Fit f = records::to_store_fit(result, options, fitter_of(c).optics().tables_digest());
     f.measurement_id = m.id;
     const store::Id id = value(db.add_fit(f));
-    Response r = json_response(detail::to_json(value(db.fit(id))), 201);
+    Response r = json_response(records::to_json(value(db.fit(id))), 201);
     r.headers.emplace_back("Location", "/api/v1/fits/" + std::to_string(id));
     return r;
   }
@@ -492,11 +488,6 @@ bool is_json_content_type(const Request& request) {
 }
 
 }  // namespace
-
-store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
-                      const std::string& tables_digest) {
-  return detail::to_store_fit(result, options, model_version, tables_digest);
-}
 
 Response error_response(const ApiError& error) {
   return Response{http_status(error.kind), "application/json", error_body(error), {}};

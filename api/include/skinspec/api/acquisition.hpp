@@ -13,7 +13,6 @@
 #include <nlohmann/json.hpp>
 
 #include "skinspec/api/errors.hpp"
-#include "skinspec/fit/fitter.hpp"
 #include "skinspec/store/store.hpp"
 
 namespace skinspec::api {
@@ -60,10 +59,6 @@ class Acquisition {
                                         const std::atomic<bool>& abandoned) const = 0;
   virtual void wake_waiters() const = 0;
 };
-
-// A fit result as the store keeps it, with the options, program version and tables digest.
-store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
-                      const std::string& tables_digest);
 
 // A time as every answer of the API shows it: RFC 3339, UTC, with microseconds.
 std::string api_time(store::Time time);

@@ -72,7 +72,6 @@ struct RouterContext {
   std::shared_ptr<Metrics> metrics;    // created when null
   std::shared_ptr<RenderCache> render_cache;  // images of GET /api/v1/fits/{id}/render.png; created when null
   AccessPolicy access;
-  std::string version = "0.0.0";
   std::size_t max_spectrum_samples = 10000;
 };
 
@@ -97,8 +96,8 @@ class Router {
   Response handle(const Request& request) const;
 
   static const std::vector<RouteInfo>& routes();
-  // OpenAPI 3.1, generated from routes().
-  static nlohmann::json openapi_document(const std::string& version);
+  // OpenAPI 3.1, generated from routes(), with this build's version.
+  static nlohmann::json openapi_document();
 
   Metrics& metrics() const { return *context_.metrics; }
 

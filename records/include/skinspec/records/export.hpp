@@ -1,12 +1,13 @@
 #pragma once
 // Sessions written out for people and other programs: what `skinspec export` prints and the
-// service's export routes send. Both formats are described in docs/store.md ("Export").
+// service's export routes send. Both formats are described in docs/store.md ("Export"); the
+// records in the JSON are those of record_json.hpp, as the service shows them.
 
 #include <iosfwd>
 
 #include "skinspec/store/store.hpp"
 
-namespace skinspec::store {
+namespace skinspec::records {
 
 enum class ExportFormat { csv, json };
 
@@ -16,9 +17,9 @@ void write_csv_header(std::ostream& out);
 // One session: CSV rows (one per wavelength of each measurement and each of its fits) without
 // the header, or one JSON object on one line (the session, its white standard, instruments,
 // measurements with their spectra and fits). not_found for an unknown session.
-Result<void> export_session(const Store& store, Id session_id, ExportFormat format, std::ostream& out);
+store::Result<void> export_session(const store::Store& store, store::Id session_id, ExportFormat format, std::ostream& out);
 
 // Every session, oldest first: the CSV header and all rows, or one JSON line per session.
-Result<void> export_all(const Store& store, ExportFormat format, std::ostream& out);
+store::Result<void> export_all(const store::Store& store, ExportFormat format, std::ostream& out);
 
-}  // namespace skinspec::store
+}  // namespace skinspec::records
