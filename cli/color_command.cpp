@@ -30,7 +30,8 @@ void add_color_command(CLI::App& app) {
           {"sRGB", {srgb_encode(linear[0]), srgb_encode(linear[1]), srgb_encode(linear[2])}},
           {"sRGB8", srgb_8bit(linear)},
       };
-      std::cout << out.dump() << '\n';
+      // Names are UTF-8 (the parser refuses anything else); an illuminant's path may not be.
+      std::cout << out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
     }
   });
 }

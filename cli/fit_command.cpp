@@ -30,7 +30,7 @@ void print_table(const std::vector<NamedSpectrum>& spectra, const std::vector<st
                            "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin", "rmse", "dE00", "converged");
   for (std::size_t i = 0; i < results.size(); ++i) {
     const FitResult& r = *results[i];
-    std::cout << fmt::format("{:<14} ", spectra[i].name);
+    std::cout << fmt::format("{:<14} ", printable(spectra[i].name));
     for (std::size_t p = 0; p < kParamCount; ++p) std::cout << fmt::format("{:<16} ", with_error(r.params[p], r.standard_error[p]));
     std::cout << fmt::format("{:>7.4f} {:>6.2f} {}\n", r.rmse, r.delta_e00_d65, r.converged ? "yes" : "no");
   }
@@ -52,7 +52,7 @@ void run_fit(const FitArgs& args) {
   // Refuse the whole file before printing anything, so a failure never leaves partial output.
   for (std::size_t i = 0; i < results.size(); ++i)
     if (!results[i])
-      throw Failure{kBadInput, input_name(args.file) + ": column '" + spectra[i].name + "': " + results[i].error()};
+      throw Failure{kBadInput, input_name(args.file) + ": column " + quote(spectra[i].name) + ": " + results[i].error()};
   if (args.format == "table") {
     print_table(spectra, results);
   } else {

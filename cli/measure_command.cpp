@@ -30,7 +30,7 @@ int parse_integration(const std::string& text) {
   int ms = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), ms);
   if (ec != std::errc() || end != text.data() + text.size() || ms < 10 || ms > 6000)
-    throw Failure{kBadInput, "--integration-ms '" + text + "': expected 10-6000 or 'adaptive'"};
+    throw Failure{kBadInput, "--integration-ms " + quote(text) + ": expected 10-6000 or 'adaptive'"};
   return ms;
 }
 
@@ -57,7 +57,7 @@ Failure instrument_failure(const InstrumentError& e) {
 void run_measure(const MeasureArgs& args) {
   const int integration = parse_integration(args.integration);
   auto uri = drivers::parse_connection_uri(args.device);
-  if (!uri) throw Failure{kBadInput, "--device '" + args.device + "': " + uri.error()};
+  if (!uri) throw Failure{kBadInput, "--device " + quote(args.device) + ": " + uri.error()};
   auto transport = drivers::make_transport(*uri);
   if (!transport) throw Failure{kInstrumentError, transport.error()};
   drivers::DriverOptions options;

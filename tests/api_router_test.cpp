@@ -439,7 +439,7 @@ TEST_F(ApiRouterTest, StoreFailuresReachTheClientAsTheirStatus) {
   };
   const auto open = [&path](bool read_only, std::int64_t max_pages) {
     store::OpenOptions options;
-    options.read_only = read_only;
+    options.mode = read_only ? store::OpenMode::read_only : store::OpenMode::read_write;
     options.max_pages = max_pages;
     auto opened = store::Store::open(path, options);
     if (!opened) throw std::runtime_error(opened.error().message);

@@ -120,7 +120,7 @@ std::map<Id, Reported> committed_lines(const std::string& out) {
 // Every reported id, read back through a read-only store: present and whole.
 void expect_reported_present(const std::string& path, const std::map<Id, Reported>& reported) {
   OpenOptions options;
-  options.read_only = true;
+  options.mode = OpenMode::read_only;
   options.check_integrity = false;
   auto store = value_of(Store::open(path, options));
   for (const auto& [measurement_id, r] : reported) {

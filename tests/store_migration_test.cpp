@@ -6,9 +6,11 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <vector>
 
 #include "skinspec/store/store.hpp"
 #include "support/store_samples.hpp"
@@ -184,20 +186,31 @@ class StoreBadInputTest : public StoreMigrationTest {
                                                                    testing::sample_fit(n)));
   }
 
-  // Opens `path` read-write and read-only, expecting `kind` both times and no change to it.
+  // Opens `path` read-write and read-only, expecting `kind` both times, no change to it and
+  // nothing created beside it (no -wal, -shm or -lock).
   void expect_refused_unchanged(const std::string& path, Kind kind, const std::string& message) {
     const auto before = testing::file_bytes(path);
+    const auto files = files_beside(path);
     for (const bool read_only : {false, true}) {
       SCOPED_TRACE(read_only ? "read-only" : "read-write");
       OpenOptions options;
-      options.read_only = read_only;
+      options.mode = read_only ? OpenMode::read_only : OpenMode::read_write;
       const auto opened = Store::open(path, options);
       ASSERT_FALSE(opened);
       EXPECT_EQ(opened.error().kind, kind) << opened.error().message;
       EXPECT_THAT(opened.error().message, HasSubstr(message));
       EXPECT_THAT(opened.error().message, HasSubstr(path));
       EXPECT_EQ(testing::file_bytes(path), before) << "the file changed";
+      EXPECT_EQ(files_beside(path), files);
     }
+  }
+
+  static std::vector<std::string> files_beside(const std::string& path) {
+    std::vector<std::string> names;
+    for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(path).parent_path()))
+      names.push_back(entry.path().filename().string());
+    std::ranges::sort(names);
+    return names;
   }
 };
 
@@ -220,6 +233,19 @@ TEST_F(StoreBadInputTest, AFileThatIsNotSqliteIsRefused) {
 TEST_F(StoreBadInputTest, AnotherProgramsSqliteDatabaseIsRefused) {
   testing::sqlite_execute(path_, "CREATE TABLE photos (id INTEGER PRIMARY KEY, name TEXT); PRAGMA user_version = 3;");
   expect_refused_unchanged(path_, Kind::corrupt, "not a skinspec one");
+  // In WAL mode, where a plain read-only SQLite connection would leave a -wal and -shm behind.
+  const auto wal = dir_.file("wal.db");
+  testing::sqlite_execute(wal, "PRAGMA journal_mode = WAL; CREATE TABLE photos (id INTEGER PRIMARY KEY);");
+  expect_refused_unchanged(wal, Kind::corrupt, "not a skinspec one");
+}
+
+// SQLite reads a file shorter than its header as an empty database; a writer would fill it.
+TEST_F(StoreBadInputTest, AFileShorterThanTheHeaderIsRefused) {
+  for (const std::string bytes : {"x", "SQLite format"}) {
+    SCOPED_TRACE(bytes);
+    std::ofstream(path_, std::ios::trunc) << bytes;
+    expect_refused_unchanged(path_, Kind::corrupt, "not a SQLite database");
+  }
 }
 
 TEST_F(StoreBadInputTest, ADamagedDatabaseIsRefused) {
@@ -259,7 +285,7 @@ TEST_F(StoreBadInputTest, AReadOnlyFileIsNotWrittenButCanBeRead) {
 
   {
     OpenOptions read_only;
-    read_only.read_only = true;
+    read_only.mode = OpenMode::read_only;
     auto reader = value_of(Store::open(copy, read_only));
     EXPECT_EQ(value_of(reader.session_detail(1)).measurements.size(), 20u);
     const auto refused = reader.record_measurement(testing::sample_measurement(1, 99), testing::sample_fit(99));

@@ -5,8 +5,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 
 #include "skinspec/store/store.hpp"
 #include "support/store_samples.hpp"
@@ -465,7 +467,7 @@ TEST_F(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
   EXPECT_THAT(second.error().message, HasSubstr("another program has it open for writing"));
 
   OpenOptions read_only;
-  read_only.read_only = true;
+  read_only.mode = OpenMode::read_only;
   auto reader = Store::open(path_, read_only);
   ASSERT_TRUE(reader) << reader.error().message;
   EXPECT_EQ(value_of(reader->session(session)).subject, sample_session(1).subject);
@@ -477,13 +479,97 @@ TEST_F(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
 
 TEST_F(StoreTest, ReadOnlyOpeningNeedsAnExistingFile) {
   OpenOptions read_only;
-  read_only.read_only = true;
+  read_only.mode = OpenMode::read_only;
   const auto missing = Store::open(path_, read_only);
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().kind, Kind::not_found);
   EXPECT_FALSE(std::filesystem::exists(path_));
   EXPECT_EQ(Store::open(":memory:").error().kind, Kind::invalid_argument);
   EXPECT_EQ(Store::open(dir_.path().string()).error().kind, Kind::invalid_argument);
+}
+
+// Names of the files in `dir`.
+std::vector<std::string> files_in(const std::filesystem::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  std::ranges::sort(names);
+  return names;
+}
+
+// With no writer (no -wal), a read-only store reads the file as it is, creating no -wal or
+// -shm beside it; when a writer then changes the file, its reads fail rather than mix states.
+TEST_F(StoreTest, ReadOnlyWithoutAWriterCreatesNothingAndNoticesOneThatStarts) {
+  Id first = 0;
+  {
+    auto writer = open();
+    first = value_of(writer.create_session(sample_session(1)));
+  }
+  const auto files = files_in(dir_.path());
+  ASSERT_THAT(files, ElementsAre("skinspec.db", "skinspec.db-lock"));
+  const auto bytes = testing::file_bytes(path_);
+
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  auto reader = value_of(Store::open(path_, read_only));
+  EXPECT_EQ(value_of(reader.session(first)).subject, sample_session(1).subject);
+  EXPECT_EQ(files_in(dir_.path()), files);
+  EXPECT_TRUE(testing::file_bytes(path_) == bytes);
+
+  {
+    auto writer = open();  // closing it checkpoints the new session into the file
+    value_of(writer.create_session(sample_session(2)));
+  }
+  ASSERT_FALSE(testing::file_bytes(path_) == bytes);
+  const auto stale = reader.session(first);
+  ASSERT_FALSE(stale);
+  EXPECT_EQ(stale.error().kind, Kind::busy);
+  EXPECT_THAT(stale.error().message, HasSubstr("changed while it was read"));
+
+  // Opened again, it reads the file as it is now.
+  auto again = value_of(Store::open(path_, read_only));
+  EXPECT_EQ(value_of(again.sessions({})).sessions.size(), 2u);
+}
+
+// While a writer has the file open, a read-only store reads through its log: it sees what the
+// writer committed and not yet copied into the file.
+TEST_F(StoreTest, ReadOnlyBesideAWriterSeesItsCommits) {
+  auto writer = open();
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  auto reader = value_of(Store::open(path_, read_only));
+  const Id later = value_of(writer.create_session(sample_session(3)));
+  EXPECT_EQ(value_of(reader.session(later)).subject, sample_session(3).subject);
+}
+
+// Read as a URI, the path keeps every byte: '?', '#', '%', blanks and non-ASCII are escaped.
+TEST_F(StoreTest, ReadOnlyOpensAPathThatLooksLikeAUri) {
+  const auto odd = dir_.file("a?b #%20\xc3\xa9.db");
+  {
+    auto writer = value_of(Store::open(odd));
+    value_of(writer.create_session(sample_session(1)));
+  }
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  auto reader = value_of(Store::open(odd, read_only));
+  EXPECT_EQ(value_of(reader.session(1)).subject, sample_session(1).subject);
+  EXPECT_FALSE(std::filesystem::exists(dir_.file("a")));
+}
+
+TEST_F(StoreTest, ReadOnlyRefusesAnEmptySqliteDatabaseAndAnOlderSchema) {
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  testing::sqlite_execute(path_, "CREATE TABLE t (x); DROP TABLE t;");
+  const auto empty = Store::open(path_, read_only);
+  ASSERT_FALSE(empty);
+  EXPECT_EQ(empty.error().kind, Kind::corrupt);
+  EXPECT_THAT(empty.error().message, HasSubstr("an empty SQLite database"));
+
+  const auto older = dir_.file("older.db");
+  ASSERT_TRUE(create_database_at_version(older, 1));
+  const auto refused = Store::open(older, read_only);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, Kind::older_schema);
+  EXPECT_EQ(testing::sqlite_integer(older, "PRAGMA user_version"), 1);
 }
 
 TEST_F(StoreTest, ErrorKindsHaveNames) {

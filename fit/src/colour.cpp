@@ -5,6 +5,8 @@
 #include <numbers>
 #include <string>
 
+#include "skinspec/fit/utf8.hpp"
+
 namespace skinspec {
 
 namespace {
@@ -118,7 +120,7 @@ std::expected<Colorimetry, InputError> Colorimetry::from_tables(const Table& cmf
 std::expected<Spectrum, std::string> Colorimetry::illuminant(std::string_view name) const {
   if (name == "D65") return d65_;
   if (name == "A") return a_;
-  return std::unexpected(fmt::format("unknown illuminant '{}' (known: D65, A)", name));
+  return std::unexpected(fmt::format("unknown illuminant {} (known: D65, A)", quote(name)));
 }
 
 // Sums of R(λ)S(λ)x̄(λ) etc. at 1 nm, divided by the sum of S(λ)ȳ(λ) so that the perfect

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <utility>
 
+#include "skinspec/fit/utf8.hpp"
 #include "text.hpp"
 
 namespace skinspec {
@@ -41,6 +42,8 @@ class SpectraParser {
     std::string_view line;
     std::size_t line_no = 0;
     while (lines.next(line, line_no)) {
+      // Before anything else, comments included: a name or cell that is not text cannot be shown.
+      if (auto defect = text::utf8_defect(line)) return fail(line_no, defect->column, std::move(defect->message));
       if (carries_no_data(line)) continue;
       const auto cells = text::split_csv(line);
       const auto read = has_header() ? read_row(cells, line_no) : read_header(cells, line_no);
@@ -75,7 +78,7 @@ class SpectraParser {
                               first_name, kWavelengthColumn));
     if (first_name != kWavelengthColumn)
       return fail(line_no, first.column,
-                  fmt::format("the first column is named '{}'; it must be '{}'", first_name,
+                  fmt::format("the first column is named {}; it must be '{}'", quote(first_name),
                               kWavelengthColumn));
     if (cells.size() < 2)
       return fail(line_no, 0,
@@ -89,7 +92,7 @@ class SpectraParser {
         return fail(line_no, cell.column, fmt::format("column {} has an empty name", names.size() + 1));
       if (const auto earlier = std::ranges::find(names, name); earlier != names.end())
         return fail(line_no, cell.column,
-                    fmt::format("duplicated column name '{}' (also column {})", name,
+                    fmt::format("duplicated column name {} (also column {})", quote(name),
                                 earlier - names.begin() + 1));
       names.push_back(std::move(name));
     }
@@ -119,8 +122,8 @@ class SpectraParser {
                   fmt::format("{} cells where the header has {}", cells.size(), names_.size()));
     if (cells.size() < names_.size())
       return fail(line_no, 0,
-                  fmt::format("{} cells where the header has {}; the first without a value is '{}'",
-                              cells.size(), names_.size(), names_[cells.size()]));
+                  fmt::format("{} cells where the header has {}; the first without a value is {}",
+                              cells.size(), names_.size(), quote(names_[cells.size()])));
     return {};
   }
 
@@ -128,7 +131,7 @@ class SpectraParser {
                                                 std::size_t line_no) const {
     const auto value = text::parse_number(cell.text);
     if (!value)
-      return fail(line_no, cell.column, fmt::format("{} in column '{}'", value.error(), column_name));
+      return fail(line_no, cell.column, fmt::format("{} in column {}", value.error(), quote(column_name)));
     return *value;
   }
 
@@ -147,8 +150,8 @@ class SpectraParser {
                               std::size_t line_no) const {
     if (value >= limits_.min_value && value <= limits_.max_value) return {};
     return fail(line_no, cell.column,
-                fmt::format("value {} in column '{}' is outside the allowed range [{}, {}]", value,
-                            column_name, limits_.min_value, limits_.max_value));
+                fmt::format("value {} in column {} is outside the allowed range [{}, {}]", value,
+                            quote(column_name), limits_.min_value, limits_.max_value));
   }
 
   // Points at the header, or at the single row, so the reader sees where the data stops.
@@ -175,7 +178,7 @@ class SpectraParser {
     for (std::size_t c = 1; c < names_.size(); ++c) {
       // The rows were checked above, so this only fails if Spectrum's rules grow stricter.
       auto spectrum = Spectrum::create(columns_.front(), std::move(columns_[c]));
-      if (!spectrum) return fail(0, 0, fmt::format("column '{}': {}", names_[c], spectrum.error()));
+      if (!spectrum) return fail(0, 0, fmt::format("column {}: {}", quote(names_[c]), spectrum.error()));
       spectra.push_back({std::move(names_[c]), std::move(*spectrum)});
     }
     return spectra;

@@ -5,12 +5,13 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include "skinspec/fit/utf8.hpp"
 #include "text.hpp"
 
 namespace skinspec {
 
 std::string InputError::what() const {
-  std::string where = source;
+  std::string where = printable(source);
   if (line > 0) where += fmt::format(":{}", line);
   if (line > 0 && column > 0) where += fmt::format(":{}", column);
   return where + ": " + message;
@@ -50,6 +51,7 @@ std::expected<Table, InputError> parse_table(std::string_view bytes, std::string
   std::size_t line_no = 0;
   bool have_header = false;
   while (lines.next(line, line_no)) {
+    if (auto defect = text::utf8_defect(line)) return fail(line_no, defect->column, std::move(defect->message));
     if (text::trim(line).empty()) continue;
     if (line.starts_with('#')) {
       if (have_header) return fail(line_no, 1, "metadata line after the header row");
@@ -64,7 +66,7 @@ std::expected<Table, InputError> parse_table(std::string_view bytes, std::string
       for (const auto& cell : cells) {
         const std::string name(text::trim(cell.text));
         if (name.empty()) return fail(line_no, cell.column, "empty column name");
-        if (table.has_column(name)) return fail(line_no, cell.column, "duplicated column '" + name + "'");
+        if (table.has_column(name)) return fail(line_no, cell.column, "duplicated column " + quote(name));
         table.columns_.push_back(name);
       }
       table.values_.resize(table.columns_.size());
@@ -79,7 +81,7 @@ std::expected<Table, InputError> parse_table(std::string_view bytes, std::string
       const std::string key(text::trim(cells.front().text));
       if (key.empty()) return fail(line_no, 1, "empty key");
       if (std::ranges::find(table.keys_, key) != table.keys_.end())
-        return fail(line_no, 1, "duplicated key '" + key + "'");
+        return fail(line_no, 1, "duplicated key " + quote(key));
       table.keys_.push_back(key);
     }
     for (std::size_t c = keyed ? 1 : 0; c < cells.size(); ++c) {

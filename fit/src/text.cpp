@@ -2,6 +2,9 @@
 
 #include <charconv>
 #include <cmath>
+#include <fmt/format.h>
+
+#include "skinspec/fit/utf8.hpp"
 
 namespace skinspec::text {
 
@@ -38,6 +41,19 @@ std::vector<Cell> split_csv(std::string_view line) {
   return cells;
 }
 
+std::optional<Utf8Defect> utf8_defect(std::string_view line) {
+  constexpr std::size_t kContext = 24;  // bytes of the text before the defect, to find it by
+  const auto defect = utf8::first_defect(line);
+  if (!defect) return std::nullopt;
+  std::size_t from = defect->offset > kContext ? defect->offset - kContext : 0;
+  while (from < defect->offset && (static_cast<unsigned char>(line[from]) & 0xC0) == 0x80) ++from;
+  const auto before = line.substr(from, defect->offset - from);
+  const auto bad = line.substr(defect->offset, defect->length);
+  std::string message = fmt::format("{} is not UTF-8 text", printable(bad));
+  if (!before.empty()) message += fmt::format(" (after {}{})", from > 0 ? "..." : "", quote(before));
+  return Utf8Defect{defect->offset + 1, message + "; the file must be saved as UTF-8"};
+}
+
 std::expected<double, std::string> parse_number(std::string_view cell) {
   const auto text = trim(cell);
   if (text.empty()) return std::unexpected(std::string("empty cell where a number is expected"));
@@ -46,10 +62,10 @@ std::expected<double, std::string> parse_number(std::string_view cell) {
   if (*first == '+') ++first;  // from_chars refuses a leading '+', spreadsheets write one
   const auto [end, ec] = std::from_chars(first, text.data() + text.size(), value);
   if (ec == std::errc::result_out_of_range)
-    return std::unexpected("'" + std::string(text) + "' is out of range");
+    return std::unexpected(quote(text) + " is out of range");
   if (ec != std::errc() || end != text.data() + text.size())
-    return std::unexpected("'" + std::string(text) + "' is not a number");
-  if (!std::isfinite(value)) return std::unexpected("'" + std::string(text) + "' is not a finite number");
+    return std::unexpected(quote(text) + " is not a number");
+  if (!std::isfinite(value)) return std::unexpected(quote(text) + " is not a finite number");
   return value;
 }
 

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <expected>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -29,6 +30,14 @@ struct Cell {
 
 // Splits one line on commas. Quoting is not part of the format.
 std::vector<Cell> split_csv(std::string_view line);
+
+// Where a line stops being UTF-8: its 1-based column and a message quoting the bytes (escaped)
+// and the text before them; nullopt when the whole line is UTF-8.
+struct Utf8Defect {
+  std::size_t column;
+  std::string message;
+};
+std::optional<Utf8Defect> utf8_defect(std::string_view line);
 
 // A finite decimal number (leading/trailing blanks allowed), or a message saying why not.
 std::expected<double, std::string> parse_number(std::string_view cell);

@@ -21,10 +21,18 @@ enum class RecoveryPolicy {
   all_open_sessions,          // every open session
 };
 
+// How a Store uses its file.
+enum class OpenMode {
+  // The one writer (skinspecd): creates a missing file, migrates, recovers, takes the writer lock.
+  read_write,
+  // Only reads (skinspec export), beside a live writer or none: never writes, creates, migrates
+  // or checkpoints anything, not even a -wal or -shm file beside it (docs/store.md, "Opening").
+  // The file must exist and be a skinspec database at the current schema version.
+  read_only,
+};
+
 struct OpenOptions {
-  // read_only: no writes, no migration, no recovery, no writer lock; the file must exist and
-  // be at the current schema version.
-  bool read_only = false;
+  OpenMode mode = OpenMode::read_write;
   RecoveryPolicy recovery = RecoveryPolicy::sessions_with_active_jobs;
   // Run PRAGMA quick_check before using an existing file (time proportional to its size).
   bool check_integrity = true;
@@ -90,10 +98,11 @@ struct CreatedJob {
 
 class Store {
  public:
-  // Opens the database at `path`, creating it (read-write) when missing, migrating it forward
-  // and recovering from a writer that died (recovery()). Refuses, leaving the file as it was:
-  // a newer schema, a file that is not a skinspec database or is damaged, a read-only file
-  // (read-write), and a database another program holds for writing (busy).
+  // Opens the database at `path`. Read-write: creates it when missing, migrates it forward and
+  // recovers from a writer that died (recovery()). Refuses, leaving the file as it was: a newer
+  // schema, a file that is not a skinspec database or is damaged, a read-only file (read-write),
+  // a database another program holds for writing (busy, read-write), and a missing, empty or
+  // older one (read-only).
   static Result<Store> open(const std::string& path, const OpenOptions& options = {});
 
   // A moved-from Store may only be destroyed or assigned to.

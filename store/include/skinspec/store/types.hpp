@@ -30,7 +30,7 @@ struct StoreError {
     corrupt,           // not a SQLite file, not a skinspec database, or damaged
     read_only,         // the file (or this Store) cannot be written
     full,              // the disk, or the configured size limit, is full
-    busy,              // another program holds the database for writing
+    busy,              // another program holds the database for writing (or wrote one opened read-only)
     io,                // the operating system failed a read or write
     internal,          // anything else SQLite reports
   };
