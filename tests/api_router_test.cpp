@@ -480,6 +480,55 @@ TEST(ApiRouterWithoutDatabase, DataRoutesAnswer503) {
   EXPECT_EQ(router.handle(Request{"GET", "/healthz", {}, ""}).status, 200);
 }
 
+TEST_F(ApiRouterTest, ARepeatedKeyInABodyIsRefusedByName) {
+  const auto top = call("POST", "/api/v1/sessions", R"({"site": "forearm", "subject": "A", "subject": "B"})");
+  expect_error(top, 400, "duplicate_key");
+  EXPECT_NE(body(top)["error"]["message"].get<std::string>().find("'subject'"), std::string::npos) << top.body;
+  const auto nested = call("POST", "/api/v1/fit", R"({"wavelength_nm": [400, 500], "spectra": {"a": [0.1, 0.2], "a": [0.3, 0.4]}})");
+  expect_error(nested, 400, "duplicate_key");
+  EXPECT_NE(body(nested)["error"]["message"].get<std::string>().find("'a'"), std::string::npos) << nested.body;
+  // The same key in two different objects is no repetition.
+  const auto sibling = call("POST", "/api/v1/fit", R"({"wavelength_nm": [400, 500], "spectra": {"a": [0.1, 0.2]}, "site": "forearm"})");
+  EXPECT_NE(sibling.status, 400) << sibling.body;
+  const std::string long_key(5000, 'k');
+  const auto long_repeat = call("POST", "/api/v1/sessions", "{\"" + long_key + "\": 1, \"" + long_key + "\": 2}");
+  expect_error(long_repeat, 400, "duplicate_key");
+  EXPECT_LT(long_repeat.body.size(), 400u);
+  EXPECT_EQ(call("GET", "/api/v1/sessions").status, 200);
+  EXPECT_EQ(body(call("GET", "/api/v1/sessions"))["sessions"].size(), 0u) << "nothing stored from a refused body";
+}
+
+TEST_F(ApiRouterTest, TheBearerSchemeIsCaseInsensitive) {
+  RouterContext context;
+  context.store = &*db_;
+  context.access = {true, "read-token-0123456789", "operator-token-0123456789"};
+  const Router guarded(context);
+  const auto with = [&](const std::string& credentials) {
+    Request r = req("GET", "/api/v1/sessions");
+    r.headers["authorization"] = credentials;
+    return guarded.handle(r);
+  };
+  for (const char* scheme : {"Bearer", "bearer", "BEARER", "bEaReR"})
+    EXPECT_EQ(with(std::string(scheme) + " read-token-0123456789").status, 200) << scheme;
+  EXPECT_EQ(with("Bearer   read-token-0123456789").status, 200) << "several spaces";
+  for (const char* refused : {"Bearerread-token-0123456789", "Basic read-token-0123456789", "Bearer ", "Bearer", "bearer read-token-012345678",
+                              "Bearers read-token-0123456789"})
+    expect_error(with(refused), 401, "unauthorized");
+}
+
+TEST(ApiRouterRoutes, FitsAndRendersAreTheHeavyRoutes) {
+  EXPECT_TRUE(Router::is_heavy("POST", "/api/v1/fit"));
+  EXPECT_TRUE(Router::is_heavy("POST", "/api/v1/measurements/12/fit"));
+  EXPECT_TRUE(Router::is_heavy("GET", "/api/v1/fits/3/render.png?size=64x64"));
+  EXPECT_TRUE(Router::is_heavy("GET", "/api/v1/fits/%33/render.png"));
+  for (const auto& [method, target] : std::vector<std::pair<std::string, std::string>>{
+           {"GET", "/healthz"}, {"GET", "/api/v1/fits/3"}, {"GET", "/api/v1/fit"}, {"GET", "/api/v1/sessions"}, {"GET", "/nope"}, {"GET", ""}, {"GET", "x"}})
+    EXPECT_FALSE(Router::is_heavy(method, target)) << method << ' ' << target;
+  std::set<std::string> heavy;
+  for (const auto& r : Router::routes())
+    if (r.heavy) heavy.insert(r.method + " " + r.path);
+  EXPECT_EQ(heavy, (std::set<std::string>{"POST /api/v1/fit", "POST /api/v1/measurements/{id}/fit", "GET /api/v1/fits/{id}/render.png"}));
+}
 
 TEST_F(ApiRouterTest, TheWebConsoleIsServedWithoutATokenAndOutsideTheApiDocument) {
   const auto page = call("GET", "/");

@@ -284,17 +284,6 @@ TEST_F(DaemonTest, KeepAliveServesManyRequestsOnOneConnection) {
   for (int i = 0; i < 20; ++i) ASSERT_EQ(c.request("GET", "/healthz").status, 200) << i;
 }
 
-TEST_F(DaemonTest, ConnectionCapRefusesTheExtraConnections) {
-  Daemon d(dir_.file("cap.db"), {"--max-connections", "2"});
-  ASSERT_NE(d.port(), 0) << d.process().err();
-  HttpConnection a(d.port()), b(d.port());
-  ASSERT_EQ(a.request("GET", "/healthz").status, 200);
-  ASSERT_EQ(b.request("GET", "/healthz").status, 200);
-  const auto third = http_request(d.port(), "GET", "/healthz");
-  EXPECT_EQ(third.status, 503) << third.error;
-  EXPECT_EQ(a.request("GET", "/healthz").status, 200);
-}
-
 TEST_F(DaemonTest, OffLoopbackNeedsAPrivateTokenFile) {
   const auto refused = run_process(kDaemon, {"--listen", "0.0.0.0:0", "--db", dir_.file("t.db")}, {.stdin_bytes = {}, .timeout = 30s, .environment = {}});
   EXPECT_EQ(refused.exit_status, 2) << refused.describe();

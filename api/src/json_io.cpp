@@ -1,6 +1,7 @@
 #include "json_io.hpp"
 
 #include <cmath>
+#include <set>
 
 #include "text.hpp"
 
@@ -16,8 +17,25 @@ void fail_store(const store::StoreError& error) { throw HandlerError{from_store_
 
 json parse_object(const std::string& body) {
   if (!valid_utf8(body)) fail(ErrorKind::bad_request, "invalid_utf8", "the body is not valid UTF-8");
-  json value = json::parse(body, nullptr, false);
+  // The keys of each object being read, innermost last: a repeated key is refused rather
+  // than letting the last one win, which would hide what the client meant.
+  std::vector<std::set<std::string>> open_objects;
+  std::optional<std::string> repeated;
+  const auto watch_keys = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) open_objects.emplace_back();
+    else if (event == json::parse_event_t::object_end && !open_objects.empty()) open_objects.pop_back();
+    else if (event == json::parse_event_t::key && !open_objects.empty() && !repeated &&
+             !open_objects.back().insert(parsed.get<std::string>()).second)
+      repeated = parsed.get<std::string>();
+    return true;
+  };
+  json value = json::parse(body, watch_keys, false);
   if (value.is_discarded()) fail(ErrorKind::bad_request, "malformed_json", "the body is not well-formed JSON");
+  if (repeated) {
+    constexpr std::size_t kShown = 100;
+    const std::string shown = repeated->size() > kShown ? repeated->substr(0, kShown) + "..." : *repeated;
+    fail(ErrorKind::bad_request, "duplicate_key", "the key '" + shown + "' appears twice in one object");
+  }
   if (!value.is_object()) fail(ErrorKind::unprocessable, "wrong_type", "the body must be a JSON object");
   return value;
 }

@@ -419,7 +419,7 @@ const std::vector<Route>& route_table() {
         {{"GET", "/healthz", "Liveness, database state and version", false, "", "Health", 200}, &H::healthz, {}},
         {{"GET", "/openapi.json", "This OpenAPI document", false, "", "OpenApi", 200}, &H::openapi, {}},
         {{"GET", "/metrics", "Prometheus metrics", false, "", "text/plain", 200}, &H::metrics, {}},
-        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest", "FitResponse", 200}, &H::fit, {}},
+        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest", "FitResponse", 200, true}, &H::fit, {}},
         {{"GET", "/api/v1/sites", "The body sites the model knows, with their layer thicknesses", false, "", "SiteList", 200}, &H::sites, {}},
         {{"POST", "/api/v1/white-standards", "Store a white standard", true, "WhiteStandardCreate", "WhiteStandard", 201}, &H::create_white_standard, {}},
         {{"GET", "/api/v1/white-standards", "List white standards", false, "", "WhiteStandardList", 200}, &H::list_white_standards, {}},
@@ -430,7 +430,7 @@ const std::vector<Route>& route_table() {
         {{"PATCH", "/api/v1/sessions/{id}", "Change a session's notes or close it", true, "SessionUpdate", "Session", 200}, &H::patch_session, {}},
         {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", false, "", "text/csv", 200}, &H::export_csv, {}},
         {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id", false, "", "Measurement", 200}, &H::get_measurement, {}},
-        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true, "RefitRequest", "Fit", 201}, &H::refit, {}},
+        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true, "RefitRequest", "Fit", 201, true}, &H::refit, {}},
         {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200}, &H::get_fit, {}},
         {{"GET", "/api/v1/instrument", "The instrument's state (connected, measuring, lost ...), port, last error and reconnection", false, "", "Instrument", 200}, &H::instrument, {}},
         {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true, "MeasureRequest", "Job", 202}, &H::measure, {}},
@@ -438,7 +438,7 @@ const std::vector<Route>& route_table() {
         {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
         {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", false, "", "text/event-stream", 200}, &H::job_events, {}},
         {{"GET", "/api/v1/ports", "Serial ports and USB serial adapters present, with the --device URI of each", false, "", "PortList", 200}, &H::ports, {}},
-        {{"GET", "/api/v1/fits/{id}/render.png", "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200}, &H::render_fit, {}},
+        {{"GET", "/api/v1/fits/{id}/render.png", "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200, true}, &H::render_fit, {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;
@@ -456,6 +456,25 @@ bool segment_matches(const std::string& pattern, const std::string& segment, std
   return true;
 }
 
+// The route for `method` on a path's segments, with the ids taken from them; nullptr when there
+// is none, and then the methods the path has in `allow`.
+const Route* find_route(const std::string& method, const std::vector<std::string>& segments, std::vector<store::Id>& ids,
+                        std::string& allow) {
+  for (const auto& route : route_table()) {
+    if (route.segments.size() != segments.size()) continue;
+    std::vector<store::Id> route_ids;
+    bool ok = true;
+    for (std::size_t i = 0; ok && i < segments.size(); ++i) ok = segment_matches(route.segments[i], segments[i], route_ids);
+    if (!ok) continue;
+    if (route.info.method == method) {
+      ids = std::move(route_ids);
+      return &route;
+    }
+    allow += (allow.empty() ? "" : ", ") + route.info.method;
+  }
+  return nullptr;
+}
+
 bool constant_time_equal(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
   unsigned char diff = 0;
@@ -463,15 +482,25 @@ bool constant_time_equal(std::string_view a, std::string_view b) {
   return diff == 0;
 }
 
+// The token of `Authorization: Bearer TOKEN`; the scheme's name is case-insensitive (RFC 9110 §11.1).
+std::optional<std::string_view> bearer_token(std::string_view credentials) {
+  constexpr std::string_view kScheme = "bearer";
+  const auto space = credentials.find(' ');
+  if (space != kScheme.size()) return std::nullopt;
+  for (std::size_t i = 0; i < kScheme.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(credentials[i])) != kScheme[i]) return std::nullopt;
+  const auto start = credentials.find_first_not_of(' ', space);
+  if (start == std::string_view::npos) return std::nullopt;
+  return credentials.substr(start);
+}
+
 void check_access(const AccessPolicy& access, const Request& request, const RouteInfo& route) {
   if (!access.required || route.path == "/healthz") return;
   const auto it = request.headers.find("authorization");
-  constexpr std::string_view kBearer = "Bearer ";
-  if (it == request.headers.end() || it->second.size() <= kBearer.size() || it->second.compare(0, kBearer.size(), kBearer) != 0)
-    fail(ErrorKind::unauthorized, "unauthorized", "a bearer token is required");
-  const std::string_view token = std::string_view(it->second).substr(kBearer.size());
-  if (!access.operator_token.empty() && constant_time_equal(token, access.operator_token)) return;
-  if (!access.read_token.empty() && constant_time_equal(token, access.read_token)) {
+  const auto token = it == request.headers.end() ? std::nullopt : bearer_token(it->second);
+  if (!token) fail(ErrorKind::unauthorized, "unauthorized", "a bearer token is required");
+  if (!access.operator_token.empty() && constant_time_equal(*token, access.operator_token)) return;
+  if (!access.read_token.empty() && constant_time_equal(*token, access.read_token)) {
     if (route.mutating) fail(ErrorKind::forbidden, "forbidden", "this route needs the operator token");
     return;
   }
@@ -508,6 +537,17 @@ const std::vector<RouteInfo>& Router::routes() {
   return infos;
 }
 
+bool Router::is_heavy(const std::string& method, const std::string& target) {
+  const std::string_view path = std::string_view(target).substr(0, target.find('?'));
+  if (path.empty() || path.front() != '/') return false;
+  const auto decoded = detail::percent_decode(path, false);
+  if (!decoded) return false;
+  std::vector<store::Id> ids;
+  std::string allow;
+  const Route* route = find_route(method, split_path(*decoded), ids, allow);
+  return route != nullptr && route->info.heavy;
+}
+
 Response Router::handle(const Request& request) const {
   const auto started = std::chrono::steady_clock::now();
   std::string route_label = "unmatched";
@@ -529,22 +569,9 @@ Response Router::handle(const Request& request) const {
       context_.metrics->record_request(route_label, response.status, std::chrono::steady_clock::now() - started);
       return response;
     }
-    const Route* matched = nullptr;
     std::vector<store::Id> ids;
     std::string allow;
-    for (const auto& route : route_table()) {
-      if (route.segments.size() != segments.size()) continue;
-      std::vector<store::Id> route_ids;
-      bool ok = true;
-      for (std::size_t i = 0; ok && i < segments.size(); ++i) ok = segment_matches(route.segments[i], segments[i], route_ids);
-      if (!ok) continue;
-      if (route.info.method == request.method) {
-        matched = &route;
-        ids = std::move(route_ids);
-        break;
-      }
-      allow += (allow.empty() ? "" : ", ") + route.info.method;
-    }
+    const Route* matched = find_route(request.method, segments, ids, allow);
     if (matched == nullptr) {
       if (allow.empty()) fail(ErrorKind::not_found, "not_found", "no route for " + *path);
       response = error_response({ErrorKind::method_not_allowed, "", request.method + " is not allowed here; allowed: " + allow});

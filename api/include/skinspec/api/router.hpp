@@ -83,6 +83,8 @@ struct RouteInfo {
   std::string request_schema;   // name in components/schemas, empty for none
   std::string response_schema;  // name in components/schemas, or "text/csv", "text/plain"
   int success_status = 200;
+  // CPU-heavy (fits, renders): the server runs it on its bounded compute pool.
+  bool heavy = false;
 };
 
 class Router {
@@ -96,6 +98,8 @@ class Router {
   Response handle(const Request& request) const;
 
   static const std::vector<RouteInfo>& routes();
+  // Whether `method` on `target` (as in a Request) is a heavy route.
+  static bool is_heavy(const std::string& method, const std::string& target);
   // OpenAPI 3.1, generated from routes(), with this build's version.
   static nlohmann::json openapi_document();
 
