@@ -179,7 +179,7 @@ TEST(SupervisorJobs, TheStoresRefusalsAreTheServicesErrors) {
     session = *created;
   }
   store::OpenOptions read_only;
-  read_only.read_only = true;
+  read_only.mode = store::OpenMode::read_only;
   auto db = store::Store::open(dir.file("lab.db"), read_only);
   ASSERT_TRUE(db) << db.error().message;
   auto fitter = load_fitter(SKINSPEC_TEST_DATA_DIR);
