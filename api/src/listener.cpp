@@ -19,12 +19,6 @@ using tcp = asio::ip::tcp;
 
 namespace {
 
-std::string refusal_bytes(const ApiError& error) {
-  std::ostringstream out;
-  out << error_reply(error, 11, false);
-  return out.str();
-}
-
 ApiError out_of_connections() { return {ErrorKind::unavailable, "too_many_connections", "too many connections"}; }
 
 bool out_of_descriptors(const boost::system::error_code& ec) {
@@ -33,17 +27,24 @@ bool out_of_descriptors(const boost::system::error_code& ec) {
 
 }  // namespace
 
-void refuse_connection(tcp::socket& socket, const ApiError& error) {
-  const std::string reply = refusal_bytes(error);
+std::string refusal_bytes(const ApiError& error) {
+  std::ostringstream out;
+  out << error_reply(error, 11, false);
+  return out.str();
+}
+
+void refuse_connection(tcp::socket& socket, std::string_view reply) {
   boost::system::error_code ignored;
   socket.non_blocking(true, ignored);
-  socket.write_some(asio::buffer(reply), ignored);
+  socket.write_some(asio::buffer(reply.data(), reply.size()), ignored);
   socket.shutdown(tcp::socket::shutdown_both, ignored);
   socket.close(ignored);
 }
 
 Listener::Listener(asio::io_context& ioc, Admit admit, std::function<void()> shed)
-    : ioc_(ioc), strand_(asio::make_strand(ioc)), acceptor_(strand_), pause_(strand_), admit_(std::move(admit)), shed_(std::move(shed)) {}
+    : ioc_(ioc), strand_(asio::make_strand(ioc)), acceptor_(strand_), pause_(strand_), admit_(std::move(admit)),
+      shed_(std::move(shed)),
+      shed_reply_(refusal_bytes(out_of_connections())) {}
 
 std::expected<void, std::string> Listener::open(const tcp::endpoint& endpoint) {
   boost::system::error_code ec;
@@ -108,7 +109,7 @@ bool Listener::shed_one() {
     boost::system::error_code ec;
     socket.assign(acceptor_.local_endpoint(ec).protocol(), fd, ec);
     if (ec) ::close(fd);
-    else refuse_connection(socket, out_of_connections());
+    else refuse_connection(socket, shed_reply_);
     shed_();
   }
   spare_.restore();

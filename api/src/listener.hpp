@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -19,8 +20,10 @@
 
 namespace skinspec::api::detail {
 
-// Writes the answer to `error` without waiting (it fits any socket buffer), then closes.
-void refuse_connection(boost::asio::ip::tcp::socket& socket, const ApiError& error);
+// The bytes of the answer to `error` outside any request: HTTP/1.1, then close.
+std::string refusal_bytes(const ApiError& error);
+// Writes `reply` without waiting (it fits any socket buffer), then closes.
+void refuse_connection(boost::asio::ip::tcp::socket& socket, std::string_view reply);
 
 class Listener : public std::enable_shared_from_this<Listener> {
  public:
@@ -52,6 +55,9 @@ class Listener : public std::enable_shared_from_this<Listener> {
   Admit admit_;
   std::function<void()> shed_;
   SpareDescriptor spare_;
+  // Made beforehand: shedding happens when the process has no descriptors to spare, and
+  // should need nothing new.
+  const std::string shed_reply_;
   bool closed_ = false;  // on the strand
 };
 

@@ -58,7 +58,7 @@ void admit(const std::shared_ptr<Server::State>& state, tcp::socket socket) {
   if (evicted) evicted->evict();
   if (!session) {
     metrics.record_rejected_connection();
-    return detail::refuse_connection(socket, refusal(admission.refusal, client));
+    return detail::refuse_connection(socket, detail::refusal_bytes(refusal(admission.refusal, client)));
   }
   session->run();
 }
