@@ -218,7 +218,8 @@ TEST_F(ReconnectTest, AutoWithoutAnAdapterSaysSoAndJobsFailCleanly) {
 
   const auto job = measure_white(daemon.port, open_session(daemon.port));
   EXPECT_EQ(job["state"], "failed") << job;
-  EXPECT_NE(job.value("error", "").find("no USB serial adapter found"), std::string::npos) << job;
+  EXPECT_EQ(job["error"]["code"], "transport") << job;
+  EXPECT_NE(job["error"]["message"].get<std::string>().find("no USB serial adapter found"), std::string::npos) << job;
   EXPECT_EQ(http_request(daemon.port, "GET", "/healthz").status, 200);
   EXPECT_FALSE(daemon.process->has_exited());
 }

@@ -113,6 +113,8 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   browser_->run("document.activeElement.blur();");
   browser_->type(browser_->find("body"), "\xEE\x80\x8C");  // WebDriver's Escape key
   EXPECT_EQ(job_end_state(), "cancelled");
+  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("(cancelled: cancelled by request)"), std::string::npos)
+      << browser_->text(browser_->find("#job-status"));
   shot("03-cancelled.png");
 
   // The measurement: every plotted number is the API's.
@@ -187,7 +189,8 @@ TEST_F(WebConsoleTest, ARefusedRequestIsShownAndTheConsoleKeepsWorking) {
   browser_->open(url("#/sessions/1"));
   browser_->click(browser_->find("#measure-sample"));
   EXPECT_EQ(job_end_state(), "failed");
-  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("no_white_reference"), std::string::npos);
+  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("(no_white: measure the white standard of session"), std::string::npos)
+      << browser_->text(browser_->find("#job-status"));
   shot("06-failed-job.png");
 }
 
