@@ -61,7 +61,7 @@ void Supervisor::stop() {
   const auto stopped = cancellation(store::JobErrorCode::stopped);
   for (const auto& queued : left) {
     // A record left queued is failed as interrupted when the database is next opened.
-    if (auto refused = record_end(queued.id, stopped)) log_unrecorded(queued.id, stopped, *refused);
+    if (auto refused = record_end(queued.id, stopped, std::nullopt)) log_unrecorded(queued.id, stopped, *refused);
     std::lock_guard lock(mutex_);
     live_.erase(queued.id);
     job_changed();
@@ -149,26 +149,30 @@ std::optional<std::pair<Supervisor::QueuedJob, Supervisor::Step<store::Job>>> Su
   auto job = db_.update_job(next.id, {store::JobState::running, std::nullopt, std::nullopt});
   live_[next.id].phase = api::JobPhase::connecting;
   job_changed();
-  if (!job) return std::pair{next, Step<store::Job>(std::unexpected(store::JobError{store::JobErrorCode::store, "the job could not start: " + job.error().message}))};
+  if (!job) {
+    const store::JobError failure{store::JobErrorCode::store, "the job could not start: " + job.error().message};
+    return std::pair{next, Step<store::Job>(std::unexpected(failure))};
+  }
   return std::pair{next, Step<store::Job>(std::move(*job))};
 }
 
 void Supervisor::run() {
   while (auto next = take_next()) {
     const auto& [queued, job] = *next;
+    json partial = json::object();
     const auto outcome = [&]() -> Step<store::CompletedJob> {
       if (!job) return std::unexpected(job.error());
       try {
-        return execute(*job, queued.request);
+        return execute(*job, queued.request, partial);
       } catch (const std::exception& e) {
         return std::unexpected(store::JobError{store::JobErrorCode::internal, e.what()});
       }
     }();
-    finish(queued.id, outcome);
+    finish(queued.id, outcome, partial);
   }
 }
 
-void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome) {
+void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome, const json& partial) {
   std::optional<store::JobError> failure;
   if (!outcome) {
     std::lock_guard lock(mutex_);
@@ -177,7 +181,7 @@ void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome) 
       spdlog::info("event=job_cancelled job={} while=\"{}: {}\"", id, store::to_string(outcome.error().code), outcome.error().message);
   }
   std::optional<store::StoreError> refused;
-  if (failure) refused = record_end(id, *failure);
+  if (failure) refused = record_end(id, *failure, partial.dump());
   {
     std::lock_guard lock(mutex_);
     running_.reset();
@@ -200,13 +204,15 @@ void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome) 
   } else if (refused) {
     log_unrecorded(id, *failure, *refused);
   } else {
-    spdlog::info("event=job_finished job={} state={} code={} error=\"{}\"", id, store::to_string(ended_state(*failure)),
-                 store::to_string(failure->code), failure->message);
+    // The service's own failures stand out from the meter's and the operator's.
+    const bool ours = failure->code == store::JobErrorCode::store || failure->code == store::JobErrorCode::internal;
+    spdlog::log(ours ? spdlog::level::err : spdlog::level::info, "event=job_finished job={} state={} code={} error=\"{}\"", id,
+                store::to_string(ended_state(*failure)), store::to_string(failure->code), failure->message);
   }
 }
 
-std::optional<store::StoreError> Supervisor::record_end(store::Id id, const store::JobError& error) {
-  const auto written = with_retries("job_end", id, [&] { return db_.update_job(id, {ended_state(error), error, std::nullopt}); });
+std::optional<store::StoreError> Supervisor::record_end(store::Id id, const store::JobError& error, std::optional<std::string> result) {
+  const auto written = with_retries("job_end", id, [&] { return db_.update_job(id, {ended_state(error), error, result}); });
   if (written) return std::nullopt;
   return written.error();
 }

@@ -71,9 +71,10 @@ class Supervisor final : public api::Acquisition {
   // The next job, marked running; nullopt when stopping. A job whose record cannot be marked
   // running comes with the error it ends with.
   std::optional<std::pair<QueuedJob, Step<store::Job>>> take_next();
-  // Runs a job to its end; a job that succeeds is stored succeeded with its measurement.
-  Step<store::CompletedJob> execute(const store::Job& job, const api::MeasureRequest& request);
-  Step<Readings> take_readings(const store::Job& job, const api::MeasureRequest& request, drivers::Pr650& meter);
+  // Runs a job to its end; a job that succeeds is stored succeeded with its measurement. What
+  // a job that fails got done (readings, rejected readings) goes to `partial`.
+  Step<store::CompletedJob> execute(const store::Job& job, const api::MeasureRequest& request, nlohmann::json& partial);
+  Step<void> take_readings(const store::Job& job, const api::MeasureRequest& request, drivers::Pr650& meter, Readings& out);
   Step<store::Id> keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error);
   Step<std::optional<store::Fit>> derive_sample(const store::Session& session, const store::Measurement& white,
                                                 store::Measurement& m, nlohmann::json& timing) const;
@@ -81,10 +82,10 @@ class Supervisor final : public api::Acquisition {
                                          const nlohmann::json& result);
   // Stores the end of a job that did not succeed and lets its followers know; a job cancelled
   // meanwhile ends cancelled whatever stopped it.
-  void finish(store::Id id, const Step<store::CompletedJob>& outcome);
-  // Writes a failed or cancelled job's end, asking again after a refusal that may pass; the
-  // store's error when it still refuses.
-  std::optional<store::StoreError> record_end(store::Id id, const store::JobError& error);
+  void finish(store::Id id, const Step<store::CompletedJob>& outcome, const nlohmann::json& partial);
+  // Writes a failed or cancelled job's end (and its result, when given), asking again after a
+  // refusal that may pass; the store's error when it still refuses.
+  std::optional<store::StoreError> record_end(store::Id id, const store::JobError& error, std::optional<std::string> result);
   // Whether the running job was asked to stop, and why (cancelled or stopped), with mutex_ held.
   bool cancel_requested() const { return cancel_running_.has_value(); }
   std::optional<drivers::InstrumentError> ensure_connected();

@@ -59,11 +59,10 @@ Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int
   return *id;
 }
 
-Supervisor::Step<Supervisor::Readings> Supervisor::take_readings(const store::Job& job, const api::MeasureRequest& request,
-                                                                 drivers::Pr650& meter) {
+Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const api::MeasureRequest& request, drivers::Pr650& meter,
+                                                 Readings& out) {
   drivers::MeasureOptions options;
   options.integration_ms = request.integration_ms;
-  Readings out;
   report_progress(api::JobPhase::measuring, 0);
   for (int attempt = 1; std::cmp_less(out.good.size(), request.count); ++attempt) {
     auto reading = meter.measure(options);
@@ -93,7 +92,7 @@ Supervisor::Step<Supervisor::Readings> Supervisor::take_readings(const store::Jo
     std::lock_guard lock(mutex_);
     if (cancel_requested()) return std::unexpected(cancellation(*cancel_running_));
   }
-  return out;
+  return {};
 }
 
 // Reflectance against `white` into `m`, and its fit (none when the spectrum cannot be fitted,
@@ -139,7 +138,7 @@ Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const stor
   return fit;
 }
 
-Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job, const api::MeasureRequest& request) {
+Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job, const api::MeasureRequest& request, json& partial) {
   const store::Id session_id = job.session_id.value_or(0);
   auto session = db_.session(session_id);
   if (!session) return store_error("the job's session could not be read", session.error());
@@ -166,15 +165,17 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
     if (!meter) return std::unexpected(store::JobError{store::JobErrorCode::lost, "the instrument went away before measuring"});
     state_ = api::InstrumentState::measuring;
   }
-  auto readings = take_readings(job, request, *meter);
-  if (!readings) return std::unexpected(readings.error());
+  Readings readings;
+  auto taken = take_readings(job, request, *meter, readings);
+  partial = {{"readings", readings.good.size()}, {"rejected_reading_ids", readings.rejected_ids}};
+  if (!taken) return std::unexpected(taken.error());
   {
     std::lock_guard lock(mutex_);
     if (state_ == api::InstrumentState::measuring) state_ = api::InstrumentState::connected;  // not over a "lost" set meanwhile
   }
   const auto derive_started = Clock::now();
 
-  auto averaged_reading = averaged(readings->good);
+  auto averaged_reading = averaged(readings.good);
   if (!averaged_reading) return std::unexpected(store::JobError{store::JobErrorCode::protocol, averaged_reading.error()});
   store::Measurement m = std::move(*averaged_reading);
   m.session_id = session_id;
@@ -182,12 +183,12 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   m.label = request.label;
   m.instrument_id = instrument_id_;
   m.job_id = job.id;
-  m.settings = json{{"integration_ms", request.integration_ms}, {"averages", readings->good.front().averages}, {"count", request.count},
-                    {"sync", readings->good.front().sync}, {"rejected_readings", readings->rejected_ids.size()}}
+  m.settings = json{{"integration_ms", request.integration_ms}, {"averages", readings.good.front().averages}, {"count", request.count},
+                    {"sync", readings.good.front().sync}, {"rejected_readings", readings.rejected_ids.size()}}
                    .dump();
-  m.warnings = readings->warnings;
+  m.warnings = readings.warnings;
 
-  json timing = {{"reply_received_at_us", wall_micros(readings->last_reply_at)}};
+  json timing = {{"reply_received_at_us", wall_micros(readings.last_reply_at)}};
   std::optional<store::Fit> fit;
   if (request.kind == store::MeasurementKind::sample) {
     report_progress(api::JobPhase::fitting, request.count);
@@ -201,8 +202,8 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   timing["derive_ms"] = ms_since(derive_started);
   // The store adds measurement_id and fit_id, in the transaction that stores them.
   const json result = {{"white_measurement_id", optional_id(m.white_measurement_id)},
-                       {"readings", readings->good.size()},
-                       {"rejected_reading_ids", readings->rejected_ids},
+                       {"readings", readings.good.size()},
+                       {"rejected_reading_ids", readings.rejected_ids},
                        {"warnings", m.warnings},
                        {"timing", timing}};
   return store_measurement(job, m, fit, result);

@@ -242,8 +242,8 @@ TEST_F(ApiJobsTest, ClosingTheEventsEndsAWaitingPull) {
 // as the progress says, never queued at position 0.
 TEST_F(ApiJobsTest, ANewJobTheWorkerTookAtOnceShowsRunningAtPositionZero) {
   acquisition_.take_jobs_from(*db_);
-  const auto r = router_->handle(Request{"POST", "/api/v1/sessions/" + std::to_string(session_) + "/measurements", {{"content-type", "application/json"}},
-                                         R"({"kind": "white", "count": 3})"});
+  const auto r = router_->handle(Request{"POST", "/api/v1/sessions/" + std::to_string(session_) + "/measurements",
+                                         {{"content-type", "application/json"}}, R"({"kind": "white", "count": 3})"});
   ASSERT_EQ(r.status, 202) << r.body;
   const json accepted = json::parse(r.body);
   EXPECT_EQ(accepted["state"], "running");

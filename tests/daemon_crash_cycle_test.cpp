@@ -125,7 +125,8 @@ TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
     for (int r = 0; r < kRigs; ++r) {
       const auto work_dir = dir.path() / ("rig" + std::to_string(r));
       std::filesystem::create_directories(work_dir);
-      rigs.emplace_back([&, r, work_dir] { run_cycles(work_dir.string(), 1312 + static_cast<unsigned>(r), kCyclesPerRig, tallies[static_cast<std::size_t>(r)]); });
+      auto& tally = tallies[static_cast<std::size_t>(r)];
+      rigs.emplace_back([&tally, r, work_dir] { run_cycles(work_dir.string(), 1312 + static_cast<unsigned>(r), kCyclesPerRig, tally); });
     }
   }
   Tally total;

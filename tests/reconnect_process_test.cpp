@@ -130,8 +130,7 @@ TEST_F(ReconnectTest, AMeasurementWhileTheMeterIsDownFailsClearlyAndTheServiceKe
   kill_meter(sim);
   const auto failed = measure_white(daemon.port, session);
   EXPECT_EQ(failed["state"], "failed") << failed;
-  const std::string error = failed.value("error", "");
-  EXPECT_TRUE(error.find("transport") != std::string::npos || error.find("lost") != std::string::npos) << failed;
+  EXPECT_TRUE(failed["error"]["code"] == "transport" || failed["error"]["code"] == "lost") << failed;
 
   const auto health = http_request(daemon.port, "GET", "/healthz");
   EXPECT_EQ(health.status, 200) << health.body;

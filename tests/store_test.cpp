@@ -413,9 +413,9 @@ TEST_F(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
   EXPECT_EQ(store.update_job(unattached, {.state = JobState::cancelled}).error().kind, Kind::invalid_argument);
   EXPECT_EQ(store.update_job(unattached, {.state = JobState::running, .error = JobError{JobErrorCode::lost, "gone"}}).error().kind,
             Kind::invalid_argument);
-  const auto cancelled = value_of(
-      store.update_job(unattached, {.state = JobState::cancelled, .error = JobError{JobErrorCode::cancelled, "by the operator, \"at once\""}}));
-  EXPECT_EQ(cancelled.error, (JobError{JobErrorCode::cancelled, "by the operator, \"at once\""}));
+  const JobError why{JobErrorCode::cancelled, "by the operator, \"at once\""};
+  const auto cancelled = value_of(store.update_job(unattached, {.state = JobState::cancelled, .error = why}));
+  EXPECT_EQ(cancelled.error, why);
   EXPECT_EQ(value_of(store.job(unattached)).error, cancelled.error);
   EXPECT_EQ(testing::sqlite_text(path_, "SELECT error FROM jobs WHERE id = " + std::to_string(unattached)),
             R"({"code":"cancelled","message":"by the operator, \"at once\""})");

@@ -104,6 +104,9 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   EXPECT_NE(browser_->text(browser_->find("#job-status")).find("measurement #" + std::to_string(job["result"]["measurement_id"].get<long long>())),
             std::string::npos);
   shot("02-acquisition.png");
+  // The session reloads to list the new measurement; the next click goes to the new screen.
+  ASSERT_TRUE(browser_->wait_until("return !!document.querySelector(\"#measurements tr[data-measurement='" +
+                                   std::to_string(job["result"]["measurement_id"].get<long long>()) + "']\");"));
 
   // A long job cancelled from the keyboard.
   browser_->run("document.getElementById('count').value = '100';");
