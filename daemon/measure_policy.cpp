@@ -58,4 +58,32 @@ std::string rejection_warning(int attempt, const drivers::InstrumentError& error
                      describe(error), rejected_id);
 }
 
+store::JobError job_error(const drivers::InstrumentError& error) {
+  using Kind = drivers::InstrumentError::Kind;
+  using Code = store::JobErrorCode;
+  const auto code = [&] {
+    switch (error.kind) {
+      case Kind::no_contact: return Code::no_contact;
+      case Kind::lost: return Code::lost;
+      case Kind::protocol: return Code::protocol;
+      case Kind::bad_reading: return Code::bad_reading;
+      case Kind::rejected: return Code::rejected;
+      case Kind::cancelled: return Code::cancelled;
+      case Kind::transport: return Code::transport;
+    }
+    return Code::internal;
+  }();
+  return {code, error.message};
+}
+
+store::JobError cancellation(store::JobErrorCode code) {
+  if (code == store::JobErrorCode::stopped) return {code, "the service stopped"};
+  return {store::JobErrorCode::cancelled, "cancelled by request"};
+}
+
+store::JobState ended_state(const store::JobError& error) {
+  const bool cancelled = error.code == store::JobErrorCode::cancelled || error.code == store::JobErrorCode::stopped;
+  return cancelled ? store::JobState::cancelled : store::JobState::failed;
+}
+
 }  // namespace skinspec::daemon

@@ -44,4 +44,13 @@ std::optional<std::string> inherited_lamp_warning(const store::Measurement& whit
 
 std::string rejection_warning(int attempt, const drivers::InstrumentError& error, store::Id rejected_id);
 
+// The error a job ends with when the meter fails it: the one mapping from the driver's kinds
+// to job error codes.
+store::JobError job_error(const drivers::InstrumentError& error);
+// A job cancelled by request or by the service stopping: the error it ends with (code
+// `cancelled` or `stopped`).
+store::JobError cancellation(store::JobErrorCode code);
+// The state a job ends in with `error`: cancelled for `cancelled` and `stopped`, else failed.
+store::JobState ended_state(const store::JobError& error);
+
 }  // namespace skinspec::daemon

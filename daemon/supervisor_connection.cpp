@@ -37,11 +37,11 @@ constexpr milliseconds kBusyRecheck{250};
 json Supervisor::instrument_status() const {
   std::lock_guard lock(mutex_);
   json next_attempt_in_ms = nullptr;
-  if (!meter_ && next_attempt_ && state_ != "connecting")
+  if (!meter_ && next_attempt_ && state_ != api::InstrumentState::connecting)
     next_attempt_in_ms = std::max<long long>(0, std::chrono::duration_cast<milliseconds>(*next_attempt_ - SteadyClock::now()).count());
   return {{"device", device_},
           {"port", port_.empty() ? json(nullptr) : json(port_)},
-          {"state", state_.name()},
+          {"state", std::string(api::to_string(state_.value()))},
           {"since", api::api_time(to_store_time(state_.since()))},
           {"last_error", last_error_.empty() ? json(nullptr) : json(last_error_)},
           {"serial_number", serial_number_.empty() ? json(nullptr) : json(serial_number_)},
@@ -63,7 +63,7 @@ void Supervisor::note_instrument_error(const drivers::InstrumentError& e) {
     failed_attempts_ = 0;
     next_attempt_ = SteadyClock::now();
   }
-  state_ = meter_ ? "connected" : unreachable_state();
+  state_ = meter_ ? api::InstrumentState::connected : unreachable_state();
   wake_.notify_all();
 }
 
@@ -77,7 +77,7 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
     std::lock_guard lock(mutex_);
     if (meter_ && meter_->connected()) return std::nullopt;
     if (stopping_) return drivers::InstrumentError{Kind::cancelled, "the service is stopping", -1, {}};
-    state_ = "connecting";
+    state_ = api::InstrumentState::connecting;
   }
   // Looked up on every attempt: an adapter may come back under another tty name.
   auto resolved = link_.resolver(device_);
@@ -132,6 +132,9 @@ void Supervisor::note_connect_failure(const drivers::InstrumentError& error, con
 void Supervisor::note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
                                 const drivers::Identity& identity) {
   auto id = db_.ensure_instrument(instrument_record(identity, device_));
+  if (!id)
+    spdlog::error("event=instrument_not_stored serial={} kind={} error=\"{}\"", identity.serial_number,
+                  store::to_string(id.error().kind), id.error().message);
   std::lock_guard lock(mutex_);
   meter_ = meter;  // again: a detach reported while connecting is outdated by this contact
   serial_number_ = identity.serial_number;
@@ -141,7 +144,7 @@ void Supervisor::note_connected(const std::shared_ptr<drivers::Pr650>& meter, co
   failed_attempts_ = 0;
   next_attempt_.reset();
   next_check_ = SteadyClock::now() + link_.check_interval;
-  state_ = "connected";
+  state_ = api::InstrumentState::connected;
   spdlog::info("event=instrument_connected device=\"{}\" port=\"{}\" serial={}", device_, port_, serial_number_);
 }
 
@@ -217,7 +220,7 @@ void Supervisor::on_usb_event(const drivers::UsbDeviceEvent& event) {
     last_error_ = fmt::format("lost: the USB adapter {:04x}:{:04x} of {} was unplugged", event.vendor_id, event.product_id, port_);
     spdlog::warn("event=instrument_lost device=\"{}\" error=\"{}\"", device_, last_error_);
     meter_.reset();
-    state_ = "lost";
+    state_ = api::InstrumentState::lost;
     failed_attempts_ = 0;
     next_attempt_ = SteadyClock::now();
   }

@@ -43,7 +43,7 @@ struct FaultCase {
   std::string name;
   std::vector<std::string> specs;  // each hits the session's first sample: white first, so @2
   bool succeeds;                   // the job's end: succeeded, or failed with `error`
-  std::string error;               // the start of the job's error when it fails
+  std::string error;               // the start of the job's error ("code: message") when it fails
   std::size_t rejected = 0;        // readings rejected (and stored) on the way
   bool power_cycle = false;        // the fault lasts until the meter is power-cycled (SIGHUP)
 };
@@ -74,7 +74,8 @@ TEST_P(FaultTest, TheJobEndsAsItMustAndTheNextOneSucceeds) {
     EXPECT_FALSE(job["result"]["fit_id"].is_null()) << job;
   } else {
     ASSERT_EQ(job["state"], "failed") << job << rig.logs();
-    EXPECT_TRUE(job["error"].get<std::string>().starts_with(c.error)) << job["error"];
+    EXPECT_TRUE((job["error"]["code"].get<std::string>() + ": " + job["error"]["message"].get<std::string>()).starts_with(c.error))
+        << job["error"];
     EXPECT_EQ(detail["measurements"].size(), 1u) << detail;  // only the white
     EXPECT_EQ(sqlite_integer(rig.db_path(), "SELECT count(*) FROM fits"), 0);
   }
@@ -167,7 +168,7 @@ TEST_F(AcquisitionFaultsTest, ADaemonKilledMidSessionLeavesAnIntactDatabaseAndAn
   EXPECT_EQ(after["fits"], before["fits"]);
   const auto job = get_json(p, job_path);
   EXPECT_EQ(job["state"], "failed") << job;
-  EXPECT_TRUE(job["error"].get<std::string>().starts_with("interrupted")) << job;
+  EXPECT_EQ(job["error"]["code"], "interrupted") << job;
   EXPECT_EQ(samples_without_fit(rig.db_path()), 0);
   // An interrupted session takes no measurement until it is reopened.
   EXPECT_EQ(http_request(p, "POST", session_path(session) + "/measurements", json{{"kind", "sample"}}.dump()).status, 409);
@@ -278,7 +279,8 @@ TEST_F(AcquisitionFaultsTest, ASampleAgainstAnOldWhiteWarnsAndSettingsComeFromTh
   // max_rejected_readings 0: the first bad reading fails the job, and is kept.
   const auto rejected = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
   ASSERT_EQ(rejected["state"], "failed") << rejected;
-  EXPECT_TRUE(rejected["error"].get<std::string>().starts_with("bad_reading: quality 18")) << rejected;
+  EXPECT_EQ(rejected["error"]["code"], "bad_reading") << rejected;
+  EXPECT_TRUE(rejected["error"]["message"].get<std::string>().starts_with("quality 18")) << rejected;
   EXPECT_EQ(rejected["result"]["rejected_reading_ids"].size(), 1u) << rejected;
   EXPECT_EQ(get_json(p, session_path(session))["rejected_readings"].size(), 1u);
 

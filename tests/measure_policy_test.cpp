@@ -131,5 +131,30 @@ TEST(MeasurePolicyTest, ARejectionNamesItsAttemptReasonAndStoredRow) {
             "rejected_reading: reading attempt 2 rejected (bad_reading: quality 19: overload); its raw reply is rejected reading 12");
 }
 
+TEST(MeasurePolicyTest, EachDriverFailureEndsAJobWithItsOwnCode) {
+  using Kind = drivers::InstrumentError::Kind;
+  using Code = store::JobErrorCode;
+  const std::vector<std::pair<Kind, Code>> expected = {
+      {Kind::no_contact, Code::no_contact}, {Kind::lost, Code::lost},         {Kind::protocol, Code::protocol},
+      {Kind::bad_reading, Code::bad_reading}, {Kind::rejected, Code::rejected}, {Kind::cancelled, Code::cancelled},
+      {Kind::transport, Code::transport}};
+  for (const auto& [kind, code] : expected) {
+    const auto error = job_error({kind, "what the driver said", -1, {}});
+    EXPECT_EQ(error.code, code) << drivers::to_string(kind);
+    EXPECT_EQ(error.message, "what the driver said");
+    EXPECT_EQ(store::to_string(error.code), drivers::to_string(kind));  // the same word on both sides
+  }
+}
+
+TEST(MeasurePolicyTest, ACancelledJobIsKnownByItsCode) {
+  EXPECT_EQ(cancellation(store::JobErrorCode::cancelled), (store::JobError{store::JobErrorCode::cancelled, "cancelled by request"}));
+  EXPECT_EQ(cancellation(store::JobErrorCode::stopped), (store::JobError{store::JobErrorCode::stopped, "the service stopped"}));
+  EXPECT_EQ(ended_state(cancellation(store::JobErrorCode::cancelled)), store::JobState::cancelled);
+  EXPECT_EQ(ended_state(cancellation(store::JobErrorCode::stopped)), store::JobState::cancelled);
+  // Its words do not make a job cancelled.
+  EXPECT_EQ(ended_state({store::JobErrorCode::lost, "cancelled by request"}), store::JobState::failed);
+  EXPECT_EQ(ended_state({store::JobErrorCode::store, "disk full"}), store::JobState::failed);
+}
+
 }  // namespace
 }  // namespace skinspec::daemon

@@ -130,8 +130,7 @@ TEST_F(ReconnectTest, AMeasurementWhileTheMeterIsDownFailsClearlyAndTheServiceKe
   kill_meter(sim);
   const auto failed = measure_white(daemon.port, session);
   EXPECT_EQ(failed["state"], "failed") << failed;
-  const std::string error = failed.value("error", "");
-  EXPECT_TRUE(error.find("transport") != std::string::npos || error.find("lost") != std::string::npos) << failed;
+  EXPECT_TRUE(failed["error"]["code"] == "transport" || failed["error"]["code"] == "lost") << failed;
 
   const auto health = http_request(daemon.port, "GET", "/healthz");
   EXPECT_EQ(health.status, 200) << health.body;
@@ -218,7 +217,8 @@ TEST_F(ReconnectTest, AutoWithoutAnAdapterSaysSoAndJobsFailCleanly) {
 
   const auto job = measure_white(daemon.port, open_session(daemon.port));
   EXPECT_EQ(job["state"], "failed") << job;
-  EXPECT_NE(job.value("error", "").find("no USB serial adapter found"), std::string::npos) << job;
+  EXPECT_EQ(job["error"]["code"], "transport") << job;
+  EXPECT_NE(job["error"]["message"].get<std::string>().find("no USB serial adapter found"), std::string::npos) << job;
   EXPECT_EQ(http_request(daemon.port, "GET", "/healthz").status, 200);
   EXPECT_FALSE(daemon.process->has_exited());
 }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <set>
 
 #include "skinspec/store/store.hpp"
 #include "support/store_samples.hpp"
@@ -392,22 +393,34 @@ TEST_F(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
   EXPECT_FALSE(running.finished_at);
   auto m = sample_measurement(session, 1);
   m.job_id = created.job.id;
-  const auto ids = value_of(store.record_measurement(m, sample_fit(1)));
-  EXPECT_EQ(value_of(store.measurement(ids.measurement_id)).job_id, created.job.id);
-  const auto done = value_of(store.update_job(
-      created.job.id,
-      {.state = JobState::succeeded, .result = R"({"measurement_id":)" + std::to_string(ids.measurement_id) + "}"}));
-  EXPECT_EQ(done.state, JobState::succeeded);
-  EXPECT_TRUE(done.finished_at);
-  EXPECT_THAT(done.result, HasSubstr("measurement_id"));
+  // A job's measurement is stored only with the job's end.
+  EXPECT_EQ(store.record_measurement(m, sample_fit(1)).error().kind, Kind::invalid_argument);
+  const auto done = value_of(store.complete_measurement_job(created.job.id, m, sample_fit(1), R"({"readings":1})"));
+  EXPECT_EQ(done.job.state, JobState::succeeded);
+  EXPECT_TRUE(done.job.finished_at);
+  EXPECT_FALSE(done.job.error);
+  EXPECT_EQ(value_of(store.measurement(done.ids.measurement_id)).job_id, created.job.id);
+  EXPECT_EQ(value_of(store.fit(*done.ids.fit_id)).measurement_id, done.ids.measurement_id);
+  EXPECT_EQ(done.job.result, R"({"fit_id":)" + std::to_string(*done.ids.fit_id) + R"(,"measurement_id":)" +
+                                 std::to_string(done.ids.measurement_id) + R"(,"readings":1})");
+  EXPECT_EQ(value_of(store.job(created.job.id)).result, done.job.result);
   EXPECT_EQ(store.update_job(created.job.id, {.state = JobState::running}).error().kind, Kind::conflict);
+  // Only a running job ends with its measurement.
+  EXPECT_EQ(store.complete_measurement_job(created.job.id, m, std::nullopt, "{}").error().kind, Kind::conflict);
 
   Job other;
   other.kind = "refit";
   const Id unattached = value_of(store.create_job(other)).job.id;
-  const auto cancelled =
-      value_of(store.update_job(unattached, {.state = JobState::cancelled, .error = "cancelled by operator"}));
-  EXPECT_EQ(cancelled.error, "cancelled by operator");
+  // Failed and cancelled jobs say why, the others do not.
+  EXPECT_EQ(store.update_job(unattached, {.state = JobState::cancelled}).error().kind, Kind::invalid_argument);
+  EXPECT_EQ(store.update_job(unattached, {.state = JobState::running, .error = JobError{JobErrorCode::lost, "gone"}}).error().kind,
+            Kind::invalid_argument);
+  const JobError why{JobErrorCode::cancelled, "by the operator, \"at once\""};
+  const auto cancelled = value_of(store.update_job(unattached, {.state = JobState::cancelled, .error = why}));
+  EXPECT_EQ(cancelled.error, why);
+  EXPECT_EQ(value_of(store.job(unattached)).error, cancelled.error);
+  EXPECT_EQ(testing::sqlite_text(path_, "SELECT error FROM jobs WHERE id = " + std::to_string(unattached)),
+            R"({"code":"cancelled","message":"by the operator, \"at once\""})");
   EXPECT_EQ(value_of(store.jobs()).size(), 2u);
   EXPECT_EQ(value_of(store.jobs(session)).size(), 1u);
   EXPECT_EQ(store.update_job(1234, {.state = JobState::running}).error().kind, Kind::not_found);
@@ -441,8 +454,42 @@ TEST_F(StoreTest, OpeningAfterAWriterDiedInterruptsItsRunningSessions) {
   EXPECT_EQ(value_of(store.session(finished_session)).state, SessionState::complete);
   const auto job = value_of(store.job(job_id));
   EXPECT_EQ(job.state, JobState::failed);
-  EXPECT_THAT(job.error, HasSubstr("interrupted"));
+  ASSERT_TRUE(job.error);
+  EXPECT_EQ(job.error->code, JobErrorCode::interrupted);
+  EXPECT_THAT(job.error->message, HasSubstr("stopped before it finished"));
   EXPECT_EQ(check_sample_measurement(value_of(store.measurement(measurement_id))), "");
+}
+
+// The measurement, its fit and the job's end are one transaction: a refusal of any part leaves
+// the job running and nothing of it stored.
+TEST_F(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const Id other_session = value_of(store.create_session(sample_session(2)));
+  Job job;
+  job.kind = "measure";
+  job.session_id = session;
+  const Id job_id = value_of(store.create_job(job)).job.id;
+  const auto m = sample_measurement(session, 1);
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "{}").error().kind, Kind::conflict);  // still queued
+  value_of(store.update_job(job_id, {.state = JobState::running}));
+
+  auto bad_fit = sample_fit(1);
+  bad_fit.params[1] = std::nan("");
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, bad_fit, "{}").error().kind, Kind::invalid_argument);
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "[]").error().kind, Kind::invalid_argument);
+  EXPECT_EQ(store.complete_measurement_job(job_id, sample_measurement(other_session, 1), std::nullopt, "{}").error().kind,
+            Kind::invalid_argument);
+  auto of_another_job = m;
+  of_another_job.job_id = job_id + 1;
+  EXPECT_EQ(store.complete_measurement_job(job_id, of_another_job, std::nullopt, "{}").error().kind, Kind::invalid_argument);
+  value_of(store.update_session(session, {.state = SessionState::complete}));
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "{}").error().kind, Kind::conflict);
+
+  EXPECT_EQ(value_of(store.job(job_id)).state, JobState::running);
+  EXPECT_EQ(value_of(store.job(job_id)).result, "{}");
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 0);
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM fits"), 0);
 }
 
 TEST_F(StoreTest, RecoveryCanTreatEveryOpenSessionAsRunning) {
@@ -579,6 +626,15 @@ TEST_F(StoreTest, ErrorKindsHaveNames) {
   EXPECT_FALSE(parse_session_state("Aborted"));
   EXPECT_EQ(parse_measurement_kind("dark"), MeasurementKind::dark);
   EXPECT_EQ(parse_job_state("cancelled"), JobState::cancelled);
+  // Every job error code reads back from its name, and no two share one.
+  std::set<std::string_view> seen;
+  for (const auto& [code, name] : job_error_code_names()) {
+    EXPECT_EQ(to_string(code), name);
+    EXPECT_EQ(parse_job_error_code(name), code);
+    EXPECT_TRUE(seen.insert(name).second) << name;
+  }
+  EXPECT_EQ(seen.size(), static_cast<std::size_t>(JobErrorCode::internal) + 1);
+  EXPECT_FALSE(parse_job_error_code("database"));
 }
 
 }  // namespace

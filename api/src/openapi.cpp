@@ -1,6 +1,7 @@
 // GET /openapi.json: generated from the route table, so that every route is documented and
 // nothing is documented that is not a route.
 
+#include "skinspec/api/acquisition.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/version.hpp"
 
@@ -18,6 +19,14 @@ json samples() {
           {"properties", {{"wavelength_nm", numbers()}, {"values", numbers()}}}};
 }
 
+// The names of an enumeration, from its one mapping.
+template <typename E>
+json names(std::span<const std::pair<E, std::string_view>> mapping) {
+  json out = json::array();
+  for (const auto& [value, name] : mapping) out.push_back(std::string(name));
+  return out;
+}
+
 json params_schema() {
   json props = json::object();
   for (const char* name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
@@ -26,7 +35,8 @@ json params_schema() {
 }
 
 json instrument_schema() {
-  const json states = {"none", "disconnected", "connecting", "connected", "measuring", "lost"};
+  json states = names(instrument_state_names());
+  states.insert(states.begin(), "none");  // skinspecd started without --device
   return {{"type", "object"},
           {"properties", {{"device", nullable("string")}, {"port", nullable("string")},
                           {"state", {{"type", "string"}, {"enum", states}}},
@@ -122,16 +132,21 @@ json schemas() {
                                           {"integration_ms", {{"type", "integer"}, {"minimum", 0}, {"maximum", 6000}, {"default", 0}}}}}}},
       {"Job", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"job_id", {{"type", "integer"}}}, {"kind", {{"type", "string"}}},
                                                    {"session_id", nullable("integer")},
-                                                   {"state", {{"type", "string"}, {"enum", {"queued", "running", "succeeded", "failed", "cancelled"}}}},
+                                                   {"state", {{"type", "string"}, {"enum", names(store::job_state_names())}}},
                                                    {"position", {{"type", json::array({"integer", "null"})}, {"minimum", 0},
                                                                  {"description", "place in the queue: 1 is next, 0 is running; null once finished"}}},
                                                    {"progress", ref("JobProgress")},
-                                                   {"error", nullable("string")}, {"request", {{"type", "object"}}},
+                                                   {"error", {{"oneOf", {ref("JobError"), {{"type", "null"}}}},
+                                                              {"description", "why it failed or was cancelled; null otherwise"}}},
+                                                   {"request", {{"type", "object"}}},
                                                    {"result", {{"type", "object"}}}, {"idempotency_key", nullable("string")},
                                                    {"created_at", {{"type", "string"}}}, {"started_at", nullable("string")},
                                                    {"finished_at", nullable("string")}}}}},
+      {"JobError", {{"type", "object"}, {"required", {"code", "message"}},
+                    {"properties", {{"code", {{"type", "string"}, {"enum", names(store::job_error_code_names())}}},
+                                    {"message", {{"type", "string"}}}}}}},
       {"JobProgress", {{"type", "object"}, {"required", {"phase", "readings_done", "readings_total", "fraction"}},
-                       {"properties", {{"phase", {{"type", "string"}, {"enum", {"queued", "connecting", "measuring", "fitting", "storing", "done"}}}},
+                       {"properties", {{"phase", {{"type", "string"}, {"enum", names(job_phase_names())}}},
                                        {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
                                        {"readings_total", {{"type", "integer"}, {"minimum", 1}}},
                                        {"fraction", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}}}}}},

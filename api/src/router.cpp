@@ -109,7 +109,7 @@ struct Router::Handlers {
     }
     auto created = acquisition_of(c).submit(call.ids[0], request, key);
     if (!created) throw detail::HandlerError{created.error()};
-    Response r = json_response(job_view(c, created->job), created->created ? 202 : 200);
+    Response r = json_response(job_view(c, created->job.id), created->created ? 202 : 200);
     r.headers.emplace_back("Location", "/api/v1/jobs/" + std::to_string(created->job.id));
     return r;
   }
@@ -122,13 +122,11 @@ struct Router::Handlers {
       fail(ErrorKind::unprocessable, "out_of_range", std::string("'") + key + "' must be " + std::to_string(min) + " to " + std::to_string(max));
     return static_cast<int>(v);
   }
-  static json job_view(const RouterContext& c, const store::Job& job) {
-    return job_json(job, c.acquisition ? c.acquisition->progress(job.id) : std::nullopt);
-  }
+  static json job_view(const RouterContext& c, store::Id job_id) { return value(current_job_json(store_of(c), c.acquisition, job_id)); }
   // GET /api/v1/jobs/{id}
   static Response get_job(const RouterContext& c, const Call& call) {
     no_query(call);
-    return json_response(job_view(c, value(store_of(c).job(call.ids[0]))));
+    return json_response(job_view(c, call.ids[0]));
   }
   // GET /api/v1/jobs/{id}/events
   static Response job_events(const RouterContext& c, const Call& call) {
@@ -145,7 +143,7 @@ struct Router::Handlers {
     value(store_of(c).job(call.ids[0]));  // 404 first
     auto job = acquisition_of(c).cancel(call.ids[0]);
     if (!job) throw detail::HandlerError{job.error()};
-    return json_response(job_view(c, *job));
+    return json_response(job_view(c, job->id));
   }
   static Response openapi(const RouterContext&, const Call&) { return json_response(openapi_document()); }
   static Response metrics(const RouterContext& c, const Call&) {

@@ -231,7 +231,8 @@ void configure_writer(Connection& writer, const OpenOptions& options) {
 }
 
 // Marks the sessions that were running when the last writer died as interrupted and fails
-// the jobs it left queued or running.
+// the jobs it left queued or running. Such a job has stored nothing: a job's measurement is
+// stored in the transaction that ends it (complete_measurement_job).
 RecoveryReport recover(Connection& writer, RecoveryPolicy policy, Time now) {
   RecoveryReport report;
   Transaction transaction(writer, Transaction::Kind::write);
@@ -248,6 +249,8 @@ RecoveryReport recover(Connection& writer, RecoveryPolicy policy, Time now) {
     while (active.step()) report.failed_jobs.push_back(active.integer(0));
   }
   const auto micros = detail::to_micros(now);
+  const auto interrupted =
+      detail::encode_job_error({JobErrorCode::interrupted, "the program running it stopped before it finished"});
   for (const Id id : report.interrupted_sessions) {
     writer.prepare("UPDATE sessions SET state = 'interrupted', updated_at = ?2, ended_at = ?2 WHERE id = ?1")
         .bind(id, micros)
@@ -255,7 +258,7 @@ RecoveryReport recover(Connection& writer, RecoveryPolicy policy, Time now) {
   }
   for (const Id id : report.failed_jobs) {
     writer.prepare("UPDATE jobs SET state = 'failed', error = ?2, finished_at = ?3 WHERE id = ?1")
-        .bind(id, "interrupted: the program running it stopped before it finished", micros)
+        .bind(id, interrupted, micros)
         .run();
   }
   transaction.commit();

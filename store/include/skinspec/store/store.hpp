@@ -87,13 +87,19 @@ struct RecordedMeasurement {
 struct JobUpdate {
   // queued -> running, failed or cancelled; running -> succeeded, failed or cancelled.
   JobState state = JobState::running;
-  std::optional<std::string> error{};
+  // Required for failed and cancelled, refused for the other states.
+  std::optional<JobError> error{};
   std::optional<std::string> result{};  // a JSON object
 };
 
 struct CreatedJob {
   Job job;
   bool created = true;  // false: an earlier job had the same idempotency key, returned as is
+};
+
+struct CompletedJob {
+  Job job;  // succeeded, its result holding the ids below
+  RecordedMeasurement ids;
 };
 
 class Store {
@@ -131,8 +137,15 @@ class Store {
   Result<SessionPage> sessions(const SessionFilter& filter) const;
 
   // Stores a measurement of an open session and, when given, its fit (whose measurement_id is
-  // ignored), in one transaction: both or neither.
+  // ignored), in one transaction: both or neither. A measurement a job made (job_id set) is
+  // refused here: it is stored with the job's end, by complete_measurement_job.
   Result<RecordedMeasurement> record_measurement(const Measurement& measurement, const std::optional<Fit>& fit);
+  // The end of a running job that measured: the measurement (its job_id set to `job_id`), its
+  // fit when given, and the job `succeeded` with `result` (a JSON object, to which the store
+  // adds "measurement_id" and "fit_id"), in one transaction: all of it or nothing. So a
+  // stored measurement's job has always succeeded and names it, whenever the writer dies.
+  Result<CompletedJob> complete_measurement_job(Id job_id, const Measurement& measurement, const std::optional<Fit>& fit,
+                                                const std::string& result);
   Result<Measurement> measurement(Id id) const;
   // The session's most recently stored measurement of `kind`, if any (the session must exist).
   Result<std::optional<Measurement>> latest_measurement(Id session_id, MeasurementKind kind) const;
