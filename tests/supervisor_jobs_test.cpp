@@ -63,7 +63,7 @@ class SupervisorJobsTest : public ::testing::Test {
     auto db = store::Store::open(path_, options);
     ASSERT_TRUE(db) << db.error().message;
     db_.emplace(std::move(*db));
-    supervisor_ = std::make_unique<Supervisor>("tcp:127.0.0.1:" + std::to_string(sim_.port), *db_, *fitter_, "test");
+    supervisor_ = std::make_unique<Supervisor>("tcp:127.0.0.1:" + std::to_string(sim_.port), *db_, *fitter_);
     supervisor_->start();
     const auto session = db_->create_session(testing::sample_session(1));
     ASSERT_TRUE(session) << session.error().message;
