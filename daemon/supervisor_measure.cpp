@@ -37,6 +37,23 @@ std::int64_t wall_micros(std::chrono::system_clock::time_point t) {
 
 json optional_id(const std::optional<store::Id>& id) { return id ? json(*id) : json(nullptr); }
 
+// Why a sample cannot be measured: the session has no white. When its last white job failed
+// or was cancelled, that job is named, since every sample after it fails for want of it.
+std::string no_white_reference(const store::Store& db, store::Id session_id) {
+  if (auto jobs = db.jobs(session_id, 1000)) {
+    for (const auto& job : *jobs) {
+      const auto request = json::parse(job.request, nullptr, false);
+      if (!request.is_object() || request.value("kind", "") != "white") continue;
+      if (job.state == store::JobState::failed || job.state == store::JobState::cancelled)
+        return fmt::format("no_white_reference: session {} has no white reference, its white measurement (job {}) {}; "
+                           "measure the white standard again",
+                           session_id, job.id, store::to_string(job.state));
+      break;
+    }
+  }
+  return fmt::format("no_white_reference: measure the white standard of session {} first", session_id);
+}
+
 }  // namespace
 
 std::expected<store::Id, Supervisor::Outcome> Supervisor::keep_rejected(const store::Job& job, int attempt,
@@ -58,7 +75,7 @@ std::expected<store::Id, Supervisor::Outcome> Supervisor::keep_rejected(const st
 
 std::expected<Supervisor::Readings, Supervisor::Outcome> Supervisor::take_readings(const store::Job& job,
                                                                                  const api::MeasureRequest& request,
-                                                                                 drivers::Pr650& meter) {
+                                                                                 std::shared_ptr<drivers::Pr650>& meter) {
   drivers::MeasureOptions options;
   options.integration_ms = request.integration_ms;
   Readings out;
@@ -68,9 +85,10 @@ std::expected<Supervisor::Readings, Supervisor::Outcome> Supervisor::take_readin
                                    json{{"readings", out.good.size()}, {"rejected_reading_ids", out.rejected_ids}}});
   };
   for (int attempt = 1; std::cmp_less(out.good.size(), request.count); ++attempt) {
-    auto reading = meter.measure(options);
+    auto reading = measure_reading(meter, options, attempt == 1);
     const auto received = std::chrono::system_clock::now();
     if (reading) {
+      out.warnings.insert(out.warnings.end(), reading->warnings.begin(), reading->warnings.end());
       out.good.push_back(std::move(*reading));
       out.last_reply_at = received;
       report_progress("measuring", static_cast<int>(out.good.size()));
@@ -147,7 +165,7 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
   auto white = db_.latest_measurement(session_id, store::MeasurementKind::white);
   if (!white) return failure("database: " + white.error().message);
   if (request.kind == store::MeasurementKind::sample && !*white)
-    return failure("no_white_reference: measure the white standard of session " + std::to_string(session_id) + " first");
+    return failure(no_white_reference(db_, session_id));
 
   if (auto error = ensure_connected()) {
     note_instrument_error(*error);
@@ -163,7 +181,7 @@ Supervisor::Outcome Supervisor::execute(const store::Job& job, const api::Measur
     if (!meter) return failure("lost: the instrument went away before measuring");
     state_ = "measuring";
   }
-  auto readings = take_readings(job, request, *meter);
+  auto readings = take_readings(job, request, meter);
   if (!readings) return readings.error();
   {
     std::lock_guard lock(mutex_);
