@@ -96,6 +96,7 @@ std::expected<drivers::Reading, drivers::InstrumentError> Supervisor::measure_re
   const drivers::InstrumentError dead = reading.error();
   spdlog::warn("event=instrument_reconnect_for_job device=\"{}\" error=\"{}\"", device_, describe(dead));
   note_instrument_error(dead);
+  meter->disconnect();  // a meter serves one connection at a time
   if (auto error = ensure_connected()) {
     error->message = fmt::format("{}; connecting again failed: {}", dead.message, error->message);
     return std::unexpected(*error);

@@ -258,6 +258,28 @@ std::string scenes_file(const ScratchDirectory& dir) {
   return path;
 }
 
+TEST_F(AcquisitionFaultsTest, ASampleAfterAFailedWhiteNamesTheWhiteJobThatFailed) {
+  // The white's three readings all overload: it fails and stores nothing.
+  AcquisitionRig rig(rig_options(dir_.path().string(), {"--fault", "m0:quality=19@1", "--fault", "m0:quality=19@2",
+                                                        "--fault", "m0:quality=19@3"}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const auto p = rig.port;
+  const long long session = new_session(p, "W1");
+  const auto white = wait_for_job(p, submit(p, session, {{"kind", "white"}}));
+  ASSERT_EQ(white["state"], "failed") << white;
+  const std::string white_job = std::to_string(white["id"].get<long long>());
+
+  const auto sample = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  ASSERT_EQ(sample["state"], "failed") << sample;
+  const std::string error = sample.value("error", "");
+  EXPECT_TRUE(error.starts_with("no_white_reference: ")) << error;
+  EXPECT_NE(error.find("(job " + white_job + ") failed"), std::string::npos) << error;
+
+  // Measured again, the white is in force for the samples after it.
+  ASSERT_EQ(wait_for_job(p, submit(p, session, {{"kind", "white"}}))["state"], "succeeded");
+  EXPECT_EQ(wait_for_job(p, submit(p, session, {{"kind", "sample"}}))["state"], "succeeded");
+}
+
 TEST_F(AcquisitionFaultsTest, AChangedLampWarnsOnItsWhiteAndOnSamplesMeasuredAgainstIt) {
   auto options = rig_options(dir_.path().string(), {"--radiance", scenes_file(dir_)});
   options.default_scenes = false;

@@ -229,7 +229,8 @@ TEST(Pr650Driver, CancelEndsAMeasurementAndTheNextOneStillWorks) {
                measurement("s01,,,,,0,01,1", d5(1e-4)));
   ASSERT_TRUE(r.driver->connect());
   std::jthread canceller([&] {
-    std::this_thread::sleep_for(50ms);
+    // Once the meter has the M0 and is measuring (400 ms).
+    while (r.meter->commands().size() < 3) std::this_thread::sleep_for(5ms);
     r.driver->cancel();
   });
   const auto cancelled = r.driver->measure({});
