@@ -281,6 +281,20 @@ TEST(SimProcess, QualityFaultEndsMeasureWithInstrumentError) {
   EXPECT_EQ(terminate(sim).exit_status, 0);
 }
 
+TEST(SimProcess, AMeasurementThatNeverAnsweredIsMadeAgainAndSaysSo) {
+  // A fixed integration time: the wait for the lost M0 is 2 x 600 ms plus the overhead.
+  auto sim = start_simulator({"--time-scale", "0", "--fault", "m0:no-answer@1", "--fault", "d1:garbage@1"});
+  const auto result = measure(sim, {"--integration-ms", "600"});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  const auto readings = json_lines(result.out);
+  ASSERT_EQ(readings.size(), 1u);
+  EXPECT_EQ(readings[0]["attempts"], 2);
+  ASSERT_EQ(readings[0]["warnings"].size(), 1u) << readings[0]["warnings"];
+  EXPECT_TRUE(readings[0]["warnings"][0].get<std::string>().starts_with("remeasured: ")) << readings[0]["warnings"];
+  EXPECT_THAT(result.err, HasSubstr("reading 1: remeasured: the PR-650 did not answer 'm0'"));
+  EXPECT_EQ(terminate(sim).exit_status, 0);
+}
+
 TEST(SimProcess, DisconnectFaultLosesTheMeterAndTheNextClientIsServed) {
   auto sim = start_simulator({"--time-scale", "0", "--fault", "d5:disconnect@1"});
   const auto lost = measure(sim);
