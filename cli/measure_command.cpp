@@ -47,6 +47,7 @@ nlohmann::json reading_json(const drivers::Reading& r) {
           {"XYZ", r.xyz},                     {"serial", r.serial_number},
           {"integration_ms", r.integration_ms}, {"averages", r.averages},
           {"sync", r.sync},                   {"attempts", r.attempts},
+          {"warnings", r.warnings},
           {"started", unix_seconds(r.started)}, {"finished", unix_seconds(r.finished)}};
 }
 
@@ -73,6 +74,7 @@ void run_measure(const MeasureArgs& args) {
   for (int i = 0; i < args.count; ++i) {
     auto reading = meter.measure(measure);
     if (!reading) throw instrument_failure(reading.error());
+    for (const auto& warning : reading->warnings) std::cerr << fmt::format("reading {}: {}\n", i + 1, warning);
     if (args.json) {
       std::cout << reading_json(*reading).dump() << '\n';
     } else {

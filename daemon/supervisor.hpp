@@ -74,7 +74,8 @@ class Supervisor final : public api::Acquisition {
   // Runs a job to its end; a job that succeeds is stored succeeded with its measurement. What
   // a job that fails got done (readings, rejected readings) goes to `partial`.
   Step<store::CompletedJob> execute(const store::Job& job, const api::MeasureRequest& request, nlohmann::json& partial);
-  Step<void> take_readings(const store::Job& job, const api::MeasureRequest& request, drivers::Pr650& meter, Readings& out);
+  Step<void> take_readings(const store::Job& job, const api::MeasureRequest& request, std::shared_ptr<drivers::Pr650>& meter,
+                           Readings& out);
   Step<store::Id> keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error);
   Step<std::optional<store::Fit>> derive_sample(const store::Session& session, const store::Measurement& white,
                                                 store::Measurement& m, nlohmann::json& timing) const;
@@ -89,6 +90,9 @@ class Supervisor final : public api::Acquisition {
   // Whether the running job was asked to stop, and why (cancelled or stopped), with mutex_ held.
   bool cancel_requested() const { return cancel_running_.has_value(); }
   std::optional<drivers::InstrumentError> ensure_connected();
+  std::expected<drivers::Reading, drivers::InstrumentError> measure_reading(std::shared_ptr<drivers::Pr650>& meter,
+                                                                            const drivers::MeasureOptions& options,
+                                                                            bool first_of_job);
   void note_instrument_error(const drivers::InstrumentError& error);
   // The running job's phase and readings so far, told to its followers.
   void report_progress(api::JobPhase phase, int readings_done);
@@ -166,6 +170,7 @@ class Supervisor final : public api::Acquisition {
   void connect_or_check();
   std::optional<drivers::InstrumentError> connect_holding_wire();
   void check_holding_wire(const std::shared_ptr<drivers::Pr650>& meter);
+  void lose_meter(const std::string& error);  // with mutex_ held
   void note_connect_failure(const drivers::InstrumentError& error, const std::string& port);
   void note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
                       const drivers::Identity& identity);
@@ -183,6 +188,7 @@ class Supervisor final : public api::Acquisition {
   int failed_attempts_ = 0;              // in a row, reset on success
   std::optional<std::chrono::steady_clock::time_point> next_attempt_;  // while unreachable
   std::chrono::steady_clock::time_point next_check_{};
+  std::chrono::steady_clock::time_point next_hangup_look_{};
   // Last members: stopped and joined first when the supervisor is destroyed, while everything
   // they use is still alive (stop() has already told them to end).
   std::unique_ptr<drivers::HotplugMonitor> hotplug_;

@@ -43,6 +43,23 @@ std::unexpected<store::JobError> store_error(const std::string& doing, const sto
   return std::unexpected(store::JobError{store::JobErrorCode::store, doing + ": " + e.message});
 }
 
+// Why a sample cannot be measured: the session has no white. When its last white job failed
+// or was cancelled, that job is named, since every sample after it fails for want of it.
+std::string no_white_reference(const store::Store& db, store::Id session_id) {
+  if (auto jobs = db.jobs(session_id, 1000)) {
+    for (const auto& job : *jobs) {
+      const auto request = json::parse(job.request, nullptr, false);
+      if (!request.is_object() || request.value("kind", "") != "white") continue;
+      if (job.state == store::JobState::failed || job.state == store::JobState::cancelled)
+        return fmt::format("session {} has no white reference, its white measurement (job {}) {}; "
+                           "measure the white standard again",
+                           session_id, job.id, store::to_string(job.state));
+      break;
+    }
+  }
+  return fmt::format("measure the white standard of session {} first", session_id);
+}
+
 }  // namespace
 
 Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error) {
@@ -55,15 +72,16 @@ Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int
   return *id;
 }
 
-Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const api::MeasureRequest& request, drivers::Pr650& meter,
-                                                 Readings& out) {
+Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const api::MeasureRequest& request,
+                                                 std::shared_ptr<drivers::Pr650>& meter, Readings& out) {
   drivers::MeasureOptions options;
   options.integration_ms = request.integration_ms;
   report_progress(api::JobPhase::measuring, 0);
   for (int attempt = 1; std::cmp_less(out.good.size(), request.count); ++attempt) {
-    auto reading = meter.measure(options);
+    auto reading = measure_reading(meter, options, attempt == 1);
     const auto received = std::chrono::system_clock::now();
     if (reading) {
+      out.warnings.insert(out.warnings.end(), reading->warnings.begin(), reading->warnings.end());
       out.good.push_back(std::move(*reading));
       out.last_reply_at = received;
       report_progress(api::JobPhase::measuring, static_cast<int>(out.good.size()));
@@ -143,8 +161,7 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   auto white = db_.latest_measurement(session_id, store::MeasurementKind::white);
   if (!white) return store_error("the session's white reference could not be read", white.error());
   if (request.kind == store::MeasurementKind::sample && !*white)
-    return std::unexpected(store::JobError{store::JobErrorCode::no_white,
-                                           "measure the white standard of session " + std::to_string(session_id) + " first"});
+    return std::unexpected(store::JobError{store::JobErrorCode::no_white, no_white_reference(db_, session_id)});
 
   if (auto error = ensure_connected()) {
     note_instrument_error(*error);
@@ -161,7 +178,7 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
     state_ = api::InstrumentState::measuring;
   }
   Readings readings;
-  auto taken = take_readings(job, request, *meter, readings);
+  auto taken = take_readings(job, request, meter, readings);
   partial = {{"readings", readings.good.size()}, {"rejected_reading_ids", readings.rejected_ids}};
   if (!taken) return std::unexpected(taken.error());
   {

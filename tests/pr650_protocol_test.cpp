@@ -763,6 +763,16 @@ TEST(Pr650ReplyComplete, LineRepliesEndAtTheirFirstLineEnd) {
   EXPECT_TRUE(reply_complete(ReplyShape::line, "00,60.02\r\n"));
 }
 
+TEST(Pr650ReplyComplete, TheSizeOfAReplyLeavesWhatFollowsIt) {
+  EXPECT_EQ(reply_size(ReplyShape::line, "000"), 0u);
+  EXPECT_EQ(reply_size(ReplyShape::line, "\r\n000\r\n00\r\n"), 7u);  // a leading empty line counts for nothing
+  EXPECT_EQ(reply_size(ReplyShape::line, "000\r"), 4u);
+  EXPECT_EQ(reply_size(ReplyShape::line, "000\n000\n"), 4u);
+  const std::string twice = d5_a() + d5_a();
+  EXPECT_EQ(reply_size(ReplyShape::spectral, twice), d5_a().size());
+  EXPECT_EQ(reply_size(ReplyShape::spectral, d5_a().substr(0, 1000)), 0u);
+}
+
 TEST(Pr650ReplyComplete, SpectralRepliesNeedHeaderAndEveryDataLine) {
   const std::string h2 = m5_b();
   const std::string lf = replace_all(d5_a(), "\r\n", "\n");

@@ -53,7 +53,7 @@ class SupervisorJobsTest : public ::testing::Test {
  protected:
   void SetUp() override {
     // About 0.35 s a reading: long enough to take the database away while a job measures.
-    sim_ = testing::start_simulator(dir_, "127.0.0.1:0", "0.05");
+    sim_ = testing::start_simulator(dir_, "127.0.0.1:0", {}, "0.05");
     ASSERT_NE(sim_.port, 0) << sim_.process->err();
     auto fitter = load_fitter(SKINSPEC_TEST_DATA_DIR);
     ASSERT_TRUE(fitter) << fitter.error();

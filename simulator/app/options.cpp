@@ -128,6 +128,10 @@ std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
   app.add_option("--fault-rate", config.fault_rate, "probability of a random fault per command")
       ->type_name("P")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--fault-gap", config.fault_gap, "commands spared after a random fault (1: only single faults)")
+      ->type_name("N")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--seed", config.seed, "seed of random faults, noise and line noise")
       ->type_name("N")
       ->capture_default_str();
