@@ -49,7 +49,7 @@ CLI::Option* add_site_option(CLI::App& app, std::string& site);
 void add_fit_command(CLI::App& app);
 void add_model_command(CLI::App& app);
 void add_optics_command(CLI::App& app);
-void add_color_command(CLI::App& app);
+void add_colour_command(CLI::App& app);
 void add_tune_command(CLI::App& app);
 void add_ports_command(CLI::App& app);
 void add_measure_command(CLI::App& app);

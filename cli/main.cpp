@@ -26,7 +26,7 @@ int run(int argc, char** argv) {
   add_fit_command(app);
   add_model_command(app);
   add_optics_command(app);
-  add_color_command(app);
+  add_colour_command(app);
   add_tune_command(app);
   add_ports_command(app);
   add_measure_command(app);
@@ -35,9 +35,10 @@ int run(int argc, char** argv) {
   add_render_command(app);
   add_figures_command(app);
   // CLI11 reports a mistyped subcommand only as "a subcommand is required"; name it instead.
-  if (argc > 1 && argv[1][0] != '-' && app.get_subcommands([&](CLI::App* sub) { return sub->get_name() == argv[1]; }).empty()) {
-    report("skinspec: unknown command " + skinspec::quote(argv[1]) +
-           "; commands: fit, model, optics, color, tune, ports, measure, export, session, render, figures");
+  if (argc > 1 && argv[1][0] != '-' && app.get_subcommands([&](CLI::App* sub) { return sub->check_name(argv[1]); }).empty()) {
+    std::string commands;
+    for (const auto* sub : app.get_subcommands({})) commands += (commands.empty() ? "" : ", ") + sub->get_name();
+    report("skinspec: unknown command " + skinspec::quote(argv[1]) + "; commands: " + commands);
     return kBadInput;
   }
   try {

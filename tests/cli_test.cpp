@@ -220,7 +220,7 @@ const BadSpectra kBadSpectra[] = {
 };
 
 struct BadSpectraRun {
-  std::string command;  // "fit" or "color"
+  std::string command;  // "fit" or "colour"
   BadSpectra bad;
   bool from_stdin;
 };
@@ -242,7 +242,7 @@ TEST_P(CliBadSpectra, IsRefusedWithStatus2AndTheLocation) {
 
 std::vector<BadSpectraRun> all_bad_spectra_runs() {
   std::vector<BadSpectraRun> runs;
-  for (const char* command : {"fit", "color"})
+  for (const char* command : {"fit", "colour"})
     for (const auto& bad : kBadSpectra)
       for (const bool from_stdin : {false, true}) runs.push_back({command, bad, from_stdin});
   return runs;
@@ -260,7 +260,7 @@ INSTANTIATE_TEST_SUITE_P(Spectra, CliBadSpectra, ::testing::ValuesIn(all_bad_spe
 class CliRefuses : public CliTest {};
 
 TEST_F(CliRefuses, NonexistentFile) {
-  for (const char* command : {"fit", "color"}) {
+  for (const char* command : {"fit", "colour"}) {
     const auto missing = path_of("no_such_file.csv");
     expect_refused(skinspec({command, missing}),
                    AllOf(StartsWith("skinspec: " + missing + ":"), HasSubstr("cannot open")));
@@ -269,7 +269,7 @@ TEST_F(CliRefuses, NonexistentFile) {
 
 TEST_F(CliRefuses, DirectoryGivenAsFile) {
   const auto directory = path_of("");
-  for (const char* command : {"fit", "color"})
+  for (const char* command : {"fit", "colour"})
     expect_refused(skinspec({command, directory}), HasSubstr("is a directory"));
 }
 
@@ -281,7 +281,7 @@ TEST_F(CliRefuses, ArgumentsAreEchoedPrintably) {
   expect_refused(skinspec({"fit", "--bogus\x07", file}), HasSubstr("--bogus\\x07"));
   expect_refused(skinspec({"model", "--grid", "\t\x1b"}), HasSubstr("--grid '\\t\\x1b'"));
   expect_refused(skinspec({"model", "--melanin", "\x9b" "2J"}), HasSubstr("\\x9b2J"));
-  expect_refused(skinspec({"color", "--illuminant", "nosuch\x1b", file}), HasSubstr("'nosuch\\x1b'"));
+  expect_refused(skinspec({"colour", "--illuminant", "nosuch\x1b", file}), HasSubstr("'nosuch\\x1b'"));
   const auto missing = path_of("no\x1b[2Jsuch.csv");
   expect_refused(skinspec({"fit", missing}), HasSubstr("no\\x1b[2Jsuch.csv"));
   // Text sent to skinspecd must be UTF-8: refused before any connection is tried.
@@ -310,7 +310,7 @@ TEST_F(CliRefuses, UnknownSubcommandOrOption) {
       {"fit", "--bogus", file},
       {"fit"},  // FILE is required
       {"fit", file, "extra.csv"},
-      {"color", "--site", "forearm", file},
+      {"colour", "--site", "forearm", file},
       {"model", "--grid"},  // the option's value is missing
       {"optics", "--melanin", "1"},
   };
@@ -521,7 +521,7 @@ TEST_F(CliModel, RefusesWeightsOutOfRange) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// color.
+// colour (alias color).
 
 struct Chromaticity {
   double x, y;
@@ -535,13 +535,22 @@ Chromaticity chromaticity(const Json& xyz) {
 // A perfect white and a flat 50% grey, over the whole visible range.
 constexpr const char* kWhiteAndGrey = "wavelength_nm,white,grey\n380,1.0,0.5\n780,1.0,0.5\n";
 
-class CliColor : public CliTest {
+class CliColour : public CliTest {
  protected:
   void expect_white_under_equal_energy(const std::string& illuminant, const std::string& shown);
 };
 
-TEST_F(CliColor, WhiteUnderD65IsTheD65WhitePoint) {
-  const auto run = skinspec({"color", "-"}, kWhiteAndGrey);
+TEST_F(CliColour, ColorIsAnAliasGivingTheSameAnswer) {
+  const auto colour = skinspec({"colour", "-"}, kWhiteAndGrey);
+  const auto color = skinspec({"color", "-"}, kWhiteAndGrey);
+  ASSERT_EQ(colour.exit_status, 0) << colour.describe();
+  ASSERT_EQ(color.exit_status, 0) << color.describe();
+  EXPECT_EQ(json_lines(color.out).size(), 2u);
+  EXPECT_EQ(color.out, colour.out);
+}
+
+TEST_F(CliColour, WhiteUnderD65IsTheD65WhitePoint) {
+  const auto run = skinspec({"colour", "-"}, kWhiteAndGrey);
   ASSERT_EQ(run.exit_status, 0) << run.describe();
   const auto results = json_lines(run.out);
   ASSERT_EQ(results.size(), 2u);
@@ -565,8 +574,8 @@ TEST_F(CliColor, WhiteUnderD65IsTheD65WhitePoint) {
   EXPECT_NEAR(grey["Lab"][0].get<double>(), 116 * std::cbrt(0.5) - 16, 1e-6);
 }
 
-TEST_F(CliColor, WhiteUnderAHasTheChromaticityOfA) {
-  const auto run = skinspec({"color", "--illuminant", "A", write("white.csv", kWhiteAndGrey)});
+TEST_F(CliColour, WhiteUnderAHasTheChromaticityOfA) {
+  const auto run = skinspec({"colour", "--illuminant", "A", write("white.csv", kWhiteAndGrey)});
   ASSERT_EQ(run.exit_status, 0) << run.describe();
   const auto results = json_lines(run.out);
   ASSERT_EQ(results.size(), 2u);
@@ -576,7 +585,7 @@ TEST_F(CliColor, WhiteUnderAHasTheChromaticityOfA) {
   EXPECT_NEAR(xy.y, 0.4074, 2e-4);
 }
 
-TEST_F(CliColor, IlluminantFromAFile) {
+TEST_F(CliColour, IlluminantFromAFile) {
   // A path is bytes: one that is not UTF-8 names an illuminant too, and the JSON that echoes it
   // shows U+FFFD for what cannot be text (it used to end the program by an uncaught exception).
   for (const auto& [name, shown] : {std::pair{"equal_energy.csv", "equal_energy.csv"},
@@ -586,8 +595,8 @@ TEST_F(CliColor, IlluminantFromAFile) {
   }
 }
 
-void CliColor::expect_white_under_equal_energy(const std::string& illuminant, const std::string& shown) {
-  const auto run = skinspec({"color", "--illuminant", illuminant, write("white.csv", kWhiteAndGrey)});
+void CliColour::expect_white_under_equal_energy(const std::string& illuminant, const std::string& shown) {
+  const auto run = skinspec({"colour", "--illuminant", illuminant, write("white.csv", kWhiteAndGrey)});
   ASSERT_EQ(run.exit_status, 0) << run.describe();
   const auto results = json_lines(run.out);
   ASSERT_EQ(results.size(), 2u);
@@ -599,17 +608,17 @@ void CliColor::expect_white_under_equal_energy(const std::string& illuminant, co
   EXPECT_NEAR(results[0]["XYZ"][1].get<double>(), 1.0, 1e-9);
 }
 
-TEST_F(CliColor, RefusesAnUnknownIlluminant) {
+TEST_F(CliColour, RefusesAnUnknownIlluminant) {
   const auto white = write("white.csv", kWhiteAndGrey);
-  expect_refused(skinspec({"color", "--illuminant", "nosuch", white}),
+  expect_refused(skinspec({"colour", "--illuminant", "nosuch", white}),
                  AllOf(HasSubstr("'nosuch'"), HasSubstr("D65")));
   // A file that does not span 380-780 nm cannot weight the whole observer range.
   const auto narrow = write("narrow.csv", "wavelength_nm,power\n400,1\n700,1\n");
-  expect_refused(skinspec({"color", "--illuminant", narrow, white}),
+  expect_refused(skinspec({"colour", "--illuminant", narrow, white}),
                  AllOf(StartsWith("skinspec: " + narrow), HasSubstr("380-780 nm is needed")));
   // Without power there is no white to be relative to.
   const auto dark = write("dark.csv", "wavelength_nm,power\n380,0\n780,0\n");
-  expect_refused(skinspec({"color", "--illuminant", dark, white}),
+  expect_refused(skinspec({"colour", "--illuminant", dark, white}),
                  AllOf(StartsWith("skinspec: " + dark), HasSubstr("no power")));
 }
 
@@ -628,7 +637,7 @@ TEST(CliHelp, EverySubcommandDescribesItsOptions) {
        {"--site", "--surface-reflectance", "--melanin", "--oxyhemoglobin", "--deoxyhemoglobin", "--bilirubin",
         "--no-lateral-diffusion", "--grid"}},
       {"optics", {"--site"}},
-      {"color", {"FILE", "--illuminant"}},
+      {"colour", {"FILE", "--illuminant"}},
       {"tune", {"FILE", "--site"}},
   };
   for (const auto& [subcommand, mentions] : cases) {
@@ -643,7 +652,7 @@ TEST(CliHelp, EverySubcommandDescribesItsOptions) {
 TEST(CliHelp, TopLevelHelpListsTheSubcommands) {
   const auto run = skinspec({"--help"});
   EXPECT_EQ(run.exit_status, 0) << run.describe();
-  for (const char* subcommand : {"fit", "model", "optics", "color", "tune"}) EXPECT_THAT(run.out, HasSubstr(subcommand));
+  for (const char* subcommand : {"fit", "model", "optics", "colour", "tune"}) EXPECT_THAT(run.out, HasSubstr(subcommand));
 }
 
 }  // namespace

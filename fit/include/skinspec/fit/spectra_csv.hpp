@@ -1,5 +1,5 @@
 #pragma once
-// The spectra file format read by `skinspec fit` and `skinspec color`: CSV with a header whose
+// The spectra file format read by `skinspec fit` and `skinspec colour`: CSV with a header whose
 // first column is `wavelength_nm`, then one column per spectrum (its name), one row per
 // wavelength. Blank lines and lines starting with '#' (comments) are ignored. Every defect is reported with line and column.
 

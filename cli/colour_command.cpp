@@ -1,4 +1,4 @@
-// skinspec color FILE: XYZ, Lab and sRGB of each spectrum under an illuminant.
+// skinspec colour FILE (alias color): XYZ, Lab and sRGB of each spectrum under an illuminant.
 
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -7,14 +7,15 @@
 
 namespace skinspec::cli {
 
-void add_color_command(CLI::App& app) {
+void add_colour_command(CLI::App& app) {
   auto file = std::make_shared<std::string>();
   auto illuminant_name = std::make_shared<std::string>("D65");
-  auto* color = app.add_subcommand("color", "print CIE XYZ, CIELAB and sRGB of reflectance spectra");
-  color->add_option("FILE", *file, "CSV of reflectance spectra as for `fit`; - reads stdin")->required();
-  color->add_option("--illuminant", *illuminant_name, "D65, A, or a CSV file wavelength_nm,power covering 380-780 nm")
+  auto* colour = app.add_subcommand("colour", "print CIE XYZ, CIELAB and sRGB of reflectance spectra");
+  colour->alias("color");
+  colour->add_option("FILE", *file, "CSV of reflectance spectra as for `fit`; - reads stdin")->required();
+  colour->add_option("--illuminant", *illuminant_name, "D65, A, or a CSV file wavelength_nm,power covering 380-780 nm")
       ->capture_default_str();
-  color->callback([file, illuminant_name] {
+  colour->callback([file, illuminant_name] {
     const Spectrum illuminant = illuminant_from(*illuminant_name);
     const auto& c = fitter().colorimetry();
     const Xyz white = c.white(illuminant);
