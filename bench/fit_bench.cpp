@@ -9,7 +9,7 @@
 
 #include "fitter_loader.hpp"
 #include "skinspec/fit/fitter.hpp"
-#include "skinspec/fit/parallel.hpp"
+#include "skinspec/spectral/parallel.hpp"
 
 namespace skinspec {
 namespace {

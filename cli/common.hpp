@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "skinspec/fit/fitter.hpp"
-#include "skinspec/fit/spectra_csv.hpp"
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec::cli {
 

@@ -6,7 +6,7 @@
 
 #include "common.hpp"
 #include "fit_json.hpp"
-#include "skinspec/fit/parallel.hpp"
+#include "skinspec/spectral/parallel.hpp"
 
 namespace skinspec::cli {
 

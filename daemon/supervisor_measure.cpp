@@ -8,8 +8,8 @@
 
 #include <utility>
 
-#include "skinspec/fit/spectrum.hpp"
 #include "skinspec/records/fit_record.hpp"
+#include "skinspec/spectral/spectrum.hpp"
 #include "store_records.hpp"
 #include "supervisor.hpp"
 #include "supervisor_common.hpp"

@@ -10,7 +10,7 @@
 #include "fitter_loader.hpp"
 #include "skinspec/api/render_cache.hpp"
 #include "skinspec/api/router.hpp"
-#include "skinspec/fit/colour.hpp"
+#include "skinspec/spectral/colour.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/version.hpp"
 #include "support/png_reader.hpp"

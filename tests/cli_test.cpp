@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/utf8.hpp"
 #include "support/process.hpp"
 #include "support/reference_model.hpp"
 

@@ -6,8 +6,8 @@
 #include <filesystem>
 
 #include "data_dir.hpp"
-#include "skinspec/fit/spectra_csv.hpp"
 #include "skinspec/fit/tuning.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
 #include "support/data.hpp"
 
 namespace skinspec {

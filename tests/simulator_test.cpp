@@ -11,8 +11,8 @@
 #include <thread>
 
 #include "skinspec/drivers/pr650.hpp"
-#include "skinspec/fit/spectra_csv.hpp"
 #include "skinspec/simulator/meter.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
 #include "support/simulator_rig.hpp"
 
 namespace skinspec::simulator {

@@ -1,5 +1,5 @@
-#include "skinspec/fit/spectra_csv.hpp"
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/table.hpp"
 
 #include <gtest/gtest.h>
 

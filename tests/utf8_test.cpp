@@ -1,6 +1,6 @@
 // The UTF-8 check and the printable form every message uses to quote input.
 
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 #include <gtest/gtest.h>
 

@@ -7,8 +7,8 @@
 #include <fmt/ranges.h>
 #include <numbers>
 
-#include "skinspec/fit/spectrum.hpp"
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/spectrum.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec {
 

@@ -2,7 +2,7 @@
 // skipped because the renderer takes its colour from the skin model, not from the file.
 
 #include "mesh_text.hpp"
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec::render {
 

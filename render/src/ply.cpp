@@ -7,7 +7,7 @@
 #include <cstring>
 
 #include "mesh_text.hpp"
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec::render {
 

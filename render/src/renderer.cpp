@@ -8,8 +8,8 @@
 #include <numbers>
 #include <optional>
 
-#include "skinspec/fit/parallel.hpp"
 #include "skinspec/render/bvh.hpp"
+#include "skinspec/spectral/parallel.hpp"
 
 namespace skinspec::render {
 

@@ -15,9 +15,9 @@
 #include <string>
 #include <string_view>
 
-#include "skinspec/fit/spectra_csv.hpp"
-#include "skinspec/fit/table.hpp"
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
+#include "skinspec/spectral/table.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <string_view>
 #include <vector>
 
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec {
 

@@ -1,10 +1,10 @@
-#include "skinspec/fit/spectra_csv.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
 
 #include <algorithm>
 #include <fmt/format.h>
 #include <utility>
 
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/utf8.hpp"
 #include "text.hpp"
 
 namespace skinspec {

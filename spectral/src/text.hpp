@@ -1,5 +1,5 @@
 #pragma once
-// Small text helpers shared by the table and spectra parsers (private to fit/).
+// Small text helpers shared by the table and spectra parsers (private to spectral/).
 
 #include <cstddef>
 #include <expected>

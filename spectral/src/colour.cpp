@@ -1,11 +1,11 @@
-#include "skinspec/fit/colour.hpp"
+#include "skinspec/spectral/colour.hpp"
 
 #include <cmath>
 #include <fmt/format.h>
 #include <numbers>
 #include <string>
 
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec {
 

@@ -1,11 +1,11 @@
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/table.hpp"
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fmt/format.h>
 
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/utf8.hpp"
 #include "text.hpp"
 
 namespace skinspec {

@@ -1,4 +1,4 @@
-#include "skinspec/fit/utf8.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 #include <fmt/format.h>
 

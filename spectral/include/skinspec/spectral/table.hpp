@@ -3,7 +3,8 @@
 // row and numeric rows. Every table must say where its numbers come from (title, source,
 // licence, units); a table that does not is refused, as is any malformed row.
 //
-// Parsing takes bytes, never a path: the caller reads the file (fit/ does no I/O).
+// Parsing takes bytes, never a path: the caller reads the file (skinspec_spectral does no I/O;
+// the programs read data/ through spectral/io/data_dir.hpp).
 
 #include <expected>
 #include <functional>

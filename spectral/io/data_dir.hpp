@@ -1,12 +1,12 @@
 #pragma once
-// Finding and reading skinspec's data directory: the one place where the model's tables
-// meet the file system.
+// Finding and reading skinspec's data directory: the one place where its tables (optics,
+// colorimetry, model constants) meet the file system.
 
 #include <expected>
 #include <filesystem>
 #include <string>
 
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec {
 
