@@ -155,8 +155,10 @@ TEST(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
     SCOPED_TRACE("round " + std::to_string(round));
     testing::BackgroundProcess writer(SKINSPEC_TEST_BIN_DIR "/store_crash_writer", {path});
     ASSERT_TRUE(writer.started()) << writer.start_error();
+    // Killed either before it has opened the database, or at a random moment of its job loop:
+    // after its first commit, however slowly a loaded machine got it there.
     if (!kill_early(random)) {
-      ASSERT_TRUE(writer.wait_for_stdout_line("session ", std::chrono::seconds(20))) << writer.err();
+      ASSERT_TRUE(writer.wait_for_stdout_line("committed ", std::chrono::seconds(60))) << writer.err();
     }
     std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random)));
     writer.send_signal(SIGKILL);
@@ -174,7 +176,7 @@ TEST(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
     expect_reported_present(path, reported);
     if (HasFatalFailure()) return;
   }
-  EXPECT_GT(kills_mid_stream, 30) << "most kills should land while it is writing";
+  EXPECT_GE(kills_mid_stream, 60) << "most kills should land while it is writing";
   expect_reported_present(path, all_reported);
 
   // Every writer's open recovered the one before; this open recovers the last. Every job has
@@ -195,7 +197,7 @@ TEST(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
     EXPECT_EQ(s.state, any_interrupted ? SessionState::interrupted : SessionState::open) << "session " << s.id;
     interrupted += any_interrupted;
   }
-  EXPECT_GE(interrupted, 50);
+  EXPECT_GE(interrupted, 30);
   // Killed between a job's start and its end, where the measurement was once committed apart
   // from the job's end.
   const auto killed_while_running =
