@@ -25,13 +25,15 @@ std::string with_error(double value, double error) {
 }
 
 // A human-readable table: one row per spectrum.
-void print_table(const std::vector<NamedSpectrum>& spectra, const std::vector<std::expected<FitResult, std::string>>& results) {
+void print_table(const std::vector<NamedSpectrum>& spectra,
+                 const std::vector<std::expected<FitResult, std::string>>& results) {
   std::cout << fmt::format("{:<14} {:<16} {:<16} {:<16} {:<16} {:<16} {:>7} {:>6} {}\n", "spectrum", "surface_refl",
                            "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin", "rmse", "dE00", "converged");
   for (std::size_t i = 0; i < results.size(); ++i) {
     const FitResult& r = *results[i];
     std::cout << fmt::format("{:<14} ", printable(spectra[i].name));
-    for (std::size_t p = 0; p < kParamCount; ++p) std::cout << fmt::format("{:<16} ", with_error(r.params[p], r.standard_error[p]));
+    for (std::size_t p = 0; p < kParamCount; ++p)
+      std::cout << fmt::format("{:<16} ", with_error(r.params[p], r.standard_error[p]));
     std::cout << fmt::format("{:>7.4f} {:>6.2f} {}\n", r.rmse, r.delta_e00_d65, r.converged ? "yes" : "no");
   }
 }
@@ -52,11 +54,13 @@ void run_fit(const FitArgs& args) {
   // Refuse the whole file before printing anything, so a failure never leaves partial output.
   for (std::size_t i = 0; i < results.size(); ++i)
     if (!results[i])
-      throw Failure{kBadInput, input_name(args.file) + ": column " + quote(spectra[i].name) + ": " + results[i].error()};
+      throw Failure{kBadInput,
+                    input_name(args.file) + ": column " + quote(spectra[i].name) + ": " + results[i].error()};
   if (args.format == "table") {
     print_table(spectra, results);
   } else {
-    for (std::size_t i = 0; i < results.size(); ++i) std::cout << fit_to_json(spectra[i].name, *results[i]).dump() << '\n';
+    for (std::size_t i = 0; i < results.size(); ++i)
+      std::cout << fit_to_json(spectra[i].name, *results[i]).dump() << '\n';
   }
   std::size_t ignored = 0;
   for (const auto& r : results) ignored = std::max(ignored, r->samples_ignored);
@@ -77,7 +81,8 @@ void add_fit_command(CLI::App& app) {
   fit->add_flag("--no-lateral-diffusion", args->no_lateral_diffusion,
                 "leave out the correction for light lost outside the measured spot");
   fit->add_option("--format", args->format, "json: one JSON object per spectrum per line; table: a summary for people")
-      ->check(CLI::IsMember({"json", "table"}))->capture_default_str();
+      ->check(CLI::IsMember({"json", "table"}))
+      ->capture_default_str();
   fit->callback([args] { run_fit(*args); });
 }
 

@@ -46,11 +46,13 @@ void add_model_command(CLI::App& app) {
   add_site_option(*model, args->site);
   auto& p = args->params;
   model->add_option("--surface-reflectance", p[kSurfaceReflectance], "surface (regular) reflectance Rs")
-      ->check(finite_range(0.0, 1.0))->capture_default_str();
+      ->check(finite_range(0.0, 1.0))
+      ->capture_default_str();
   for (int i = kMelanin; i < kParamCount; ++i) {
     const std::string name(kParamNames[static_cast<std::size_t>(i)]);
     model->add_option("--" + name, p[static_cast<std::size_t>(i)], name + " weight (1.0 = reference concentration)")
-        ->check(finite_range(0.0, 1e4))->capture_default_str();
+        ->check(finite_range(0.0, 1e4))
+        ->capture_default_str();
   }
   model->add_flag("--no-lateral-diffusion", args->no_lateral_diffusion,
                   "leave out the correction for light lost outside the measured spot");

@@ -16,10 +16,18 @@ void add_optics_command(CLI::App& app) {
     if (!site) throw Failure{kBadInput, site.error()};
     const auto& o = fitter().optics().optics();
     const nlohmann::json out = {
-        {"site", site->name},           {"epidermis_thickness_mm", site->epidermis_mm},
-        {"dermis_thickness_mm", site->dermis_mm}, {"wavelength_nm", o.wavelength_nm},
-        {"Ke", o.Ke}, {"Se", o.Se}, {"Kd", o.Kd}, {"Sd", o.Sd},
-        {"Km", o.Km}, {"Kh", o.Kh}, {"Kdh", o.Kdh}, {"Kb", o.Kb},
+        {"site", site->name},
+        {"epidermis_thickness_mm", site->epidermis_mm},
+        {"dermis_thickness_mm", site->dermis_mm},
+        {"wavelength_nm", o.wavelength_nm},
+        {"Ke", o.Ke},
+        {"Se", o.Se},
+        {"Kd", o.Kd},
+        {"Sd", o.Sd},
+        {"Km", o.Km},
+        {"Kh", o.Kh},
+        {"Kdh", o.Kdh},
+        {"Kb", o.Kb},
         {"lateral_radius_mm", fitter().optics().constants().lateral_radius_mm},
         {"tables_digest", fitter().optics().tables_digest()},
     };

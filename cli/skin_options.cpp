@@ -26,7 +26,9 @@ render::Skin skin_from_fit_json(const std::string& path) {
   const std::string name = input_name(path);
   const auto [line, number] = first_line(read_input(path));
   if (number == 0) throw Failure{kBadInput, name + ": empty; expected a line of `skinspec fit` JSON"};
-  const auto fail = [&](const std::string& why) { return Failure{kBadInput, fmt::format("{}:{}: {}", name, number, why)}; };
+  const auto fail = [&](const std::string& why) {
+    return Failure{kBadInput, fmt::format("{}:{}: {}", name, number, why)};
+  };
   const auto json = nlohmann::json::parse(line, nullptr, false);
   if (json.is_discarded() || !json.is_object()) throw fail("not a JSON object as `skinspec fit` prints");
   if (!json.contains("site") || !json["site"].is_string()) throw fail("no \"site\" text");
@@ -47,25 +49,37 @@ render::Skin skin_from_fit_json(const std::string& path) {
 }  // namespace
 
 void add_skin_options(CLI::App& app, SkinArgs& args) {
-  auto* fit = app.add_option("--fit", args.fit_file, "a fit's JSON, as printed by `skinspec fit` (its first line is used)");
+  auto* fit =
+      app.add_option("--fit", args.fit_file, "a fit's JSON, as printed by `skinspec fit` (its first line is used)");
   std::vector<CLI::Option*> direct{add_site_option(app, args.site)};
   auto& p = args.params;
-  direct.push_back(app.add_option("--surface,--surface-reflectance", p[kSurfaceReflectance], "surface (regular) reflectance Rs")
-                       ->check(finite_range(0.0, 1.0))->capture_default_str());
+  direct.push_back(
+      app.add_option("--surface,--surface-reflectance", p[kSurfaceReflectance], "surface (regular) reflectance Rs")
+          ->check(finite_range(0.0, 1.0))
+          ->capture_default_str());
   for (int i = kMelanin; i < kParamCount; ++i) {
     const std::string name(kParamNames[static_cast<std::size_t>(i)]);
-    direct.push_back(app.add_option("--" + name, p[static_cast<std::size_t>(i)], name + " weight (1.0 = reference concentration)")
-                         ->check(finite_range(0.0, 500))->capture_default_str());
+    direct.push_back(
+        app.add_option("--" + name, p[static_cast<std::size_t>(i)], name + " weight (1.0 = reference concentration)")
+            ->check(finite_range(0.0, 500))
+            ->capture_default_str());
   }
   for (auto* option : direct) fit->excludes(option);
 }
 
 void add_surface_options(CLI::App& app, render::SurfaceParams& s) {
   app.add_option("--roughness", s.roughness, "gamma of eq. 3: facet angle (radians) where D halves")
-      ->check(finite_range(1e-3, 1.5707963))->capture_default_str();
-  app.add_option("--index", s.index, "refractive index n of eq. 4")->check(finite_range(1.0001, 5))->capture_default_str();
-  app.add_option("--alpha", s.alpha, "weight of the body term of eq. 2")->check(finite_range(0, 100))->capture_default_str();
-  app.add_option("--beta", s.beta, "weight of the specular term of eq. 2")->check(finite_range(0, 100))->capture_default_str();
+      ->check(finite_range(1e-3, 1.5707963))
+      ->capture_default_str();
+  app.add_option("--index", s.index, "refractive index n of eq. 4")
+      ->check(finite_range(1.0001, 5))
+      ->capture_default_str();
+  app.add_option("--alpha", s.alpha, "weight of the body term of eq. 2")
+      ->check(finite_range(0, 100))
+      ->capture_default_str();
+  app.add_option("--beta", s.beta, "weight of the specular term of eq. 2")
+      ->check(finite_range(0, 100))
+      ->capture_default_str();
 }
 
 render::Skin skin_from(const SkinArgs& args) {
@@ -78,7 +92,8 @@ render::Skin skin_from(const SkinArgs& args) {
 std::pair<int, int> parse_size(const std::string& text) {
   const auto size = render::parse_image_size(text);
   if (!size)
-    throw Failure{kBadInput, fmt::format("--size {}: expected WxH with each side 1..{}, such as 512x512", quote(text), render::kMaxImageSide)};
+    throw Failure{kBadInput, fmt::format("--size {}: expected WxH with each side 1..{}, such as 512x512", quote(text),
+                                         render::kMaxImageSide)};
   return *size;
 }
 

@@ -24,9 +24,12 @@ struct TuneArgs {
 };
 
 nlohmann::json quality_json(const FitQuality& q) {
-  return {{"spectra", q.count},          {"converged", q.converged},
-          {"median_rmse", q.median_rmse}, {"p95_rmse", q.p95_rmse},
-          {"max_rmse", q.max_rmse},       {"median_delta_e00_d65", q.median_delta_e00},
+  return {{"spectra", q.count},
+          {"converged", q.converged},
+          {"median_rmse", q.median_rmse},
+          {"p95_rmse", q.p95_rmse},
+          {"max_rmse", q.max_rmse},
+          {"median_delta_e00_d65", q.median_delta_e00},
           {"p95_delta_e00_d65", q.p95_delta_e00}};
 }
 
@@ -41,7 +44,8 @@ FitQuality assess(const Fitter& f, const std::vector<Spectrum>& spectra, const s
 }
 
 Fitter tuned_fitter(const std::vector<Spectrum>& training, const TuneArgs& args, TuningResult* result = nullptr) {
-  const auto tuned = tune_constants(fitter(), training, {.site = args.site, .max_evaluations = args.max_evaluations, .threads = 0});
+  const auto tuned =
+      tune_constants(fitter(), training, {.site = args.site, .max_evaluations = args.max_evaluations, .threads = 0});
   if (!tuned) throw Failure{kBadInput, tuned.error()};
   if (result) *result = *tuned;
   return Fitter(fitter().optics().with_constants(tuned->constants), fitter().colorimetry());
@@ -54,7 +58,8 @@ nlohmann::json cross_validate(const std::vector<NamedSpectrum>& spectra, const T
   FitScores pooled;
   for (std::size_t fold = 0; fold < folds; ++fold) {
     std::vector<Spectrum> training, held_out;
-    for (std::size_t i = 0; i < spectra.size(); ++i) (i % folds == fold ? held_out : training).push_back(spectra[i].spectrum);
+    for (std::size_t i = 0; i < spectra.size(); ++i)
+      (i % folds == fold ? held_out : training).push_back(spectra[i].spectrum);
     if (training.empty() || held_out.empty()) throw Failure{kBadInput, "too few spectra for that many folds"};
     pooled.append(score(tuned_fitter(training, args), held_out, args.site));
   }
@@ -82,8 +87,11 @@ void run_tune(const TuneArgs& args) {
   std::vector<Spectrum> training, held_out;
   const auto spectra = read_spectra(args.file);
   for (std::size_t i = 0; i < spectra.size(); ++i)
-    (args.holdout_every > 0 && i % static_cast<std::size_t>(args.holdout_every) == static_cast<std::size_t>(args.holdout_every) - 1
-         ? held_out : training).push_back(spectra[i].spectrum);
+    (args.holdout_every > 0 &&
+             i % static_cast<std::size_t>(args.holdout_every) == static_cast<std::size_t>(args.holdout_every) - 1
+         ? held_out
+         : training)
+        .push_back(spectra[i].spectrum);
   if (training.empty()) throw Failure{kBadInput, input_name(args.file) + ": no spectra left to tune on"};
 
   TuningResult tuned;
@@ -119,12 +127,15 @@ void add_tune_command(CLI::App& app) {
   add_site_option(*tune, args->site);
   tune->add_option("--holdout-every", args->holdout_every,
                    "hold out every Nth spectrum (the 2nd, 4th, ... for N = 2) to report on; 0 holds none out")
-      ->check(CLI::Range(0, 1000))->capture_default_str();
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
   tune->add_option("--max-evaluations", args->max_evaluations, "budget of the constant search")
-      ->check(CLI::Range(10, 100000))->capture_default_str();
+      ->check(CLI::Range(10, 100000))
+      ->capture_default_str();
   tune->add_option("--cross-validate", args->cross_validate,
                    "also report K-fold cross-validation: every spectrum fitted with constants tuned without it")
-      ->check(CLI::Range(0, 100))->capture_default_str();
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   tune->add_option("--out", args->out, "write the tuned constants as a data/model/constants.csv table");
   tune->callback([args] { run_tune(*args); });
 }

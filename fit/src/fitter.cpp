@@ -207,7 +207,8 @@ Params standard_errors(const SkinModel& model, const std::vector<double>& measur
       if (values(i) > tiny) variance += share / values(i);
       else in_null_space = in_null_space || share > 1e-6;
     }
-    errors[static_cast<std::size_t>(j)] = in_null_space ? std::numeric_limits<double>::infinity() : std::sqrt(sigma2 * variance);
+    errors[static_cast<std::size_t>(j)] =
+        in_null_space ? std::numeric_limits<double>::infinity() : std::sqrt(sigma2 * variance);
   }
   return errors;
 }

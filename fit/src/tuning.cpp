@@ -160,7 +160,8 @@ std::expected<TuningResult, std::string> tune_constants(const Fitter& start, con
   ModelConstants initial = start.optics().constants();
   if (initial.lateral_radius_mm <= 0) initial.lateral_radius_mm = 3;  // the search needs a finite start
   TuningResult result;
-  const auto [best, value] = nelder_mead(mean_rmse, to_point(initial), 0.3, options.max_evaluations, result.evaluations);
+  const auto [best, value] =
+      nelder_mead(mean_rmse, to_point(initial), 0.3, options.max_evaluations, result.evaluations);
   result.constants = from_point(best);
   result.mean_rmse = value;
   return result;

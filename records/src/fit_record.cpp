@@ -36,7 +36,9 @@ std::string model_version() { return "skinspec " + std::string(kVersion); }
 
 store::Fit to_store_fit(const FitResult& result, const FitOptions& options, const std::string& tables_digest) {
   store::Fit f;
-  each_shared_value(f, result, [](auto& stored, const auto& fitted) { stored = static_cast<std::decay_t<decltype(stored)>>(fitted); });
+  each_shared_value(f, result, [](auto& stored, const auto& fitted) {
+    stored = static_cast<std::decay_t<decltype(stored)>>(fitted);
+  });
   f.options = nlohmann::json{{"site", options.site}, {"lateral_diffusion", options.lateral_diffusion}}.dump();
   f.model_version = model_version();
   f.tables_digest = tables_digest;
@@ -45,7 +47,8 @@ store::Fit to_store_fit(const FitResult& result, const FitOptions& options, cons
 
 FitResult to_fit_result(const store::Fit& fit) {
   FitResult r;
-  each_shared_value(fit, r, [](const auto& stored, auto& fitted) { fitted = static_cast<std::decay_t<decltype(fitted)>>(stored); });
+  each_shared_value(
+      fit, r, [](const auto& stored, auto& fitted) { fitted = static_cast<std::decay_t<decltype(fitted)>>(stored); });
   return r;
 }
 

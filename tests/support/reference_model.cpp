@@ -21,8 +21,7 @@ double skin_reflectance(const Layer& epidermis, const Layer& dermis, double Rs) 
 double eq1(const Coefficients& c, double epidermis_mm, double dermis_mm, const Weights& w) {
   const double K_et = c.Ke + w.melanin * c.Km;
   const double K_dt = c.Kd + w.oxyhemoglobin * c.Kh + w.deoxyhemoglobin * c.Kdh + w.bilirubin * c.Kb;
-  return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, c.Sd, dermis_mm),
-                          w.surface_reflectance);
+  return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, c.Sd, dermis_mm), w.surface_reflectance);
 }
 
 }  // namespace skinspec::testing::reference

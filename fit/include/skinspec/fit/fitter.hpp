@@ -28,7 +28,7 @@ struct FitResult {
   std::string site;
   Params params{};
   Params standard_error{};
-  double rmse = 0;           // unweighted, over the fitted samples
+  double rmse = 0;  // unweighted, over the fitted samples
   double max_abs_error = 0;
   double delta_e00_d65 = 0;  // measured against fitted, D65, 2 degree observer
   int iterations = 0;

@@ -53,7 +53,7 @@ T lateral_loss(const T& dermis_K, double dermis_S, double radius_mm) {
   using std::exp;
   using std::sqrt;
   if (radius_mm <= 0) return T(0.0);
-  const T mu_a = dermis_K / 2.0;             // K = 2 mu_a
+  const T mu_a = dermis_K / 2.0;                     // K = 2 mu_a
   const double mu_s_reduced = dermis_S * 4.0 / 3.0;  // S = 3/4 mu_s'
   const T mu_eff = sqrt(3.0 * mu_a * (mu_a + mu_s_reduced));
   const T x = radius_mm * mu_eff;
@@ -70,8 +70,7 @@ T skin_reflectance(const OpticsAt& o, const Site& site, double lateral_radius_mm
   const auto epidermis = kubelka_layer(epidermis_K, o.Se, site.epidermis_mm);
   const auto dermis = kubelka_layer(dermis_K, o.Sd, site.dermis_mm);
   const T dermis_total = dermis.r + dermis.t * dermis.t / (1.0 - dermis.r);  // Rdt, hypodermis R = 1
-  const T through_dermis =
-      epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
+  const T through_dermis = epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
   const T kept = 1.0 - lateral_loss(dermis_K, o.Sd, lateral_radius_mm);
   return (1.0 - rs) * (epidermis.r + kept * through_dermis) + rs;
 }
@@ -80,8 +79,7 @@ T skin_reflectance(const OpticsAt& o, const Site& site, double lateral_radius_mm
 class SkinModel {
  public:
   // lateral_diffusion false ignores the constants' lateral radius.
-  SkinModel(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm,
-            bool lateral_diffusion);
+  SkinModel(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm, bool lateral_diffusion);
 
   std::span<const double> grid() const { return grid_; }
   std::size_t size() const { return at_.size(); }

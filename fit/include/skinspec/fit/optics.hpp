@@ -17,9 +17,9 @@ namespace skinspec {
 // of weight 1.0 of that pigment: the reference concentrations of docs/model.md.
 struct LayerOptics {
   std::vector<double> wavelength_nm;
-  std::vector<double> Ke, Se;            // epidermis baseline absorption, epidermis scattering
-  std::vector<double> Kd, Sd;            // dermis baseline absorption, dermis scattering
-  std::vector<double> Km, Kh, Kdh, Kb;   // melanin, oxy-, deoxy-haemoglobin, bilirubin
+  std::vector<double> Ke, Se;           // epidermis baseline absorption, epidermis scattering
+  std::vector<double> Kd, Sd;           // dermis baseline absorption, dermis scattering
+  std::vector<double> Km, Kh, Kdh, Kb;  // melanin, oxy-, deoxy-haemoglobin, bilirubin
 
   // The same constants linearly interpolated onto another grid inside this one's range.
   LayerOptics resampled(std::span<const double> grid_nm) const;
@@ -48,7 +48,7 @@ class SkinOptics {
   // The model grid: 380-780 nm every 1 nm.
   static constexpr double kFirstNm = 380, kLastNm = 780;
 
-  const LayerOptics& optics() const { return optics_; }          // scattering scales applied
+  const LayerOptics& optics() const { return optics_; }  // scattering scales applied
   const ModelConstants& constants() const { return constants_; }
   std::vector<std::string> site_names() const;
   // A site with the thickness scales applied; an error listing the known sites otherwise.
