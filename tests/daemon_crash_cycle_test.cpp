@@ -67,6 +67,14 @@ bool meter_connected(unsigned short port) {
   return false;
 }
 
+// Until the job has left `queued` (it may already have ended), or 10 s have passed.
+void wait_until_started(unsigned short port, long long job) {
+  const auto until = std::chrono::steady_clock::now() + 10s;
+  while (std::chrono::steady_clock::now() < until &&
+         get_json(port, "/api/v1/jobs/" + std::to_string(job)).value("state", "") == "queued")
+    std::this_thread::sleep_for(200us);
+}
+
 // One rig's cycles: jobs submitted, the daemon killed after a seeded random delay, checked,
 // started again.
 void run_cycles(const std::string& work_dir, unsigned seed, int cycles, Tally& tally) {
@@ -81,6 +89,7 @@ void run_cycles(const std::string& work_dir, unsigned seed, int cycles, Tally& t
   std::uniform_int_distribution<int> jobs_per_cycle(1, 4);
   // A sample job takes a few milliseconds here: kills land before, inside and after jobs.
   std::uniform_int_distribution<int> delay_us(0, 30'000);
+  std::bernoulli_distribution aim_at_a_running_job(0.5);
   for (int cycle = 0; cycle < cycles; ++cycle) {
     SCOPED_TRACE("seed " + std::to_string(seed) + ", cycle " + std::to_string(cycle));
     ASSERT_TRUE(meter_connected(rig.port)) << rig.logs();
@@ -90,7 +99,14 @@ void run_cycles(const std::string& work_dir, unsigned seed, int cycles, Tally& t
       ASSERT_TRUE(accepted.contains("job_id")) << accepted << rig.logs();
       jobs.push_back(accepted["job_id"].get<long long>());
     }
-    std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random)));
+    // Every other cycle on average aims at a job at work: the kill follows the first job's
+    // start, so that a loaded machine, where jobs start late, still sees kills inside jobs.
+    if (aim_at_a_running_job(random)) {
+      wait_until_started(rig.port, jobs.front());
+      std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random) / 10));
+    } else {
+      std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random)));
+    }
     rig.daemon->send_signal(SIGKILL);
     ASSERT_EQ(rig.daemon->wait(10s).signal, SIGKILL);
 
