@@ -8,8 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <iterator>
 #include <map>
 #include <sstream>
 #include <numeric>
@@ -18,22 +16,25 @@
 
 #include <fmt/format.h>
 
+#include "support/protocol_checks.hpp"
+
 namespace skinspec::drivers::pr650 {
 namespace {
 
+using testing::duplicate_line;
+using testing::error_of;
 using ::testing::HasSubstr;
+using testing::line_start;
+using testing::line_text;
+using testing::printable;
+using testing::remove_line;
+using testing::replace_all;
+using testing::replace_line;
 using Kind = ProtocolError::Kind;
 // GoogleTest fixtures have a member named Setup, which would hide the protocol's.
 using MeterSetup = Setup;
 
-std::string transcript(const std::string& name) {
-  std::ifstream in(std::string(PR650_TEST_DATA_DIR) + "/" + name, std::ios::binary);
-  if (!in) {
-    ADD_FAILURE() << "missing test data file " << name;
-    return {};
-  }
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+std::string transcript(const std::string& name) { return testing::file_bytes(PR650_TEST_DATA_DIR, name); }
 
 const std::string& d5_a() {
   static const std::string bytes = transcript("transcript_a_d5.txt");
@@ -43,94 +44,6 @@ const std::string& d5_a() {
 const std::string& m5_b() {
   static const std::string bytes = transcript("transcript_b_m5.txt");
   return bytes;
-}
-
-std::string kind_name(Kind kind) {
-  switch (kind) {
-    case Kind::truncated:
-      return "truncated";
-    case Kind::garbled:
-      return "garbled";
-    case Kind::surplus:
-      return "surplus";
-    case Kind::wrong_count:
-      return "wrong_count";
-    case Kind::wrong_wavelength:
-      return "wrong_wavelength";
-  }
-  return "?";
-}
-
-std::string printable(std::string_view bytes) {
-  std::string out;
-  for (const char c : bytes) {
-    if (c == '\r') {
-      out += "\\r";
-    } else if (c == '\n') {
-      out += "\\n";
-    } else if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) > 0x7e) {
-      out += "\\x" + std::to_string(static_cast<unsigned char>(c));
-    } else {
-      out += c;
-    }
-  }
-  return out;
-}
-
-// The error of a reply that must be refused; fails the test when it is accepted.
-template <typename T>
-ProtocolError error_of(const std::expected<T, ProtocolError>& result, std::string_view reply) {
-  if (result) {
-    ADD_FAILURE() << "accepted: " << printable(reply.substr(0, 200));
-    return {Kind::garbled, "", 0};
-  }
-  return result.error();
-}
-
-#define EXPECT_KIND(result, reply, expected_kind)                              \
-  EXPECT_EQ(kind_name(error_of(result, reply).kind), kind_name(expected_kind)) \
-      << printable(std::string_view(reply).substr(0, 200))
-
-std::string replace_all(std::string text, std::string_view from, std::string_view to) {
-  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
-    text.replace(at, from.size(), to);
-  }
-  return text;
-}
-
-// The byte offset where 1-based reply line `line` starts (bare CRs count as line ends).
-std::size_t line_start(std::string_view reply, std::size_t line) {
-  std::size_t at = 0;
-  for (std::size_t n = 1; n < line; ++n) {
-    at = reply.find_first_of("\r\n", at);
-    at += (reply.substr(at, 2) == "\r\n") ? 2 : 1;
-  }
-  return at;
-}
-
-// Reply line `line` (1-based) without its line end.
-std::string line_text(std::string_view reply, std::size_t line) {
-  const std::size_t start = line_start(reply, line);
-  return std::string(reply.substr(start, reply.find_first_of("\r\n", start) - start));
-}
-
-std::string replace_line(std::string reply, std::size_t line, std::string_view text) {
-  const std::size_t start = line_start(reply, line);
-  reply.replace(start, reply.find_first_of("\r\n", start) - start, text);
-  return reply;
-}
-
-std::string remove_line(std::string reply, std::size_t line) {
-  const std::size_t start = line_start(reply, line);
-  reply.erase(start, line_start(reply, line + 1) - start);
-  return reply;
-}
-
-std::string duplicate_line(std::string reply, std::size_t line) {
-  const std::size_t start = line_start(reply, line);
-  const std::size_t end = line_start(reply, line + 1);
-  reply.insert(end, reply.substr(start, end - start));
-  return reply;
 }
 
 // Line numbers in a D5 reply: the header takes two, so data line i (0-based) is line i + 3.
@@ -553,7 +466,7 @@ TEST(Pr650SpectralDamage, EveryCutIsTruncatedAndNeverAccepted) {
       const std::string_view cut = std::string_view(*full).substr(0, length);
       const auto report = parse_spectral(cut);
       ASSERT_FALSE(report) << "accepted a cut at byte " << length;
-      ASSERT_EQ(kind_name(report.error().kind), "truncated") << length << ": " << report.error().message;
+      ASSERT_EQ(to_string(report.error().kind), "truncated") << length << ": " << report.error().message;
       ASSERT_FALSE(reply_complete(ReplyShape::spectral, cut)) << length;
     }
     EXPECT_TRUE(parse_spectral(std::string_view(*full).substr(0, full->size() - 1)));
@@ -564,7 +477,7 @@ TEST(Pr650SpectralDamage, CutsAtLineBoundariesNameTheMissingLine) {
   for (std::size_t lines = 0; lines < 103; ++lines) {
     const std::string cut = d5_a().substr(0, line_start(d5_a(), lines + 1));
     const auto error = error_of(parse_spectral(cut), cut);
-    EXPECT_EQ(kind_name(error.kind), "truncated") << lines;
+    EXPECT_EQ(to_string(error.kind), "truncated") << lines;
     if (lines >= 2) {
       EXPECT_EQ(error.line, lines + 1) << error.message;
       EXPECT_THAT(error.message, HasSubstr(std::to_string(lines - 2) + " of 101 data lines"));
@@ -575,7 +488,7 @@ TEST(Pr650SpectralDamage, CutsAtLineBoundariesNameTheMissingLine) {
 TEST(Pr650SpectralDamage, ALineCutShortInsideTheReplyIsTruncated) {
   const std::string reply = replace_line(d5_a(), data_line(30), "0500.,1.9");
   const auto error = error_of(parse_spectral(reply), "cut line");
-  EXPECT_EQ(kind_name(error.kind), "truncated");
+  EXPECT_EQ(to_string(error.kind), "truncated");
   EXPECT_EQ(error.line, data_line(30));
 }
 
@@ -586,7 +499,7 @@ TEST(Pr650SpectralDamage, GarbledValuesAreRefused) {
   for (const auto& value : garbled_values) {
     const std::string reply = replace_line(d5_a(), data_line(0), "0380.," + value);
     const auto error = error_of(parse_spectral(reply), value);
-    EXPECT_EQ(kind_name(error.kind), "garbled") << value << ": " << error.message;
+    EXPECT_EQ(to_string(error.kind), "garbled") << value << ": " << error.message;
     EXPECT_EQ(error.line, 3u) << value;
   }
   std::string nul = d5_a();
@@ -602,7 +515,7 @@ TEST(Pr650SpectralDamage, AFlippedWavelengthDigitIsAWrongWavelength) {
   ASSERT_EQ(reply.substr(at, 5), "0384.");
   reply[at + 3] = '5';
   const auto error = error_of(parse_spectral(reply), "0385.");
-  EXPECT_EQ(kind_name(error.kind), "wrong_wavelength");
+  EXPECT_EQ(to_string(error.kind), "wrong_wavelength");
   EXPECT_EQ(error.line, data_line(1));
   EXPECT_THAT(error.message, HasSubstr("385 nm where 384 nm should be"));
 }
@@ -618,7 +531,7 @@ TEST(Pr650SpectralDamage, EveryBitFlipInAWavelengthIsCaught) {
         ASSERT_FALSE(report) << index << "/" << digit << "/" << bit;
         const bool still_digit = reply[at + digit] >= '0' && reply[at + digit] <= '9';
         const auto expected = still_digit ? "wrong_wavelength" : "garbled";
-        ASSERT_EQ(kind_name(report.error().kind), expected) << report.error().message;
+        ASSERT_EQ(to_string(report.error().kind), expected) << report.error().message;
         ASSERT_EQ(report.error().line, data_line(index));
       }
     }
@@ -683,7 +596,7 @@ TEST(Pr650SpectralDamage, RandomGarbageRunsAreRefused) {
 TEST(Pr650SpectralDamage, WrongNumberOfDataLines) {
   const std::string missing_middle = remove_line(d5_a(), data_line(50));
   auto error = error_of(parse_spectral(missing_middle), "100 lines");
-  EXPECT_EQ(kind_name(error.kind), "wrong_count") << error.message;
+  EXPECT_EQ(to_string(error.kind), "wrong_count") << error.message;
   EXPECT_THAT(error.message, HasSubstr("100 data lines"));
   EXPECT_EQ(error.line, data_line(50));
 
@@ -691,11 +604,11 @@ TEST(Pr650SpectralDamage, WrongNumberOfDataLines) {
   EXPECT_KIND(parse_spectral(remove_line(d5_a(), data_line(100))), "no 780", Kind::truncated);
 
   error = error_of(parse_spectral(duplicate_line(d5_a(), data_line(20))), "102 lines");
-  EXPECT_EQ(kind_name(error.kind), "wrong_count") << error.message;
+  EXPECT_EQ(to_string(error.kind), "wrong_count") << error.message;
   EXPECT_THAT(error.message, HasSubstr("102 data lines"));
 
   error = error_of(parse_spectral(d5_a() + "0784.,5.900E-05\r\n"), "0784");
-  EXPECT_EQ(kind_name(error.kind), "wrong_count");
+  EXPECT_EQ(to_string(error.kind), "wrong_count");
   EXPECT_EQ(error.line, 104u);
   EXPECT_KIND(parse_spectral(duplicate_line(d5_a(), data_line(100))), "780 twice", Kind::wrong_count);
 }
@@ -706,7 +619,7 @@ TEST(Pr650SpectralDamage, WrongWavelengths) {
   const std::string second = line_text(d5_a(), data_line(11));
   const std::string swapped = replace_line(replace_line(d5_a(), data_line(10), second), data_line(11), first);
   auto error = error_of(parse_spectral(swapped), "swapped");
-  EXPECT_EQ(kind_name(error.kind), "wrong_wavelength");
+  EXPECT_EQ(to_string(error.kind), "wrong_wavelength");
   EXPECT_EQ(error.line, data_line(10));
 
   // A 2 nm grid shifted by 2 (as a PR-670 would print) from the very first line.
@@ -717,7 +630,7 @@ TEST(Pr650SpectralDamage, WrongWavelengths) {
     shifted.replace(at, 4, std::string(4 - nm.size(), '0') + nm);
   }
   error = error_of(parse_spectral(shifted), "shifted");
-  EXPECT_EQ(kind_name(error.kind), "wrong_wavelength");
+  EXPECT_EQ(to_string(error.kind), "wrong_wavelength");
   EXPECT_EQ(error.line, 3u);
 }
 
@@ -725,7 +638,7 @@ TEST(Pr650SpectralDamage, TrailingGarbageIsSurplus) {
   for (const std::string& tail :
        {std::string("xyz\r\n"), std::string("00"), std::string("\r\n0380."), std::string("000\r\n")}) {
     const auto error = error_of(parse_spectral(d5_a() + tail), tail);
-    EXPECT_EQ(kind_name(error.kind), "surplus") << printable(tail);
+    EXPECT_EQ(to_string(error.kind), "surplus") << printable(tail);
     EXPECT_GE(error.line, 104u);
   }
 }

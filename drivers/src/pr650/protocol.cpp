@@ -3,13 +3,12 @@
 
 #include "skinspec/drivers/pr650_protocol.hpp"
 
-#include <algorithm>
 #include <cctype>
 #include <utility>
 
 #include <fmt/format.h>
 
-#include "pr650/protocol_text.hpp"
+#include "common/text.hpp"
 
 namespace skinspec::drivers::pr650 {
 
@@ -74,44 +73,6 @@ std::string format_sync(const Setup& setup) {
       return format_frequency(setup.sync_hz);
   }
   return "";
-}
-
-bool equal_ignoring_case(char a, char b) {
-  return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
-}
-
-// Whether `text` starts with `prefix`, ignoring case (the meter may echo in either case).
-bool starts_with_ignoring_case(std::string_view text, std::string_view prefix) {
-  return text.size() >= prefix.size() && std::equal(prefix.begin(), prefix.end(), text.begin(), equal_ignoring_case);
-}
-
-std::string_view drop_leading_prompts(std::string_view text) {
-  while (!text.empty() && detail::is_prompt_or_blank(text.front())) text.remove_prefix(1);
-  return text;
-}
-
-std::string_view drop_trailing_prompts(std::string_view text) {
-  while (!text.empty() && detail::is_prompt_or_blank(text.back())) text.remove_suffix(1);
-  return text;
-}
-
-// Where the `enough`th line that holds something other than blanks and prompts ends (past a
-// CR LF pair), or 0 before then. Every CR and every LF ends a line (a CR LF pair ends one);
-// empty lines do not count.
-std::size_t end_of_ended_lines(std::string_view received, int enough) {
-  int ended = 0;
-  bool has_content = false;
-  for (std::size_t i = 0; i < received.size(); ++i) {
-    const char c = received[i];
-    if (detail::is_line_end(c)) {
-      if (has_content && ++ended >= enough)
-        return i + (c == '\r' && i + 1 < received.size() && received[i + 1] == '\n' ? 2 : 1);
-      has_content = false;
-    } else if (!detail::is_prompt_or_blank(c)) {
-      has_content = true;
-    }
-  }
-  return 0;
 }
 
 }  // namespace
@@ -191,28 +152,13 @@ ReplyShape reply_shape_of_report(int report) { return report == 5 ? ReplyShape::
 std::size_t reply_size(ReplyShape shape, std::string_view received) {
   // A spectral report is its header (one line with a bare CR inside, or two lines: either
   // way two line ends) and 101 data lines. Anything else is one line.
-  return end_of_ended_lines(received, shape == ReplyShape::spectral ? 2 + kSpectralPoints : 1);
+  return detail::end_of_content_lines(received, shape == ReplyShape::spectral ? 2 + kSpectralPoints : 1);
 }
 
 bool reply_complete(ReplyShape shape, std::string_view received) { return reply_size(shape, received) > 0; }
 
 std::string_view strip_echo(std::string_view reply, std::string_view command) {
-  while (!command.empty() && detail::is_line_end(command.back())) command.remove_suffix(1);
-  std::string_view rest = drop_leading_prompts(reply);
-  if (!command.empty() && starts_with_ignoring_case(rest, command)) {
-    rest.remove_prefix(command.size());
-    // The echoed terminator: whatever was sent, or the CR LF the meter may turn it into.
-    if (rest.starts_with("\r\n")) {
-      rest.remove_prefix(2);
-    } else if (!rest.empty() && detail::is_line_end(rest.front())) {
-      rest.remove_prefix(1);
-    }
-  } else if (!command.empty() && starts_with_ignoring_case(command, rest)) {
-    // Only part of the echo has arrived so far: there is no reply yet. Every known reply
-    // starts with a digit while every command starts with a letter, so no reply is eaten.
-    return rest.substr(rest.size());
-  }
-  return drop_trailing_prompts(rest);
+  return detail::strip_echo(reply, command);
 }
 
 }  // namespace skinspec::drivers::pr650

@@ -9,157 +9,71 @@
 
 #include <fmt/format.h>
 
-#include "pr650/protocol_text.hpp"
+#include "common/text.hpp"
 #include "skinspec/drivers/pr650_protocol.hpp"
 
 namespace skinspec::drivers::pr650 {
 
 namespace {
 
+using detail::fail;
 using detail::Line;
 using detail::LineSplitter;
 using detail::Match;
 using detail::quoted;
 using Kind = ProtocolError::Kind;
 
-std::unexpected<ProtocolError> fail(Kind kind, std::size_t line, std::string_view message) {
-  return std::unexpected(detail::make_error(kind, line, message));
-}
-
-// ---- Lines around a reply ---------------------------------------------------------------
-
-// The first line of a reply that holds more than blanks and prompts.
-std::expected<Line, ProtocolError> first_line(std::string_view reply, LineSplitter& lines) {
-  if (auto line = lines.next_content()) return *line;
-  if (reply.find_first_of("\r\n") == std::string_view::npos) {
-    return fail(Kind::truncated, 0, "the reply is empty");
-  }
-  return fail(Kind::garbled, 0, "the reply holds only blank lines and prompts");
-}
-
-// After a reply's last line only blank lines and '>' prompts may follow.
-std::optional<ProtocolError> check_tail(LineSplitter& lines) {
-  while (auto line = lines.next()) {
-    if (!detail::is_prompt_or_blank(line->text)) {
-      return detail::make_error(Kind::surplus, line->number, "unexpected bytes after the reply: " + quoted(line->text));
-    }
-  }
-  return std::nullopt;
-}
-
-// A one-line reply must end with its line end and have nothing but noise after it.
-std::optional<ProtocolError> check_end(const Line& line, LineSplitter& rest) {
-  if (!line.terminated) {
-    return detail::make_error(Kind::truncated, line.number, "the reply has no line end");
-  }
-  return check_tail(rest);
-}
+// A data line of the spectral report: wavelength and value.
+constexpr std::string_view kDataLineTemplate = "dddd.,d.dddxsdd";  // 0380.,5.882E-05
 
 // ---- Comma-separated fields -------------------------------------------------------------
 
-enum class FieldKind { quality, units, value, chromaticity, integer, number, signed_number };
+using detail::check_end;
+using detail::check_tail;
+using detail::FieldSpec;
+using detail::first_line;
 
-struct FieldSpec {
-  FieldKind kind;
-  const char* name;
-};
+Match match_quality(std::string_view text) { return detail::match_template(text, "dd"); }
 
-bool all_digits(std::string_view text) {
-  for (const char c : text) {
-    if (c < '0' || c > '9') return false;
-  }
-  return true;
+// 0 radiance or luminance, 1 irradiance or illuminance, 2 uncalibrated.
+Match match_units(std::string_view text) {
+  const Match match = detail::match_template(text, "d");
+  return match == Match::full && text[0] > '2' ? Match::mismatch : match;
 }
 
-Match match_field(FieldKind kind, std::string_view text) {
-  switch (kind) {
-    case FieldKind::quality:
-      return detail::match_template(text, "dd");
-    case FieldKind::units:
-      return detail::match_template(text, "d");
-    case FieldKind::value:
-      return detail::match_template(text, detail::kValueTemplate);
-    case FieldKind::chromaticity:
-      return detail::match_chromaticity(text);
-    case FieldKind::integer:
-      if (!all_digits(text) || text.size() > 9) return Match::mismatch;
-      return text.empty() ? Match::prefix : Match::full;
-    case FieldKind::number:
-      return detail::match_decimal(text, false);
-    case FieldKind::signed_number:
-      return detail::match_decimal(text, true);
-  }
-  return Match::mismatch;
+Match match_value(std::string_view text) { return detail::match_template(text, detail::kValueTemplate); }
+
+Match match_integer(std::string_view text) {
+  if (!detail::all_digits(text) || text.size() > 9) return Match::mismatch;
+  return text.empty() ? Match::prefix : Match::full;
 }
 
-std::vector<std::string_view> split_fields(std::string_view text) {
-  std::vector<std::string_view> fields;
-  for (;;) {
-    const auto comma = text.find(',');
-    fields.push_back(text.substr(0, comma));
-    if (comma == std::string_view::npos) return fields;
-    text.remove_prefix(comma + 1);
-  }
-}
-
-// Checks one field. A field that could still be completed is cut short when nothing follows
-// it on the line; in the middle of a line a short field is a wrong one.
-std::optional<ProtocolError> check_field(const FieldSpec& spec, std::string_view text, std::size_t index, bool last,
-                                         const Line& line) {
-  const Match match = match_field(spec.kind, text);
-  if (match == Match::prefix && last) {
-    return detail::make_error(Kind::truncated, line.number,
-                              fmt::format("field {} ({}) is cut short: {}", index + 1, spec.name, quoted(text)));
-  }
-  if (match != Match::full) {
-    return detail::make_error(Kind::garbled, line.number,
-                              fmt::format("field {} is not a {}: {}", index + 1, spec.name, quoted(text)));
-  }
-  return std::nullopt;
-}
-
-// The number in a field that matched its layout; nothing when it does not fit a double.
-std::optional<double> field_number(FieldKind kind, std::string_view text) {
-  if (kind == FieldKind::quality || kind == FieldKind::units || kind == FieldKind::integer) {
-    return detail::digits_value(text);
-  }
-  return detail::to_double(text);
-}
+Match match_number(std::string_view text) { return detail::match_decimal(text, false); }
+Match match_signed_number(std::string_view text) { return detail::match_decimal(text, true); }
 
 // The numbers of a line made of exactly the fields in `specs`.
 std::expected<std::vector<double>, ProtocolError> parse_fields(const Line& line, std::span<const FieldSpec> specs) {
-  const auto fields = split_fields(line.text);
+  const auto fields = detail::match_fields(line, specs);
+  if (!fields) return std::unexpected(fields.error());
   std::vector<double> numbers;
   numbers.reserve(specs.size());
-  for (std::size_t i = 0; i < specs.size(); ++i) {
-    if (i >= fields.size()) {
-      return fail(Kind::truncated, line.number,
-                  fmt::format("{} of {} fields: {}", fields.size(), specs.size(), quoted(line.text)));
-    }
-    const bool last = i + 1 == fields.size();
-    if (auto error = check_field(specs[i], fields[i], i, last, line)) return std::unexpected(*error);
-    const auto number = field_number(specs[i].kind, fields[i]);
+  for (std::size_t i = 0; i < fields->size(); ++i) {
+    const auto number = detail::to_double((*fields)[i]);
     if (!number) {
-      return fail(Kind::garbled, line.number, fmt::format("field {} is out of range: {}", i + 1, quoted(fields[i])));
-    }
-    if (specs[i].kind == FieldKind::units && *number > 2) {
-      return fail(Kind::garbled, line.number, fmt::format("units code {} is not 0, 1 or 2", quoted(fields[i])));
+      return fail(Kind::garbled, line.number, fmt::format("field {} is out of range: {}", i + 1, quoted((*fields)[i])));
     }
     numbers.push_back(*number);
-  }
-  if (fields.size() > specs.size()) {
-    return fail(Kind::surplus, line.number, fmt::format("more than {} fields: {}", specs.size(), quoted(line.text)));
   }
   return numbers;
 }
 
-constexpr FieldSpec kQuality{FieldKind::quality, "two-digit quality code"};
-constexpr FieldSpec kUnits{FieldKind::units, "units code"};
-constexpr FieldSpec kValue{FieldKind::value, "value such as 5.882E-05"};
-constexpr FieldSpec kChromaticity{FieldKind::chromaticity, "chromaticity such as .3355"};
-constexpr FieldSpec kNumber{FieldKind::number, "number"};
-constexpr FieldSpec kSignedNumber{FieldKind::signed_number, "signed number"};
-constexpr FieldSpec kInteger{FieldKind::integer, "whole number"};
+constexpr FieldSpec kQuality{match_quality, "two-digit quality code"};
+constexpr FieldSpec kUnits{match_units, "units code 0, 1 or 2"};
+constexpr FieldSpec kValue{match_value, "value such as 5.882E-05"};
+constexpr FieldSpec kChromaticity{detail::match_chromaticity, "chromaticity such as .3355"};
+constexpr FieldSpec kNumber{match_number, "number"};
+constexpr FieldSpec kSignedNumber{match_signed_number, "signed number"};
+constexpr FieldSpec kInteger{match_integer, "whole number"};
 
 constexpr std::array kReport1{kQuality, kUnits, kValue, kChromaticity, kChromaticity};
 constexpr std::array kReport2{kQuality, kUnits, kValue, kValue, kValue};
@@ -193,7 +107,7 @@ struct DataPoint {
 };
 
 std::expected<DataPoint, ProtocolError> parse_data_line(const Line& line) {
-  switch (detail::match_template(line.text, detail::kDataLineTemplate)) {
+  switch (detail::match_template(line.text, kDataLineTemplate)) {
     case Match::full:
       break;
     case Match::prefix:
@@ -215,7 +129,7 @@ std::optional<int> count_if_ending_at_last(LineSplitter rest, int lines_so_far) 
   int count = lines_so_far;
   int last_nm = -1;
   while (auto line = rest.next_non_empty()) {
-    if (detail::match_template(line->text, detail::kDataLineTemplate) != Match::full) {
+    if (detail::match_template(line->text, kDataLineTemplate) != Match::full) {
       if (!detail::is_prompt_or_blank(line->text)) return std::nullopt;
       continue;
     }
@@ -284,7 +198,7 @@ std::optional<ProtocolError> parse_spectral_data(LineSplitter& lines, SpectralRe
 std::optional<ProtocolError> check_spectral_tail(LineSplitter& lines) {
   while (auto line = lines.next()) {
     if (detail::is_prompt_or_blank(line->text)) continue;
-    if (detail::match_template(line->text, detail::kDataLineTemplate) == Match::full) {
+    if (detail::match_template(line->text, kDataLineTemplate) == Match::full) {
       return detail::make_error(Kind::wrong_count, line->number,
                                 fmt::format("more than {} data lines", kSpectralPoints));
     }
@@ -302,7 +216,7 @@ std::expected<int, ProtocolError> parse_status(std::string_view reply) {
   if (!line) return std::unexpected(line.error());
   // "000", "00" and "0" are all in use. Unlike other replies a missing line end is accepted:
   // a status cut short still reads the same.
-  if (line->text.size() > 3 || !all_digits(line->text)) {
+  if (line->text.size() > 3 || !detail::all_digits(line->text)) {
     return fail(Kind::garbled, line->number, "expected a status such as \"000\", got " + quoted(line->text));
   }
   if (auto error = check_tail(lines)) return std::unexpected(*error);
@@ -313,7 +227,7 @@ std::expected<int, ProtocolError> parse_setup_reply(std::string_view reply) {
   LineSplitter lines(reply);
   const auto line = first_line(reply, lines);
   if (!line) return std::unexpected(line.error());
-  if (line->text.size() > 2 || !all_digits(line->text)) {
+  if (line->text.size() > 2 || !detail::all_digits(line->text)) {
     return fail(Kind::garbled, line->number, "expected a setup reply such as \"00\", got " + quoted(line->text));
   }
   if (auto error = check_end(*line, lines)) return std::unexpected(*error);
@@ -370,10 +284,8 @@ std::expected<std::string, ProtocolError> parse_serial_number(std::string_view r
   LineSplitter lines(reply);
   const auto line = first_line(reply, lines);
   if (!line) return std::unexpected(line.error());
-  for (const char c : line->text) {
-    if (c < 0x20 || c > 0x7e) {
-      return fail(Kind::garbled, line->number, "the serial number holds a non-printable byte: " + quoted(line->text));
-    }
+  if (!detail::is_printable(line->text)) {
+    return fail(Kind::garbled, line->number, "the serial number holds a non-printable byte: " + quoted(line->text));
   }
   std::string_view serial = line->text.substr(0, kSerialLength);
   const std::string_view after = line->text.substr(serial.size());

@@ -6,12 +6,13 @@
 // 'E' or 'e' exponents, CR, LF or CRLF line ends, echo of the command with a '>' prompt.
 
 #include <array>
-#include <cstddef>
 #include <expected>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "skinspec/drivers/protocol_error.hpp"
 
 namespace skinspec::drivers::pr650 {
 
@@ -55,18 +56,7 @@ std::string format_report(int report, const CommandStyle& style = {});         /
 
 // ---- Replies ------------------------------------------------------------------------------
 
-struct ProtocolError {
-  enum class Kind {
-    truncated,         // the reply stopped before it was complete
-    garbled,           // bytes that cannot be what the meter sends
-    surplus,           // more than the reply should hold
-    wrong_count,       // a spectral report without exactly 101 data lines
-    wrong_wavelength,  // a data line for an unexpected wavelength
-  };
-  Kind kind;
-  std::string message;
-  std::size_t line = 0;  // 1-based line of the reply at fault, 0 when the whole reply is
-};
+using ProtocolError = drivers::ProtocolError;
 
 // How a reply ends, so that a reader knows when it has all of it.
 enum class ReplyShape { line, spectral };
