@@ -121,12 +121,13 @@ std::optional<Supervisor::Outcome> Supervisor::derive_sample(const store::Sessio
   const auto fit_started = Clock::now();
   auto spectrum = Spectrum::create(m.reflectance.wavelength_nm, m.reflectance.values);
   FitOptions fit_options;
+  fit_options.model = api::kServiceModel;
   fit_options.site = session.site;
   if (spectrum) {
     auto result = fitter_.fit(*spectrum, fit_options);
     if (result)
       fit = api::stored_fit(*result, {{"site", fit_options.site}, {"lateral_diffusion", fit_options.lateral_diffusion}},
-                            "skinspecd " + version_, fitter_.optics().tables_digest());
+                            "skinspecd " + version_, fitter_.optics(api::kServiceModel).tables_digest());
     else
       m.warnings.push_back("fit_failed: " + result.error());
   } else {

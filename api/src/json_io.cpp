@@ -168,11 +168,10 @@ json to_json(const store::RejectedReading& r) {
 
 json to_json(const store::Fit& f) {
   FitResult r;
+  r.model = kServiceModel;
   r.site = f.site;
-  for (std::size_t i = 0; i < store::kFitParamCount; ++i) {
-    r.params[i] = f.params[i];
-    r.standard_error[i] = f.standard_error[i];
-  }
+  r.params.assign(f.params.begin(), f.params.end());
+  r.standard_error.assign(f.standard_error.begin(), f.standard_error.end());
   r.rmse = f.rmse;
   r.max_abs_error = f.max_abs_error;
   r.delta_e00_d65 = f.delta_e00_d65;

@@ -52,7 +52,7 @@ struct Router::Handlers {
     if (!call.query.empty()) fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + call.query.begin()->first + "'");
   }
   static std::string checked_site(const RouterContext& c, const std::string& site) {
-    if (auto known = fitter_of(c).optics().site(site); !known) fail(ErrorKind::unprocessable, "unknown_site", known.error());
+    if (auto known = fitter_of(c).optics(kServiceModel).site(site); !known) fail(ErrorKind::unprocessable, "unknown_site", known.error());
     return site;
   }
 
@@ -169,6 +169,7 @@ struct Router::Handlers {
     const json body = detail::parse_object(call.request.body);
     detail::only_fields(body, {"wavelength_nm", "reflectance", "spectra", "site", "name", "lateral_diffusion"});
     FitOptions options;
+    options.model = kServiceModel;
     options.site = detail::optional_string(body, "site", 64).value_or("forearm");
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
     checked_site(c, options.site);
@@ -360,8 +361,8 @@ struct Router::Handlers {
   static Response sites(const RouterContext& c, const Call& call) {
     no_query(call);
     json list = json::array();
-    for (const auto& name : fitter_of(c).optics().site_names()) {
-      const auto site = fitter_of(c).optics().site(name);
+    for (const auto& name : fitter_of(c).optics(kServiceModel).site_names()) {
+      const auto site = fitter_of(c).optics(kServiceModel).site(name);
       if (site) list.push_back({{"name", site->name}, {"epidermis_mm", site->epidermis_mm}, {"dermis_mm", site->dermis_mm}});
     }
     return json_response({{"sites", list}});
@@ -377,13 +378,14 @@ struct Router::Handlers {
     const auto m = value(db.measurement(call.ids[0]));
     if (m.reflectance.empty()) fail(ErrorKind::conflict, "no_reflectance", "measurement " + std::to_string(m.id) + " has no reflectance to fit");
     FitOptions options;
+    options.model = kServiceModel;
     options.site = detail::optional_string(body, "site", 64).value_or("");
     if (options.site.empty()) options.site = value(db.session(m.session_id)).site;
     checked_site(c, options.site);
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
     const auto result = run_fit(c, make_spectrum(m.reflectance.wavelength_nm, m.reflectance.values, "reflectance"), options);
     store::Fit f = detail::to_store_fit(result, {{"site", options.site}, {"lateral_diffusion", options.lateral_diffusion}},
-                                        "skinspecd " + c.version, fitter_of(c).optics().tables_digest());
+                                        "skinspecd " + c.version, fitter_of(c).optics(kServiceModel).tables_digest());
     f.measurement_id = m.id;
     const store::Id id = value(db.add_fit(f));
     Response r = json_response(detail::to_json(value(db.fit(id))), 201);

@@ -9,11 +9,15 @@
 
 namespace skinspec {
 
-// Fields of `skinspec fit`: name, site, params, stderr, rmse, max_abs_error, delta_e00_d65,
-// iterations, converged, wavelength_nm, measured, fitted. An unbounded standard error (a
-// parameter the spectrum cannot determine) is null.
+// Fields of `skinspec fit`: name, model, site, params, stderr, rmse, max_abs_error,
+// delta_e00_d65, iterations, converged, samples_ignored, wavelength_nm, measured, fitted; and,
+// for a fit that judged its parameters, determination, derived (oxygen_saturation,
+// blood_volume_fraction) and correlation; note when the spectrum covered less than the model's
+// range. A standard error is null where the spectrum does not determine the parameter, and
+// determination says why.
 nlohmann::json fit_to_json(std::string_view name, const FitResult& fit);
 
-nlohmann::json params_to_json(const Params& params);
+// {name: value} in the model's parameter order; non-finite values are null.
+nlohmann::json params_to_json(ModelKind model, const Params& params);
 
 }  // namespace skinspec

@@ -61,6 +61,9 @@ class Acquisition {
   virtual void wake_waiters() const = 0;
 };
 
+// The model the service fits with: the store keeps the paper's five parameters of a fit.
+inline constexpr ModelKind kServiceModel = ModelKind::paper;
+
 // A fit result as the store keeps it, with the options, program version and tables digest.
 store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
                       const std::string& tables_digest);
