@@ -22,10 +22,12 @@ struct FitArgs {
   std::string format = "json";
 };
 
-// "4.2 ± 0.3", or "n.d." where the spectrum does not determine the parameter.
-std::string with_error(double value, double error, bool determined) {
-  if (!determined) return "n.d.";
-  return std::isfinite(error) ? fmt::format("{:.4g} ± {:.2g}", value, error) : fmt::format("{:.4g} ± ?", value);
+// "4.2 ± 0.3"; "1.3 held" for a parameter held at a value; "n.d." where the spectrum does not
+// determine it.
+std::string with_error(double value, double error, const ParamDetermination& d) {
+  if (d.status == Determination::held) return fmt::format("{:.4g} held", value);
+  if (!d.determined()) return "n.d.";
+  return fmt::format("{:.4g} ± {:.2g}", value, error);
 }
 
 // A human-readable table: one row per spectrum, a column per parameter of the model.
@@ -39,7 +41,7 @@ void print_table(ModelKind model, const std::vector<NamedSpectrum>& spectra,
     const FitResult& r = *results[i];
     std::cout << fmt::format("{:<14} ", spectra[i].name);
     for (std::size_t p = 0; p < params.size(); ++p)
-      std::cout << fmt::format("{:<{}} ", with_error(r.params[p], r.standard_error[p], r.determination[p].determined()),
+      std::cout << fmt::format("{:<{}} ", with_error(r.params[p], r.standard_error[p], r.determination[p]),
                                std::max<std::size_t>(16, params[p].name.size()));
     std::cout << fmt::format("{:>7.4f} {:>6.2f} {}\n", r.rmse, r.delta_e00_d65, r.converged ? "yes" : "no");
   }
