@@ -33,7 +33,7 @@ std::int64_t now_us() {
 }
 
 struct Sample {
-  double overhead_ms = 0, derive_and_store_ms = 0, fit_ms = 0, store_ms = 0;
+  double overhead_ms = 0, derive_ms = 0, fit_ms = 0;
 };
 
 double percentile(std::vector<double> values, double p) {
@@ -86,13 +86,12 @@ int main(int argc, char** argv) {
     const auto visible = now_us();
     const auto& timing = job["result"]["timing"];
     samples.push_back({static_cast<double>(visible - timing["reply_received_at_us"].get<std::int64_t>()) / 1000.0,
-                       timing["derive_and_store_ms"].get<double>(), timing["fit_ms"].get<double>(), timing["store_ms"].get<double>()});
+                       timing["derive_ms"].get<double>(), timing["fit_ms"].get<double>()});
   }
   std::printf("%d sample jobs, one at a time (skinspec-sim at time scale 0, loopback)\n", jobs);
   report("reply -> fit visible through the API", samples, &Sample::overhead_ms);
-  report("  of which reflectance, fit and store", samples, &Sample::derive_and_store_ms);
+  report("  of which reflectance and fit", samples, &Sample::derive_ms);
   report("  of which the fit", samples, &Sample::fit_ms);
-  report("  of which the store transaction", samples, &Sample::store_ms);
   std::printf("goal: median <= 10 ms: %s\n", percentile([&] {
     std::vector<double> v;
     for (const auto& s : samples) v.push_back(s.overhead_ms);

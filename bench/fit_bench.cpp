@@ -10,7 +10,7 @@
 
 #include "fitter_loader.hpp"
 #include "skinspec/fit/fitter.hpp"
-#include "skinspec/fit/parallel.hpp"
+#include "skinspec/spectral/parallel.hpp"
 
 namespace skinspec {
 namespace {

@@ -57,11 +57,32 @@ Spectrum illuminant_from(const std::string& name) {
 CLI::Validator finite_range(double min, double max) {
   const auto check = [min, max](std::string& text) -> std::string {
     double value = 0;
-    if (!CLI::detail::lexical_cast(text, value)) return "'" + text + "' is not a number";
+    if (!CLI::detail::lexical_cast(text, value)) return quote(text) + " is not a number";
     if (value >= min && value <= max) return {};
-    return fmt::format("must be a number in [{}, {}], not {}", min, max, text);
+    return fmt::format("must be a number in [{}, {}], not {}", min, max, printable(text));
   };
   return CLI::Validator(check, fmt::format("FLOAT in [{} - {}]", min, max));
+}
+
+CLI::Validator utf8_text() {
+  const auto check = [](std::string& text) -> std::string {
+    const auto defect = utf8::first_defect(text);
+    if (!defect) return {};
+    return fmt::format("{} is not UTF-8 text (at byte {})", quote(text), defect->offset + 1);
+  };
+  return CLI::Validator(check, "TEXT");
+}
+
+std::string printable_message(std::string_view message) {
+  std::string out;
+  for (std::size_t start = 0; start <= message.size();) {
+    const auto end = std::min(message.find('\n', start), message.size());
+    out += printable(message.substr(start, end - start));
+    if (end == message.size()) break;
+    out += '\n';
+    start = end + 1;
+  }
+  return out;
 }
 
 const Fitter& fitter() {

@@ -7,10 +7,12 @@
 #include <vector>
 
 #include "skinspec/fit/fitter.hpp"
-#include "skinspec/fit/spectra_csv.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec::cli {
 
+// kFailure: skinspec itself failed (no memory, standard output unwritable, a defect of ours);
 // kInstrumentError is also a measurement job of skinspecd that failed or was cancelled;
 // kUnreachable: skinspecd could not be reached (or went away mid-answer).
 enum ExitStatus : int { kOk = 0, kFailure = 1, kBadInput = 2, kInstrumentError = 3, kUnreachable = 4 };
@@ -32,6 +34,11 @@ Spectrum illuminant_from(const std::string& name);
 
 // Like CLI::Range, but NaN is refused as well.
 CLI::Validator finite_range(double min, double max);
+// Text that is sent on or printed as text (a subject, a label): it must be UTF-8.
+CLI::Validator utf8_text();
+
+// A message as it may reach the terminal: every line of it through printable().
+std::string printable_message(std::string_view message);
 
 // The model tables and colorimetry from the data directory (loaded once per process).
 const Fitter& fitter();
@@ -42,7 +49,7 @@ CLI::Option* add_site_option(CLI::App& app, std::string& site);
 void add_fit_command(CLI::App& app);
 void add_model_command(CLI::App& app);
 void add_optics_command(CLI::App& app);
-void add_color_command(CLI::App& app);
+void add_colour_command(CLI::App& app);
 void add_tune_command(CLI::App& app);
 void add_ports_command(CLI::App& app);
 void add_measure_command(CLI::App& app);

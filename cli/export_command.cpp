@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "common.hpp"
-#include "skinspec/store/export.hpp"
+#include "skinspec/records/export.hpp"
 
 namespace skinspec::cli {
 
@@ -16,45 +16,43 @@ struct ExportArgs {
   std::string format = "json";
 };
 
-// What the user can fix (the path, the file, the session id) is bad input; the rest a failure.
-Failure store_failure(const store::StoreError& error) {
-  using Kind = store::StoreError::Kind;
-  switch (error.kind) {
-    case Kind::not_found:
-    case Kind::corrupt:
-    case Kind::newer_schema:
-    case Kind::invalid_argument: return Failure{kBadInput, error.message};
-    default: return Failure{kFailure, error.message};
-  }
+// Whatever the store reports (a missing, foreign, damaged, newer or older file, an unknown
+// session, a read that fails) is about the file the user named: bad input, naming it.
+Failure store_failure(const std::string& path, const store::StoreError& error) {
+  const bool names_the_file = error.message.find(path) != std::string::npos;
+  return Failure{kBadInput, names_the_file ? error.message : path + ": " + error.message};
 }
 
+// Only reads: a file that is not a current skinspec database is refused, never converted.
 store::Store open_for_export(const std::string& path) {
   store::OpenOptions options;
-  options.read_only = true;  // never changes the file, and runs beside a live skinspecd
+  options.mode = store::OpenMode::read_only;
   auto opened = store::Store::open(path, options);
-  if (!opened && opened.error().kind == store::StoreError::Kind::older_schema) {
-    // Written by an older skinspec: migrating it forward is what any writer would do first.
-    opened = store::Store::open(path);
-  }
-  if (!opened) throw store_failure(opened.error());
+  if (!opened) throw store_failure(path, opened.error());
   return std::move(*opened);
 }
 
-void run_export(const ExportArgs& args) {
-  const auto format = args.format == "csv" ? store::ExportFormat::csv : store::ExportFormat::json;
-  const auto db = open_for_export(args.db);
+// The whole export, held back until complete: a failure part way prints nothing on stdout.
+std::string exported(const store::Store& db, const ExportArgs& args) {
+  const auto format = args.format == "csv" ? records::ExportFormat::csv : records::ExportFormat::json;
+  std::ostringstream out;
   store::Result<void> written;
   if (args.session) {
-    // Held back until complete, so that an unknown session prints nothing on stdout.
-    std::ostringstream out;
-    if (format == store::ExportFormat::csv) store::write_csv_header(out);
-    written = store::export_session(db, *args.session, format, out);
-    if (written) std::cout << out.view();
+    if (format == records::ExportFormat::csv) records::write_csv_header(out);
+    written = records::export_session(db, *args.session, format, out);
   } else {
-    written = store::export_all(db, format, std::cout);
+    written = records::export_all(db, format, out);
   }
-  if (!written) throw store_failure(written.error());
+  if (!written) throw store_failure(args.db, written.error());
+  return std::move(out).str();
+}
+
+void run_export(const ExportArgs& args) {
+  const auto db = open_for_export(args.db);
+  const auto text = exported(db, args);
+  std::cout << text;
   std::cout.flush();
+  if (!std::cout) throw Failure{kFailure, "cannot write to standard output"};
 }
 
 }  // namespace
@@ -62,7 +60,7 @@ void run_export(const ExportArgs& args) {
 void add_export_command(CLI::App& app) {
   auto args = std::make_shared<ExportArgs>();
   auto* command = app.add_subcommand("export", "write the stored spectra and fits of one session or all");
-  command->add_option("--db", args->db, "the skinspec database file")->required();
+  command->add_option("--db", args->db, "the skinspec database file (only read)")->required();
   command->add_option("--session", args->session, "the session id (default: every session)");
   command->add_option("--format", args->format, "csv (one row per wavelength) or json (one line per session)")
       ->check(CLI::IsMember({"csv", "json"}))

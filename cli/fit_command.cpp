@@ -7,7 +7,7 @@
 #include "common.hpp"
 #include "fit_json.hpp"
 #include "model_options.hpp"
-#include "skinspec/fit/parallel.hpp"
+#include "skinspec/spectral/parallel.hpp"
 
 namespace skinspec::cli {
 
@@ -39,7 +39,7 @@ void print_table(ModelKind model, const std::vector<NamedSpectrum>& spectra,
   std::cout << fmt::format("{:>7} {:>6} {}\n", "rmse", "dE00", "converged");
   for (std::size_t i = 0; i < results.size(); ++i) {
     const FitResult& r = *results[i];
-    std::cout << fmt::format("{:<14} ", spectra[i].name);
+    std::cout << fmt::format("{:<14} ", printable(spectra[i].name));
     for (std::size_t p = 0; p < params.size(); ++p)
       std::cout << fmt::format("{:<{}} ", with_error(r.params[p], r.standard_error[p], r.determination[p]),
                                std::max<std::size_t>(16, params[p].name.size()));
@@ -67,7 +67,7 @@ void run_fit(const FitArgs& args) {
   // Refuse the whole file before printing anything, so a failure never leaves partial output.
   for (std::size_t i = 0; i < results.size(); ++i)
     if (!results[i])
-      throw Failure{kBadInput, input_name(args.file) + ": column '" + spectra[i].name + "': " + results[i].error()};
+      throw Failure{kBadInput, input_name(args.file) + ": column " + quote(spectra[i].name) + ": " + results[i].error()};
   if (args.format == "table") {
     print_table(args.model, spectra, results);
   } else {

@@ -110,7 +110,7 @@ void dispatch_events(std::string& pending, const std::function<void(const std::s
 
 ServerUrl parse_server_url(const std::string& text) {
   const std::string scheme = "http://";
-  const auto bad = [&](const std::string& why) { return Failure{kBadInput, "--server '" + text + "': " + why}; };
+  const auto bad = [&](const std::string& why) { return Failure{kBadInput, "--server " + quote(text) + ": " + why}; };
   if (text.rfind(scheme, 0) != 0) throw bad("expected http://HOST[:PORT][/PREFIX]");
   ServerUrl url;
   url.text = text;

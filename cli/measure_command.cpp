@@ -30,7 +30,7 @@ int parse_integration(const std::string& text) {
   int ms = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), ms);
   if (ec != std::errc() || end != text.data() + text.size() || ms < 10 || ms > 6000)
-    throw Failure{kBadInput, "--integration-ms '" + text + "': expected 10-6000 or 'adaptive'"};
+    throw Failure{kBadInput, "--integration-ms " + quote(text) + ": expected 10-6000 or 'adaptive'"};
   return ms;
 }
 
@@ -47,6 +47,7 @@ nlohmann::json reading_json(const drivers::Reading& r) {
           {"XYZ", r.xyz},                     {"serial", r.serial_number},
           {"integration_ms", r.integration_ms}, {"averages", r.averages},
           {"sync", r.sync},                   {"attempts", r.attempts},
+          {"warnings", r.warnings},
           {"started", unix_seconds(r.started)}, {"finished", unix_seconds(r.finished)}};
 }
 
@@ -57,7 +58,7 @@ Failure instrument_failure(const InstrumentError& e) {
 void run_measure(const MeasureArgs& args) {
   const int integration = parse_integration(args.integration);
   auto uri = drivers::parse_connection_uri(args.device);
-  if (!uri) throw Failure{kBadInput, "--device '" + args.device + "': " + uri.error()};
+  if (!uri) throw Failure{kBadInput, "--device " + quote(args.device) + ": " + uri.error()};
   auto transport = drivers::make_transport(*uri);
   if (!transport) throw Failure{kInstrumentError, transport.error()};
   drivers::DriverOptions options;
@@ -73,6 +74,7 @@ void run_measure(const MeasureArgs& args) {
   for (int i = 0; i < args.count; ++i) {
     auto reading = meter.measure(measure);
     if (!reading) throw instrument_failure(reading.error());
+    for (const auto& warning : reading->warnings) std::cerr << fmt::format("reading {}: {}\n", i + 1, warning);
     if (args.json) {
       std::cout << reading_json(*reading).dump() << '\n';
     } else {

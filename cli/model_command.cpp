@@ -26,7 +26,7 @@ std::vector<double> parse_grid(const std::string& text) {
   std::istringstream in(text);
   if (!(in >> first >> c1 >> last >> c2 >> step) || c1 != ':' || c2 != ':' || !in.eof() || !(step > 0) ||
       !(last >= first) || first < SkinOptics::kFirstNm || last > SkinOptics::kLastNm)
-    throw Failure{kBadInput, "--grid '" + text + "': expected FIRST:LAST:STEP inside 380:780, step > 0"};
+    throw Failure{kBadInput, "--grid " + quote(text) + ": expected FIRST:LAST:STEP inside 380:780, step > 0"};
   return Spectrum::uniform_grid(first, last, step);
 }
 

@@ -43,7 +43,7 @@ void print_table(const std::vector<PortInfo>& ports) {
   std::cout << fmt::format("{:<20} {:<9} {:<9} {:<16} {:<32} {}\n", "path", "kind", "usb_id", "serial", "uri", "description");
   for (const auto& port : ports)
     std::cout << fmt::format("{:<20} {:<9} {:<9} {:<16} {:<32} {}\n", port.path, port.kind, usb_id(port),
-                             port.serial_number, stable_uri(port), port.description);
+                             printable(port.serial_number), printable(stable_uri(port)), printable(port.description));
 }
 
 }  // namespace
@@ -57,7 +57,8 @@ void add_ports_command(CLI::App& app) {
     if (*json) {
       nlohmann::json out = nlohmann::json::array();
       for (const auto& port : found) out.push_back(port_json(port));
-      std::cout << out.dump() << '\n';
+      // A device's serial number and description are its own bytes, not always UTF-8.
+      std::cout << out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
     } else {
       print_table(found);
     }

@@ -15,7 +15,7 @@ namespace {
 using nlohmann::json;
 
 std::string text_or(const json& value, const std::string& fallback = "-") {
-  if (value.is_string()) return value.get<std::string>().empty() ? fallback : value.get<std::string>();
+  if (value.is_string()) return value.get<std::string>().empty() ? fallback : printable(value.get<std::string>());
   if (value.is_null()) return fallback;
   return value.dump();
 }
@@ -110,11 +110,11 @@ void add_session_command(CLI::App& app) {
 
   auto new_args = std::make_shared<NewArgs>();
   auto* create = session->add_subcommand("new", "open a session");
-  create->add_option("--site", new_args->site, "body site: forearm, back_of_hand, cheek, forehead, palm")->required();
-  create->add_option("--subject", new_args->subject, "who is measured (a code, not a name)")->capture_default_str();
-  create->add_option("--operator", new_args->operator_name, "who measures");
+  create->add_option("--site", new_args->site, "body site: forearm, back_of_hand, cheek, forehead, palm")->required()->check(utf8_text());
+  create->add_option("--subject", new_args->subject, "who is measured (a code, not a name)")->capture_default_str()->check(utf8_text());
+  create->add_option("--operator", new_args->operator_name, "who measures")->check(utf8_text());
   create->add_option("--white-standard", new_args->white_standard, "id of a stored white standard (default: a flat 0.99)")->check(CLI::PositiveNumber);
-  create->add_option("--notes", new_args->notes, "free text");
+  create->add_option("--notes", new_args->notes, "free text")->check(utf8_text());
   add_server_options(*create, *server);
   create->callback([server, new_args] { run_new(*server, *new_args); });
 
@@ -128,7 +128,7 @@ void add_session_command(CLI::App& app) {
 
   auto list_args = std::make_shared<ListArgs>();
   auto* list = session->add_subcommand("list", "sessions, newest first");
-  list->add_option("--site", list_args->site, "only this body site");
+  list->add_option("--site", list_args->site, "only this body site")->check(utf8_text());
   list->add_option("--state", list_args->state, "only this state")->check(CLI::IsMember({"open", "complete", "interrupted", "aborted"}));
   list->add_option("--limit", list_args->limit, "at most this many")->check(CLI::Range(1, 1000))->capture_default_str();
   add_server_options(*list, *server);

@@ -79,6 +79,12 @@ json follow(const ApiClient& client, long long job_id) {
   return last;
 }
 
+// A job's error, {"code", "message"}, as one line: "message (code)".
+std::string error_text(const json& error) {
+  if (!error.is_object()) return "no reason given";
+  return fmt::format("{} ({})", error.value("message", ""), error.value("code", "unknown"));
+}
+
 std::string id_text(const json& value) { return value.is_number_integer() ? std::to_string(value.get<long long>()) : "-"; }
 
 void print_fit(const json& fit) {
@@ -120,7 +126,7 @@ void run_measure(const ServerArgs& server, const MeasureArgs& args) {
   }
   const json job = follow(client, job_id);
   if (job["state"] != "succeeded")
-    throw Failure{kInstrumentError, fmt::format("job {} {}: {}", job_id, job["state"].get<std::string>(), job["error"].is_string() ? job["error"].get<std::string>() : "no reason given")};
+    throw Failure{kInstrumentError, fmt::format("job {} {}: {}", job_id, job["state"].get<std::string>(), error_text(job["error"]))};
   json fit = nullptr;
   if (const auto& id = job["result"]["fit_id"]; id.is_number_integer()) fit = client.call("GET", "/api/v1/fits/" + std::to_string(id.get<long long>()));
   if (server.json) std::cout << json{{"job", job}, {"fit", fit}}.dump() << '\n';
@@ -135,7 +141,7 @@ void add_session_measure_command(CLI::App& session, const std::shared_ptr<Server
   measure->add_option("SESSION_ID", args->session, "session id")->required()->check(CLI::PositiveNumber);
   measure->add_option("--kind", args->kind, "white or sample")->required()->check(CLI::IsMember({"white", "sample"}));
   measure->add_option("--count", args->count, "readings averaged")->check(CLI::Range(1, 100))->capture_default_str();
-  measure->add_option("--label", args->label, "a label for the measurement");
+  measure->add_option("--label", args->label, "a label for the measurement")->check(utf8_text());
   measure->add_option("--integration-ms", args->integration_ms, "integration time, 10-6000 ms (default: adaptive)")->check(CLI::Range(10, 6000));
   measure->add_flag("--no-wait", args->no_wait, "print the queued job and return at once");
   add_server_options(*measure, *server);

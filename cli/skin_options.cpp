@@ -77,7 +77,7 @@ render::Skin skin_from(const SkinArgs& args) {
 std::pair<int, int> parse_size(const std::string& text) {
   const auto size = render::parse_image_size(text);
   if (!size)
-    throw Failure{kBadInput, fmt::format("--size '{}': expected WxH with each side 1..{}, such as 512x512", text, render::kMaxImageSide)};
+    throw Failure{kBadInput, fmt::format("--size {}: expected WxH with each side 1..{}, such as 512x512", quote(text), render::kMaxImageSide)};
   return *size;
 }
 

@@ -14,17 +14,15 @@
 #include "supervisor.hpp"
 #include "fitter_loader.hpp"
 #include "skinspec/store/store.hpp"
+#include "skinspec/version.hpp"
 
 namespace {
-
-constexpr const char* kVersion = "0.1.0";
 
 int serve(const skinspec::daemon::Options& o) {
   using namespace skinspec;
   const auto listen = daemon::parse_listen(o.listen);
   if (!listen) return spdlog::error("event=bad_option message=\"{}\"", listen.error()), 2;
   api::RouterContext context;
-  context.version = kVersion;
   if (!o.token_file.empty()) {
     auto access = daemon::read_token_file(o.token_file);
     if (!access) return spdlog::error("event=bad_token_file message=\"{}\"", access.error()), 2;
@@ -46,7 +44,7 @@ int serve(const skinspec::daemon::Options& o) {
     return spdlog::error("event=bad_option message=\"reconnect_initial_ms and reconnect_max_ms must be positive, instrument_check_ms not negative\""), 2;
   std::unique_ptr<daemon::Supervisor> supervisor;
   if (!o.device.empty()) {
-    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, kVersion);
+    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter);
     supervisor->set_policy(o.measure);
     context.acquisition = supervisor.get();
     daemon::Supervisor::ConnectionSettings link;
@@ -63,11 +61,18 @@ int serve(const skinspec::daemon::Options& o) {
   options.port = listen->second;
   options.body_limit = o.body_limit;
   options.max_connections = o.max_connections;
+  options.max_connections_per_client = o.max_connections_per_client;
+  options.compute_threads = o.compute_threads;
+  options.compute_queue = o.compute_queue;
   options.read_timeout = std::chrono::milliseconds(o.read_timeout_ms);
   options.io_threads = o.threads;
   options.worker_threads = o.threads;
   api::Server server(router, options);
   if (auto ok = server.listen(); !ok) return spdlog::error("event=listen_failed message=\"{}\"", ok.error()), 1;
+  if (const auto limits = server.limits(); limits.max_connections < o.max_connections)
+    spdlog::warn("event=connection_cap requested={} effective={} open_files_limit={} message=\"the file-descriptor limit (ulimit -n) "
+                 "leaves room for fewer connections than --max-connections\"",
+                 o.max_connections, limits.max_connections, limits.descriptor_limit);
 
   boost::asio::signal_set signals(server.context(), SIGINT, SIGTERM);
   signals.async_wait([&server](const boost::system::error_code& ec, int signal) {
@@ -76,7 +81,7 @@ int serve(const skinspec::daemon::Options& o) {
     server.stop();
   });
   spdlog::info("event=listening address={} port={} db=\"{}\" auth={} version={}", options.address, server.port(), o.db,
-               context.access.required ? "tokens" : "none", kVersion);
+               context.access.required ? "tokens" : "none", skinspec::kVersion);
   // For people and for programs waiting for the service to come up.
   std::cout << "skinspecd listening on http://" << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address)
             << ':' << server.port() << std::endl;
@@ -91,6 +96,7 @@ int serve(const skinspec::daemon::Options& o) {
 int main(int argc, char** argv) {
   skinspec::daemon::Options o;
   CLI::App app{"skinspecd: stored skin spectra, sessions and fits over HTTP/JSON"};
+  app.set_version_flag("--version", "skinspecd " + std::string(skinspec::kVersion));
   app.add_option("--listen", o.listen, "HOST:PORT to listen on (port 0: any free port)")->capture_default_str();
   app.add_option("--db", o.db, "SQLite database file, created when missing")->capture_default_str();
   app.add_option("--device", o.device, "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (the first USB serial adapter)");
@@ -105,7 +111,15 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))->capture_default_str();
   app.add_option("--config", o.config, "JSON file of settings (keys as the flags, '_' for '-'); flags win");
   app.add_option("--body-limit", o.body_limit, "largest request body in bytes")->capture_default_str();
-  app.add_option("--max-connections", o.max_connections, "connections served at once")->capture_default_str();
+  app.add_option("--max-connections", o.max_connections,
+                 "connections held at once (fewer if the file-descriptor limit is lower); a newcomer over it takes the place of the "
+                 "longest-idle one")->check(CLI::Range(std::size_t{1}, std::size_t{1000000}))->capture_default_str();
+  app.add_option("--max-connections-per-client", o.max_connections_per_client, "connections one client address may hold at once")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{1000000}))->capture_default_str();
+  app.add_option("--compute-threads", o.compute_threads, "threads running fits and renders, apart from the other requests")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{64}))->capture_default_str();
+  app.add_option("--compute-queue", o.compute_queue, "fits and renders that may wait for a thread; beyond them a 503 with Retry-After")
+      ->check(CLI::Range(std::size_t{0}, std::size_t{10000}))->capture_default_str();
   app.add_option("--read-timeout-ms", o.read_timeout_ms, "time a client has to send a whole request")->capture_default_str();
   app.add_option("--threads", o.threads, "I/O and worker threads each")->check(CLI::Range(1, 64))->capture_default_str();
   app.add_option("--max-rejected-readings", o.measure.max_rejected_readings,

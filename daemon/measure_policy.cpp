@@ -17,37 +17,6 @@ std::optional<std::string> check(const MeasurePolicy& policy) {
   return std::nullopt;
 }
 
-std::expected<store::Measurement, std::string> averaged(const std::vector<drivers::Reading>& readings) {
-  if (readings.empty()) return std::unexpected("no readings");
-  const auto& first = readings.front();
-  const std::size_t n = first.radiance.size();
-  const double count = static_cast<double>(readings.size());
-  store::Measurement m;
-  m.quality_code = first.quality_code;
-  m.quality = first.quality;
-  m.units = first.units;
-  m.reading_count = static_cast<int>(readings.size());
-  m.radiance.wavelength_nm = first.wavelength_nm;
-  m.radiance.values.assign(n, 0.0);
-  for (const auto& r : readings) {
-    if (r.wavelength_nm != first.wavelength_nm || r.radiance.size() != n) return std::unexpected("readings on different grids");
-    for (std::size_t i = 0; i < n; ++i) m.radiance.values[i] += r.radiance[i] / count;
-    m.raw_reply += r.raw_reply;
-  }
-  if (readings.size() > 1) {
-    m.radiance_sd.wavelength_nm = first.wavelength_nm;
-    m.radiance_sd.values.assign(n, 0.0);
-    for (std::size_t i = 0; i < n; ++i) {
-      double sum = 0;
-      for (const auto& r : readings) sum += (r.radiance[i] - m.radiance.values[i]) * (r.radiance[i] - m.radiance.values[i]);
-      m.radiance_sd.values[i] = std::sqrt(sum / (count - 1));
-    }
-  }
-  m.started_at = to_store_time(first.started);
-  m.finished_at = to_store_time(readings.back().finished);
-  return m;
-}
-
 double band_integrated(const store::SpectralSamples& radiance) {
   double sum = 0;
   const auto& wl = radiance.wavelength_nm;
@@ -87,6 +56,34 @@ std::optional<std::string> inherited_lamp_warning(const store::Measurement& whit
 std::string rejection_warning(int attempt, const drivers::InstrumentError& error, store::Id rejected_id) {
   return fmt::format("rejected_reading: reading attempt {} rejected ({}); its raw reply is rejected reading {}", attempt,
                      describe(error), rejected_id);
+}
+
+store::JobError job_error(const drivers::InstrumentError& error) {
+  using Kind = drivers::InstrumentError::Kind;
+  using Code = store::JobErrorCode;
+  const auto code = [&] {
+    switch (error.kind) {
+      case Kind::no_contact: return Code::no_contact;
+      case Kind::lost: return Code::lost;
+      case Kind::protocol: return Code::protocol;
+      case Kind::bad_reading: return Code::bad_reading;
+      case Kind::rejected: return Code::rejected;
+      case Kind::cancelled: return Code::cancelled;
+      case Kind::transport: return Code::transport;
+    }
+    return Code::internal;
+  }();
+  return {code, error.message};
+}
+
+store::JobError cancellation(store::JobErrorCode code) {
+  if (code == store::JobErrorCode::stopped) return {code, "the service stopped"};
+  return {store::JobErrorCode::cancelled, "cancelled by request"};
+}
+
+store::JobState ended_state(const store::JobError& error) {
+  const bool cancelled = error.code == store::JobErrorCode::cancelled || error.code == store::JobErrorCode::stopped;
+  return cancelled ? store::JobState::cancelled : store::JobState::failed;
 }
 
 }  // namespace skinspec::daemon

@@ -1,7 +1,7 @@
 #pragma once
 // What a measurement job does with readings the meter rejects and with white references that
 // may no longer hold: the settings (from skinspecd's flags and config file) and the pure
-// functions that average readings and word the warnings. No I/O here.
+// functions that word the warnings. No I/O here.
 
 #include <expected>
 #include <optional>
@@ -27,11 +27,6 @@ struct MeasurePolicy {
 // An explanation when a setting is out of range.
 std::optional<std::string> check(const MeasurePolicy& policy);
 
-// The readings' mean radiance, their standard deviation (more than one reading), quality,
-// units, settings-free provenance (raw replies concatenated, first start, last finish); the
-// caller adds session, kind and the rest. An explanation when the readings differ in grid.
-std::expected<store::Measurement, std::string> averaged(const std::vector<drivers::Reading>& readings);
-
 // ∫ L(λ) dλ by the trapezoid rule: the lamp's level as a white standard sees it.
 double band_integrated(const store::SpectralSamples& radiance);
 
@@ -48,5 +43,14 @@ std::optional<std::string> lamp_change_warning(const store::Measurement& white, 
 std::optional<std::string> inherited_lamp_warning(const store::Measurement& white);
 
 std::string rejection_warning(int attempt, const drivers::InstrumentError& error, store::Id rejected_id);
+
+// The error a job ends with when the meter fails it: the one mapping from the driver's kinds
+// to job error codes.
+store::JobError job_error(const drivers::InstrumentError& error);
+// A job cancelled by request or by the service stopping: the error it ends with (code
+// `cancelled` or `stopped`).
+store::JobError cancellation(store::JobErrorCode code);
+// The state a job ends in with `error`: cancelled for `cancelled` and `stopped`, else failed.
+store::JobState ended_state(const store::JobError& error);
 
 }  // namespace skinspec::daemon

@@ -30,6 +30,9 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       else if (key == "log_level") o.log_level = v.get<std::string>();
       else if (key == "body_limit") o.body_limit = v.get<std::size_t>();
       else if (key == "max_connections") o.max_connections = v.get<std::size_t>();
+      else if (key == "max_connections_per_client") o.max_connections_per_client = v.get<std::size_t>();
+      else if (key == "compute_threads") o.compute_threads = v.get<std::size_t>();
+      else if (key == "compute_queue") o.compute_queue = v.get<std::size_t>();
       else if (key == "read_timeout_ms") o.read_timeout_ms = v.get<int>();
       else if (key == "threads") o.threads = v.get<int>();
       else if (key == "reconnect_initial_ms") o.reconnect_initial_ms = v.get<int>();

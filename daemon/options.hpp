@@ -20,8 +20,12 @@ struct Options {
   std::string config;
   std::size_t body_limit = 1024 * 1024;
   std::size_t max_connections = 512;
+  std::size_t max_connections_per_client = 64;
   int read_timeout_ms = 10000;
   int threads = 2;
+  // Fits and renders: their threads, and the requests that may wait for one.
+  std::size_t compute_threads = 2;
+  std::size_t compute_queue = 8;
   // The instrument connection: backoff between attempts while it is unreachable, and how
   // often an idle meter is checked (0: never).
   int reconnect_initial_ms = 500;

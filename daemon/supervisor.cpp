@@ -12,22 +12,21 @@ using nlohmann::json;
 
 namespace {
 
-api::ApiError store_failure(const store::StoreError& e) {
-  using K = store::StoreError::Kind;
-  switch (e.kind) {
-    case K::not_found: return {api::ErrorKind::not_found, "not_found", e.message};
-    case K::conflict: return {api::ErrorKind::conflict, "conflict", e.message};
-    case K::busy: return {api::ErrorKind::unavailable, "database_busy", e.message};
-    case K::full: return {api::ErrorKind::unavailable, "database_full", e.message};
-    case K::read_only: return {api::ErrorKind::unavailable, "database_read_only", e.message};
-    default: return {api::ErrorKind::internal, "database_error", e.message};
-  }
+// What a follower is shown for a job whose end the store refused.
+store::JobError unrecorded(const store::JobError& end, const store::StoreError& refused) {
+  return {store::JobErrorCode::store, "the job ended (" + std::string(store::to_string(end.code)) + ": " + end.message +
+                                          ") but the database refused to store it: " + refused.message};
+}
+
+void log_unrecorded(store::Id id, const store::JobError& end, const store::StoreError& refused) {
+  spdlog::error("event=job_end_not_stored job={} code={} kind={} error=\"{}\"", id, store::to_string(end.code),
+                store::to_string(refused.kind), refused.message);
 }
 
 }  // namespace
 
-Supervisor::Supervisor(std::string device, store::Store& db, const Fitter& fitter, std::string version)
-    : device_(std::move(device)), db_(db), fitter_(fitter), version_(std::move(version)) {}
+Supervisor::Supervisor(std::string device, store::Store& db, const Fitter& fitter)
+    : device_(std::move(device)), db_(db), fitter_(fitter) {}
 
 Supervisor::~Supervisor() { stop(); }
 
@@ -37,33 +36,35 @@ void Supervisor::start() {
 }
 
 void Supervisor::stop() {
-  std::deque<std::pair<store::Id, api::MeasureRequest>> left;
+  std::deque<QueuedJob> left;
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
-    cancel_running_ = true;
+    cancel_running_ = store::JobErrorCode::stopped;
     if (meter_) meter_->cancel();
     left.swap(queue_);
   }
   wake_.notify_all();
   if (worker_.joinable()) worker_.join();
-  std::lock_guard lock(mutex_);
-  for (const auto& [id, request] : left) {
-    (void)db_.update_job(id, {store::JobState::cancelled, std::string("the service stopped"), std::nullopt});
-    live_.erase(id);
+  const auto stopped = cancellation(store::JobErrorCode::stopped);
+  for (const auto& queued : left) {
+    // A record left queued is failed as interrupted when the database is next opened.
+    if (auto refused = record_end(queued.id, stopped, std::nullopt)) log_unrecorded(queued.id, stopped, *refused);
+    std::lock_guard lock(mutex_);
+    live_.erase(queued.id);
+    job_changed();
   }
-  if (!left.empty()) job_changed();
 }
 
 std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id session_id, const api::MeasureRequest& request,
                                                                    const std::string& idempotency_key) {
   if (!idempotency_key.empty()) {
     auto earlier = db_.job_by_idempotency_key(idempotency_key);
-    if (!earlier) return std::unexpected(store_failure(earlier.error()));
+    if (!earlier) return std::unexpected(api::from_store_error(earlier.error()));
     if (*earlier) return store::CreatedJob{**earlier, false};
   }
   auto session = db_.session(session_id);
-  if (!session) return std::unexpected(store_failure(session.error()));
+  if (!session) return std::unexpected(api::from_store_error(session.error()));
   if (session->state != store::SessionState::open)
     return std::unexpected(api::ApiError{api::ErrorKind::conflict, "conflict",
                                          "session " + std::to_string(session_id) + " is " + std::string(store::to_string(session->state))});
@@ -77,10 +78,10 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
   std::lock_guard lock(mutex_);  // queue order is the order of the jobs' ids
   if (stopping_) return std::unexpected(api::ApiError{api::ErrorKind::unavailable, "unavailable", "the service is stopping"});
   auto created = db_.create_job(job);
-  if (!created) return std::unexpected(store_failure(created.error()));
+  if (!created) return std::unexpected(api::from_store_error(created.error()));
   if (created->created) {
-    queue_.emplace_back(created->job.id, request);
-    live_[created->job.id].readings_total = request.count;
+    queue_.push_back({created->job.id, request});
+    live_[created->job.id] = api::JobProgress{static_cast<int>(queue_.size()), api::JobPhase::queued, 0, request.count, std::nullopt};
     job_changed();
     wake_.notify_all();
   }
@@ -91,75 +92,120 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
   bool was_running = false;
   {
     std::lock_guard lock(mutex_);
-    for (auto it = queue_.begin(); it != queue_.end(); ++it) {
-      if (it->first != job_id) continue;
-      queue_.erase(it);
-      auto job = db_.update_job(job_id, {store::JobState::cancelled, std::string("cancelled by request"), std::nullopt});
-      live_.erase(job_id);
+    const auto queued = std::ranges::find(queue_, job_id, &QueuedJob::id);
+    if (queued != queue_.end()) {
+      queue_.erase(queued);
+      const auto cancelled = cancellation(store::JobErrorCode::cancelled);
+      auto job = db_.update_job(job_id, {store::JobState::cancelled, cancelled, std::nullopt});
+      if (job) {
+        live_.erase(job_id);
+      } else {
+        // Still queued in the store, where it is failed as interrupted at the next start.
+        log_unrecorded(job_id, cancelled, job.error());
+        auto& live = live_[job_id];
+        live.phase = api::JobPhase::done;
+        live.unrecorded_failure = unrecorded(cancelled, job.error());
+      }
       job_changed();  // the jobs behind it moved up
-      if (!job) return std::unexpected(store_failure(job.error()));
+      if (!job) return std::unexpected(api::from_store_error(job.error()));
       return *job;
     }
     if (running_ == job_id) {
       was_running = true;
-      cancel_running_ = true;
+      if (!cancel_running_) cancel_running_ = store::JobErrorCode::cancelled;
       if (meter_) meter_->cancel();
     }
   }
   auto job = db_.job(job_id);
-  if (!job) return std::unexpected(store_failure(job.error()));
+  if (!job) return std::unexpected(api::from_store_error(job.error()));
   if (job->state != store::JobState::queued && job->state != store::JobState::running && !was_running)
     return std::unexpected(api::ApiError{api::ErrorKind::conflict, "conflict",
                                          "job " + std::to_string(job_id) + " has already " + std::string(store::to_string(job->state))});
   return *job;
 }
 
+std::optional<std::pair<Supervisor::QueuedJob, Supervisor::Step<store::Job>>> Supervisor::take_next() {
+  std::unique_lock lock(mutex_);
+  wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+  if (stopping_) return std::nullopt;
+  QueuedJob next = queue_.front();
+  queue_.pop_front();
+  running_ = next.id;
+  cancel_running_.reset();
+  // Under the lock, so that followers never see the job running in one place and queued in
+  // the other.
+  auto job = db_.update_job(next.id, {store::JobState::running, std::nullopt, std::nullopt});
+  live_[next.id].phase = api::JobPhase::connecting;
+  job_changed();
+  if (!job) {
+    const store::JobError failure{store::JobErrorCode::store, "the job could not start: " + job.error().message};
+    return std::pair{next, Step<store::Job>(std::unexpected(failure))};
+  }
+  return std::pair{next, Step<store::Job>(std::move(*job))};
+}
+
 void Supervisor::run() {
-  for (;;) {
-    std::pair<store::Id, api::MeasureRequest> next;
-    std::expected<store::Job, store::StoreError> job;
-    {
-      std::unique_lock lock(mutex_);
-      wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-      if (stopping_) return;
-      next = queue_.front();
-      queue_.pop_front();
-      running_ = next.first;
-      cancel_running_ = false;
-      // Under the lock, so that followers never see the job running in one place and queued
-      // in the other.
-      job = db_.update_job(next.first, {store::JobState::running, std::nullopt, std::nullopt});
-      live_[next.first].phase = "connecting";
-      job_changed();
-    }
-    Outcome outcome;
-    if (!job) {
-      outcome = {store::JobState::failed, "database: " + job.error().message, json::object()};
-    } else {
+  while (auto next = take_next()) {
+    const auto& [queued, job] = *next;
+    json partial = json::object();
+    const auto outcome = [&]() -> Step<store::CompletedJob> {
+      if (!job) return std::unexpected(job.error());
       try {
-        outcome = execute(*job, next.second);
+        return execute(*job, queued.request, partial);
       } catch (const std::exception& e) {
-        outcome = {store::JobState::failed, std::string("internal: ") + e.what(), json::object()};
+        return std::unexpected(store::JobError{store::JobErrorCode::internal, e.what()});
       }
-    }
-    {
-      std::lock_guard lock(mutex_);
-      if (cancel_running_ && outcome.state != store::JobState::succeeded) {
-        outcome.state = store::JobState::cancelled;
-        if (outcome.error.empty() || outcome.error.rfind("cancelled", 0) == 0) outcome.error = "cancelled by request";
-      }
-      running_.reset();
-      if (state_ == "measuring") state_ = meter_ ? "connected" : "disconnected";
-      (void)db_.update_job(next.first, {outcome.state, outcome.error.empty() ? std::nullopt : std::optional<std::string>(outcome.error),
-                                        outcome.result.dump()});
-      live_.erase(next.first);
-      job_changed();
-    }
-    spdlog::info("event=job_finished job={} state={} error=\"{}\"", next.first, store::to_string(outcome.state), outcome.error);
+    }();
+    finish(queued.id, outcome, partial);
   }
 }
 
-void Supervisor::report_progress(const char* phase, int readings_done) {
+void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome, const json& partial) {
+  std::optional<store::JobError> failure;
+  if (!outcome) {
+    std::lock_guard lock(mutex_);
+    failure = cancel_requested() ? cancellation(*cancel_running_) : outcome.error();
+    if (failure->code != outcome.error().code)
+      spdlog::info("event=job_cancelled job={} while=\"{}: {}\"", id, store::to_string(outcome.error().code), outcome.error().message);
+  }
+  std::optional<store::StoreError> refused;
+  if (failure) refused = record_end(id, *failure, partial.dump());
+  {
+    std::lock_guard lock(mutex_);
+    running_.reset();
+    cancel_running_.reset();
+    if (state_ == api::InstrumentState::measuring) state_ = meter_ ? api::InstrumentState::connected : api::InstrumentState::disconnected;
+    if (refused) {
+      // The record stays running (failed as interrupted at the next start); this process shows
+      // the job failed meanwhile.
+      auto& live = live_[id];
+      live.phase = api::JobPhase::done;
+      live.unrecorded_failure = unrecorded(*failure, *refused);
+    } else {
+      live_.erase(id);
+    }
+    job_changed();
+  }
+  if (outcome) {
+    spdlog::info("event=job_finished job={} state=succeeded measurement={} fit={}", id, outcome->ids.measurement_id,
+                 outcome->ids.fit_id ? std::to_string(*outcome->ids.fit_id) : "none");
+  } else if (refused) {
+    log_unrecorded(id, *failure, *refused);
+  } else {
+    // The service's own failures stand out from the meter's and the operator's.
+    const bool ours = failure->code == store::JobErrorCode::store || failure->code == store::JobErrorCode::internal;
+    spdlog::log(ours ? spdlog::level::err : spdlog::level::info, "event=job_finished job={} state={} code={} error=\"{}\"", id,
+                store::to_string(ended_state(*failure)), store::to_string(failure->code), failure->message);
+  }
+}
+
+std::optional<store::StoreError> Supervisor::record_end(store::Id id, const store::JobError& error, std::optional<std::string> result) {
+  const auto written = with_retries("job_end", id, [&] { return db_.update_job(id, {ended_state(error), error, result}); });
+  if (written) return std::nullopt;
+  return written.error();
+}
+
+void Supervisor::report_progress(api::JobPhase phase, int readings_done) {
   std::lock_guard lock(mutex_);
   if (!running_) return;
   auto& live = live_[*running_];
@@ -177,9 +223,10 @@ std::optional<api::JobProgress> Supervisor::progress(store::Id job_id) const {
   std::lock_guard lock(mutex_);
   const auto it = live_.find(job_id);
   if (it == live_.end()) return std::nullopt;
-  api::JobProgress out{0, it->second.phase, it->second.readings_done, it->second.readings_total};
-  if (running_ != job_id) {
-    const auto queued = std::find_if(queue_.begin(), queue_.end(), [job_id](const auto& entry) { return entry.first == job_id; });
+  api::JobProgress out = it->second;
+  out.position = 0;
+  if (out.phase == api::JobPhase::queued) {
+    const auto queued = std::ranges::find(queue_, job_id, &QueuedJob::id);
     out.position = static_cast<int>(queued - queue_.begin()) + 1;
   }
   return out;

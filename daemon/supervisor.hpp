@@ -3,7 +3,8 @@
 // needs it and again after it was lost, and runs measurement jobs one at a time from a FIFO
 // queue (one measurement on the wire at a time). White readings are stored as the session's
 // white reference; samples become reflectance against the latest white and are fitted, the
-// reading, reflectance and fit stored in one transaction. In the background it connects at
+// reading, reflectance and fit stored in one transaction with the job's end, so that a
+// stored measurement always belongs to a succeeded job. In the background it connects at
 // start, notices a meter that went away (a periodic check while idle, USB hot-plug), and
 // reconnects with backoff (docs/architecture.md, "The instrument connection").
 
@@ -14,7 +15,6 @@
 #include <mutex>
 #include <optional>
 #include <string>
-#include <string_view>
 #include <thread>
 
 #include "skinspec/api/acquisition.hpp"
@@ -29,7 +29,7 @@ namespace skinspec::daemon {
 
 class Supervisor final : public api::Acquisition {
  public:
-  Supervisor(std::string device, store::Store& db, const Fitter& fitter, std::string version);
+  Supervisor(std::string device, store::Store& db, const Fitter& fitter);
   ~Supervisor() override;
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
@@ -53,10 +53,12 @@ class Supervisor final : public api::Acquisition {
   void wake_waiters() const override;
 
  private:
-  struct Outcome {
-    store::JobState state = store::JobState::succeeded;
-    std::string error;
-    nlohmann::json result = nlohmann::json::object();
+  // A step of a job: its value, or the error the job ends with.
+  template <typename T>
+  using Step = std::expected<T, store::JobError>;
+  struct QueuedJob {
+    store::Id id = 0;
+    api::MeasureRequest request;
   };
   // The good readings of one job, and what was rejected on the way (supervisor_measure.cpp).
   struct Readings {
@@ -66,15 +68,34 @@ class Supervisor final : public api::Acquisition {
     std::chrono::system_clock::time_point last_reply_at;  // when the meter's last reply was in
   };
   void run();
-  Outcome execute(const store::Job& job, const api::MeasureRequest& request);
-  std::expected<Readings, Outcome> take_readings(const store::Job& job, const api::MeasureRequest& request, drivers::Pr650& meter);
-  std::expected<store::Id, Outcome> keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error);
-  std::optional<Outcome> derive_sample(const store::Session& session, const store::Measurement& white, store::Measurement& m,
-                                       std::optional<store::Fit>& fit, nlohmann::json& timing) const;
+  // The next job, marked running; nullopt when stopping. A job whose record cannot be marked
+  // running comes with the error it ends with.
+  std::optional<std::pair<QueuedJob, Step<store::Job>>> take_next();
+  // Runs a job to its end; a job that succeeds is stored succeeded with its measurement. What
+  // a job that fails got done (readings, rejected readings) goes to `partial`.
+  Step<store::CompletedJob> execute(const store::Job& job, const api::MeasureRequest& request, nlohmann::json& partial);
+  Step<void> take_readings(const store::Job& job, const api::MeasureRequest& request, std::shared_ptr<drivers::Pr650>& meter,
+                           Readings& out);
+  Step<store::Id> keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error);
+  Step<std::optional<store::Fit>> derive_sample(const store::Session& session, const store::Measurement& white,
+                                                store::Measurement& m, nlohmann::json& timing) const;
+  Step<store::CompletedJob> store_measurement(const store::Job& job, const store::Measurement& m, const std::optional<store::Fit>& fit,
+                                         const nlohmann::json& result);
+  // Stores the end of a job that did not succeed and lets its followers know; a job cancelled
+  // meanwhile ends cancelled whatever stopped it.
+  void finish(store::Id id, const Step<store::CompletedJob>& outcome, const nlohmann::json& partial);
+  // Writes a failed or cancelled job's end (and its result, when given), asking again after a
+  // refusal that may pass; the store's error when it still refuses.
+  std::optional<store::StoreError> record_end(store::Id id, const store::JobError& error, std::optional<std::string> result);
+  // Whether the running job was asked to stop, and why (cancelled or stopped), with mutex_ held.
+  bool cancel_requested() const { return cancel_running_.has_value(); }
   std::optional<drivers::InstrumentError> ensure_connected();
+  std::expected<drivers::Reading, drivers::InstrumentError> measure_reading(std::shared_ptr<drivers::Pr650>& meter,
+                                                                            const drivers::MeasureOptions& options,
+                                                                            bool first_of_job);
   void note_instrument_error(const drivers::InstrumentError& error);
   // The running job's phase and readings so far, told to its followers.
-  void report_progress(const char* phase, int readings_done);
+  void report_progress(api::JobPhase phase, int readings_done);
   // With mutex_ held, after the job's store record was written: counts a change and wakes the
   // followers.
   void job_changed();
@@ -82,47 +103,42 @@ class Supervisor final : public api::Acquisition {
   const std::string device_;
   store::Store& db_;
   const Fitter& fitter_;
-  const std::string version_;
   MeasurePolicy policy_;
 
   mutable std::mutex mutex_;  // guards everything below
 
   // The job queue (supervisor.cpp).
   std::condition_variable wake_;
-  std::deque<std::pair<store::Id, api::MeasureRequest>> queue_;
+  std::deque<QueuedJob> queue_;
   std::optional<store::Id> running_;
-  bool cancel_running_ = false;
+  std::optional<store::JobErrorCode> cancel_running_;  // cancelled (by request) or stopped
   bool stopping_ = false;
   std::thread worker_;
 
-  // Progress of the queued and running jobs, and the change count their followers wait on.
-  struct LiveJob {
-    std::string phase = "queued";
-    int readings_done = 0;
-    int readings_total = 1;
-  };
-  std::map<store::Id, LiveJob> live_;
+  // Progress of the queued and running jobs (and of those whose end the store refused), and
+  // the change count their followers wait on.
+  std::map<store::Id, api::JobProgress> live_;
   std::uint64_t changes_ = 0;
   mutable std::condition_variable changed_;
 
   // The instrument (supervisor_connection.cpp).
 
-  // The state's name and when it last changed; any assignment of another name restarts the clock.
+  // The state and when it last changed; any assignment of another state restarts the clock.
   class TrackedState {
    public:
-    TrackedState& operator=(const std::string& name) {
-      if (name != name_) {
-        name_ = name;
+    TrackedState& operator=(api::InstrumentState state) {
+      if (state != state_) {
+        state_ = state;
         since_ = std::chrono::system_clock::now();
       }
       return *this;
     }
-    bool operator==(std::string_view name) const { return name_ == name; }
-    const std::string& name() const { return name_; }
+    bool operator==(api::InstrumentState state) const { return state_ == state; }
+    api::InstrumentState value() const { return state_; }
     std::chrono::system_clock::time_point since() const { return since_; }
 
    private:
-    std::string name_ = "disconnected";
+    api::InstrumentState state_ = api::InstrumentState::disconnected;
     std::chrono::system_clock::time_point since_ = std::chrono::system_clock::now();
   };
 
@@ -154,10 +170,13 @@ class Supervisor final : public api::Acquisition {
   void connect_or_check();
   std::optional<drivers::InstrumentError> connect_holding_wire();
   void check_holding_wire(const std::shared_ptr<drivers::Pr650>& meter);
+  void lose_meter(const std::string& error);  // with mutex_ held
   void note_connect_failure(const drivers::InstrumentError& error, const std::string& port);
   void note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
-                      const std::string& serial_number);
-  const char* unreachable_state() const { return ever_connected_ ? "lost" : "disconnected"; }
+                      const drivers::Identity& identity);
+  api::InstrumentState unreachable_state() const {
+    return ever_connected_ ? api::InstrumentState::lost : api::InstrumentState::disconnected;
+  }
 
   ConnectionSettings link_;
   // Held by whoever connects, checks or (through ensure_connected) is about to measure, so that
@@ -169,6 +188,7 @@ class Supervisor final : public api::Acquisition {
   int failed_attempts_ = 0;              // in a row, reset on success
   std::optional<std::chrono::steady_clock::time_point> next_attempt_;  // while unreachable
   std::chrono::steady_clock::time_point next_check_{};
+  std::chrono::steady_clock::time_point next_hangup_look_{};
   // Last members: stopped and joined first when the supervisor is destroyed, while everything
   // they use is still alive (stop() has already told them to end).
   std::unique_ptr<drivers::HotplugMonitor> hotplug_;

@@ -3,6 +3,10 @@
 
 #include <chrono>
 #include <string>
+#include <string_view>
+#include <thread>
+
+#include <spdlog/spdlog.h>
 
 #include "skinspec/drivers/pr650.hpp"
 #include "skinspec/store/store.hpp"
@@ -15,6 +19,23 @@ inline store::Time to_store_time(std::chrono::system_clock::time_point t) {
 
 inline std::string describe(const drivers::InstrumentError& e) {
   return std::string(drivers::to_string(e.kind)) + ": " + e.message;
+}
+
+// `write()`, asked again twice (after 50 ms, then 250 ms) while the store refuses it for a
+// reason that may pass (busy, an I/O error); each refusal logged.
+template <typename Write>
+auto with_retries(std::string_view what, store::Id job_id, Write write) {
+  using Kind = store::StoreError::Kind;
+  auto result = write();
+  for (const auto wait : {std::chrono::milliseconds(50), std::chrono::milliseconds(250)}) {
+    if (result) break;
+    const auto kind = result.error().kind;
+    if (kind != Kind::busy && kind != Kind::io && kind != Kind::internal) break;
+    spdlog::warn("event=store_retry what={} job={} kind={} error=\"{}\"", what, job_id, store::to_string(kind), result.error().message);
+    std::this_thread::sleep_for(wait);
+    result = write();
+  }
+  return result;
 }
 
 }  // namespace skinspec::daemon

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "store_records.hpp"
 #include "supervisor.hpp"
 #include "supervisor_common.hpp"
 
@@ -30,17 +31,24 @@ bool is_link_failure(Kind kind) {
 // The worker does not announce the end of a job; while one runs the connector looks again
 // this often.
 constexpr milliseconds kBusyRecheck{250};
+// How often an idle connected link is looked at for a hang-up its transport can see (a TCP
+// peer that closed): a look costs no bytes on the wire, so it is much more frequent than the
+// check that asks the meter.
+constexpr milliseconds kHangupLook{100};
+
+// A first command that finds the link in this state is worth one fresh connection.
+bool finds_link_dead(Kind kind) { return kind == Kind::lost || kind == Kind::no_contact || kind == Kind::transport; }
 
 }  // namespace
 
 json Supervisor::instrument_status() const {
   std::lock_guard lock(mutex_);
   json next_attempt_in_ms = nullptr;
-  if (!meter_ && next_attempt_ && state_ != "connecting")
+  if (!meter_ && next_attempt_ && state_ != api::InstrumentState::connecting)
     next_attempt_in_ms = std::max<long long>(0, std::chrono::duration_cast<milliseconds>(*next_attempt_ - SteadyClock::now()).count());
   return {{"device", device_},
           {"port", port_.empty() ? json(nullptr) : json(port_)},
-          {"state", state_.name()},
+          {"state", std::string(api::to_string(state_.value()))},
           {"since", api::api_time(to_store_time(state_.since()))},
           {"last_error", last_error_.empty() ? json(nullptr) : json(last_error_)},
           {"serial_number", serial_number_.empty() ? json(nullptr) : json(serial_number_)},
@@ -55,14 +63,19 @@ json Supervisor::ports() const { return ports_json(drivers::list_ports()); }
 void Supervisor::note_instrument_error(const drivers::InstrumentError& e) {
   std::lock_guard lock(mutex_);
   last_error_ = describe(e);
-  if (is_link_failure(e.kind) && meter_) {
-    // Lost while in use: start again from first contact, the first attempt at once.
-    spdlog::warn("event=instrument_lost device=\"{}\" error=\"{}\"", device_, last_error_);
-    meter_.reset();
-    failed_attempts_ = 0;
-    next_attempt_ = SteadyClock::now();
-  }
-  state_ = meter_ ? "connected" : unreachable_state();
+  if (is_link_failure(e.kind) && meter_) lose_meter(last_error_);
+  state_ = meter_ ? api::InstrumentState::connected : unreachable_state();
+  wake_.notify_all();
+}
+
+// The meter cannot be used any more: start again from first contact, the first attempt at once.
+void Supervisor::lose_meter(const std::string& error) {
+  last_error_ = error;
+  spdlog::warn("event=instrument_lost device=\"{}\" error=\"{}\"", device_, last_error_);
+  meter_.reset();
+  state_ = api::InstrumentState::lost;
+  failed_attempts_ = 0;
+  next_attempt_ = SteadyClock::now();
   wake_.notify_all();
 }
 
@@ -71,12 +84,43 @@ std::optional<drivers::InstrumentError> Supervisor::ensure_connected() {
   return connect_holding_wire();
 }
 
+// One reading for a job. A job whose first command finds the link dead (the meter was switched
+// off and on, or its serial server went away, since anyone last looked) connects once more, by
+// the connector's path, and measures on the new connection; a failure after the meter has
+// answered in this job, or after connecting again, is the job's.
+std::expected<drivers::Reading, drivers::InstrumentError> Supervisor::measure_reading(
+    std::shared_ptr<drivers::Pr650>& meter, const drivers::MeasureOptions& options, bool first_of_job) {
+  const std::uint64_t replies_before = meter->replies_received();
+  auto reading = meter->measure(options);
+  const bool never_answered = meter->replies_received() == replies_before;
+  if (reading || !first_of_job || !never_answered || !finds_link_dead(reading.error().kind)) return reading;
+  const drivers::InstrumentError dead = reading.error();
+  spdlog::warn("event=instrument_reconnect_for_job device=\"{}\" error=\"{}\"", device_, describe(dead));
+  note_instrument_error(dead);
+  meter->disconnect();  // a meter serves one connection at a time
+  if (auto error = ensure_connected()) {
+    error->message = fmt::format("{}; connecting again failed: {}", dead.message, error->message);
+    return std::unexpected(*error);
+  }
+  {
+    std::lock_guard lock(mutex_);
+    if (cancel_running_) return std::unexpected(drivers::InstrumentError{Kind::cancelled, "cancelled", -1, {}});
+    if (!meter_) return std::unexpected(drivers::InstrumentError{Kind::lost, "the instrument went away again", -1, {}});
+    meter = meter_;
+    state_ = api::InstrumentState::measuring;
+  }
+  return meter->measure(options);
+}
+
 std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
   {
     std::lock_guard lock(mutex_);
-    if (meter_ && meter_->connected()) return std::nullopt;
+    if (meter_ && meter_->connected()) {
+      if (!meter_->link_closed()) return std::nullopt;
+      lose_meter(fmt::format("lost: the link to the PR-650 on {} was closed", port_));
+    }
     if (stopping_) return drivers::InstrumentError{Kind::cancelled, "the service is stopping", -1, {}};
-    state_ = "connecting";
+    state_ = api::InstrumentState::connecting;
   }
   // Looked up on every attempt: an adapter may come back under another tty name.
   auto resolved = link_.resolver(device_);
@@ -92,9 +136,7 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
     note_connect_failure(error, port);
     return error;
   }
-  drivers::DriverOptions options;
-  options.style.terminator = resolved->uri.terminator;
-  auto meter = std::make_shared<drivers::Pr650>(std::move(*transport), options);
+  auto meter = std::make_shared<drivers::Pr650>(std::move(*transport), drivers::driver_options_for(resolved->uri));
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return drivers::InstrumentError{Kind::cancelled, "the service is stopping", -1, {}};
@@ -110,7 +152,7 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
     note_connect_failure(identity.error(), port);
     return identity.error();
   }
-  note_connected(meter, *resolved, identity->serial_number);
+  note_connected(meter, *resolved, *identity);
   return std::nullopt;
 }
 
@@ -129,23 +171,22 @@ void Supervisor::note_connect_failure(const drivers::InstrumentError& error, con
 }
 
 void Supervisor::note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
-                                const std::string& serial_number) {
-  store::Instrument instrument;
-  instrument.model = "PR-650";
-  instrument.serial_number = serial_number;
-  instrument.spectral_configuration = json{{"grid_nm", "380-780/4"}}.dump();
-  instrument.connection = device_;
-  auto id = db_.ensure_instrument(instrument);
+                                const drivers::Identity& identity) {
+  auto id = db_.ensure_instrument(instrument_record(identity, device_));
+  if (!id)
+    spdlog::error("event=instrument_not_stored serial={} kind={} error=\"{}\"", identity.serial_number,
+                  store::to_string(id.error().kind), id.error().message);
   std::lock_guard lock(mutex_);
   meter_ = meter;  // again: a detach reported while connecting is outdated by this contact
-  serial_number_ = serial_number;
+  serial_number_ = identity.serial_number;
   if (id) instrument_id_ = *id;
   adapter_ = resolved.adapter;
   ever_connected_ = true;
   failed_attempts_ = 0;
   next_attempt_.reset();
   next_check_ = SteadyClock::now() + link_.check_interval;
-  state_ = "connected";
+  next_hangup_look_ = SteadyClock::now() + kHangupLook;
+  state_ = api::InstrumentState::connected;
   spdlog::info("event=instrument_connected device=\"{}\" port=\"{}\" serial={}", device_, port_, serial_number_);
 }
 
@@ -183,7 +224,7 @@ void Supervisor::keep_connected() {
 // When the connector has something to do (mutex_ held); nullopt: nothing until woken.
 std::optional<SteadyClock::time_point> Supervisor::next_link_action() const {
   if (running_ || !queue_.empty()) return SteadyClock::now() + kBusyRecheck;
-  if (meter_) return link_.check_interval > milliseconds::zero() ? std::optional(next_check_) : std::nullopt;
+  if (meter_) return link_.check_interval > milliseconds::zero() ? std::min(next_check_, next_hangup_look_) : next_hangup_look_;
   return next_attempt_;
 }
 
@@ -196,8 +237,22 @@ void Supervisor::connect_or_check() {
     if (stopping_ || running_ || !queue_.empty()) return;
     meter = meter_;
   }
-  if (meter) check_holding_wire(meter);
-  else (void)connect_holding_wire();
+  if (!meter) {
+    (void)connect_holding_wire();
+    return;
+  }
+  if (meter->link_closed()) {
+    std::lock_guard lock(mutex_);
+    if (meter_ == meter) lose_meter(fmt::format("lost: the link to the PR-650 on {} was closed", port_));
+    return;
+  }
+  bool check_due = false;
+  {
+    std::lock_guard lock(mutex_);
+    next_hangup_look_ = SteadyClock::now() + kHangupLook;
+    check_due = link_.check_interval > milliseconds::zero() && SteadyClock::now() >= next_check_;
+  }
+  if (check_due) check_holding_wire(meter);
 }
 
 // An idle meter is asked for its serial number, a short exchange that changes none of its
@@ -218,12 +273,7 @@ void Supervisor::on_usb_event(const drivers::UsbDeviceEvent& event) {
     if (!meter_) next_attempt_ = SteadyClock::now();
   } else if (meter_ && adapter_ && concerns(event, *adapter_)) {
     // The meter cannot be used any more; a running job fails on its own and says why.
-    last_error_ = fmt::format("lost: the USB adapter {:04x}:{:04x} of {} was unplugged", event.vendor_id, event.product_id, port_);
-    spdlog::warn("event=instrument_lost device=\"{}\" error=\"{}\"", device_, last_error_);
-    meter_.reset();
-    state_ = "lost";
-    failed_attempts_ = 0;
-    next_attempt_ = SteadyClock::now();
+    lose_meter(fmt::format("lost: the USB adapter {:04x}:{:04x} of {} was unplugged", event.vendor_id, event.product_id, port_));
   }
   wake_.notify_all();
 }

@@ -43,9 +43,13 @@ struct FaultCase {
   std::string name;
   std::vector<std::string> specs;  // each hits the session's first sample: white first, so @2
   bool succeeds;                   // the job's end: succeeded, or failed with `error`
-  std::string error;               // the start of the job's error when it fails
+  std::string error;               // the start of the job's error ("code: message") when it fails
   std::size_t rejected = 0;        // readings rejected (and stored) on the way
   bool power_cycle = false;        // the fault lasts until the meter is power-cycled (SIGHUP)
+  std::string warning = {};        // the start of a warning the job's result must carry
+  // The sample's integration time: a fixed one bounds the wait for a silent M0 to 2 x 600 ms
+  // plus the overhead, where adaptive integration is allowed 30 s.
+  int integration_ms = 0;
 };
 
 void PrintTo(const FaultCase& c, std::ostream* os) { *os << c.name; }
@@ -66,7 +70,7 @@ TEST_P(FaultTest, TheJobEndsAsItMustAndTheNextOneSucceeds) {
   const auto white = wait_for_job(p, submit(p, session, {{"kind", "white"}}));
   ASSERT_EQ(white["state"], "succeeded") << white << rig.logs();
 
-  const auto job = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  const auto job = wait_for_job(p, submit(p, session, {{"kind", "sample"}, {"integration_ms", c.integration_ms}}));
   const auto detail = get_json(p, session_path(session));
   if (c.succeeds) {
     ASSERT_EQ(job["state"], "succeeded") << job << rig.logs();
@@ -74,11 +78,17 @@ TEST_P(FaultTest, TheJobEndsAsItMustAndTheNextOneSucceeds) {
     EXPECT_FALSE(job["result"]["fit_id"].is_null()) << job;
   } else {
     ASSERT_EQ(job["state"], "failed") << job << rig.logs();
-    EXPECT_TRUE(job["error"].get<std::string>().starts_with(c.error)) << job["error"];
+    EXPECT_TRUE((job["error"]["code"].get<std::string>() + ": " + job["error"]["message"].get<std::string>()).starts_with(c.error))
+        << job["error"];
     EXPECT_EQ(detail["measurements"].size(), 1u) << detail;  // only the white
     EXPECT_EQ(sqlite_integer(rig.db_path(), "SELECT count(*) FROM fits"), 0);
   }
   EXPECT_EQ(job["result"]["rejected_reading_ids"].size(), c.rejected) << job;
+  if (!c.warning.empty()) {
+    const auto& warnings = job["result"]["warnings"];
+    EXPECT_TRUE(std::ranges::any_of(warnings, [&](const json& w) { return w.get<std::string>().starts_with(c.warning); }))
+        << job;
+  }
   EXPECT_EQ(detail["rejected_readings"].size(), c.rejected) << detail;
   EXPECT_EQ(samples_without_fit(rig.db_path()), 0);
   EXPECT_EQ(http_request(p, "GET", "/healthz").status, 200);
@@ -101,11 +111,23 @@ TEST_P(FaultTest, TheJobEndsAsItMustAndTheNextOneSucceeds) {
 INSTANTIATE_TEST_SUITE_P(
     EverySimulatorFault, FaultTest,
     ::testing::Values(
-        FaultCase{"no_answer", {"d5:no-answer@2"}, false, "lost"},
+        // One lost reply to any command is asked for again (setup and reports) or measured
+        // again with a warning (M0); two in a row lose the meter.
+        FaultCase{"no_answer_s", {"s:no-answer@2"}, true, ""},
+        FaultCase{"no_answer_m0", {"m0:no-answer@2"}, true, "", 0, false, "remeasured:", 600},
+        FaultCase{"no_answer_d5", {"d5:no-answer@2"}, true, ""},
+        FaultCase{"no_answer_d1", {"d1:no-answer@2"}, true, ""},
+        FaultCase{"no_answer_d2", {"d2:no-answer@2"}, true, ""},
+        FaultCase{"no_answer_twice", {"d1:no-answer@2", "d1:no-answer@3"}, false, "lost"},
         FaultCase{"late_within_the_deadline", {"d5:late=300@2"}, true, ""},
+        FaultCase{"late_within_the_second_request", {"d1:late=800@2"}, true, ""},
         FaultCase{"late_past_the_deadline", {"d1:late=4000@2"}, false, "lost"},
-        // One garbled or cut report is asked for again (the meter keeps its last measurement);
-        // a cut one after the reply's deadline.
+        // One garbled or cut reply is asked for again (the meter keeps its last measurement);
+        // a cut one after the reply's pause deadline. A damaged M0 status is not measured again.
+        FaultCase{"garbage_s", {"s:garbage@2"}, true, ""},
+        FaultCase{"garbage_m0", {"m0:garbage@2"}, true, ""},
+        FaultCase{"garbage_d1", {"d1:garbage@2"}, true, ""},
+        FaultCase{"truncate_d2", {"d2:truncate@2"}, true, ""},
         FaultCase{"truncate", {"d5:truncate@2"}, true, ""},
         FaultCase{"garbage", {"d5:garbage@2"}, true, ""},
         FaultCase{"bitflip", {"d5:bitflip=8@2"}, true, ""},
@@ -167,7 +189,7 @@ TEST_F(AcquisitionFaultsTest, ADaemonKilledMidSessionLeavesAnIntactDatabaseAndAn
   EXPECT_EQ(after["fits"], before["fits"]);
   const auto job = get_json(p, job_path);
   EXPECT_EQ(job["state"], "failed") << job;
-  EXPECT_TRUE(job["error"].get<std::string>().starts_with("interrupted")) << job;
+  EXPECT_EQ(job["error"]["code"], "interrupted") << job;
   EXPECT_EQ(samples_without_fit(rig.db_path()), 0);
   // An interrupted session takes no measurement until it is reopened.
   EXPECT_EQ(http_request(p, "POST", session_path(session) + "/measurements", json{{"kind", "sample"}}.dump()).status, 409);
@@ -237,6 +259,28 @@ std::string scenes_file(const ScratchDirectory& dir) {
   return path;
 }
 
+TEST_F(AcquisitionFaultsTest, ASampleAfterAFailedWhiteNamesTheWhiteJobThatFailed) {
+  // The white's three readings all overload: it fails and stores nothing.
+  AcquisitionRig rig(rig_options(dir_.path().string(), {"--fault", "m0:quality=19@1", "--fault", "m0:quality=19@2",
+                                                        "--fault", "m0:quality=19@3"}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const auto p = rig.port;
+  const long long session = new_session(p, "W1");
+  const auto white = wait_for_job(p, submit(p, session, {{"kind", "white"}}));
+  ASSERT_EQ(white["state"], "failed") << white;
+  const std::string white_job = std::to_string(white["id"].get<long long>());
+
+  const auto sample = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  ASSERT_EQ(sample["state"], "failed") << sample;
+  const std::string error = job_error_text(sample);
+  EXPECT_TRUE(error.starts_with("no_white: ")) << error;
+  EXPECT_NE(error.find("(job " + white_job + ") failed"), std::string::npos) << error;
+
+  // Measured again, the white is in force for the samples after it.
+  ASSERT_EQ(wait_for_job(p, submit(p, session, {{"kind", "white"}}))["state"], "succeeded");
+  EXPECT_EQ(wait_for_job(p, submit(p, session, {{"kind", "sample"}}))["state"], "succeeded");
+}
+
 TEST_F(AcquisitionFaultsTest, AChangedLampWarnsOnItsWhiteAndOnSamplesMeasuredAgainstIt) {
   auto options = rig_options(dir_.path().string(), {"--radiance", scenes_file(dir_)});
   options.default_scenes = false;
@@ -278,7 +322,8 @@ TEST_F(AcquisitionFaultsTest, ASampleAgainstAnOldWhiteWarnsAndSettingsComeFromTh
   // max_rejected_readings 0: the first bad reading fails the job, and is kept.
   const auto rejected = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
   ASSERT_EQ(rejected["state"], "failed") << rejected;
-  EXPECT_TRUE(rejected["error"].get<std::string>().starts_with("bad_reading: quality 18")) << rejected;
+  EXPECT_EQ(rejected["error"]["code"], "bad_reading") << rejected;
+  EXPECT_TRUE(rejected["error"]["message"].get<std::string>().starts_with("quality 18")) << rejected;
   EXPECT_EQ(rejected["result"]["rejected_reading_ids"].size(), 1u) << rejected;
   EXPECT_EQ(get_json(p, session_path(session))["rejected_readings"].size(), 1u);
 

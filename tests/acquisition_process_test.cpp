@@ -8,7 +8,9 @@
 #include <sstream>
 #include <thread>
 
+#include "skinspec/drivers/pr650.hpp"
 #include "support/acquisition_rig.hpp"
+#include "support/driver_options.hpp"
 #include "support/http_client.hpp"
 #include "support/process.hpp"
 #include "support/store_samples.hpp"
@@ -68,7 +70,7 @@ TEST_F(AcquisitionTest, WhiteThenSampleStoresTheSourceReflectanceAndItsFit) {
   // A sample before any white has nothing to be relative to.
   const auto early = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
   EXPECT_EQ(early["state"], "failed");
-  EXPECT_NE(early["error"].get<std::string>().find("no_white_reference"), std::string::npos) << early;
+  EXPECT_EQ(early["error"]["code"], "no_white") << early;
 
   const auto white = wait_for_job(p, submit(p, session, {{"kind", "white"}, {"label", "PTFE"}}));
   ASSERT_EQ(white["state"], "succeeded") << white << rig.daemon->err();
@@ -131,11 +133,57 @@ TEST_F(AcquisitionTest, ABadQualityCodeIsRejectedKeptAndMeasuredAgain) {
   EXPECT_EQ(rejected["attempt"], 1);
   EXPECT_EQ(rejected["quality"]["code"], 19);
   EXPECT_NE(rejected["reason"].get<std::string>().find("bad_reading"), std::string::npos) << rejected;
-  EXPECT_FALSE(rejected.contains("raw_reply")) << rejected;
+  EXPECT_TRUE(rejected["raw_reply_base64"].get<std::string>().starts_with("MTksM")) << rejected;  // "19,0"
   // The stored raw reply is the meter's D5 report with its quality code.
   const auto raw = sqlite_text(rig.db_path(), "SELECT CAST(raw_reply AS TEXT) FROM rejected_readings");
   EXPECT_TRUE(raw.starts_with("19,0")) << raw;
   EXPECT_GT(raw.size(), 1000u);
+}
+
+// What the meter says of itself, asked directly once skinspecd has let go of it.
+std::expected<drivers::Identity, std::string> identify_directly(unsigned short sim_port) {
+  const auto uri = drivers::parse_connection_uri("tcp:127.0.0.1:" + std::to_string(sim_port));
+  if (!uri) return std::unexpected(uri.error());
+  std::string last_error;
+  // The simulator may still be closing the daemon's session: a new client waits its turn.
+  for (int attempt = 0; attempt < 20; ++attempt, std::this_thread::sleep_for(100ms)) {
+    auto transport = drivers::make_transport(*uri);
+    if (!transport) return std::unexpected(transport.error());
+    drivers::Pr650 meter(std::move(*transport), fast_driver());
+    if (auto contact = meter.connect(); !contact) {
+      last_error = contact.error().message;
+      continue;
+    }
+    auto identity = meter.identify();
+    if (identity) return *identity;
+    last_error = identity.error().message;
+  }
+  return std::unexpected(last_error);
+}
+
+// The instrument's record keeps the spectral configuration the meter reported, as the meter
+// reports it when asked again.
+TEST_F(AcquisitionTest, TheStoredInstrumentConfigurationIsWhatTheMeterReports) {
+  AcquisitionRig rig(rig_options(dir_.path().string(), {}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const long long session = new_session(rig.port, "V4");
+  const auto white = wait_for_job(rig.port, submit(rig.port, session, {{"kind", "white"}}));
+  ASSERT_EQ(white["state"], "succeeded") << white << rig.logs();
+  const auto m = get_json(rig.port, "/api/v1/measurements/" + std::to_string(white["result"]["measurement_id"].get<long long>()));
+  ASSERT_TRUE(m["provenance"]["instrument_id"].is_number_integer()) << m;
+  const json stored = json::parse(sqlite_text(
+      rig.db_path(), "SELECT spectral_configuration FROM instruments WHERE id = " + std::to_string(m["provenance"]["instrument_id"].get<long long>())));
+  const auto stopped = rig.stop_daemon();  // the simulator serves one client at a time
+  ASSERT_TRUE(stopped.exited()) << stopped.describe();
+
+  const auto identity = identify_directly(rig.sim_port);
+  ASSERT_TRUE(identity) << identity.error();
+  const auto& reported = identity->configuration;
+  EXPECT_EQ(stored, (json{{"points", reported.points}, {"bandwidth_nm", reported.bandwidth_nm}, {"first_nm", reported.first_nm},
+                          {"last_nm", reported.last_nm}, {"step_nm", reported.step_nm}}));
+  EXPECT_EQ(stored["points"], m["radiance"]["values"].size());
+  EXPECT_EQ(stored["first_nm"], m["radiance"]["wavelength_nm"].front());
+  EXPECT_EQ(stored["last_nm"], m["radiance"]["wavelength_nm"].back());
 }
 
 TEST_F(AcquisitionTest, QueuedJobsCanBeCancelledAndUnknownOnesAreNotFound) {

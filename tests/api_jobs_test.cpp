@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <condition_variable>
 #include <map>
 #include <mutex>
@@ -24,9 +25,21 @@ class FakeAcquisition final : public Acquisition {
  public:
   json instrument_status() const override { return {{"device", "fake"}, {"state", "connected"}, {"last_error", nullptr}}; }
   json ports() const override { return {{"ports", json::array()}}; }
-  std::expected<store::CreatedJob, ApiError> submit(store::Id, const MeasureRequest&, const std::string&) override {
-    return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "not in this test"});
+  // Like a worker that was idle: the job is queued and taken at once, before the answer is
+  // made from it.
+  std::expected<store::CreatedJob, ApiError> submit(store::Id session, const MeasureRequest& request, const std::string&) override {
+    if (db_ == nullptr) return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "not in this test"});
+    store::Job job;
+    job.kind = "measure";
+    job.session_id = session;
+    const auto created = db_->create_job(job);
+    if (!created) return std::unexpected(ApiError{ErrorKind::internal, "", created.error().message});
+    set(created->job.id, JobProgress{1, JobPhase::queued, 0, request.count});
+    if (!db_->update_job(created->job.id, {store::JobState::running})) return std::unexpected(ApiError{ErrorKind::internal, "", "start"});
+    set(created->job.id, JobProgress{0, JobPhase::connecting, 0, request.count});
+    return *created;
   }
+  void take_jobs_from(store::Store& db) { db_ = &db; }
   std::expected<store::Job, ApiError> cancel(store::Id) override {
     return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "not in this test"});
   }
@@ -62,6 +75,7 @@ class FakeAcquisition final : public Acquisition {
   mutable std::condition_variable changed_;
   std::map<store::Id, JobProgress> live_;
   std::uint64_t changes_ = 0;
+  store::Store* db_ = nullptr;
 };
 
 class ApiJobsTest : public ::testing::Test {
@@ -87,9 +101,14 @@ class ApiJobsTest : public ::testing::Test {
     EXPECT_TRUE(created) << created.error().message;
     return created->job.id;
   }
-  void update(store::Id id, store::JobState state, std::optional<std::string> error = {}, std::optional<std::string> result = {}) {
+  void update(store::Id id, store::JobState state, std::optional<store::JobError> error = {}, std::optional<std::string> result = {}) {
     auto updated = db_->update_job(id, {state, std::move(error), std::move(result)});
     ASSERT_TRUE(updated) << updated.error().message;
+  }
+  store::Job value_of_record(store::Id id) const {
+    auto job = db_->job(id);
+    EXPECT_TRUE(job) << job.error().message;
+    return job ? *job : store::Job{};
   }
   json get_job(store::Id id) const {
     const auto r = router_->handle(Request{"GET", "/api/v1/jobs/" + std::to_string(id), {}, ""});
@@ -121,8 +140,8 @@ class ApiJobsTest : public ::testing::Test {
 TEST_F(ApiJobsTest, LiveJobsShowTheirPositionAndProgress) {
   const auto running = add_job(4), queued = add_job(2);
   update(running, store::JobState::running);
-  acquisition_.set(running, JobProgress{0, "measuring", 2, 4});
-  acquisition_.set(queued, JobProgress{1, "queued", 0, 2});
+  acquisition_.set(running, JobProgress{0, JobPhase::measuring, 2, 4});
+  acquisition_.set(queued, JobProgress{1, JobPhase::queued, 0, 2});
 
   const json a = get_job(running);
   EXPECT_EQ(a["state"], "running");
@@ -135,7 +154,7 @@ TEST_F(ApiJobsTest, LiveJobsShowTheirPositionAndProgress) {
   EXPECT_EQ(b["position"], 1);
   EXPECT_EQ(b["progress"]["phase"], "queued");
   EXPECT_DOUBLE_EQ(b["progress"]["fraction"].get<double>(), 0.0);
-  acquisition_.set(running, JobProgress{0, "storing", 4, 4});
+  acquisition_.set(running, JobProgress{0, JobPhase::storing, 4, 4});
   EXPECT_DOUBLE_EQ(get_job(running)["progress"]["fraction"].get<double>(), 0.95);
 }
 
@@ -144,10 +163,10 @@ TEST_F(ApiJobsTest, FinishedJobsShowTheirStoredProgress) {
   update(ok, store::JobState::running);
   update(ok, store::JobState::succeeded, std::nullopt, json{{"measurement_id", 1}, {"readings", 3}}.dump());
   update(failed, store::JobState::running);
-  update(failed, store::JobState::failed, "lost: the meter went away", json{{"readings", 2}}.dump());
-  update(cancelled, store::JobState::cancelled, "cancelled by request");
+  update(failed, store::JobState::failed, store::JobError{store::JobErrorCode::lost, "the meter went away"}, json{{"readings", 2}}.dump());
+  update(cancelled, store::JobState::cancelled, store::JobError{store::JobErrorCode::cancelled, "cancelled by request"});
   // Live progress not yet cleared does not override a finished record.
-  acquisition_.set(ok, JobProgress{0, "storing", 3, 3});
+  acquisition_.set(ok, JobProgress{0, JobPhase::storing, 3, 3});
 
   const json a = get_job(ok);
   EXPECT_TRUE(a["position"].is_null());
@@ -165,7 +184,7 @@ TEST_F(ApiJobsTest, FinishedJobsShowTheirStoredProgress) {
 
 TEST_F(ApiJobsTest, EventsFollowAJobUntilItEnds) {
   const auto id = add_job(2);
-  acquisition_.set(id, JobProgress{1, "queued", 0, 2});
+  acquisition_.set(id, JobProgress{1, JobPhase::queued, 0, 2});
   const auto events = events_of(id);
   ASSERT_TRUE(events);
 
@@ -179,7 +198,7 @@ TEST_F(ApiJobsTest, EventsFollowAJobUntilItEnds) {
   EXPECT_EQ(events->next(10ms), ": keep-alive\n\n");
 
   update(id, store::JobState::running);
-  acquisition_.set(id, JobProgress{0, "measuring", 1, 2});
+  acquisition_.set(id, JobProgress{0, JobPhase::measuring, 1, 2});
   auto [second_id, second] = parse_event(events->next(1s).value());
   EXPECT_EQ(second_id, 2);
   EXPECT_EQ(second["state"], "running");
@@ -196,7 +215,7 @@ TEST_F(ApiJobsTest, EventsFollowAJobUntilItEnds) {
 
 TEST_F(ApiJobsTest, AFinishedJobGivesOneEventAndAnUnknownOneIsNotFound) {
   const auto id = add_job(1);
-  update(id, store::JobState::cancelled, "cancelled by request");
+  update(id, store::JobState::cancelled, store::JobError{store::JobErrorCode::cancelled, "cancelled by request"});
   const auto events = events_of(id);
   ASSERT_TRUE(events);
   EXPECT_EQ(parse_event(events->next(1s).value()).second["state"], "cancelled");
@@ -210,7 +229,7 @@ TEST_F(ApiJobsTest, AFinishedJobGivesOneEventAndAnUnknownOneIsNotFound) {
 
 TEST_F(ApiJobsTest, ClosingTheEventsEndsAWaitingPull) {
   const auto id = add_job(1);
-  acquisition_.set(id, JobProgress{1, "queued", 0, 1});
+  acquisition_.set(id, JobProgress{1, JobPhase::queued, 0, 1});
   const auto events = events_of(id);
   ASSERT_TRUE(events->next(1s).has_value());
   std::thread closer([&] { events->close(); });
@@ -219,13 +238,71 @@ TEST_F(ApiJobsTest, ClosingTheEventsEndsAWaitingPull) {
   closer.join();
 }
 
+// The record read a moment before the live progress may still say queued: the job is shown
+// as the progress says, never queued at position 0.
+TEST_F(ApiJobsTest, ANewJobTheWorkerTookAtOnceShowsRunningAtPositionZero) {
+  acquisition_.take_jobs_from(*db_);
+  const auto r = router_->handle(Request{"POST", "/api/v1/sessions/" + std::to_string(session_) + "/measurements",
+                                         {{"content-type", "application/json"}}, R"({"kind": "white", "count": 3})"});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const json accepted = json::parse(r.body);
+  EXPECT_EQ(accepted["state"], "running");
+  EXPECT_EQ(accepted["position"], 0);
+  EXPECT_EQ(accepted["progress"]["phase"], "connecting");
+  EXPECT_TRUE(accepted["error"].is_null());
+}
+
+TEST_F(ApiJobsTest, PositionIsOneOrMoreWhileQueuedZeroWhileRunningNullOnceFinished) {
+  const auto id = add_job(2);
+  acquisition_.set(id, JobProgress{2, JobPhase::queued, 0, 2});
+  EXPECT_EQ(get_job(id)["state"], "queued");
+  EXPECT_EQ(get_job(id)["position"], 2);
+  acquisition_.set(id, JobProgress{0, JobPhase::queued, 0, 2});  // no place known: still a place
+  EXPECT_EQ(get_job(id)["position"], 1);
+  update(id, store::JobState::running);
+  acquisition_.set(id, JobProgress{1, JobPhase::measuring, 1, 2});  // a stale place is not shown
+  EXPECT_EQ(get_job(id)["state"], "running");
+  EXPECT_EQ(get_job(id)["position"], 0);
+  update(id, store::JobState::failed, store::JobError{store::JobErrorCode::no_contact, "no answer on tcp:x"});
+  const json failed = get_job(id);
+  EXPECT_EQ(failed["state"], "failed");
+  EXPECT_TRUE(failed["position"].is_null());
+  EXPECT_EQ(failed["error"], (json{{"code", "no_contact"}, {"message", "no answer on tcp:x"}}));
+}
+
+// The store refused a job's end: the record stays running, the job shows failed with a store
+// error, and its events end there.
+TEST_F(ApiJobsTest, AJobWhoseEndTheStoreRefusedShowsFailedWithAStoreError) {
+  const auto id = add_job(2);
+  update(id, store::JobState::running);
+  JobProgress refused{0, JobPhase::done, 1, 2};
+  refused.unrecorded_failure = store::JobError{store::JobErrorCode::store, "the job ended (lost: gone) but the database refused"};
+  acquisition_.set(id, refused);
+  const json job = get_job(id);
+  EXPECT_EQ(job["state"], "failed");
+  EXPECT_TRUE(job["position"].is_null());
+  EXPECT_EQ(job["error"]["code"], "store");
+  EXPECT_EQ(job["progress"]["phase"], "done");
+  EXPECT_EQ(value_of_record(id).state, store::JobState::running);
+  const auto events = events_of(id);
+  EXPECT_EQ(parse_event(events->next(1s).value()).second["state"], "failed");
+  EXPECT_FALSE(events->next(10ms).has_value());
+}
+
 TEST_F(ApiJobsTest, TheOpenApiJobSchemaHasPositionAndProgress) {
-  const json doc = Router::openapi_document("test");
+  const json doc = Router::openapi_document();
   const json& job = doc["components"]["schemas"]["Job"]["properties"];
   EXPECT_TRUE(job.contains("position"));
   EXPECT_EQ(job["progress"]["$ref"], "#/components/schemas/JobProgress");
   EXPECT_TRUE(doc["components"]["schemas"]["JobProgress"]["properties"].contains("fraction"));
   EXPECT_TRUE(doc["paths"]["/api/v1/jobs/{id}/events"]["get"]["responses"]["200"]["content"].contains("text/event-stream"));
+  // The job's error is {code, message}, its codes those of the one mapping.
+  EXPECT_EQ(job["error"]["oneOf"][0]["$ref"], "#/components/schemas/JobError");
+  const json& codes = doc["components"]["schemas"]["JobError"]["properties"]["code"]["enum"];
+  EXPECT_EQ(codes.size(), store::job_error_code_names().size());
+  for (const auto& [code, name] : store::job_error_code_names()) EXPECT_NE(std::ranges::find(codes, json(name)), codes.end()) << name;
+  EXPECT_EQ(doc["components"]["schemas"]["JobProgress"]["properties"]["phase"]["enum"],
+            json({"queued", "connecting", "measuring", "fitting", "storing", "done"}));
 }
 
 }  // namespace

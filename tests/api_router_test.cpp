@@ -3,14 +3,16 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
 
 #include "fit_json.hpp"
 #include "fitter_loader.hpp"
 #include "skinspec/api/render_cache.hpp"
 #include "skinspec/api/router.hpp"
-#include "skinspec/fit/colour.hpp"
+#include "skinspec/spectral/colour.hpp"
 #include "skinspec/store/store.hpp"
+#include "skinspec/version.hpp"
 #include "support/png_reader.hpp"
 #include "support/store_samples.hpp"
 
@@ -54,7 +56,6 @@ class ApiRouterTest : public ::testing::Test {
     RouterContext context;
     context.store = &*db_;
     context.fitter = &shared_fitter();
-    context.version = "test";
     router_ = std::make_unique<Router>(context);
   }
   Response call(std::string method, std::string target, std::string body = "", bool json_type = true) {
@@ -97,11 +98,33 @@ TEST(ApiErrors, EveryKindHasOneStatus) {
   }
 }
 
+// What the client did wrong is a 4xx; a database that is unavailable for now a 503; one that
+// is broken a 500. The store's message is passed on.
+TEST(ApiErrors, EveryStoreErrorKindHasOneStatusAndCode) {
+  using K = store::StoreError::Kind;
+  const std::map<K, std::pair<int, std::string>> expected = {
+      {K::invalid_argument, {422, "invalid_value"}},  {K::not_found, {404, "not_found"}},
+      {K::conflict, {409, "conflict"}},               {K::busy, {503, "database_busy"}},
+      {K::full, {503, "database_full"}},              {K::read_only, {503, "database_read_only"}},
+      {K::io, {500, "database_io"}},                  {K::corrupt, {500, "database_corrupt"}},
+      {K::newer_schema, {500, "database_schema"}},    {K::older_schema, {500, "database_schema"}},
+      {K::internal, {500, "database_error"}}};
+  for (int k = 0; k <= static_cast<int>(K::internal); ++k) {
+    const auto kind = static_cast<K>(k);
+    const auto it = expected.find(kind);
+    ASSERT_NE(it, expected.end()) << store::to_string(kind);
+    const ApiError error = from_store_error({kind, "what the store said", 0});
+    EXPECT_EQ(http_status(error.kind), it->second.first) << store::to_string(kind);
+    EXPECT_EQ(error.code, it->second.second) << store::to_string(kind);
+    EXPECT_EQ(error.message, "what the store said");
+  }
+}
+
 TEST_F(ApiRouterTest, HealthzReportsDatabaseAndVersion) {
   const auto r = call("GET", "/healthz");
   ASSERT_EQ(r.status, 200);
   EXPECT_EQ(body(r)["status"], "ok");
-  EXPECT_EQ(body(r)["version"], "test");
+  EXPECT_EQ(body(r)["version"], std::string(kVersion));
   EXPECT_EQ(body(r)["database"]["state"], "open");
 }
 
@@ -244,7 +267,7 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   ASSERT_EQ(got.status, 200) << got.body;
   EXPECT_TRUE(body(got)["fit_id"].is_null());
   EXPECT_EQ(body(got)["reflectance"]["values"].size(), grid().size());
-  EXPECT_TRUE(body(got)["provenance"].contains("raw_reply"));
+  EXPECT_TRUE(body(got)["provenance"]["raw_reply_base64"].get<std::string>().starts_with("MDAwMCwwDQo"));  // "0000,0\r\n"
 
   const auto refit = call("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", json{{"site", "cheek"}}.dump());
   ASSERT_EQ(refit.status, 201) << refit.body;
@@ -403,6 +426,53 @@ TEST_F(ApiRouterTest, TokensGuardEveryRouteButHealthz) {
   EXPECT_EQ(guarded.handle(with_token(req("POST", "/api/v1/sessions", session), "operator-token-0123456789")).status, 201);
 }
 
+// The routes report the store's refusals through the one mapping: a read-only or full
+// database is a 503, a damaged row a 500, and nothing is half stored.
+TEST_F(ApiRouterTest, StoreFailuresReachTheClientAsTheirStatus) {
+  ASSERT_EQ(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}}.dump()).status, 201);
+  const store::Id m = add_measurement(1);
+  const std::string path = dir_.file("api.db");
+  const auto router_over = [](store::Store& db) {
+    RouterContext context;
+    context.store = &db;
+    context.fitter = &shared_fitter();
+    return std::make_unique<Router>(context);
+  };
+  const auto open = [&path](bool read_only, std::int64_t max_pages) {
+    store::OpenOptions options;
+    options.mode = read_only ? store::OpenMode::read_only : store::OpenMode::read_write;
+    options.max_pages = max_pages;
+    auto opened = store::Store::open(path, options);
+    if (!opened) throw std::runtime_error(opened.error().message);
+    return std::move(*opened);
+  };
+  {
+    auto reader = open(true, 0);
+    const auto router = router_over(reader);
+    expect_error(router->handle(req("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "T"}}.dump())), 503,
+                 "database_read_only");
+    expect_error(router->handle(req("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", "{}")), 503, "database_read_only");
+    EXPECT_EQ(router->handle(req("GET", "/api/v1/sessions/1")).status, 200);
+  }
+  router_.reset();
+  db_.reset();  // the writer lock, for the next writer
+  {
+    auto capped = open(false, 1);  // below the file's size: a write needing a page is refused
+    const auto router = router_over(capped);
+    std::vector<double> wl, values;
+    for (int i = 0; i < 2000; ++i) {
+      wl.push_back(300 + i * 0.25);
+      values.push_back(0.9);
+    }
+    const json ws = {{"name", "PTFE"}, {"wavelength_nm", wl}, {"reflectance", values}};
+    expect_error(router->handle(req("POST", "/api/v1/white-standards", ws.dump())), 503, "database_full");
+    EXPECT_EQ(body(router->handle(req("GET", "/api/v1/white-standards")))["white_standards"].size(), 0u);
+  }
+  testing::sqlite_execute(path, "UPDATE measurements SET radiance = x'0102' WHERE id = " + std::to_string(m));
+  auto damaged = open(false, 0);
+  expect_error(router_over(damaged)->handle(req("GET", "/api/v1/measurements/" + std::to_string(m))), 500, "database_corrupt");
+}
+
 TEST(ApiRouterWithoutDatabase, DataRoutesAnswer503) {
   const Router router(RouterContext{});
   const auto r = router.handle(Request{"GET", "/api/v1/sessions", {}, ""});
@@ -411,6 +481,55 @@ TEST(ApiRouterWithoutDatabase, DataRoutesAnswer503) {
   EXPECT_EQ(router.handle(Request{"GET", "/healthz", {}, ""}).status, 200);
 }
 
+TEST_F(ApiRouterTest, ARepeatedKeyInABodyIsRefusedByName) {
+  const auto top = call("POST", "/api/v1/sessions", R"({"site": "forearm", "subject": "A", "subject": "B"})");
+  expect_error(top, 400, "duplicate_key");
+  EXPECT_NE(body(top)["error"]["message"].get<std::string>().find("'subject'"), std::string::npos) << top.body;
+  const auto nested = call("POST", "/api/v1/fit", R"({"wavelength_nm": [400, 500], "spectra": {"a": [0.1, 0.2], "a": [0.3, 0.4]}})");
+  expect_error(nested, 400, "duplicate_key");
+  EXPECT_NE(body(nested)["error"]["message"].get<std::string>().find("'a'"), std::string::npos) << nested.body;
+  // The same key in two different objects is no repetition.
+  const auto sibling = call("POST", "/api/v1/fit", R"({"wavelength_nm": [400, 500], "spectra": {"a": [0.1, 0.2]}, "site": "forearm"})");
+  EXPECT_NE(sibling.status, 400) << sibling.body;
+  const std::string long_key(5000, 'k');
+  const auto long_repeat = call("POST", "/api/v1/sessions", "{\"" + long_key + "\": 1, \"" + long_key + "\": 2}");
+  expect_error(long_repeat, 400, "duplicate_key");
+  EXPECT_LT(long_repeat.body.size(), 400u);
+  EXPECT_EQ(call("GET", "/api/v1/sessions").status, 200);
+  EXPECT_EQ(body(call("GET", "/api/v1/sessions"))["sessions"].size(), 0u) << "nothing stored from a refused body";
+}
+
+TEST_F(ApiRouterTest, TheBearerSchemeIsCaseInsensitive) {
+  RouterContext context;
+  context.store = &*db_;
+  context.access = {true, "read-token-0123456789", "operator-token-0123456789"};
+  const Router guarded(context);
+  const auto with = [&](const std::string& credentials) {
+    Request r = req("GET", "/api/v1/sessions");
+    r.headers["authorization"] = credentials;
+    return guarded.handle(r);
+  };
+  for (const char* scheme : {"Bearer", "bearer", "BEARER", "bEaReR"})
+    EXPECT_EQ(with(std::string(scheme) + " read-token-0123456789").status, 200) << scheme;
+  EXPECT_EQ(with("Bearer   read-token-0123456789").status, 200) << "several spaces";
+  for (const char* refused : {"Bearerread-token-0123456789", "Basic read-token-0123456789", "Bearer ", "Bearer", "bearer read-token-012345678",
+                              "Bearers read-token-0123456789"})
+    expect_error(with(refused), 401, "unauthorized");
+}
+
+TEST(ApiRouterRoutes, FitsAndRendersAreTheHeavyRoutes) {
+  EXPECT_TRUE(Router::is_heavy("POST", "/api/v1/fit"));
+  EXPECT_TRUE(Router::is_heavy("POST", "/api/v1/measurements/12/fit"));
+  EXPECT_TRUE(Router::is_heavy("GET", "/api/v1/fits/3/render.png?size=64x64"));
+  EXPECT_TRUE(Router::is_heavy("GET", "/api/v1/fits/%33/render.png"));
+  for (const auto& [method, target] : std::vector<std::pair<std::string, std::string>>{
+           {"GET", "/healthz"}, {"GET", "/api/v1/fits/3"}, {"GET", "/api/v1/fit"}, {"GET", "/api/v1/sessions"}, {"GET", "/nope"}, {"GET", ""}, {"GET", "x"}})
+    EXPECT_FALSE(Router::is_heavy(method, target)) << method << ' ' << target;
+  std::set<std::string> heavy;
+  for (const auto& r : Router::routes())
+    if (r.heavy) heavy.insert(r.method + " " + r.path);
+  EXPECT_EQ(heavy, (std::set<std::string>{"POST /api/v1/fit", "POST /api/v1/measurements/{id}/fit", "GET /api/v1/fits/{id}/render.png"}));
+}
 
 TEST_F(ApiRouterTest, TheWebConsoleIsServedWithoutATokenAndOutsideTheApiDocument) {
   const auto page = call("GET", "/");

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "skinspec/spectral/utf8.hpp"
 #include "support/process.hpp"
 #include "support/reference_model.hpp"
 
@@ -102,11 +103,22 @@ class CliTest : public ::testing::Test {
 // A spectra file every command accepts: two flat spectra over 400-700 nm.
 constexpr const char* kGoodSpectra = "wavelength_nm,a,b\n400,0.3,0.4\n550,0.35,0.45\n700,0.5,0.6\n";
 
-// Refused input: the status, empty stdout (no partial output), and the message on stderr.
+// What may reach a terminal: UTF-8 without control characters other than line ends.
+void expect_printable(const std::string& text) {
+  EXPECT_TRUE(utf8::is_valid(text)) << "not UTF-8: " << printable(text);
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    EXPECT_TRUE(c == '\n' || (byte >= 0x20 && byte != 0x7f)) << "control byte " << int(byte) << " in " << printable(text);
+  }
+}
+
+// Refused input: the status, empty stdout (no partial output), and the message on stderr,
+// printable whatever the input held.
 void expect_refused(const testing::ProcessResult& run, const ::testing::Matcher<std::string>& message) {
   EXPECT_EQ(run.exit_status, kBadInput) << run.describe();
   EXPECT_THAT(run.out, IsEmpty()) << run.describe();
   EXPECT_THAT(run.err, message) << run.describe();
+  expect_printable(run.err);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -190,10 +202,22 @@ const BadSpectra kBadSpectra[] = {
     {"one_row", "wavelength_nm,a\n400,0.1\n", ":2: ", "1 data row below the header"},
     {"empty", "", ":1: ", "the input is empty"},
     {"only_blank_lines", "\n  \n\n", ":1: ", "the input holds only blank"},
+    // Bytes that are not UTF-8, anywhere: shown escaped, never raw.
+    {"utf8_in_header", "wavelength_nm,\xff\xfe\n400,0.3\n500,0.3\n600,0.3\n700,0.3\n", ":1:15: ",
+     "\\xff\\xfe is not UTF-8 text (after 'wavelength_nm,')"},
+    {"utf8_in_name", "wavelength_nm,ok,b\xe9\n400,0.3,0.3\n700,0.3,0.3\n", ":1:19: ", "\\xe9 is not UTF-8 text"},
+    {"utf8_in_comment", "# \xc0\xaf\nwavelength_nm,a\n400,0.3\n700,0.3\n", ":1:3: ", "\\xc0\\xaf is not UTF-8 text"},
+    {"utf8_in_value", "wavelength_nm,a\n400,0.3\n700,0.3\xf4\x90\x80\x80\n", ":3:8: ", "\\xf4\\x90\\x80\\x80 is not UTF-8"},
+    {"utf8_lone_continuation", "wavelength_nm,a\n400,\x80\n700,0.3\n", ":2:5: ", "\\x80 is not UTF-8 text"},
+    {"utf8_overlong", "wavelength_nm,a\xc1\xbf\n400,0.3\n700,0.3\n", ":1:16: ", "\\xc1\\xbf is not UTF-8 text"},
+    {"utf8_surrogate", "wavelength_nm,a\n400,0.3\n700,0.\xed\xa0\x80\n", ":3:7: ", "\\xed\\xa0\\x80 is not UTF-8"},
+    {"escape_sequence_in_name", "wavelength_nm,\x1b[31mred,\x1b[31mred\n400,0.1,0.1\n700,0.2,0.2\n", ":1:24: ",
+     "duplicated column name '\\x1b[31mred'"},
+    {"vertical_tab_in_cell", "wavelength_nm,a\n400,0.1\n550,0\x0b" "2\n700,0.2\n", ":3:5: ", "'0\\x0b2' is not a number"},
 };
 
 struct BadSpectraRun {
-  std::string command;  // "fit" or "color"
+  std::string command;  // "fit" or "colour"
   BadSpectra bad;
   bool from_stdin;
 };
@@ -213,8 +237,8 @@ TEST_P(CliBadSpectra, IsRefusedWithStatus2AndTheLocation) {
   expect_refused(run, AllOf(StartsWith("skinspec: " + source + bad.location), HasSubstr(bad.message)));
 }
 
-// Grids too narrow for one command: `color` needs 400-700 nm, `fit` 420-680 nm (docs/model.md).
-const BadSpectra kNarrowForColor[] = {
+// Grids too narrow for one command: `colour` needs 400-700 nm, `fit` 420-680 nm (docs/model.md).
+const BadSpectra kNarrowForColour[] = {
     {"grid_starts_late", "wavelength_nm,a\n410,0.1\n700,0.2\n", ": ",
      "the wavelengths cover 410-700 nm but 400-700 nm is needed"},
     {"grid_ends_early", "wavelength_nm,a\n400,0.1\n690,0.2\n", ": ",
@@ -230,9 +254,9 @@ const BadSpectra kNarrowForFit[] = {
 std::vector<BadSpectraRun> all_bad_spectra_runs() {
   std::vector<BadSpectraRun> runs;
   for (const bool from_stdin : {false, true}) {
-    for (const char* command : {"fit", "color"})
+    for (const char* command : {"fit", "colour"})
       for (const auto& bad : kBadSpectra) runs.push_back({command, bad, from_stdin});
-    for (const auto& bad : kNarrowForColor) runs.push_back({"color", bad, from_stdin});
+    for (const auto& bad : kNarrowForColour) runs.push_back({"colour", bad, from_stdin});
     for (const auto& bad : kNarrowForFit) runs.push_back({"fit", bad, from_stdin});
   }
   return runs;
@@ -250,7 +274,7 @@ INSTANTIATE_TEST_SUITE_P(Spectra, CliBadSpectra, ::testing::ValuesIn(all_bad_spe
 class CliRefuses : public CliTest {};
 
 TEST_F(CliRefuses, NonexistentFile) {
-  for (const char* command : {"fit", "color"}) {
+  for (const char* command : {"fit", "colour"}) {
     const auto missing = path_of("no_such_file.csv");
     expect_refused(skinspec({command, missing}),
                    AllOf(StartsWith("skinspec: " + missing + ":"), HasSubstr("cannot open")));
@@ -259,8 +283,26 @@ TEST_F(CliRefuses, NonexistentFile) {
 
 TEST_F(CliRefuses, DirectoryGivenAsFile) {
   const auto directory = path_of("");
-  for (const char* command : {"fit", "color"})
+  for (const char* command : {"fit", "colour"})
     expect_refused(skinspec({command, directory}), HasSubstr("is a directory"));
+}
+
+TEST_F(CliRefuses, ArgumentsAreEchoedPrintably) {
+  const auto file = write("good.csv", kGoodSpectra);
+  expect_refused(skinspec({"fi\x1bt", file}), HasSubstr("unknown command 'fi\\x1bt'"));
+  expect_refused(skinspec({"fit", "--format", "\xff\x1b[2J", file}), HasSubstr("\\xff\\x1b[2J"));
+  expect_refused(skinspec({"fit", "--site", "arm\xff", file}), HasSubstr("unknown site 'arm\\xff'"));
+  expect_refused(skinspec({"fit", "--bogus\x07", file}), HasSubstr("--bogus\\x07"));
+  expect_refused(skinspec({"model", "--grid", "\t\x1b"}), HasSubstr("--grid '\\t\\x1b'"));
+  expect_refused(skinspec({"model", "--melanin", "\x9b" "2J"}), HasSubstr("\\x9b2J"));
+  expect_refused(skinspec({"colour", "--illuminant", "nosuch\x1b", file}), HasSubstr("'nosuch\\x1b'"));
+  const auto missing = path_of("no\x1b[2Jsuch.csv");
+  expect_refused(skinspec({"fit", missing}), HasSubstr("no\\x1b[2Jsuch.csv"));
+  // Text sent to skinspecd must be UTF-8: refused before any connection is tried.
+  expect_refused(skinspec({"session", "new", "--site", "forearm", "--subject", "S\xff", "--server", "http://127.0.0.1:1"}),
+                 HasSubstr("'S\\xff' is not UTF-8 text"));
+  expect_refused(skinspec({"session", "measure", "1", "--kind", "white", "--label", "\xc0\x80", "--server", "http://127.0.0.1:1"}),
+                 HasSubstr("is not UTF-8 text"));
 }
 
 TEST_F(CliRefuses, UnknownSiteListingTheKnownOnes) {
@@ -282,7 +324,7 @@ TEST_F(CliRefuses, UnknownSubcommandOrOption) {
       {"fit", "--bogus", file},
       {"fit"},  // FILE is required
       {"fit", file, "extra.csv"},
-      {"color", "--site", "forearm", file},
+      {"colour", "--site", "forearm", file},
       {"model", "--grid"},  // the option's value is missing
       {"optics", "--melanin", "1"},
   };
@@ -618,7 +660,7 @@ TEST_F(CliModel, RefusesWeightsOutOfRange) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// color.
+// colour (alias color).
 
 struct Chromaticity {
   double x, y;
@@ -632,10 +674,22 @@ Chromaticity chromaticity(const Json& xyz) {
 // A perfect white and a flat 50% grey, over the whole visible range.
 constexpr const char* kWhiteAndGrey = "wavelength_nm,white,grey\n380,1.0,0.5\n780,1.0,0.5\n";
 
-class CliColor : public CliTest {};
+class CliColour : public CliTest {
+ protected:
+  void expect_white_under_equal_energy(const std::string& illuminant, const std::string& shown);
+};
 
-TEST_F(CliColor, WhiteUnderD65IsTheD65WhitePoint) {
-  const auto run = skinspec({"color", "-"}, kWhiteAndGrey);
+TEST_F(CliColour, ColorIsAnAliasGivingTheSameAnswer) {
+  const auto colour = skinspec({"colour", "-"}, kWhiteAndGrey);
+  const auto color = skinspec({"color", "-"}, kWhiteAndGrey);
+  ASSERT_EQ(colour.exit_status, 0) << colour.describe();
+  ASSERT_EQ(color.exit_status, 0) << color.describe();
+  EXPECT_EQ(json_lines(color.out).size(), 2u);
+  EXPECT_EQ(color.out, colour.out);
+}
+
+TEST_F(CliColour, WhiteUnderD65IsTheD65WhitePoint) {
+  const auto run = skinspec({"colour", "-"}, kWhiteAndGrey);
   ASSERT_EQ(run.exit_status, 0) << run.describe();
   const auto results = json_lines(run.out);
   ASSERT_EQ(results.size(), 2u);
@@ -659,8 +713,8 @@ TEST_F(CliColor, WhiteUnderD65IsTheD65WhitePoint) {
   EXPECT_NEAR(grey["Lab"][0].get<double>(), 116 * std::cbrt(0.5) - 16, 1e-6);
 }
 
-TEST_F(CliColor, WhiteUnderAHasTheChromaticityOfA) {
-  const auto run = skinspec({"color", "--illuminant", "A", write("white.csv", kWhiteAndGrey)});
+TEST_F(CliColour, WhiteUnderAHasTheChromaticityOfA) {
+  const auto run = skinspec({"colour", "--illuminant", "A", write("white.csv", kWhiteAndGrey)});
   ASSERT_EQ(run.exit_status, 0) << run.describe();
   const auto results = json_lines(run.out);
   ASSERT_EQ(results.size(), 2u);
@@ -670,13 +724,22 @@ TEST_F(CliColor, WhiteUnderAHasTheChromaticityOfA) {
   EXPECT_NEAR(xy.y, 0.4074, 2e-4);
 }
 
-TEST_F(CliColor, IlluminantFromAFile) {
-  const auto equal_energy = write("equal_energy.csv", "wavelength_nm,power\n380,100\n780,100\n");
-  const auto run = skinspec({"color", "--illuminant", equal_energy, write("white.csv", kWhiteAndGrey)});
+TEST_F(CliColour, IlluminantFromAFile) {
+  // A path is bytes: one that is not UTF-8 names an illuminant too, and the JSON that echoes it
+  // shows U+FFFD for what cannot be text (it used to end the program by an uncaught exception).
+  for (const auto& [name, shown] : {std::pair{"equal_energy.csv", "equal_energy.csv"},
+                                    std::pair{"lamp\xff.csv", "lamp\xef\xbf\xbd.csv"}}) {
+    SCOPED_TRACE(printable(name));
+    expect_white_under_equal_energy(write(name, "wavelength_nm,power\n380,100\n780,100\n"), path_of(shown));
+  }
+}
+
+void CliColour::expect_white_under_equal_energy(const std::string& illuminant, const std::string& shown) {
+  const auto run = skinspec({"colour", "--illuminant", illuminant, write("white.csv", kWhiteAndGrey)});
   ASSERT_EQ(run.exit_status, 0) << run.describe();
   const auto results = json_lines(run.out);
   ASSERT_EQ(results.size(), 2u);
-  EXPECT_EQ(results[0]["illuminant"], equal_energy);
+  EXPECT_EQ(results[0]["illuminant"], shown);
   // The CIE 1931 functions have (nearly) equal areas, so white under E sits at x = y = 1/3.
   const auto xy = chromaticity(results[0]["XYZ"]);
   EXPECT_NEAR(xy.x, 1.0 / 3, 1e-3);
@@ -684,17 +747,17 @@ TEST_F(CliColor, IlluminantFromAFile) {
   EXPECT_NEAR(results[0]["XYZ"][1].get<double>(), 1.0, 1e-9);
 }
 
-TEST_F(CliColor, RefusesAnUnknownIlluminant) {
+TEST_F(CliColour, RefusesAnUnknownIlluminant) {
   const auto white = write("white.csv", kWhiteAndGrey);
-  expect_refused(skinspec({"color", "--illuminant", "nosuch", white}),
+  expect_refused(skinspec({"colour", "--illuminant", "nosuch", white}),
                  AllOf(HasSubstr("'nosuch'"), HasSubstr("D65")));
   // A file that does not span 380-780 nm cannot weight the whole observer range.
   const auto narrow = write("narrow.csv", "wavelength_nm,power\n400,1\n700,1\n");
-  expect_refused(skinspec({"color", "--illuminant", narrow, white}),
+  expect_refused(skinspec({"colour", "--illuminant", narrow, white}),
                  AllOf(StartsWith("skinspec: " + narrow), HasSubstr("380-780 nm is needed")));
   // Without power there is no white to be relative to.
   const auto dark = write("dark.csv", "wavelength_nm,power\n380,0\n780,0\n");
-  expect_refused(skinspec({"color", "--illuminant", dark, white}),
+  expect_refused(skinspec({"colour", "--illuminant", dark, white}),
                  AllOf(StartsWith("skinspec: " + dark), HasSubstr("no power")));
 }
 
@@ -714,7 +777,7 @@ TEST(CliHelp, EverySubcommandDescribesItsOptions) {
         "--total-hemoglobin", "--oxygen-saturation", "--dermis-scattering", "--dermis-scattering-power",
         "--no-lateral-diffusion", "--grid"}},
       {"optics", {"--model", "--site"}},
-      {"color", {"FILE", "--illuminant"}},
+      {"colour", {"FILE", "--illuminant"}},
       {"tune", {"FILE", "--model", "--site", "--fix", "--hold-constant", "--cross-validate", "--fold-out"}},
       {"render", {"--model", "--fit", "--total-hemoglobin"}},
   };
@@ -730,7 +793,7 @@ TEST(CliHelp, EverySubcommandDescribesItsOptions) {
 TEST(CliHelp, TopLevelHelpListsTheSubcommands) {
   const auto run = skinspec({"--help"});
   EXPECT_EQ(run.exit_status, 0) << run.describe();
-  for (const char* subcommand : {"fit", "model", "optics", "color", "tune"}) EXPECT_THAT(run.out, HasSubstr(subcommand));
+  for (const char* subcommand : {"fit", "model", "optics", "colour", "tune"}) EXPECT_THAT(run.out, HasSubstr(subcommand));
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-#include "skinspec/fit/colour.hpp"
+#include "skinspec/spectral/colour.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

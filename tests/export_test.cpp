@@ -5,8 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -115,42 +118,49 @@ TEST_F(ExportTest, JsonHoldsTheSessionItsSpectraFitsAndProvenance) {
   EXPECT_EQ(json["session"]["subject"], "S-1000, left");
   EXPECT_EQ(json["session"]["state"], "open");
   EXPECT_EQ(json["white_standard"]["name"], testing::sample_white_standard(1).name);
-  EXPECT_EQ(json["white_standard"]["reflectance"]["values"].get<std::vector<double>>(),
-            testing::sample_white_standard(1).reflectance.values);
+  EXPECT_EQ(json["white_standard"]["reflectance"].get<std::vector<double>>(), testing::sample_white_standard(1).reflectance.values);
   ASSERT_EQ(json["instruments"].size(), 1u);
   EXPECT_EQ(json["instruments"][0]["serial_number"], "609501");
+  EXPECT_EQ(json["instruments"][0]["spectral_configuration"]["step_nm"], 4);  // stored JSON, embedded as JSON
   ASSERT_EQ(json["measurements"].size(), 3u);
 
   const auto& sample = json["measurements"][1];
   const auto expected = testing::sample_measurement(first_, 1);
   EXPECT_EQ(sample["id"], sample_id_);
   EXPECT_EQ(sample["kind"], "sample");
-  EXPECT_EQ(sample["white_measurement_id"], white_id_);
-  EXPECT_EQ(sample["settings"]["integration_ms"], 101);
+  EXPECT_EQ(sample["session_id"], first_);
+  EXPECT_EQ(sample["quality"]["code"], expected.quality_code);
+  EXPECT_EQ(sample["provenance"]["white_measurement_id"], white_id_);
+  EXPECT_EQ(sample["provenance"]["settings"]["integration_ms"], 101);
   // Numbers come back bit for bit.
   EXPECT_EQ(sample["radiance"]["wavelength_nm"].get<std::vector<double>>(), expected.radiance.wavelength_nm);
   EXPECT_EQ(sample["radiance"]["values"].get<std::vector<double>>(), expected.radiance.values);
   EXPECT_EQ(sample["reflectance"]["values"].get<std::vector<double>>(), expected.reflectance.values);
   EXPECT_EQ(sample["radiance_sd"]["values"].get<std::vector<double>>(), expected.radiance_sd.values);
-  EXPECT_TRUE(sample["raw_reply_base64"].get<std::string>().starts_with("MDAwMCwwDQo"));  // "0000,0\r\n"
-  EXPECT_EQ(sample["started_at"], "2023-11-14T22:13:21.000123Z");
+  EXPECT_TRUE(sample["provenance"]["raw_reply_base64"].get<std::string>().starts_with("MDAwMCwwDQo"));  // "0000,0\r\n"
+  EXPECT_EQ(sample["provenance"]["started_at"], "2023-11-14T22:13:21.000123Z");
 
   ASSERT_EQ(sample["fits"].size(), 2u);
   const auto& fit = sample["fits"][0];
-  for (const char* field : {"params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations", "converged",
-                            "wavelength_nm", "measured", "fitted", "model_version", "tables_digest", "options"})
+  for (const char* field : {"name", "site", "params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations", "converged",
+                            "wavelength_nm", "measured", "fitted", "id", "measurement_id", "samples_ignored", "solver_summary",
+                            "options", "model_version", "tables_digest", "created_at"})
     EXPECT_TRUE(fit.contains(field)) << field;
   EXPECT_EQ(fit["params"]["melanin"], testing::sample_fit(1).params[1]);
   EXPECT_TRUE(fit["stderr"]["bilirubin"].is_null());  // undetermined
   EXPECT_EQ(fit["tables_digest"], "3f2a9c0d");
+  EXPECT_EQ(fit["solver_summary"], testing::sample_fit(1).solver_summary);
   EXPECT_EQ(fit["options"]["lateral_diffusion"], true);
   EXPECT_EQ(fit["fitted"].get<std::vector<double>>(), testing::sample_fit(1).fitted);
   EXPECT_TRUE(json["measurements"][0]["reflectance"].is_null());
   EXPECT_TRUE(json["measurements"][2]["fits"].empty());
+  EXPECT_EQ(sample["fit_id"], sample["fits"][1]["id"]);  // the latest
+  EXPECT_TRUE(json["measurements"][2]["fit_id"].is_null());
 
   ASSERT_EQ(json["rejected_readings"].size(), 1u);
   const auto& rejected = json["rejected_readings"][0];
-  EXPECT_EQ(rejected["quality_code"], 19);
+  EXPECT_EQ(rejected["quality"]["code"], 19);
+  EXPECT_EQ(rejected["quality"]["text"], "overload");
   EXPECT_EQ(rejected["reason"], "bad_reading: quality 19: overload");
   EXPECT_EQ(rejected["raw_reply_base64"], "MTksMA0K");  // "19,0\r\n"
   EXPECT_EQ(rejected["attempt"], 1);
@@ -218,15 +228,6 @@ TEST_F(ExportTest, ExportingBesideAWriterChangesNothing) {
   EXPECT_TRUE(store.record_measurement(testing::sample_measurement(first_, 9), testing::sample_fit(9)));
 }
 
-TEST_F(ExportTest, AnOlderDatabaseIsMigratedAndExported) {
-  ASSERT_TRUE(create_database_at_version(path_, 1));
-  testing::sqlite_execute(path_, "INSERT INTO sessions VALUES (1, 'S-9', 'palm', '', '', NULL, 'complete', 0, 0, 0)");
-  const auto result = skinspec({"export", "--db", path_});
-  ASSERT_EQ(result.exit_status, 0) << result.describe();
-  EXPECT_EQ(Json::parse(result.out)["session"]["subject"], "S-9");
-  EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA user_version"), current_schema_version());
-}
-
 TEST_F(ExportTest, AnUnknownSessionIsBadInputWithNothingOnStdout) {
   auto store = make_database();
   for (const char* format : {"json", "csv"}) {
@@ -237,30 +238,162 @@ TEST_F(ExportTest, AnUnknownSessionIsBadInputWithNothingOnStdout) {
   }
 }
 
-TEST_F(ExportTest, MissingCorruptAndNewerDatabasesAreBadInput) {
-  const auto missing = skinspec({"export", "--db", dir_.file("nothing.db")});
-  EXPECT_EQ(missing.exit_status, kBadInput) << missing.describe();
-  EXPECT_THAT(missing.err, HasSubstr("no database file"));
-  EXPECT_FALSE(std::filesystem::exists(dir_.file("nothing.db")));
+// ---- Files export refuses: exit status 2, a message naming the file, nothing on stdout, and
+// the file and its directory exactly as they were (no byte changed, no -wal, -shm or -lock).
 
-  const auto text = dir_.file("spectra.csv");
-  std::ofstream(text) << "wavelength_nm,a\n400,0.5\n";
-  const auto corrupt = skinspec({"export", "--db", text});
-  EXPECT_EQ(corrupt.exit_status, kBadInput) << corrupt.describe();
-  EXPECT_THAT(corrupt.err, HasSubstr("not a SQLite database"));
-  EXPECT_THAT(corrupt.out, IsEmpty());
+// A directory's files and their bytes.
+std::map<std::string, std::string> directory_state(const std::filesystem::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    files[entry.path().filename().string()] = testing::file_bytes(entry.path().string());
+  return files;
+}
 
-  { make_database(); }
+class ExportRefusesTest : public ExportTest {
+ protected:
+  void expect_refused_untouched(const std::string& path, const std::string& message) {
+    const auto before = directory_state(dir_.path());
+    for (const char* format : {"json", "csv"}) {
+      SCOPED_TRACE(format);
+      const auto result = skinspec({"export", "--db", path, "--format", format});
+      EXPECT_EQ(result.exit_status, kBadInput) << result.describe();
+      EXPECT_THAT(result.out, IsEmpty());
+      EXPECT_THAT(result.err, HasSubstr(path));
+      EXPECT_THAT(result.err, HasSubstr(message));
+      EXPECT_TRUE(directory_state(dir_.path()) == before) << "a file changed, or one was added, beside " << path;
+    }
+  }
+
+  // A closed database of the store's own making, as a lab would keep it.
+  void make_closed_database() {
+    { make_database(); }
+    ASSERT_FALSE(std::filesystem::exists(path_ + "-wal"));
+  }
+
+  void overwrite(std::int64_t offset, const std::string& bytes) {
+    std::fstream file(path_, std::ios::binary | std::ios::in | std::ios::out);
+    file.seekp(static_cast<std::streamoff>(offset));
+    file << bytes;
+  }
+};
+
+TEST_F(ExportRefusesTest, AMissingFile) {
+  const auto missing = dir_.file("nothing.db");
+  expect_refused_untouched(missing, "no database file");
+  EXPECT_FALSE(std::filesystem::exists(missing));
+}
+
+TEST_F(ExportRefusesTest, AnEmptyFile) {
+  std::ofstream(path_).flush();
+  expect_refused_untouched(path_, "an empty file");
+}
+
+TEST_F(ExportRefusesTest, ForeignFiles) {
+  // One byte: SQLite would read it as an empty database, and a writer would fill it.
+  std::ofstream(path_) << "x";
+  expect_refused_untouched(path_, "not a SQLite database");
+  std::ofstream(path_, std::ios::trunc) << "wavelength_nm,a\n400,0.5\n";
+  expect_refused_untouched(path_, "not a SQLite database");
+  std::string noise(20000, '\0');
+  std::uint32_t state = 12345;
+  for (auto& byte : noise) byte = static_cast<char>((state = state * 1103515245u + 12345u) >> 23);
+  std::ofstream(path_, std::ios::binary | std::ios::trunc) << noise;
+  expect_refused_untouched(path_, "not a SQLite database");
+}
+
+TEST_F(ExportRefusesTest, AnotherProgramsSqliteDatabase) {
+  testing::sqlite_execute(path_, "PRAGMA journal_mode = WAL; CREATE TABLE photos (id INTEGER PRIMARY KEY, name TEXT);"
+                                 "INSERT INTO photos VALUES (1, 'cat');");
+  expect_refused_untouched(path_, "not a skinspec one");
+}
+
+TEST_F(ExportRefusesTest, AnotherProgramsEmptySqliteDatabase) {
+  testing::sqlite_execute(path_, "CREATE TABLE t (x); DROP TABLE t;");
+  ASSERT_GT(std::filesystem::file_size(path_), 0u);
+  expect_refused_untouched(path_, "an empty SQLite database");
+}
+
+TEST_F(ExportRefusesTest, ADatabaseWithAPageZeroedInTheMiddle) {
+  make_closed_database();
+  const auto page_size = testing::sqlite_integer(path_, "PRAGMA page_size");
+  const auto pages = testing::sqlite_integer(path_, "PRAGMA page_count");
+  ASSERT_GE(pages, 8);
+  overwrite(page_size * (pages / 2), std::string(static_cast<std::size_t>(page_size), '\0'));
+  expect_refused_untouched(path_, "damaged");
+}
+
+TEST_F(ExportRefusesTest, ATruncatedDatabase) {
+  make_closed_database();
+  std::filesystem::resize_file(path_, std::filesystem::file_size(path_) / 2);
+  expect_refused_untouched(path_, "damaged");
+}
+
+TEST_F(ExportRefusesTest, ANewerSchema) {
+  make_closed_database();
   testing::sqlite_execute(path_, "PRAGMA user_version = " + std::to_string(current_schema_version() + 1));
-  const auto before = testing::file_bytes(path_);
-  const auto newer = skinspec({"export", "--db", path_});
-  EXPECT_EQ(newer.exit_status, kBadInput) << newer.describe();
-  EXPECT_THAT(newer.err, HasSubstr("newer skinspec"));
-  EXPECT_THAT(newer.out, IsEmpty());
-  EXPECT_EQ(testing::file_bytes(path_), before);
+  expect_refused_untouched(path_, "newer skinspec");
+}
 
+// Migrating would write; a command that only reads leaves that to skinspecd.
+TEST_F(ExportRefusesTest, AnOlderSchema) {
+  ASSERT_TRUE(create_database_at_version(path_, 1));
+  testing::sqlite_execute(path_, "INSERT INTO sessions VALUES (1, 'S-9', 'palm', '', '', NULL, 'complete', 0, 0, 0)");
+  expect_refused_untouched(path_, "schema version 1 is older");
+  EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA user_version"), 1);
+}
+
+TEST_F(ExportRefusesTest, AnUnknownFormat) {
+  make_closed_database();
   const auto format = skinspec({"export", "--db", path_, "--format", "xml"});
   EXPECT_EQ(format.exit_status, kBadInput) << format.describe();
+  EXPECT_THAT(format.out, IsEmpty());
+}
+
+// ---- What export leaves behind when it succeeds: nothing.
+
+TEST_F(ExportTest, AClosedDatabaseIsReadWithoutCreatingAnythingBesideIt) {
+  { make_database(); }
+  const auto before = directory_state(dir_.path());
+  EXPECT_FALSE(before.contains("skinspec.db-wal"));
+  const auto result = skinspec({"export", "--db", path_});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  EXPECT_EQ(lines_of(result.out).size(), 2u);
+  EXPECT_TRUE(directory_state(dir_.path()) == before);
+}
+
+// A writer in another process, committing all the while: every export is a whole, consistent
+// snapshot, and once the writer is killed its committed rows are read from its log as it left it.
+TEST_F(ExportTest, ExportsWhileAnotherProcessWritesAndAfterItDied) {
+  testing::BackgroundProcess writer(SKINSPEC_TEST_BIN_DIR "/store_crash_writer", {path_});
+  ASSERT_TRUE(writer.started()) << writer.start_error();
+  ASSERT_TRUE(writer.wait_for_stdout_line("committed 5 ", std::chrono::seconds(30))) << writer.err();
+  std::size_t seen = 0;
+  for (int round = 0; round < 5; ++round) {
+    SCOPED_TRACE(round);
+    const auto result = skinspec({"export", "--db", path_});
+    ASSERT_EQ(result.exit_status, 0) << result.describe();
+    const auto lines = lines_of(result.out);
+    ASSERT_EQ(lines.size(), 1u);
+    const auto measurements = Json::parse(lines[0])["measurements"];
+    EXPECT_GE(measurements.size(), std::max<std::size_t>(seen, 5));
+    for (const auto& m : measurements) EXPECT_EQ(m["fits"].size(), 1u) << "a measurement without its fit";
+    seen = measurements.size();
+  }
+  writer.send_signal(SIGKILL);
+  writer.wait(std::chrono::seconds(10));
+  ASSERT_TRUE(std::filesystem::exists(path_ + "-wal"));
+  const auto printed = writer.out();
+  const auto reported = std::count(printed.begin(), printed.end(), '\n') - 1;  // less the "session" line
+  const auto database = testing::file_bytes(path_), log = testing::file_bytes(path_ + "-wal");
+  const auto result = skinspec({"export", "--db", path_, "--format", "csv"});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  EXPECT_TRUE(testing::file_bytes(path_) == database);
+  EXPECT_TRUE(testing::file_bytes(path_ + "-wal") == log);
+  // 101 rows per measurement (its fit on the same grid), below the header; the last commit
+  // may have landed without being reported.
+  const auto stored = testing::sqlite_integer(path_, "SELECT count(*) FROM measurements");
+  EXPECT_GE(stored, reported);
+  EXPECT_EQ(static_cast<long long>(lines_of(result.out).size()), 1 + 101 * stored);
 }
 
 TEST_F(ExportTest, TheCommandIsListedWhenAnotherIsMistyped) {

@@ -140,7 +140,18 @@ TEST_F(JobEventsTest, QueuedJobsShowTheirPlaceAndASampleStreamsItsReadingsToItsR
     EXPECT_GE(done, readings) << "readings went back at event " << i;
     readings = done;
     EXPECT_EQ(seen[i].job["progress"]["readings_total"], 5);
+    // State and position agree in every event.
+    const json& j = seen[i].job;
+    if (j["state"] == "queued") {
+      EXPECT_GE(j["position"].get<int>(), 1) << j;
+    } else if (j["state"] == "running") {
+      EXPECT_EQ(j["position"], 0) << j;
+    } else {
+      EXPECT_TRUE(j["position"].is_null()) << j;
+    }
   }
+  // The blocker's cancellation says so by its code.
+  EXPECT_EQ(job(blocker)["error"], (json{{"code", "cancelled"}, {"message", "cancelled by request"}}));
   EXPECT_EQ(readings, 5);
   const json& final = seen.back().job;
   ASSERT_EQ(final["state"], "succeeded") << final << rig_->logs();

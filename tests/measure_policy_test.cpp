@@ -1,10 +1,12 @@
-// The measurement job's pure parts: averaging readings, the band-integrated radiance, and when
-// an old white, a changed lamp or a rejected reading draws a warning.
+// The measurement job's pure parts: the meter's values as store records (averaged readings,
+// settings, the instrument, rejected readings), the band-integrated radiance, and when an old
+// white, a changed lamp or a rejected reading draws a warning.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "measure_policy.hpp"
+#include "store_records.hpp"
 
 namespace skinspec::daemon {
 namespace {
@@ -32,7 +34,7 @@ store::Measurement white(store::Id id, double level, int finished_s = 0) {
   return m;
 }
 
-TEST(MeasurePolicyTest, ReadingsAreAveragedWithTheirStandardDeviation) {
+TEST(StoreRecordsTest, ReadingsAreAveragedWithTheirStandardDeviation) {
   const auto m = averaged({reading({1, 2, 3}, 10), reading({3, 2, 5}, 11)});
   ASSERT_TRUE(m) << m.error();
   EXPECT_EQ(m->radiance.values, std::vector<double>({2, 2, 4}));
@@ -48,6 +50,36 @@ TEST(MeasurePolicyTest, ReadingsAreAveragedWithTheirStandardDeviation) {
   other_grid.wavelength_nm = {404, 500, 600};
   EXPECT_FALSE(averaged({reading({1, 2, 3}, 1), other_grid}));
   EXPECT_FALSE(averaged({}));
+}
+
+TEST(StoreRecordsTest, SettingsNameWhatWasAskedAndWhatTheMeterDid) {
+  auto first = reading({1, 2, 3}, 1);
+  first.averages = 3;
+  first.sync = "off";
+  const auto settings = nlohmann::json::parse(measurement_settings({first, reading({1, 2, 3}, 2)}, 0, 2, 1));
+  EXPECT_EQ(settings, (nlohmann::json{{"integration_ms", 0}, {"count", 2}, {"rejected_readings", 1}, {"averages", 3}, {"sync", "off"}}));
+}
+
+TEST(StoreRecordsTest, TheInstrumentKeepsTheConfigurationTheMeterReported) {
+  const drivers::Identity identity{"60912345", {201, 5.0, 360, 830, 2.5}};
+  const auto record = instrument_record(identity, "usb:0403:6001");
+  EXPECT_EQ(record.model, "PR-650");
+  EXPECT_EQ(record.serial_number, "60912345");
+  EXPECT_EQ(record.connection, "usb:0403:6001");
+  EXPECT_EQ(nlohmann::json::parse(record.spectral_configuration),
+            (nlohmann::json{{"points", 201}, {"bandwidth_nm", 5.0}, {"first_nm", 360.0}, {"last_nm", 830.0}, {"step_nm", 2.5}}));
+}
+
+TEST(StoreRecordsTest, ARejectedReadingKeepsItsCodeReasonAndRawReply) {
+  const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "quality 19: overload", 19, "19,0\r\n"};
+  const store::Time at(std::chrono::seconds(5));
+  const auto r = rejected_reading_record(error, 3, at);
+  EXPECT_EQ(r.attempt, 3);
+  EXPECT_EQ(r.quality_code, 19);
+  EXPECT_EQ(r.quality, drivers::pr650::quality_message(19));
+  EXPECT_EQ(r.reason, "bad_reading: quality 19: overload");
+  EXPECT_EQ(r.raw_reply, "19,0\r\n");
+  EXPECT_EQ(r.measured_at, at);
 }
 
 TEST(MeasurePolicyTest, BandIntegratedRadianceIsTheTrapezoidSum) {
@@ -97,6 +129,31 @@ TEST(MeasurePolicyTest, ARejectionNamesItsAttemptReasonAndStoredRow) {
   const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "quality 19: overload", 19, "19,0"};
   EXPECT_EQ(rejection_warning(2, error, 12),
             "rejected_reading: reading attempt 2 rejected (bad_reading: quality 19: overload); its raw reply is rejected reading 12");
+}
+
+TEST(MeasurePolicyTest, EachDriverFailureEndsAJobWithItsOwnCode) {
+  using Kind = drivers::InstrumentError::Kind;
+  using Code = store::JobErrorCode;
+  const std::vector<std::pair<Kind, Code>> expected = {
+      {Kind::no_contact, Code::no_contact}, {Kind::lost, Code::lost},         {Kind::protocol, Code::protocol},
+      {Kind::bad_reading, Code::bad_reading}, {Kind::rejected, Code::rejected}, {Kind::cancelled, Code::cancelled},
+      {Kind::transport, Code::transport}};
+  for (const auto& [kind, code] : expected) {
+    const auto error = job_error({kind, "what the driver said", -1, {}});
+    EXPECT_EQ(error.code, code) << drivers::to_string(kind);
+    EXPECT_EQ(error.message, "what the driver said");
+    EXPECT_EQ(store::to_string(error.code), drivers::to_string(kind));  // the same word on both sides
+  }
+}
+
+TEST(MeasurePolicyTest, ACancelledJobIsKnownByItsCode) {
+  EXPECT_EQ(cancellation(store::JobErrorCode::cancelled), (store::JobError{store::JobErrorCode::cancelled, "cancelled by request"}));
+  EXPECT_EQ(cancellation(store::JobErrorCode::stopped), (store::JobError{store::JobErrorCode::stopped, "the service stopped"}));
+  EXPECT_EQ(ended_state(cancellation(store::JobErrorCode::cancelled)), store::JobState::cancelled);
+  EXPECT_EQ(ended_state(cancellation(store::JobErrorCode::stopped)), store::JobState::cancelled);
+  // Its words do not make a job cancelled.
+  EXPECT_EQ(ended_state({store::JobErrorCode::lost, "cancelled by request"}), store::JobState::failed);
+  EXPECT_EQ(ended_state({store::JobErrorCode::store, "disk full"}), store::JobState::failed);
 }
 
 }  // namespace

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "skinspec/fit/optics.hpp"
-#include "skinspec/fit/spectrum.hpp"
+#include "skinspec/spectral/spectrum.hpp"
 #include "support/data.hpp"
 #include "support/reference_model.hpp"
 

@@ -229,7 +229,8 @@ TEST(Pr650Driver, CancelEndsAMeasurementAndTheNextOneStillWorks) {
                measurement("s01,,,,,0,01,1", d5(1e-4)));
   ASSERT_TRUE(r.driver->connect());
   std::jthread canceller([&] {
-    std::this_thread::sleep_for(50ms);
+    // Once the meter has the M0 and is measuring (400 ms).
+    while (r.meter->commands().size() < 3) std::this_thread::sleep_for(5ms);
     r.driver->cancel();
   });
   const auto cancelled = r.driver->measure({});
@@ -260,12 +261,132 @@ TEST(Pr650Driver, RefusesImpossibleSettingsWithoutTouchingTheMeter) {
   EXPECT_EQ(r.meter->commands().size(), 1u);
 }
 
-TEST(Pr650Driver, ASetupTheMeterRefusesIsReported) {
-  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", "06\r\n"}});
+TEST(Pr650Driver, ASetupTheMeterRefusesTwiceIsReported) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", "06\r\n"}, {"s01,,,,,0,01,1", "06\r\n"}});
   ASSERT_TRUE(r.driver->connect());
   const auto reading = r.driver->measure({});
   ASSERT_FALSE(reading);
   EXPECT_EQ(reading.error().kind, InstrumentError::Kind::rejected);
+  EXPECT_THAT(reading.error().message, HasSubstr("(asked twice)"));
+}
+
+TEST(Pr650Driver, ARefusalGivenOnceIsTakenForADamagedReply) {
+  // "00" with one bit flipped reads as a refusal of field 1, 2, 4 or 8.
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", "04\r\n"}} + measurement("s01,,,,,0,01,1", d5(1e-4)));
+  ASSERT_TRUE(r.driver->connect());
+  const auto reading = r.driver->measure({});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(r.meter->mismatch(), "");
+}
+
+TEST(Pr650Driver, AMeasurementThatNeverAnswersIsMadeOnceMoreAndTheReadingSaysSo) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", ""}, {"m0", kOk},
+                                                  {"d5", d5(1e-4)}, {"d1", kD1}, {"d2", kD2}});
+  ASSERT_TRUE(r.driver->connect());
+  const auto reading = r.driver->measure({});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(r.meter->mismatch(), "");
+  EXPECT_EQ(reading->attempts, 2);
+  ASSERT_EQ(reading->warnings.size(), 1u);
+  EXPECT_THAT(reading->warnings[0], HasSubstr("remeasured: the PR-650 did not answer 'm0' within 0.6 s"));
+}
+
+TEST(Pr650Driver, AGarbledMeasurementStatusGoesOnToTheReportWithoutMeasuringAgain) {
+  for (const std::string status : {"0#0\r\n", "00", "018\r\n"}) {
+    auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", status}, {"d5", d5(1e-4)},
+                                                    {"d1", kD1}, {"d2", kD2}});
+    ASSERT_TRUE(r.driver->connect());
+    const auto reading = r.driver->measure({});
+    ASSERT_TRUE(reading) << reading.error().message;
+    EXPECT_EQ(r.meter->mismatch(), "") << status;
+    EXPECT_EQ(reading->attempts, 1);
+    EXPECT_TRUE(reading->warnings.empty());
+  }
+}
+
+TEST(Pr650Driver, AReportCutShortIsAskedForAgain) {
+  const std::string half = d5(1e-4).substr(0, 700);
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", half}, {"d5", d5(1e-4)},
+                                                  {"d1", kD1.substr(0, 10)}, {"d1", kD1}, {"d2", kD2}});
+  ASSERT_TRUE(r.driver->connect());
+  const auto reading = r.driver->measure({});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(r.meter->mismatch(), "");
+  EXPECT_EQ(reading->radiance, lamp(1e-4).values);
+  EXPECT_DOUBLE_EQ(reading->luminance, 100);
+}
+
+TEST(Pr650Driver, ALateReplyAndTheAnswerToTheSecondRequestAreNotTakenForTheNextReply) {
+  // The first D1 is answered after 450 ms, past the 300 ms wait: the driver asks again, takes
+  // the late reply, and lets the answer to its second request pass before D2.
+  const std::string other_d1 = "00,0,9.999E+01,.3355,.3270\r\n";
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", d5(1e-4)},
+                                                  {"d1", kD1, 450ms}, {"d1", other_d1}, {"d2", kD2}});
+  ASSERT_TRUE(r.driver->connect());
+  const auto reading = r.driver->measure({});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(r.meter->mismatch(), "");
+  EXPECT_DOUBLE_EQ(reading->luminance, 100);
+  EXPECT_DOUBLE_EQ(reading->xyz[0], 102.6);
+}
+
+TEST(Pr650Driver, IdentificationAsksAgainForALostReply) {
+  auto r = rig(contact() + std::vector<MeterStep>{{"d110", ""}, {"d110", "60912345\r\n"}, {"d120", "0101,008.0,0380.,0780.,004.\r\n"}});
+  ASSERT_TRUE(r.driver->connect());
+  const auto identity = r.driver->identify();
+  ASSERT_TRUE(identity) << identity.error().message;
+  EXPECT_EQ(identity->serial_number, "60912345");
+  EXPECT_EQ(r.meter->mismatch(), "");
+}
+
+TEST(Pr650Driver, AClosedLinkIsSeenWithoutAWordOnIt) {
+  auto [host, device] = make_memory_pair("memory:test");
+  Pr650 driver(std::move(host), fast_options());
+  EXPECT_FALSE(driver.link_closed());
+  device->close();
+  EXPECT_TRUE(driver.link_closed());
+}
+
+// ---- The exchange rules: how long each reply may take, and what a lost one leads to --------
+
+using pr650::CommandKind;
+using pr650::LostReply;
+
+TEST(ExchangeRules, AMeasurementMayTakeItsIntegrationsPlusTheOverheadOtherRepliesArriveQuickly) {
+  const pr650::ReplyTiming timing;  // the defaults, for a real meter
+  const auto m0 = pr650::exchange_rule({CommandKind::measure, 0, 1000, 3}, timing);
+  EXPECT_EQ(m0.first_byte, 3 * 2 * 1000ms + timing.measurement_overhead);
+  EXPECT_EQ(m0.on_lost, LostReply::measure_again);
+  const auto adaptive = pr650::exchange_rule({CommandKind::measure, 0, 0, 2}, timing);
+  EXPECT_EQ(adaptive.first_byte, 2 * timing.adaptive_allowance + timing.measurement_overhead);
+
+  for (const pr650::Command command : {pr650::Command{CommandKind::setup}, pr650::Command{CommandKind::report, 1},
+                                       pr650::Command{CommandKind::report, 5}, pr650::Command{CommandKind::report, 110}}) {
+    const auto rule = pr650::exchange_rule(command, timing);
+    EXPECT_EQ(rule.first_byte, 500ms);
+    EXPECT_EQ(rule.on_lost, LostReply::ask_again);
+    EXPECT_EQ(pr650::second_try(rule).first_byte, 1000ms);
+  }
+  EXPECT_EQ(pr650::exchange_rule({CommandKind::contact}, timing).on_lost, LostReply::give_up);
+  EXPECT_EQ(pr650::exchange_rule({CommandKind::report, 5}, timing).shape, pr650::ReplyShape::spectral);
+  EXPECT_EQ(pr650::exchange_rule({CommandKind::report, 1}, timing).shape, pr650::ReplyShape::line);
+}
+
+TEST(ExchangeRules, PausesAndWholeRepliesFollowTheLineRate) {
+  pr650::ReplyTiming timing;
+  const auto d5 = pr650::exchange_rule({CommandKind::report, 5}, timing);
+  EXPECT_EQ(d5.idle, timing.idle);  // at 9600 baud two data lines take 35 ms: the floor holds
+  // A spectral report takes 1.8 s at 9600 baud: twice that, plus a pause, is allowed.
+  EXPECT_GE(d5.whole, 3600ms);
+  EXPECT_LT(d5.whole, 4000ms);
+  timing.line_bytes_per_second = 30;  // 300 baud
+  const auto slow = pr650::exchange_rule({CommandKind::report, 5}, timing);
+  EXPECT_EQ(slow.idle, 1133ms);
+  EXPECT_GT(slow.whole, 115s);
+
+  EXPECT_EQ(driver_options_for(*parse_connection_uri("serial:/dev/ttyUSB0?baud=1200")).timing.line_bytes_per_second, 120);
+  EXPECT_EQ(driver_options_for(*parse_connection_uri("tcp:127.0.0.1:4001")).timing.line_bytes_per_second, 960);
+  EXPECT_EQ(driver_options_for(*parse_connection_uri("tcp:127.0.0.1:4001?terminator=cr")).style.terminator, '\r');
 }
 
 }  // namespace

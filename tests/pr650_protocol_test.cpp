@@ -10,9 +10,13 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <sstream>
 #include <numeric>
 #include <random>
 #include <string>
+
+#include <fmt/format.h>
 
 namespace skinspec::drivers::pr650 {
 namespace {
@@ -150,34 +154,27 @@ std::vector<double> native_grid() {
 
 // ---- Messages ---------------------------------------------------------------------------
 
+// The manual's table (tests/data/pr650/quality-codes.md, from the protocol reference): code ->
+// meaning, with the Markdown escapes removed.
+std::map<int, std::string> manual_quality_codes() {
+  std::map<int, std::string> table;
+  std::istringstream lines(transcript("quality-codes.md"));
+  for (std::string line; std::getline(lines, line);) {
+    if (line.size() < 8 || !line.starts_with("| ") || !std::isdigit(static_cast<unsigned char>(line[2]))) continue;
+    const auto bar = line.find(" | ", 2);
+    std::string meaning = line.substr(bar + 3, line.rfind(" |") - bar - 3);
+    std::erase(meaning, '\\');
+    table[std::stoi(line.substr(2, bar - 2))] = meaning;
+  }
+  return table;
+}
+
 TEST(Pr650Quality, EveryCodeOfTheManualHasItsMessage) {
-  const std::vector<std::pair<int, std::string>> table = {
-      {0, "Measurement OK"},
-      {1, "No EOS (end-of-scan) signal at start of measurement"},
-      {3, "No start signal"},
-      {4, "No EOS signal to start integration time"},
-      {5, "DMA failure"},
-      {6, "No EOS after change to SYNC mode"},
-      {7, "Cannot sync to light source"},
-      {8, "Sync lost during measurement"},
-      {10, "Weak light signal"},
-      {12, "Unspecified hardware malfunction"},
-      {13, "Software error"},
-      {14, "No sample in L*u*v* or L*a*b* calculation"},
-      {16,
-       "Adaptive integration taking too long to find an integration time (light source "
-       "probably unstable)"},
-      {17, "Main battery low"},
-      {18, "Low light level"},
-      {19, "Light level too high (overload)"},
-      {20, "No sync signal"},
-      {21, "RAM error"},
-      {29, "Corrupted data"},
-      {30, "Noisy signal"},
-  };
+  const auto table = manual_quality_codes();
+  ASSERT_EQ(table.size(), 20u) << "the manual lists 20 codes";
   std::vector<int> codes;
-  for (const auto& [code, message] : table) {
-    EXPECT_EQ(quality_message(code), message) << code;
+  for (const auto& [code, meaning] : table) {
+    EXPECT_EQ(quality_message(code), meaning) << code;
     codes.push_back(code);
   }
   EXPECT_EQ(known_quality_codes(), codes);
@@ -525,19 +522,18 @@ TEST(Pr650Spectral, ToleratesBlankLinesAndPromptsAround) {
 }
 
 TEST(Pr650Spectral, EveryQualityCodeInTheHeaderIsReported) {
+  const auto manual = manual_quality_codes();
+  ASSERT_FALSE(manual.empty());
   for (int quality = 0; quality <= 99; ++quality) {
-    char code[3];
-    code[0] = static_cast<char>('0' + quality / 10);
-    code[1] = static_cast<char>('0' + quality % 10);
-    code[2] = 0;
-    const std::string reply = code + d5_a().substr(2);
+    const std::string reply = fmt::format("{:02d}", quality) + d5_a().substr(2);
     const auto report = parse_spectral(reply);
     ASSERT_TRUE(report) << quality << ": " << report.error().message;
     EXPECT_EQ(report->quality, quality);
-    if (quality <= 30) {
-      const bool known = std::ranges::count(known_quality_codes(), quality) == 1;
-      EXPECT_EQ(quality_message(report->quality).starts_with("unknown"), !known) << quality;
-    }
+    const auto listed = manual.find(quality);
+    if (listed != manual.end())
+      EXPECT_EQ(quality_message(report->quality), listed->second) << quality;
+    else
+      EXPECT_EQ(quality_message(report->quality), fmt::format("unknown quality code {:02d}", quality)) << quality;
   }
 }
 
@@ -761,6 +757,16 @@ TEST(Pr650ReplyComplete, LineRepliesEndAtTheirFirstLineEnd) {
   EXPECT_TRUE(reply_complete(ReplyShape::line, "000\n"));
   EXPECT_TRUE(reply_complete(ReplyShape::line, "000\r\n"));
   EXPECT_TRUE(reply_complete(ReplyShape::line, "00,60.02\r\n"));
+}
+
+TEST(Pr650ReplyComplete, TheSizeOfAReplyLeavesWhatFollowsIt) {
+  EXPECT_EQ(reply_size(ReplyShape::line, "000"), 0u);
+  EXPECT_EQ(reply_size(ReplyShape::line, "\r\n000\r\n00\r\n"), 7u);  // a leading empty line counts for nothing
+  EXPECT_EQ(reply_size(ReplyShape::line, "000\r"), 4u);
+  EXPECT_EQ(reply_size(ReplyShape::line, "000\n000\n"), 4u);
+  const std::string twice = d5_a() + d5_a();
+  EXPECT_EQ(reply_size(ReplyShape::spectral, twice), d5_a().size());
+  EXPECT_EQ(reply_size(ReplyShape::spectral, d5_a().substr(0, 1000)), 0u);
 }
 
 TEST(Pr650ReplyComplete, SpectralRepliesNeedHeaderAndEveryDataLine) {

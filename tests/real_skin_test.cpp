@@ -11,8 +11,9 @@
 #include <fmt/format.h>
 #include <string>
 
-#include "skinspec/fit/spectra_csv.hpp"
+#include "data_dir.hpp"
 #include "skinspec/fit/tuning.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
 #include "support/data.hpp"
 
 namespace skinspec {

@@ -127,11 +127,13 @@ TEST_F(ReconnectTest, AMeasurementWhileTheMeterIsDownFailsClearlyAndTheServiceKe
   const long long session = open_session(daemon.port);
   ASSERT_EQ(measure_white(daemon.port, session)["state"], "succeeded") << daemon.process->err();
 
+  // The job finds the link closed, connects again once, at once (not after the backoff), and
+  // fails with the reason.
   kill_meter(sim);
   const auto failed = measure_white(daemon.port, session);
   EXPECT_EQ(failed["state"], "failed") << failed;
-  const std::string error = failed.value("error", "");
-  EXPECT_TRUE(error.find("transport") != std::string::npos || error.find("lost") != std::string::npos) << failed;
+  EXPECT_EQ(failed["error"]["code"], "transport") << failed;
+  EXPECT_TRUE(failed["error"]["message"].get<std::string>().starts_with("cannot open tcp:" + loopback(sim.port))) << failed;
 
   const auto health = http_request(daemon.port, "GET", "/healthz");
   EXPECT_EQ(health.status, 200) << health.body;
@@ -142,6 +144,69 @@ TEST_F(ReconnectTest, AMeasurementWhileTheMeterIsDownFailsClearlyAndTheServiceKe
   ASSERT_EQ(wait_for_state(daemon.port, "connected")["state"], "connected") << daemon.process->err();
   const auto again = measure_white(daemon.port, session);
   EXPECT_EQ(again["state"], "succeeded") << again << daemon.process->err();
+}
+
+TEST_F(ReconnectTest, AMeterKilledWhileIdleShowsLostAtOnceAndAJobRightAfterItsRestartSucceeds) {
+  auto sim = start_simulator(dir_, "127.0.0.1:0");
+  ASSERT_NE(sim.port, 0) << sim.process->err();
+  // No idle check for ten minutes: only the link's hang-up can tell the daemon the meter went.
+  auto daemon = start_daemon(dir_, {"--device", "tcp:" + loopback(sim.port), "--instrument-check-ms", "600000"});
+  ASSERT_NE(daemon.port, 0) << daemon.process->err();
+  const long long session = open_session(daemon.port);
+  ASSERT_EQ(wait_for_state(daemon.port, "connected")["state"], "connected") << daemon.process->err();
+
+  kill_meter(sim);
+  auto status = wait_for_state(daemon.port, "lost");
+  ASSERT_EQ(status["state"], "lost") << status << daemon.process->err();
+  EXPECT_NE(daemon.process->err().find("was closed"), std::string::npos) << daemon.process->err();
+
+  // The daemon's own attempts now wait out their backoff; the job connects at once.
+  sim = start_simulator(dir_, loopback(sim.port));
+  ASSERT_NE(sim.port, 0) << sim.process->err();
+  const auto job = measure_white(daemon.port, session);
+  EXPECT_EQ(job["state"], "succeeded") << job << daemon.process->err();
+}
+
+// A simulator with `faults` and a daemon for it; a session whose first white succeeds, then the
+// second white job, which the faults aim at.
+struct SecondWhite {
+  ListeningProcess sim, daemon;
+  json job;
+};
+
+SecondWhite second_white_job(const ScratchDirectory& dir, const std::vector<std::string>& faults) {
+  SecondWhite out;
+  out.sim = start_simulator(dir, "127.0.0.1:0", faults);
+  EXPECT_NE(out.sim.port, 0) << out.sim.process->err();
+  out.daemon = start_daemon_for_meter(dir, out.sim.port);
+  EXPECT_NE(out.daemon.port, 0) << out.daemon.process->err();
+  const long long session = open_session(out.daemon.port);
+  EXPECT_EQ(measure_white(out.daemon.port, session)["state"], "succeeded") << out.daemon.process->err();
+  out.job = measure_white(out.daemon.port, session);
+  return out;
+}
+
+TEST_F(ReconnectTest, AJobWhoseFirstCommandFindsTheMeterSilentConnectsAgainOnceAndMeasures) {
+  // The second job's setup goes unanswered twice, as from a meter switched off and on behind a
+  // link that stayed up: the job connects again (first contact, identification) and measures.
+  const auto run = second_white_job(dir_, {"--fault", "s:no-answer@2", "--fault", "s:no-answer@3"});
+  EXPECT_EQ(run.job["state"], "succeeded") << run.job << run.daemon.process->err();
+  EXPECT_NE(run.daemon.process->err().find("event=instrument_reconnect_for_job"), std::string::npos)
+      << run.daemon.process->err();
+  EXPECT_EQ(instrument(run.daemon.port)["state"], "connected");
+}
+
+TEST_F(ReconnectTest, AJobWhileTheMeterStaysSilentFailsClearlyAfterConnectingAgainOnce) {
+  // The second job's setup reboots the meter: silent until power-cycled, which nobody does.
+  const auto run = second_white_job(dir_, {"--fault", "s:reboot@2"});
+  ASSERT_EQ(run.job["state"], "failed") << run.job;
+  ASSERT_TRUE(run.job["error"].is_object()) << run.job;
+  const std::string error = run.job["error"]["code"].get<std::string>() + ": " + run.job["error"]["message"].get<std::string>();
+  EXPECT_TRUE(error.starts_with("no_contact: ")) << error;
+  EXPECT_NE(error.find("did not answer 's01"), std::string::npos) << error;
+  EXPECT_NE(error.find("connecting again failed: no answer from a PR-650"), std::string::npos) << error;
+  EXPECT_NE(error.find("switch it off, switch it on"), std::string::npos) << error;
+  EXPECT_EQ(http_request(run.daemon.port, "GET", "/healthz").status, 200);
 }
 
 TEST_F(ReconnectTest, ADaemonStartedBeforeTheSimulatorConnectsWhenItAppears) {
@@ -218,7 +283,8 @@ TEST_F(ReconnectTest, AutoWithoutAnAdapterSaysSoAndJobsFailCleanly) {
 
   const auto job = measure_white(daemon.port, open_session(daemon.port));
   EXPECT_EQ(job["state"], "failed") << job;
-  EXPECT_NE(job.value("error", "").find("no USB serial adapter found"), std::string::npos) << job;
+  EXPECT_EQ(job["error"]["code"], "transport") << job;
+  EXPECT_NE(job["error"]["message"].get<std::string>().find("no USB serial adapter found"), std::string::npos) << job;
   EXPECT_EQ(http_request(daemon.port, "GET", "/healthz").status, 200);
   EXPECT_FALSE(daemon.process->has_exited());
 }

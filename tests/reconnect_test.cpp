@@ -1,6 +1,7 @@
 // The instrument connection's parts in-process: the backoff schedule, the choice of an adapter
-// for `auto`, the ports listing, and the supervisor following a USB adapter that comes back
-// under another tty name (a resolver standing in for discovery maps it to one of two simulators).
+// for `auto`, the ports listing, the supervisor following a USB adapter that comes back
+// under another tty name (a resolver standing in for discovery maps it to one of two simulators),
+// and its answer when the store refuses a job.
 
 #include <gtest/gtest.h>
 
@@ -128,7 +129,7 @@ TEST(Hotplug, AUsbAdapterBackUnderANewTtyIsFollowed) {
 
   FakeAdapterPlace place;
   place.move_to(first.port);
-  Supervisor supervisor("usb:0403:6001:FT1", *db, *fitter, "test");
+  Supervisor supervisor("usb:0403:6001:FT1", *db, *fitter);
   Supervisor::ConnectionSettings settings;
   // Retries an hour apart and no idle checks: within this test only hot-plug events can make
   // the supervisor notice anything.
@@ -161,6 +162,38 @@ TEST(Hotplug, AUsbAdapterBackUnderANewTtyIsFollowed) {
   EXPECT_EQ(status["state"], "connected") << status;
   EXPECT_EQ(status["port"], "tcp:127.0.0.1:" + std::to_string(second.port));
   supervisor.stop();
+}
+
+// The supervisor reports the store's refusals as every route does (api::from_store_error).
+TEST(SupervisorJobs, TheStoresRefusalsAreTheServicesErrors) {
+  testing::ScratchDirectory dir;
+  store::Id session = 0;
+  {
+    auto db = store::Store::open(dir.file("lab.db"));
+    ASSERT_TRUE(db) << db.error().message;
+    store::Session s;
+    s.subject = "S";
+    s.site = "forearm";
+    auto created = db->create_session(s);
+    ASSERT_TRUE(created) << created.error().message;
+    session = *created;
+  }
+  store::OpenOptions read_only;
+  read_only.mode = store::OpenMode::read_only;
+  auto db = store::Store::open(dir.file("lab.db"), read_only);
+  ASSERT_TRUE(db) << db.error().message;
+  auto fitter = load_fitter(SKINSPEC_TEST_DATA_DIR);
+  ASSERT_TRUE(fitter) << fitter.error();
+  Supervisor supervisor("tcp:127.0.0.1:1", *db, *fitter);
+
+  const auto unknown = supervisor.submit(session + 1, {}, "");
+  ASSERT_FALSE(unknown);
+  EXPECT_EQ(api::http_status(unknown.error().kind), 404);
+  EXPECT_EQ(unknown.error().code, "not_found");
+  const auto refused = supervisor.submit(session, {}, "key-1");
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(api::http_status(refused.error().kind), 503);
+  EXPECT_EQ(refused.error().code, "database_read_only");
 }
 
 }  // namespace

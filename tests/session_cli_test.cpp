@@ -124,7 +124,8 @@ TEST_F(SessionCliTest, AFailedJobExitsWith3) {
   // A sample without a white reference fails.
   const auto r = skinspec({"session", "measure", std::to_string(session), "--kind", "sample"});
   EXPECT_EQ(r.exit_status, 3) << r.describe();
-  EXPECT_NE(r.err.find("failed: no_white_reference"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("failed: measure the white standard of session " + std::to_string(session) + " first (no_white)"), std::string::npos)
+      << r.err;
 }
 
 TEST_F(SessionCliTest, RefusedRequestsExitWith2AndTheServersMessage) {

@@ -277,7 +277,21 @@ TEST(SimProcess, QualityFaultEndsMeasureWithInstrumentError) {
   EXPECT_EQ(result.exit_status, kInstrumentError) << result.describe();
   EXPECT_THAT(result.out, IsEmpty());
   EXPECT_THAT(result.err, HasSubstr("instrument error (bad_reading): quality 19"));
-  EXPECT_THAT(sim.process->err(), HasSubstr("fault quality=19 on 'D5'"));
+  EXPECT_TRUE(sim.process->wait_for_stderr("fault quality=19 on 'D5'", 5s)) << sim.process->err();
+  EXPECT_EQ(terminate(sim).exit_status, 0);
+}
+
+TEST(SimProcess, AMeasurementThatNeverAnsweredIsMadeAgainAndSaysSo) {
+  // A fixed integration time: the wait for the lost M0 is 2 x 600 ms plus the overhead.
+  auto sim = start_simulator({"--time-scale", "0", "--fault", "m0:no-answer@1", "--fault", "d1:garbage@1"});
+  const auto result = measure(sim, {"--integration-ms", "600"});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  const auto readings = json_lines(result.out);
+  ASSERT_EQ(readings.size(), 1u);
+  EXPECT_EQ(readings[0]["attempts"], 2);
+  ASSERT_EQ(readings[0]["warnings"].size(), 1u) << readings[0]["warnings"];
+  EXPECT_TRUE(readings[0]["warnings"][0].get<std::string>().starts_with("remeasured: ")) << readings[0]["warnings"];
+  EXPECT_THAT(result.err, HasSubstr("reading 1: remeasured: the PR-650 did not answer 'm0'"));
   EXPECT_EQ(terminate(sim).exit_status, 0);
 }
 
@@ -323,6 +337,22 @@ TEST(SimProcess, SecondClientIsToldBusyWhileTheFirstIsServed) {
   const auto ended = terminate(sim);
   EXPECT_EQ(ended.exit_status, 0);
   EXPECT_THAT(ended.err, HasSubstr("refused, busy with client 127.0.0.1:"));
+}
+
+TEST(SimProcess, AClientRightAfterAProbeThatConnectedAndClosedIsServed) {
+  // A readiness probe connects and closes; the real client connects at once after it, and
+  // again after the previous client's close. Neither may be told the meter is busy.
+  auto sim = start_simulator({"--time-scale", "0", "--radiance", kForearm});
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_TRUE(RawClient::connect_tcp(sim.port)) << "probe " << i;  // closed at once
+    auto client = RawClient::connect_tcp(sim.port);
+    ASSERT_TRUE(client) << "client " << i;
+    ASSERT_TRUE(client->send("b3\n"));
+    ASSERT_EQ(client->receive_until("\r\n", 5s), "000\r\n") << "client " << i;
+  }
+  const auto ended = terminate(sim);
+  EXPECT_EQ(ended.exit_status, 0);
+  EXPECT_THAT(ended.err, ::testing::Not(HasSubstr("refused")));
 }
 
 TEST(SimProcess, SigtermStopsPromptlyWithAClientConnected) {

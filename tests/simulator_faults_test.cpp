@@ -107,6 +107,7 @@ TEST(FaultPlan, CountsTheCommandsEachSpecMatches) {
 TEST(FaultPlan, RefusesAProbabilityOutsideZeroToOneAndNamesABadSpec) {
   EXPECT_FALSE(FaultPlan::parse({}, 1.5));
   EXPECT_FALSE(FaultPlan::parse({}, -0.1));
+  EXPECT_FALSE(FaultPlan::parse({}, 0.5, 1, -1));
   auto plan = FaultPlan::parse(std::vector<std::string>{"d5:truncate", "d5:oops"});
   ASSERT_FALSE(plan);
   EXPECT_THAT(plan.error(), HasSubstr("d5:oops"));
@@ -138,6 +139,32 @@ TEST(FaultPlan, RandomModeIsSeededAndNeverEndsTheSession) {
   for (int i = 0; i < 4000; ++i) hits += !some.next("b3").empty();
   EXPECT_NEAR(hits / 4000.0, 0.25, 0.03);
   EXPECT_TRUE(FaultPlan().empty());
+}
+
+TEST(FaultPlan, AGapSparesTheCommandsAfterARandomFault) {
+  // Every command would get a fault; a gap of 1 leaves every second one alone, a gap of 2 two
+  // in three. Faults asked for by spec are not spared.
+  for (const int gap : {1, 2}) {
+    auto plan = FaultPlan::parse(std::vector<std::string>{"d1:late=0"}, 1.0, 3, gap);
+    ASSERT_TRUE(plan) << plan.error();
+    for (int i = 0; i < 30; ++i) {
+      const auto faults = plan->next("d1");
+      const bool random = i % (gap + 1) == 0;
+      ASSERT_EQ(faults.size(), random ? 2u : 1u) << "gap " << gap << ", command " << i;
+      EXPECT_EQ(faults.front().to_string(), "late=0");
+    }
+  }
+  // At a realistic rate no two faults are ever adjacent.
+  auto plan = FaultPlan::parse({}, 0.3, 5, 1);
+  bool previous = false;
+  int hits = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const bool hit = !plan->next("s").empty();
+    EXPECT_FALSE(hit && previous) << "command " << i;
+    previous = hit;
+    hits += hit;
+  }
+  EXPECT_GT(hits, 500);
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
-#include "skinspec/fit/spectra_csv.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -233,6 +234,81 @@ TEST(SpectraCsvComments, SkipsCommentLinesAnywhere) {
   ASSERT_TRUE(spectra) << spectra.error().what();
   ASSERT_EQ(spectra->size(), 1u);
   EXPECT_EQ((*spectra)[0].spectrum.size(), 2u);
+}
+
+}  // namespace
+}  // namespace skinspec
+
+namespace skinspec {
+namespace {
+
+// Bytes that are not UTF-8, wherever they are, are refused at their line and column, and the
+// message shows them escaped (never raw) with the text before them.
+struct NotUtf8 {
+  const char* label;
+  std::string bytes;
+  std::size_t line, column;
+  std::string shown;  // the escaped bytes the message must contain
+};
+
+const NotUtf8 kNotUtf8[] = {
+    {"in the header", "wavelength_nm,\xff\xfe\n400,0.3\n500,0.3\n600,0.3\n700,0.3\n", 1, 15, "\\xff\\xfe"},
+    {"in a name", "wavelength_nm,a,sub\xe9ject\n400,0.3,0.3\n700,0.3,0.3\n", 1, 20, "\\xe9"},
+    {"in a comment", "# lamp \xc0\xaf warm\nwavelength_nm,a\n400,0.3\n700,0.3\n", 1, 8, "\\xc0\\xaf"},
+    {"in a comment after the data", "wavelength_nm,a\n400,0.3\n700,0.3\n# \xf8\x88\x80\x80\x80\n", 4, 3,
+     "\\xf8\\x88\\x80\\x80\\x80"},
+    {"in a value", "wavelength_nm,a\n400,0.3\n550,0.\x80" "3\n700,0.3\n", 3, 7, "\\x80"},
+    {"a lone continuation byte", "wavelength_nm,a\n400,0.3\n\x80\n700,0.3\n", 3, 1, "\\x80"},
+    {"an overlong encoding", "wavelength_nm,a\xe0\x80\xaf\n400,0.3\n700,0.3\n", 1, 16, "\\xe0\\x80\\xaf"},
+    {"a surrogate", "wavelength_nm,a\n400,0.3\n700,0.3\xed\xa0\x80\n", 3, 8, "\\xed\\xa0\\x80"},
+    {"a sequence cut off by the line end", "wavelength_nm,\xe2\x82\r\n400,0.3\r\n700,0.3\r\n", 1, 15, "\\xe2\\x82"},
+    {"on a blank-looking line", "wavelength_nm,a\n400,0.3\n \xff \n700,0.3\n", 3, 2, "\\xff"},
+};
+
+TEST(SpectraCsvUtf8, RefusesBytesThatAreNotUtf8WhereverTheyAre) {
+  for (const auto& [label, bytes, line, column, shown] : kNotUtf8) {
+    SCOPED_TRACE(label);
+    const auto e = error_of(bytes);
+    EXPECT_EQ(e.line, line);
+    EXPECT_EQ(e.column, column);
+    EXPECT_THAT(e.message, HasSubstr(shown + " is not UTF-8 text"));
+    EXPECT_TRUE(utf8::is_valid(e.what())) << e.what();
+    EXPECT_EQ(e.what().find('\x1b'), std::string::npos);
+  }
+}
+
+TEST(SpectraCsvUtf8, QuotesTheTextBeforeTheBadBytes) {
+  EXPECT_EQ(error_of("wavelength_nm,\xff\xfe\n400,0.3\n700,0.3\n").what(),
+            "data.csv:1:15: \\xff\\xfe is not UTF-8 text (after 'wavelength_nm,'); the file must be saved as UTF-8");
+  // A long line is quoted from a character boundary shortly before the defect.
+  // Here 24 bytes back falls inside the two bytes of the é, so the quote starts after it.
+  const auto long_name = error_of("wavelength_nm," + std::string(40, 'a') + "\xc3\xa9" + std::string(23, 'b') + "\xff\n");
+  EXPECT_THAT(long_name.message, HasSubstr("(after ...'" + std::string(23, 'b') + "')"));
+}
+
+TEST(SpectraCsvUtf8, KeepsUtf8NamesAsTheyAre) {
+  const std::string names = "Probandin_\xc3\x84,\xe6\x97\xa5\xe6\x9c\xac,\xf0\x9f\x96\x90";
+  const auto spectra = parse("\xEF\xBB\xBFwavelength_nm," + names + "\n400,0.1,0.2,0.3\n700,0.2,0.3,0.4\n");
+  ASSERT_TRUE(spectra) << spectra.error().what();
+  ASSERT_EQ(spectra->size(), 3u);
+  EXPECT_EQ((*spectra)[0].name, "Probandin_\xc3\x84");
+  EXPECT_EQ((*spectra)[1].name, "\xe6\x97\xa5\xe6\x9c\xac");
+  EXPECT_EQ((*spectra)[2].name, "\xf0\x9f\x96\x90");
+}
+
+TEST(SpectraCsvUtf8, EscapesControlCharactersInQuotedNamesAndCells) {
+  const auto duplicate = error_of("wavelength_nm,a\x1b[2J,a\x1b[2J\n400,0.1,0.1\n700,0.2,0.2\n");
+  EXPECT_THAT(duplicate.message, HasSubstr("duplicated column name 'a\\x1b[2J'"));
+  const auto cell = error_of("wavelength_nm,a\n400,0.1\n550,0\x07" "1\n700,0.2\n");
+  EXPECT_THAT(cell.message, HasSubstr("'0\\x071' is not a number"));
+  const auto first = error_of("wave\tlength,a\n400,0.1\n700,0.2\n");
+  EXPECT_THAT(first.message, HasSubstr("'wave\\tlength'"));
+}
+
+TEST(SpectraCsvUtf8, TheSourceNameIsEscapedToo) {
+  const auto e = parse_spectra_csv("", "dir/\xff\x1b.csv");
+  ASSERT_FALSE(e);
+  EXPECT_THAT(e.error().what(), ::testing::StartsWith("dir/\\xff\\x1b.csv:1: "));
 }
 
 }  // namespace

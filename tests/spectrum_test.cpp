@@ -1,4 +1,4 @@
-#include "skinspec/fit/spectrum.hpp"
+#include "skinspec/spectral/spectrum.hpp"
 
 #include <gtest/gtest.h>
 

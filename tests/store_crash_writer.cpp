@@ -1,8 +1,8 @@
-// Helper for the crash-safety test: writes measurement-plus-fit transactions to the database
-// given as its argument until it is killed, printing each one's ids only after its commit has
-// returned. Lines:
-//   session <session id> job <job id>
-//   committed <measurement id> <fit id> <n>     (n: the sample number, see store_samples.hpp)
+// Helper for the crash-safety test: runs measurement jobs on the database given as its
+// argument until it is killed (each job created, started, then ended with its measurement and
+// fit in one transaction), printing each one's ids only after its commit has returned. Lines:
+//   session <session id>
+//   committed <measurement id> <fit id> <job id> <n>   (n: the sample number, see store_samples.hpp)
 
 #include <cstdio>
 
@@ -31,19 +31,19 @@ int main(int argc, char** argv) {
   }
   auto store = must(Store::open(argv[1]), "open");
   const Id session = must(store.create_session(skinspec::testing::sample_session(1)), "session");
-  Job job;
-  job.kind = "measure";
-  job.session_id = session;
-  const Id job_id = must(store.create_job(job), "job").job.id;
-  must(store.update_job(job_id, {.state = JobState::running}), "job start");
-  std::printf("session %lld job %lld\n", static_cast<long long>(session), static_cast<long long>(job_id));
+  std::printf("session %lld\n", static_cast<long long>(session));
   std::fflush(stdout);
   for (int n = 0;; ++n) {
-    auto m = skinspec::testing::sample_measurement(session, n);
-    m.job_id = job_id;
-    const auto ids = must(store.record_measurement(m, skinspec::testing::sample_fit(n)), "record");
-    std::printf("committed %lld %lld %d\n", static_cast<long long>(ids.measurement_id),
-                static_cast<long long>(*ids.fit_id), n);
+    Job job;
+    job.kind = "measure";
+    job.session_id = session;
+    const Id job_id = must(store.create_job(job), "job").job.id;
+    must(store.update_job(job_id, {.state = JobState::running}), "job start");
+    const auto done = must(store.complete_measurement_job(job_id, skinspec::testing::sample_measurement(session, n),
+                                                          skinspec::testing::sample_fit(n), R"({"readings":1})"),
+                           "job end");
+    std::printf("committed %lld %lld %lld %d\n", static_cast<long long>(done.ids.measurement_id),
+                static_cast<long long>(*done.ids.fit_id), static_cast<long long>(job_id), n);
     std::fflush(stdout);
   }
 }

@@ -6,9 +6,13 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "skinspec/store/store.hpp"
 #include "support/store_samples.hpp"
@@ -49,13 +53,39 @@ INSERT INTO fits VALUES (1, 2, 'forearm', 0.1, 7, 3, 2, 1, 0.01, 0.2, 0.3, 0.2, 
 )sql";
 }
 
-const std::map<int, std::string> kRowsAtVersion = {
-    {1, rows_written_by_version("")},
-    // Version 2 had jobs; a finished one that produced nothing stored.
-    {2, rows_written_by_version(", NULL") + R"sql(
+// Version 2 had jobs; a finished one that produced nothing stored.
+const std::string kVersion2Job = R"sql(
 INSERT INTO jobs VALUES (1, 'measure', '{"kind":"sample"}', '', 1, 'k-1', 'failed', 'bad_reading: quality 19', '{}',
   1700000000000010, 1700000000000011, 1700000000000012);
-)sql"},
+)sql";
+
+// Jobs as versions 2 and 3 ended them, their errors free text; job 9 left failed by a writer
+// that died after storing its measurement (3) and fit (2) but before storing the job's end.
+const std::string kVersion3Jobs = R"sql(
+INSERT INTO jobs VALUES (2, 'measure', '{}', '', 1, NULL, 'cancelled', 'cancelled by request', '{}', 1, 2, 3);
+INSERT INTO jobs VALUES (3, 'measure', '{}', '', 1, NULL, 'cancelled', 'the service stopped', '{}', 1, NULL, 3);
+INSERT INTO jobs VALUES (4, 'measure', '{}', '', 1, NULL, 'failed',
+  'no_white_reference: measure the white standard of session 1 first', '{}', 1, 2, 3);
+INSERT INTO jobs VALUES (5, 'measure', '{}', '', 1, NULL, 'failed', 'database: disk I/O error', '{}', 1, 2, 3);
+INSERT INTO jobs VALUES (6, 'measure', '{}', '', 1, NULL, 'failed', 'the meter caught fire', '{}', 1, 2, 3);
+INSERT INTO jobs VALUES (7, 'measure', '{}', '', 1, NULL, 'failed', '', '{}', 1, 2, 3);
+INSERT INTO jobs VALUES (8, 'measure', '{}', '', 1, NULL, 'succeeded', '', '{"measurement_id":2}', 1, 2, 3);
+INSERT INTO jobs VALUES (9, 'measure', '{"kind":"sample"}', '', 1, NULL, 'failed',
+  'interrupted: the program running it stopped before it finished', '{}', 1, 2, 1700000000000020);
+INSERT INTO measurements VALUES (3, 1, 'sample', 's', 1, 1, 1, 0, 'OK', 'W/(sr m2 nm)', '{}', 1,
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL,
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', '["white_stale: old"]', X'00',
+  1700000000000016, 1700000000000017, 1700000000000018, 9);
+INSERT INTO fits VALUES (2, 3, 'forearm', 0.1, 7, 3, 2, 1, 0.01, 0.2, 0.3, 0.2, NULL, 0.012, 0.03, 0.9, 14, 1,
+  'converged', '{"site":"forearm"}', 'skinspec 0.1.0', 'abc123',
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F',
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 0, 1700000000000019);
+)sql";
+
+const std::map<int, std::string> kRowsAtVersion = {
+    {1, rows_written_by_version("")},
+    {2, rows_written_by_version(", NULL") + kVersion2Job},
+    {3, rows_written_by_version(", NULL") + kVersion2Job + kVersion3Jobs},
 };
 
 // What every version's rows must read back as under the current schema.
@@ -84,6 +114,15 @@ void expect_rows_of_earlier_version(Store& store) {
   EXPECT_EQ(detail.fits[0].measured, std::vector<double>({0.5, 0.25}));
 }
 
+// What the jobs of versions 2 and 3 read back as: free text became {code, message}.
+void expect_jobs_of_earlier_version(Store& store, int version) {
+  if (version < 2) return;
+  const auto job = value_of(store.job(1));
+  EXPECT_EQ(job.state, JobState::failed);
+  EXPECT_EQ(job.error, (JobError{JobErrorCode::bad_reading, "quality 19"}));
+  EXPECT_EQ(job.idempotency_key, "k-1");
+}
+
 class StoreMigrationTest : public ::testing::Test {
  protected:
   testing::ScratchDirectory dir_;
@@ -103,15 +142,16 @@ TEST_F(StoreMigrationTest, EveryEarlierVersionOpensWithItsRowsIntact) {
       auto store = value_of(Store::open(path));
       EXPECT_EQ(store.schema_version(), current_schema_version());
       expect_rows_of_earlier_version(store);
+      expect_jobs_of_earlier_version(store, version);
       // What the newer versions added works on the old rows.
       Job job;
       job.kind = "measure";
       job.session_id = 1;
       const auto created = value_of(store.create_job(job));
+      value_of(store.update_job(created.job.id, {.state = JobState::running}));
       auto m = testing::sample_measurement(1, 1);
-      m.job_id = created.job.id;
       m.white_measurement_id = 1;
-      const auto ids = value_of(store.record_measurement(m, testing::sample_fit(1)));
+      const auto ids = value_of(store.complete_measurement_job(created.job.id, m, testing::sample_fit(1), "{}")).ids;
       EXPECT_EQ(value_of(store.measurement(ids.measurement_id)).job_id, created.job.id);
       EXPECT_EQ(value_of(store.sessions({.site = "forearm"})).sessions.size(), 1u);
       RejectedReading rejected;
@@ -130,7 +170,48 @@ TEST_F(StoreMigrationTest, EveryEarlierVersionOpensWithItsRowsIntact) {
     // Opening again migrates nothing and changes nothing.
     auto again = value_of(Store::open(path));
     expect_rows_of_earlier_version(again);
+    expect_jobs_of_earlier_version(again, version);
   }
+}
+
+TEST_F(StoreMigrationTest, VersionThreeJobErrorsBecomeCodesAndMessages) {
+  ASSERT_TRUE(create_database_at_version(path_, 3));
+  testing::sqlite_execute(path_, kRowsAtVersion.at(3));
+  auto store = value_of(Store::open(path_));
+  const auto error_of = [&](Id id) { return value_of(store.job(id)).error; };
+  EXPECT_EQ(error_of(2), (JobError{JobErrorCode::cancelled, "cancelled by request"}));
+  EXPECT_EQ(error_of(3), (JobError{JobErrorCode::stopped, "the service stopped"}));
+  EXPECT_EQ(error_of(4), (JobError{JobErrorCode::no_white, "measure the white standard of session 1 first"}));
+  EXPECT_EQ(error_of(5), (JobError{JobErrorCode::store, "disk I/O error"}));
+  EXPECT_EQ(error_of(6), (JobError{JobErrorCode::internal, "the meter caught fire"}));
+  EXPECT_EQ(error_of(7), (JobError{JobErrorCode::internal, "no reason was recorded"}));
+  EXPECT_FALSE(error_of(8));
+  EXPECT_EQ(value_of(store.job(8)).result, R"({"measurement_id":2})");
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM jobs WHERE error IS NOT NULL AND NOT json_valid(error)"), 0);
+  EXPECT_THAT(testing::sqlite_text(path_, "SELECT sql FROM sqlite_schema WHERE name = 'jobs'"), HasSubstr("json_valid(error)"));
+}
+
+// A job whose measurement a version-3 writer stored before dying ends succeeded and names it:
+// every stored measurement's job has succeeded with its ids.
+TEST_F(StoreMigrationTest, AVersionThreeJobLeftFailedWithItsMeasurementStoredSucceeds) {
+  ASSERT_TRUE(create_database_at_version(path_, 3));
+  testing::sqlite_execute(path_, kRowsAtVersion.at(3));
+  auto store = value_of(Store::open(path_));
+  const auto job = value_of(store.job(9));
+  EXPECT_EQ(job.state, JobState::succeeded);
+  EXPECT_FALSE(job.error);
+  EXPECT_EQ(job.finished_at, Time(std::chrono::microseconds(1700000000000020)));
+  const auto result = nlohmann::json::parse(job.result);
+  EXPECT_EQ(result["measurement_id"], 3);
+  EXPECT_EQ(result["fit_id"], 2);
+  EXPECT_EQ(result["white_measurement_id"], 1);
+  EXPECT_EQ(result["readings"], 1);
+  EXPECT_EQ(result["warnings"], nlohmann::json::array({"white_stale: old"}));
+  EXPECT_EQ(result["recovered"], true);
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements m JOIN jobs j ON j.id = m.job_id "
+                                          "WHERE j.state <> 'succeeded' OR json_extract(j.result, '$.measurement_id') <> m.id"),
+            0);
+  EXPECT_EQ(value_of(store.job(1)).state, JobState::failed);  // nothing stored: stays failed
 }
 
 TEST_F(StoreMigrationTest, AnEmptyFileBecomesACurrentDatabase) {
@@ -184,20 +265,31 @@ class StoreBadInputTest : public StoreMigrationTest {
                                                                    testing::sample_fit(n)));
   }
 
-  // Opens `path` read-write and read-only, expecting `kind` both times and no change to it.
+  // Opens `path` read-write and read-only, expecting `kind` both times, no change to it and
+  // nothing created beside it (no -wal, -shm or -lock).
   void expect_refused_unchanged(const std::string& path, Kind kind, const std::string& message) {
     const auto before = testing::file_bytes(path);
+    const auto files = files_beside(path);
     for (const bool read_only : {false, true}) {
       SCOPED_TRACE(read_only ? "read-only" : "read-write");
       OpenOptions options;
-      options.read_only = read_only;
+      options.mode = read_only ? OpenMode::read_only : OpenMode::read_write;
       const auto opened = Store::open(path, options);
       ASSERT_FALSE(opened);
       EXPECT_EQ(opened.error().kind, kind) << opened.error().message;
       EXPECT_THAT(opened.error().message, HasSubstr(message));
       EXPECT_THAT(opened.error().message, HasSubstr(path));
       EXPECT_EQ(testing::file_bytes(path), before) << "the file changed";
+      EXPECT_EQ(files_beside(path), files);
     }
+  }
+
+  static std::vector<std::string> files_beside(const std::string& path) {
+    std::vector<std::string> names;
+    for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(path).parent_path()))
+      names.push_back(entry.path().filename().string());
+    std::ranges::sort(names);
+    return names;
   }
 };
 
@@ -220,6 +312,19 @@ TEST_F(StoreBadInputTest, AFileThatIsNotSqliteIsRefused) {
 TEST_F(StoreBadInputTest, AnotherProgramsSqliteDatabaseIsRefused) {
   testing::sqlite_execute(path_, "CREATE TABLE photos (id INTEGER PRIMARY KEY, name TEXT); PRAGMA user_version = 3;");
   expect_refused_unchanged(path_, Kind::corrupt, "not a skinspec one");
+  // In WAL mode, where a plain read-only SQLite connection would leave a -wal and -shm behind.
+  const auto wal = dir_.file("wal.db");
+  testing::sqlite_execute(wal, "PRAGMA journal_mode = WAL; CREATE TABLE photos (id INTEGER PRIMARY KEY);");
+  expect_refused_unchanged(wal, Kind::corrupt, "not a skinspec one");
+}
+
+// SQLite reads a file shorter than its header as an empty database; a writer would fill it.
+TEST_F(StoreBadInputTest, AFileShorterThanTheHeaderIsRefused) {
+  for (const std::string bytes : {"x", "SQLite format"}) {
+    SCOPED_TRACE(bytes);
+    std::ofstream(path_, std::ios::trunc) << bytes;
+    expect_refused_unchanged(path_, Kind::corrupt, "not a SQLite database");
+  }
 }
 
 TEST_F(StoreBadInputTest, ADamagedDatabaseIsRefused) {
@@ -259,7 +364,7 @@ TEST_F(StoreBadInputTest, AReadOnlyFileIsNotWrittenButCanBeRead) {
 
   {
     OpenOptions read_only;
-    read_only.read_only = true;
+    read_only.mode = OpenMode::read_only;
     auto reader = value_of(Store::open(copy, read_only));
     EXPECT_EQ(value_of(reader.session_detail(1)).measurements.size(), 20u);
     const auto refused = reader.record_measurement(testing::sample_measurement(1, 99), testing::sample_fit(99));

@@ -5,8 +5,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <set>
 
 #include "skinspec/store/store.hpp"
 #include "support/store_samples.hpp"
@@ -390,22 +393,34 @@ TEST_F(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
   EXPECT_FALSE(running.finished_at);
   auto m = sample_measurement(session, 1);
   m.job_id = created.job.id;
-  const auto ids = value_of(store.record_measurement(m, sample_fit(1)));
-  EXPECT_EQ(value_of(store.measurement(ids.measurement_id)).job_id, created.job.id);
-  const auto done = value_of(store.update_job(
-      created.job.id,
-      {.state = JobState::succeeded, .result = R"({"measurement_id":)" + std::to_string(ids.measurement_id) + "}"}));
-  EXPECT_EQ(done.state, JobState::succeeded);
-  EXPECT_TRUE(done.finished_at);
-  EXPECT_THAT(done.result, HasSubstr("measurement_id"));
+  // A job's measurement is stored only with the job's end.
+  EXPECT_EQ(store.record_measurement(m, sample_fit(1)).error().kind, Kind::invalid_argument);
+  const auto done = value_of(store.complete_measurement_job(created.job.id, m, sample_fit(1), R"({"readings":1})"));
+  EXPECT_EQ(done.job.state, JobState::succeeded);
+  EXPECT_TRUE(done.job.finished_at);
+  EXPECT_FALSE(done.job.error);
+  EXPECT_EQ(value_of(store.measurement(done.ids.measurement_id)).job_id, created.job.id);
+  EXPECT_EQ(value_of(store.fit(*done.ids.fit_id)).measurement_id, done.ids.measurement_id);
+  EXPECT_EQ(done.job.result, R"({"fit_id":)" + std::to_string(*done.ids.fit_id) + R"(,"measurement_id":)" +
+                                 std::to_string(done.ids.measurement_id) + R"(,"readings":1})");
+  EXPECT_EQ(value_of(store.job(created.job.id)).result, done.job.result);
   EXPECT_EQ(store.update_job(created.job.id, {.state = JobState::running}).error().kind, Kind::conflict);
+  // Only a running job ends with its measurement.
+  EXPECT_EQ(store.complete_measurement_job(created.job.id, m, std::nullopt, "{}").error().kind, Kind::conflict);
 
   Job other;
   other.kind = "refit";
   const Id unattached = value_of(store.create_job(other)).job.id;
-  const auto cancelled =
-      value_of(store.update_job(unattached, {.state = JobState::cancelled, .error = "cancelled by operator"}));
-  EXPECT_EQ(cancelled.error, "cancelled by operator");
+  // Failed and cancelled jobs say why, the others do not.
+  EXPECT_EQ(store.update_job(unattached, {.state = JobState::cancelled}).error().kind, Kind::invalid_argument);
+  EXPECT_EQ(store.update_job(unattached, {.state = JobState::running, .error = JobError{JobErrorCode::lost, "gone"}}).error().kind,
+            Kind::invalid_argument);
+  const JobError why{JobErrorCode::cancelled, "by the operator, \"at once\""};
+  const auto cancelled = value_of(store.update_job(unattached, {.state = JobState::cancelled, .error = why}));
+  EXPECT_EQ(cancelled.error, why);
+  EXPECT_EQ(value_of(store.job(unattached)).error, cancelled.error);
+  EXPECT_EQ(testing::sqlite_text(path_, "SELECT error FROM jobs WHERE id = " + std::to_string(unattached)),
+            R"({"code":"cancelled","message":"by the operator, \"at once\""})");
   EXPECT_EQ(value_of(store.jobs()).size(), 2u);
   EXPECT_EQ(value_of(store.jobs(session)).size(), 1u);
   EXPECT_EQ(store.update_job(1234, {.state = JobState::running}).error().kind, Kind::not_found);
@@ -439,8 +454,42 @@ TEST_F(StoreTest, OpeningAfterAWriterDiedInterruptsItsRunningSessions) {
   EXPECT_EQ(value_of(store.session(finished_session)).state, SessionState::complete);
   const auto job = value_of(store.job(job_id));
   EXPECT_EQ(job.state, JobState::failed);
-  EXPECT_THAT(job.error, HasSubstr("interrupted"));
+  ASSERT_TRUE(job.error);
+  EXPECT_EQ(job.error->code, JobErrorCode::interrupted);
+  EXPECT_THAT(job.error->message, HasSubstr("stopped before it finished"));
   EXPECT_EQ(check_sample_measurement(value_of(store.measurement(measurement_id))), "");
+}
+
+// The measurement, its fit and the job's end are one transaction: a refusal of any part leaves
+// the job running and nothing of it stored.
+TEST_F(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const Id other_session = value_of(store.create_session(sample_session(2)));
+  Job job;
+  job.kind = "measure";
+  job.session_id = session;
+  const Id job_id = value_of(store.create_job(job)).job.id;
+  const auto m = sample_measurement(session, 1);
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "{}").error().kind, Kind::conflict);  // still queued
+  value_of(store.update_job(job_id, {.state = JobState::running}));
+
+  auto bad_fit = sample_fit(1);
+  bad_fit.params[1] = std::nan("");
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, bad_fit, "{}").error().kind, Kind::invalid_argument);
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "[]").error().kind, Kind::invalid_argument);
+  EXPECT_EQ(store.complete_measurement_job(job_id, sample_measurement(other_session, 1), std::nullopt, "{}").error().kind,
+            Kind::invalid_argument);
+  auto of_another_job = m;
+  of_another_job.job_id = job_id + 1;
+  EXPECT_EQ(store.complete_measurement_job(job_id, of_another_job, std::nullopt, "{}").error().kind, Kind::invalid_argument);
+  value_of(store.update_session(session, {.state = SessionState::complete}));
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "{}").error().kind, Kind::conflict);
+
+  EXPECT_EQ(value_of(store.job(job_id)).state, JobState::running);
+  EXPECT_EQ(value_of(store.job(job_id)).result, "{}");
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 0);
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM fits"), 0);
 }
 
 TEST_F(StoreTest, RecoveryCanTreatEveryOpenSessionAsRunning) {
@@ -465,7 +514,7 @@ TEST_F(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
   EXPECT_THAT(second.error().message, HasSubstr("another program has it open for writing"));
 
   OpenOptions read_only;
-  read_only.read_only = true;
+  read_only.mode = OpenMode::read_only;
   auto reader = Store::open(path_, read_only);
   ASSERT_TRUE(reader) << reader.error().message;
   EXPECT_EQ(value_of(reader->session(session)).subject, sample_session(1).subject);
@@ -477,13 +526,97 @@ TEST_F(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
 
 TEST_F(StoreTest, ReadOnlyOpeningNeedsAnExistingFile) {
   OpenOptions read_only;
-  read_only.read_only = true;
+  read_only.mode = OpenMode::read_only;
   const auto missing = Store::open(path_, read_only);
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().kind, Kind::not_found);
   EXPECT_FALSE(std::filesystem::exists(path_));
   EXPECT_EQ(Store::open(":memory:").error().kind, Kind::invalid_argument);
   EXPECT_EQ(Store::open(dir_.path().string()).error().kind, Kind::invalid_argument);
+}
+
+// Names of the files in `dir`.
+std::vector<std::string> files_in(const std::filesystem::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  std::ranges::sort(names);
+  return names;
+}
+
+// With no writer (no -wal), a read-only store reads the file as it is, creating no -wal or
+// -shm beside it; when a writer then changes the file, its reads fail rather than mix states.
+TEST_F(StoreTest, ReadOnlyWithoutAWriterCreatesNothingAndNoticesOneThatStarts) {
+  Id first = 0;
+  {
+    auto writer = open();
+    first = value_of(writer.create_session(sample_session(1)));
+  }
+  const auto files = files_in(dir_.path());
+  ASSERT_THAT(files, ElementsAre("skinspec.db", "skinspec.db-lock"));
+  const auto bytes = testing::file_bytes(path_);
+
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  auto reader = value_of(Store::open(path_, read_only));
+  EXPECT_EQ(value_of(reader.session(first)).subject, sample_session(1).subject);
+  EXPECT_EQ(files_in(dir_.path()), files);
+  EXPECT_TRUE(testing::file_bytes(path_) == bytes);
+
+  {
+    auto writer = open();  // closing it checkpoints the new session into the file
+    value_of(writer.create_session(sample_session(2)));
+  }
+  ASSERT_FALSE(testing::file_bytes(path_) == bytes);
+  const auto stale = reader.session(first);
+  ASSERT_FALSE(stale);
+  EXPECT_EQ(stale.error().kind, Kind::busy);
+  EXPECT_THAT(stale.error().message, HasSubstr("changed while it was read"));
+
+  // Opened again, it reads the file as it is now.
+  auto again = value_of(Store::open(path_, read_only));
+  EXPECT_EQ(value_of(again.sessions({})).sessions.size(), 2u);
+}
+
+// While a writer has the file open, a read-only store reads through its log: it sees what the
+// writer committed and not yet copied into the file.
+TEST_F(StoreTest, ReadOnlyBesideAWriterSeesItsCommits) {
+  auto writer = open();
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  auto reader = value_of(Store::open(path_, read_only));
+  const Id later = value_of(writer.create_session(sample_session(3)));
+  EXPECT_EQ(value_of(reader.session(later)).subject, sample_session(3).subject);
+}
+
+// Read as a URI, the path keeps every byte: '?', '#', '%', blanks and non-ASCII are escaped.
+TEST_F(StoreTest, ReadOnlyOpensAPathThatLooksLikeAUri) {
+  const auto odd = dir_.file("a?b #%20\xc3\xa9.db");
+  {
+    auto writer = value_of(Store::open(odd));
+    value_of(writer.create_session(sample_session(1)));
+  }
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  auto reader = value_of(Store::open(odd, read_only));
+  EXPECT_EQ(value_of(reader.session(1)).subject, sample_session(1).subject);
+  EXPECT_FALSE(std::filesystem::exists(dir_.file("a")));
+}
+
+TEST_F(StoreTest, ReadOnlyRefusesAnEmptySqliteDatabaseAndAnOlderSchema) {
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  testing::sqlite_execute(path_, "CREATE TABLE t (x); DROP TABLE t;");
+  const auto empty = Store::open(path_, read_only);
+  ASSERT_FALSE(empty);
+  EXPECT_EQ(empty.error().kind, Kind::corrupt);
+  EXPECT_THAT(empty.error().message, HasSubstr("an empty SQLite database"));
+
+  const auto older = dir_.file("older.db");
+  ASSERT_TRUE(create_database_at_version(older, 1));
+  const auto refused = Store::open(older, read_only);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, Kind::older_schema);
+  EXPECT_EQ(testing::sqlite_integer(older, "PRAGMA user_version"), 1);
 }
 
 TEST_F(StoreTest, ErrorKindsHaveNames) {
@@ -493,6 +626,15 @@ TEST_F(StoreTest, ErrorKindsHaveNames) {
   EXPECT_FALSE(parse_session_state("Aborted"));
   EXPECT_EQ(parse_measurement_kind("dark"), MeasurementKind::dark);
   EXPECT_EQ(parse_job_state("cancelled"), JobState::cancelled);
+  // Every job error code reads back from its name, and no two share one.
+  std::set<std::string_view> seen;
+  for (const auto& [code, name] : job_error_code_names()) {
+    EXPECT_EQ(to_string(code), name);
+    EXPECT_EQ(parse_job_error_code(name), code);
+    EXPECT_TRUE(seen.insert(name).second) << name;
+  }
+  EXPECT_EQ(seen.size(), static_cast<std::size_t>(JobErrorCode::internal) + 1);
+  EXPECT_FALSE(parse_job_error_code("database"));
 }
 
 }  // namespace

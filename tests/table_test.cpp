@@ -1,4 +1,4 @@
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/table.hpp"
 
 #include <gtest/gtest.h>
 
@@ -56,6 +56,41 @@ TEST(Table, EveryShippedTableLoads) {
     const auto t = parse_table(testing::data_file(name), name, {});
     EXPECT_TRUE(t) << (t ? "" : t.error().what());
   }
+}
+
+}  // namespace
+}  // namespace skinspec
+
+namespace skinspec {
+namespace {
+
+TEST(TableUtf8, RefusesBytesThatAreNotUtf8InMetadataHeaderAndCells) {
+  struct Case {
+    const char* label;
+    std::string bytes;
+    std::size_t line, column;
+    const char* shown;
+  };
+  const Case cases[] = {
+      {"metadata", "# title: t\n# source: Jacques \xe9t al.\n# licence: l\n# units: u\nwavelength_nm,a\n400,1\n", 2, 19, "\\xe9"},
+      {"header", std::string(kHeader) + "wavelength_nm,\xc0\xae\n400,1\n", 5, 15, "\\xc0\\xae"},
+      {"key", std::string(kHeader) + "site,a\nforearm\xed\xb0\x80,1\n", 6, 8, "\\xed\\xb0\\x80"},
+      {"cell", std::string(kHeader) + "wavelength_nm,a\n400,1\n410,\xff\n", 7, 5, "\\xff"},
+  };
+  for (const auto& [label, bytes, line, column, shown] : cases) {
+    SCOPED_TRACE(label);
+    const auto t = parse_table(bytes, "t.csv", {});
+    ASSERT_FALSE(t);
+    EXPECT_EQ(t.error().line, line);
+    EXPECT_EQ(t.error().column, column);
+    EXPECT_NE(t.error().message.find(std::string(shown) + " is not UTF-8 text"), std::string::npos) << t.error().what();
+  }
+}
+
+TEST(TableUtf8, QuotesKeysAndColumnsPrintably) {
+  const auto t = parse("site,a\nfore\x1b" "arm,1\nfore\x1b" "arm,2\n");
+  ASSERT_FALSE(t);
+  EXPECT_EQ(t.error().what(), "t.csv:7:1: duplicated key 'fore\\x1barm'");
 }
 
 }  // namespace

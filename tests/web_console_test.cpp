@@ -104,6 +104,9 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   EXPECT_NE(browser_->text(browser_->find("#job-status")).find("measurement #" + std::to_string(job["result"]["measurement_id"].get<long long>())),
             std::string::npos);
   shot("02-acquisition.png");
+  // The session reloads to list the new measurement; the next click goes to the new screen.
+  ASSERT_TRUE(browser_->wait_until("return !!document.querySelector(\"#measurements tr[data-measurement='" +
+                                   std::to_string(job["result"]["measurement_id"].get<long long>()) + "']\");"));
 
   // A long job cancelled from the keyboard.
   browser_->run("document.getElementById('count').value = '100';");
@@ -113,6 +116,8 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   browser_->run("document.activeElement.blur();");
   browser_->type(browser_->find("body"), "\xEE\x80\x8C");  // WebDriver's Escape key
   EXPECT_EQ(job_end_state(), "cancelled");
+  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("(cancelled: cancelled by request)"), std::string::npos)
+      << browser_->text(browser_->find("#job-status"));
   shot("03-cancelled.png");
 
   // The measurement: every plotted number is the API's.
@@ -187,7 +192,8 @@ TEST_F(WebConsoleTest, ARefusedRequestIsShownAndTheConsoleKeepsWorking) {
   browser_->open(url("#/sessions/1"));
   browser_->click(browser_->find("#measure-sample"));
   EXPECT_EQ(job_end_state(), "failed");
-  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("no_white_reference"), std::string::npos);
+  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("(no_white: measure the white standard of session"), std::string::npos)
+      << browser_->text(browser_->find("#job-status"));
   shot("06-failed-job.png");
 }
 

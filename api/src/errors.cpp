@@ -46,4 +46,23 @@ std::string error_body(const ApiError& error) {
   return body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
+ApiError from_store_error(const store::StoreError& error) {
+  using K = store::StoreError::Kind;
+  const auto as = [&error](ErrorKind kind, const char* code) { return ApiError{kind, code, error.message}; };
+  switch (error.kind) {
+    case K::invalid_argument: return as(ErrorKind::unprocessable, "invalid_value");
+    case K::not_found: return as(ErrorKind::not_found, "not_found");
+    case K::conflict: return as(ErrorKind::conflict, "conflict");
+    case K::busy: return as(ErrorKind::unavailable, "database_busy");
+    case K::full: return as(ErrorKind::unavailable, "database_full");
+    case K::read_only: return as(ErrorKind::unavailable, "database_read_only");
+    case K::io: return as(ErrorKind::internal, "database_io");
+    case K::corrupt: return as(ErrorKind::internal, "database_corrupt");
+    case K::newer_schema:
+    case K::older_schema: return as(ErrorKind::internal, "database_schema");
+    case K::internal: return as(ErrorKind::internal, "database_error");
+  }
+  return as(ErrorKind::internal, "database_error");
+}
+
 }  // namespace skinspec::api

@@ -3,6 +3,8 @@
 
 #include "jobs.hpp"
 
+#include <algorithm>
+
 #include "json_io.hpp"
 #include "text.hpp"
 
@@ -16,8 +18,8 @@ bool finished(store::JobState state) {
   return state == store::JobState::succeeded || state == store::JobState::failed || state == store::JobState::cancelled;
 }
 
-json progress_json(const std::string& phase, int done, int total, double fraction) {
-  return {{"phase", phase}, {"readings_done", done}, {"readings_total", total}, {"fraction", fraction}};
+json progress_json(JobPhase phase, int done, int total, double fraction) {
+  return {{"phase", std::string(to_string(phase))}, {"readings_done", done}, {"readings_total", total}, {"fraction", fraction}};
 }
 
 // Measuring takes most of a job's time: it covers 0 to 0.9, reading by reading; fitting and
@@ -26,8 +28,8 @@ double measuring_fraction(int done, int total) { return total > 0 ? 0.9 * done /
 
 json live_progress(const JobProgress& p) {
   double fraction = measuring_fraction(p.readings_done, p.readings_total);
-  if (p.phase == "fitting") fraction = 0.9;
-  if (p.phase == "storing") fraction = 0.95;
+  if (p.phase == JobPhase::fitting) fraction = 0.9;
+  if (p.phase == JobPhase::storing) fraction = 0.95;
   return progress_json(p.phase, p.readings_done, p.readings_total, fraction);
 }
 
@@ -39,14 +41,36 @@ json stored_progress(const store::Job& job, const json& request, const json& res
   };
   const int total = integer(request, "count", 1);
   switch (job.state) {
-    case store::JobState::succeeded: return progress_json("done", total, total, 1.0);
-    case store::JobState::queued: return progress_json("queued", 0, total, 0.0);
-    case store::JobState::running: return progress_json("measuring", 0, total, 0.0);
+    case store::JobState::succeeded: return progress_json(JobPhase::done, total, total, 1.0);
+    case store::JobState::queued: return progress_json(JobPhase::queued, 0, total, 0.0);
+    case store::JobState::running: return progress_json(JobPhase::measuring, 0, total, 0.0);
     default: {
       const int done = integer(result, "readings", 0);
-      return progress_json("done", done, total, measuring_fraction(done, total));
+      return progress_json(JobPhase::done, done, total, measuring_fraction(done, total));
     }
   }
+}
+
+json error_json(const std::optional<store::JobError>& error) {
+  if (!error) return nullptr;
+  return {{"code", std::string(store::to_string(error->code))}, {"message", error->message}};
+}
+
+// The state, position and progress of a job this process runs, from its live progress: a
+// record read a moment earlier may still say queued.
+void show_live(json& view, const JobProgress& live) {
+  if (live.unrecorded_failure) {
+    view["state"] = std::string(store::to_string(store::JobState::failed));
+    view["position"] = nullptr;
+    view["error"] = error_json(live.unrecorded_failure);
+    view["progress"] = progress_json(JobPhase::done, live.readings_done, live.readings_total,
+                                     measuring_fraction(live.readings_done, live.readings_total));
+    return;
+  }
+  const bool queued = live.phase == JobPhase::queued;
+  view["state"] = std::string(store::to_string(queued ? store::JobState::queued : store::JobState::running));
+  view["position"] = queued ? std::max(1, live.position) : 0;
+  view["progress"] = live_progress(live);
 }
 
 std::string sse_event(std::uint64_t id, const json& job) {
@@ -60,22 +84,34 @@ json job_json(const store::Job& job, const std::optional<JobProgress>& live) {
   json request = json::parse(job.request, nullptr, false);
   if (result.is_discarded()) result = json::object();
   if (request.is_discarded()) request = json::object();
-  // A finished job's record wins over live progress that has not been cleared yet.
-  const bool use_live = live && !finished(job.state);
-  return {{"id", job.id},
-          {"job_id", job.id},
-          {"kind", job.kind},
-          {"session_id", job.session_id ? json(*job.session_id) : json(nullptr)},
-          {"state", std::string(store::to_string(job.state))},
-          {"position", use_live ? json(live->position) : json(nullptr)},
-          {"progress", use_live ? live_progress(*live) : stored_progress(job, request, result)},
-          {"error", job.error.empty() ? json(nullptr) : json(job.error)},
-          {"request", request},
-          {"result", result},
-          {"idempotency_key", job.idempotency_key.empty() ? json(nullptr) : json(job.idempotency_key)},
-          {"created_at", detail::format_time(job.created_at)},
-          {"started_at", job.started_at ? json(detail::format_time(*job.started_at)) : json(nullptr)},
-          {"finished_at", job.finished_at ? json(detail::format_time(*job.finished_at)) : json(nullptr)}};
+  json view = {{"id", job.id},
+               {"job_id", job.id},
+               {"kind", job.kind},
+               {"session_id", job.session_id ? json(*job.session_id) : json(nullptr)},
+               {"state", std::string(store::to_string(job.state))},
+               {"position", nullptr},
+               {"progress", stored_progress(job, request, result)},
+               {"error", error_json(job.error)},
+               {"request", request},
+               {"result", result},
+               {"idempotency_key", job.idempotency_key.empty() ? json(nullptr) : json(job.idempotency_key)},
+               {"created_at", detail::format_time(job.created_at)},
+               {"started_at", job.started_at ? json(detail::format_time(*job.started_at)) : json(nullptr)},
+               {"finished_at", job.finished_at ? json(detail::format_time(*job.finished_at)) : json(nullptr)}};
+  // A finished record wins over live progress that has not been cleared yet.
+  if (live && !finished(job.state)) show_live(view, *live);
+  return view;
+}
+
+store::Result<json> current_job_json(const store::Store& db, const Acquisition* acquisition, store::Id id) {
+  // Read twice at most: a job whose record was created between the two reads has its
+  // progress by the second.
+  for (int round = 1;; ++round) {
+    const auto live = acquisition ? acquisition->progress(id) : std::nullopt;
+    auto job = db.job(id);
+    if (!job) return std::unexpected(job.error());
+    if (live || acquisition == nullptr || finished(job->state) || round == 2) return job_json(*job, live);
+  }
 }
 
 JobEvents::JobEvents(const store::Store& db, const Acquisition* acquisition, store::Id job_id)
@@ -87,11 +123,12 @@ std::optional<std::string> JobEvents::next(std::chrono::milliseconds keep_alive)
   while (!ended_ && !closed_) {
     // The count is read before the job, so that a change after the read wakes the wait below.
     const std::uint64_t seen = acquisition_ ? acquisition_->changes() : 0;
-    auto job = db_.job(job_id_);
-    if (!job) break;
-    const json view = job_json(*job, acquisition_ ? acquisition_->progress(job_id_) : std::nullopt);
+    auto current = current_job_json(db_, acquisition_, job_id_);
+    if (!current) break;
+    const json& view = *current;
     // Without an acquisition nothing will change the job any more.
-    const bool last = finished(job->state) || acquisition_ == nullptr;
+    const auto state = store::parse_job_state(view["state"].get<std::string>());
+    const bool last = !state || finished(*state) || acquisition_ == nullptr;
     if (view != sent_) {
       sent_ = view;
       ended_ = last;

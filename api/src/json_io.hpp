@@ -1,6 +1,6 @@
 #pragma once
-// Reading request bodies strictly and writing records as JSON. Failures throw HandlerError,
-// which the router turns into one error response.
+// Reading request bodies strictly. Failures throw HandlerError, which the router turns into one
+// error response. The records' JSON is records/record_json.hpp.
 
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -8,7 +8,6 @@
 #include <vector>
 
 #include "skinspec/api/errors.hpp"
-#include "skinspec/fit/fitter.hpp"
 #include "skinspec/store/types.hpp"
 
 namespace skinspec::api::detail {
@@ -17,7 +16,7 @@ struct HandlerError {
   ApiError error;
 };
 [[noreturn]] void fail(ErrorKind kind, std::string code, std::string message);
-// A StoreError as the service reports it (not_found → 404, conflict → 409, busy → 503, ...).
+// A StoreError as the service reports it (from_store_error).
 [[noreturn]] void fail_store(const store::StoreError& error);
 
 // The body as a JSON object: 400 for invalid UTF-8 or malformed JSON, 422 for another type.
@@ -32,16 +31,6 @@ std::optional<store::Id> optional_id(const nlohmann::json& object, const char* k
 // An array of finite numbers, each within [min, max], with 2..max_size elements.
 std::vector<double> number_array(const nlohmann::json& value, const std::string& name, double min, double max,
                                  std::size_t max_size);
-
-nlohmann::json to_json(const store::WhiteStandard& standard);
-nlohmann::json to_json(const store::Session& session);
-nlohmann::json to_json(const store::Measurement& measurement, std::optional<store::Id> fit_id);
-// Without the raw reply bytes (they are in the store and its export, not in listings).
-nlohmann::json to_json(const store::RejectedReading& reading);
-// The fields of `skinspec fit` (fit_to_json), plus the stored record's id and provenance.
-nlohmann::json to_json(const store::Fit& fit);
-store::Fit to_store_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
-                        const std::string& tables_digest);
 
 std::string dump(const nlohmann::json& value);
 

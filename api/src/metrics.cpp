@@ -48,6 +48,17 @@ void Metrics::record_rejected_connection() {
   ++rejected_connections_;
 }
 
+void Metrics::record_evicted_connection() {
+  std::lock_guard lock(mutex_);
+  ++evicted_connections_;
+}
+
+void Metrics::set_compute_load(std::size_t running, std::size_t waiting) {
+  std::lock_guard lock(mutex_);
+  compute_running_ = running;
+  compute_waiting_ = waiting;
+}
+
 std::string Metrics::prometheus_text() const {
   std::lock_guard lock(mutex_);
   std::ostringstream out;
@@ -79,7 +90,16 @@ std::string Metrics::prometheus_text() const {
       << "skinspec_open_connections " << open_connections_ << '\n'
       << "# HELP skinspec_rejected_connections_total Connections closed at once because the cap was reached.\n"
          "# TYPE skinspec_rejected_connections_total counter\n"
-      << "skinspec_rejected_connections_total " << rejected_connections_ << '\n';
+      << "skinspec_rejected_connections_total " << rejected_connections_ << '\n'
+      << "# HELP skinspec_evicted_connections_total Idle connections closed to make room for new ones.\n"
+         "# TYPE skinspec_evicted_connections_total counter\n"
+      << "skinspec_evicted_connections_total " << evicted_connections_ << '\n'
+      << "# HELP skinspec_compute_running Fits and renders running on the compute pool.\n"
+         "# TYPE skinspec_compute_running gauge\n"
+      << "skinspec_compute_running " << compute_running_ << '\n'
+      << "# HELP skinspec_compute_waiting Fits and renders waiting for the compute pool.\n"
+         "# TYPE skinspec_compute_waiting gauge\n"
+      << "skinspec_compute_waiting " << compute_waiting_ << '\n';
   return out.str();
 }
 

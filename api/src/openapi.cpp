@@ -1,7 +1,9 @@
 // GET /openapi.json: generated from the route table, so that every route is documented and
 // nothing is documented that is not a route.
 
+#include "skinspec/api/acquisition.hpp"
 #include "skinspec/api/router.hpp"
+#include "skinspec/version.hpp"
 
 namespace skinspec::api {
 
@@ -17,6 +19,14 @@ json samples() {
           {"properties", {{"wavelength_nm", numbers()}, {"values", numbers()}}}};
 }
 
+// The names of an enumeration, from its one mapping.
+template <typename E>
+json names(std::span<const std::pair<E, std::string_view>> mapping) {
+  json out = json::array();
+  for (const auto& [value, name] : mapping) out.push_back(std::string(name));
+  return out;
+}
+
 json params_schema() {
   json props = json::object();
   for (const char* name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
@@ -25,7 +35,8 @@ json params_schema() {
 }
 
 json instrument_schema() {
-  const json states = {"none", "disconnected", "connecting", "connected", "measuring", "lost"};
+  json states = names(instrument_state_names());
+  states.insert(states.begin(), "none");  // skinspecd started without --device
   return {{"type", "object"},
           {"properties", {{"device", nullable("string")}, {"port", nullable("string")},
                           {"state", {{"type", "string"}, {"enum", states}}},
@@ -59,6 +70,7 @@ json schemas() {
   stored_fit["model_version"] = {{"type", "string"}};
   stored_fit["tables_digest"] = {{"type", "string"}};
   stored_fit["samples_ignored"] = {{"type", "integer"}};
+  stored_fit["solver_summary"] = {{"type", "string"}};
   stored_fit["created_at"] = {{"type", "string"}, {"format", "date-time"}};
   const json session_props = {
       {"id", {{"type", "integer"}}}, {"subject", {{"type", "string"}}}, {"site", {{"type", "string"}}},
@@ -120,23 +132,29 @@ json schemas() {
                                           {"integration_ms", {{"type", "integer"}, {"minimum", 0}, {"maximum", 6000}, {"default", 0}}}}}}},
       {"Job", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"job_id", {{"type", "integer"}}}, {"kind", {{"type", "string"}}},
                                                    {"session_id", nullable("integer")},
-                                                   {"state", {{"type", "string"}, {"enum", {"queued", "running", "succeeded", "failed", "cancelled"}}}},
+                                                   {"state", {{"type", "string"}, {"enum", names(store::job_state_names())}}},
                                                    {"position", {{"type", json::array({"integer", "null"})}, {"minimum", 0},
                                                                  {"description", "place in the queue: 1 is next, 0 is running; null once finished"}}},
                                                    {"progress", ref("JobProgress")},
-                                                   {"error", nullable("string")}, {"request", {{"type", "object"}}},
+                                                   {"error", {{"oneOf", {ref("JobError"), {{"type", "null"}}}},
+                                                              {"description", "why it failed or was cancelled; null otherwise"}}},
+                                                   {"request", {{"type", "object"}}},
                                                    {"result", {{"type", "object"}}}, {"idempotency_key", nullable("string")},
                                                    {"created_at", {{"type", "string"}}}, {"started_at", nullable("string")},
                                                    {"finished_at", nullable("string")}}}}},
+      {"JobError", {{"type", "object"}, {"required", {"code", "message"}},
+                    {"properties", {{"code", {{"type", "string"}, {"enum", names(store::job_error_code_names())}}},
+                                    {"message", {{"type", "string"}}}}}}},
       {"JobProgress", {{"type", "object"}, {"required", {"phase", "readings_done", "readings_total", "fraction"}},
-                       {"properties", {{"phase", {{"type", "string"}, {"enum", {"queued", "connecting", "measuring", "fitting", "storing", "done"}}}},
+                       {"properties", {{"phase", {{"type", "string"}, {"enum", names(job_phase_names())}}},
                                        {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
                                        {"readings_total", {{"type", "integer"}, {"minimum", 1}}},
                                        {"fraction", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}}}}}},
-      {"RejectedReading", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"job_id", nullable("integer")},
+      {"RejectedReading", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
+                                                               {"job_id", nullable("integer")},
                                                                {"instrument_id", nullable("integer")}, {"attempt", {{"type", "integer"}}},
                                                                {"quality", {{"type", "object"}}}, {"reason", {{"type", "string"}}},
-                                                               {"raw_reply_bytes", {{"type", "integer"}}},
+                                                               {"raw_reply_base64", {{"type", "string"}, {"contentEncoding", "base64"}}},
                                                                {"measured_at", {{"type", "string"}}}, {"created_at", {{"type", "string"}}}}}}},
       {"Measurement", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
                                                            {"kind", {{"type", "string"}}}, {"label", {{"type", "string"}}},
@@ -182,7 +200,7 @@ json error_reply(const char* description) {
 
 }  // namespace
 
-json Router::openapi_document(const std::string& version) {
+json Router::openapi_document() {
   json paths = json::object();
   for (const RouteInfo& r : routes()) {
     json op = {{"summary", r.summary}, {"operationId", r.method + " " + r.path}};
@@ -212,7 +230,7 @@ json Router::openapi_document(const std::string& version) {
     paths[r.path][method] = op;
   }
   return {{"openapi", "3.1.0"},
-          {"info", {{"title", "skinspecd"}, {"version", version},
+          {"info", {{"title", "skinspecd"}, {"version", kVersion},
                     {"description", "Stored skin spectra, sessions and fits of the two-layer skin model"}}},
           {"paths", paths},
           {"components", {{"schemas", schemas()},

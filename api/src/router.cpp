@@ -7,10 +7,13 @@
 #include "jobs.hpp"
 #include "json_io.hpp"
 #include "skinspec/api/acquisition.hpp"
-#include "skinspec/fit/colour.hpp"
 #include "skinspec/fit/fitter.hpp"
-#include "skinspec/store/export.hpp"
+#include "skinspec/records/export.hpp"
+#include "skinspec/records/fit_record.hpp"
+#include "skinspec/records/record_json.hpp"
+#include "skinspec/spectral/colour.hpp"
 #include "skinspec/store/store.hpp"
+#include "skinspec/version.hpp"
 #include "text.hpp"
 #include "web.hpp"
 #include "fit_json.hpp"
@@ -63,7 +66,7 @@ struct Router::Handlers {
       db["path"] = c.store->path();
       db["schema_version"] = c.store->schema_version();
     }
-    return json_response({{"status", "ok"}, {"version", c.version}, {"database", db}, {"model", {{"loaded", c.fitter != nullptr}}},
+    return json_response({{"status", "ok"}, {"version", kVersion}, {"database", db}, {"model", {{"loaded", c.fitter != nullptr}}},
                           {"instrument", instrument_status(c)}});
   }
   static json instrument_status(const RouterContext& c) {
@@ -106,7 +109,7 @@ struct Router::Handlers {
     }
     auto created = acquisition_of(c).submit(call.ids[0], request, key);
     if (!created) throw detail::HandlerError{created.error()};
-    Response r = json_response(job_view(c, created->job), created->created ? 202 : 200);
+    Response r = json_response(job_view(c, created->job.id), created->created ? 202 : 200);
     r.headers.emplace_back("Location", "/api/v1/jobs/" + std::to_string(created->job.id));
     return r;
   }
@@ -119,13 +122,11 @@ struct Router::Handlers {
       fail(ErrorKind::unprocessable, "out_of_range", std::string("'") + key + "' must be " + std::to_string(min) + " to " + std::to_string(max));
     return static_cast<int>(v);
   }
-  static json job_view(const RouterContext& c, const store::Job& job) {
-    return job_json(job, c.acquisition ? c.acquisition->progress(job.id) : std::nullopt);
-  }
+  static json job_view(const RouterContext& c, store::Id job_id) { return value(current_job_json(store_of(c), c.acquisition, job_id)); }
   // GET /api/v1/jobs/{id}
   static Response get_job(const RouterContext& c, const Call& call) {
     no_query(call);
-    return json_response(job_view(c, value(store_of(c).job(call.ids[0]))));
+    return json_response(job_view(c, call.ids[0]));
   }
   // GET /api/v1/jobs/{id}/events
   static Response job_events(const RouterContext& c, const Call& call) {
@@ -142,9 +143,9 @@ struct Router::Handlers {
     value(store_of(c).job(call.ids[0]));  // 404 first
     auto job = acquisition_of(c).cancel(call.ids[0]);
     if (!job) throw detail::HandlerError{job.error()};
-    return json_response(job_view(c, *job));
+    return json_response(job_view(c, job->id));
   }
-  static Response openapi(const RouterContext& c, const Call&) { return json_response(openapi_document(c.version)); }
+  static Response openapi(const RouterContext&, const Call&) { return json_response(openapi_document()); }
   static Response metrics(const RouterContext& c, const Call&) {
     return Response{200, "text/plain; version=0.0.4; charset=utf-8", c.metrics->prometheus_text(), {}};
   }
@@ -210,20 +211,19 @@ struct Router::Handlers {
     make_spectrum(s.reflectance.wavelength_nm, s.reflectance.values, "reflectance");  // same checks as a fit's input
     store::Store& db = store_of(c);
     const store::Id id = value(db.add_white_standard(s));
-    Response r = json_response(to_json_ws(value(db.white_standard(id))), 201);
+    Response r = json_response(records::to_json(value(db.white_standard(id))), 201);
     r.headers.emplace_back("Location", "/api/v1/white-standards/" + std::to_string(id));
     return r;
   }
-  static json to_json_ws(const store::WhiteStandard& s) { return detail::to_json(s); }
   static Response list_white_standards(const RouterContext& c, const Call& call) {
     no_query(call);
     json list = json::array();
-    for (const auto& s : value(store_of(c).white_standards())) list.push_back(detail::to_json(s));
+    for (const auto& s : value(store_of(c).white_standards())) list.push_back(records::to_json(s));
     return json_response({{"white_standards", list}});
   }
   static Response get_white_standard(const RouterContext& c, const Call& call) {
     no_query(call);
-    return json_response(detail::to_json(value(store_of(c).white_standard(call.ids[0]))));
+    return json_response(records::to_json(value(store_of(c).white_standard(call.ids[0]))));
   }
 
   // Sessions
@@ -245,7 +245,7 @@ struct Router::Handlers {
       }
     }
     const store::Id id = value(db.create_session(s));
-    Response r = json_response(detail::to_json(value(db.session(id))), 201);
+    Response r = json_response(records::to_json(value(db.session(id))), 201);
     r.headers.emplace_back("Location", "/api/v1/sessions/" + std::to_string(id));
     return r;
   }
@@ -279,23 +279,18 @@ struct Router::Handlers {
     }
     const auto page = value(store_of(c).sessions(filter));
     json list = json::array();
-    for (const auto& s : page.sessions) list.push_back(detail::to_json(s));
+    for (const auto& s : page.sessions) list.push_back(records::to_json(s));
     return json_response({{"sessions", list}, {"next_cursor", page.next_cursor ? json(*page.next_cursor) : json(nullptr)}});
   }
   static Response get_session(const RouterContext& c, const Call& call) {
     no_query(call);
     const auto detail_ = value(store_of(c).session_detail(call.ids[0]));
-    json out = detail::to_json(detail_.session);
+    json out = records::to_json(detail_.session);
     json measurements = json::array(), fits = json::array();
-    for (const auto& m : detail_.measurements) {
-      std::optional<store::Id> latest;
-      for (const auto& f : detail_.fits)
-        if (f.measurement_id == m.id) latest = f.id;
-      measurements.push_back(detail::to_json(m, latest));
-    }
-    for (const auto& f : detail_.fits) fits.push_back(detail::to_json(f));
+    for (const auto& m : detail_.measurements) measurements.push_back(records::to_json(m, records::latest_fit_of(m.id, detail_.fits)));
+    for (const auto& f : detail_.fits) fits.push_back(records::to_json(f));
     json rejected = json::array();
-    for (const auto& r : detail_.rejected_readings) rejected.push_back(detail::to_json(r));
+    for (const auto& r : detail_.rejected_readings) rejected.push_back(records::to_json(r));
     out["measurements"] = measurements;
     out["fits"] = fits;
     out["rejected_readings"] = rejected;
@@ -316,13 +311,13 @@ struct Router::Handlers {
       update.state = store::SessionState::complete;
     }
     if (!update.notes && !update.state) fail(ErrorKind::unprocessable, "missing_field", "nothing to change: give 'notes', 'close' or 'state'");
-    return json_response(detail::to_json(value(store_of(c).update_session(call.ids[0], update))));
+    return json_response(records::to_json(value(store_of(c).update_session(call.ids[0], update))));
   }
   static Response export_csv(const RouterContext& c, const Call& call) {
     no_query(call);
     std::ostringstream out;
-    store::write_csv_header(out);
-    if (auto done = store::export_session(store_of(c), call.ids[0], store::ExportFormat::csv, out); !done) fail_store(done.error());
+    records::write_csv_header(out);
+    if (auto done = records::export_session(store_of(c), call.ids[0], records::ExportFormat::csv, out); !done) fail_store(done.error());
     Response r{200, "text/csv; charset=utf-8", out.str(), {}};
     r.headers.emplace_back("Content-Disposition", "attachment; filename=\"session-" + std::to_string(call.ids[0]) + ".csv\"");
     return r;
@@ -334,7 +329,7 @@ struct Router::Handlers {
     store::Store& db = store_of(c);
     const auto m = value(db.measurement(call.ids[0]));
     const auto fits = value(db.fits_of_measurement(m.id));
-    json body = detail::to_json(m, fits.empty() ? std::nullopt : std::optional<store::Id>(fits.back().id));
+    json body = records::to_json(m, records::latest_fit_of(m.id, fits));
     body["colour"] = colour_of(c, m);
     return json_response(body);
   }
@@ -369,7 +364,7 @@ struct Router::Handlers {
   }
   static Response get_fit(const RouterContext& c, const Call& call) {
     no_query(call);
-    return json_response(detail::to_json(value(store_of(c).fit(call.ids[0]))));
+    return json_response(records::to_json(value(store_of(c).fit(call.ids[0]))));
   }
   static Response refit(const RouterContext& c, const Call& call) {
     const json body = call.request.body.empty() ? json::object() : detail::parse_object(call.request.body);
@@ -384,11 +379,10 @@ struct Router::Handlers {
     checked_site(c, options.site);
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
     const auto result = run_fit(c, make_spectrum(m.reflectance.wavelength_nm, m.reflectance.values, "reflectance"), options);
-    store::Fit f = detail::to_store_fit(result, {{"site", options.site}, {"lateral_diffusion", options.lateral_diffusion}},
-                                        "skinspecd " + c.version, fitter_of(c).optics(kServiceModel).tables_digest());
+    store::Fit f = records::to_store_fit(result, options, fitter_of(c).optics(kServiceModel).tables_digest());
     f.measurement_id = m.id;
     const store::Id id = value(db.add_fit(f));
-    Response r = json_response(detail::to_json(value(db.fit(id))), 201);
+    Response r = json_response(records::to_json(value(db.fit(id))), 201);
     r.headers.emplace_back("Location", "/api/v1/fits/" + std::to_string(id));
     return r;
   }
@@ -425,7 +419,7 @@ const std::vector<Route>& route_table() {
         {{"GET", "/healthz", "Liveness, database state and version", false, "", "Health", 200}, &H::healthz, {}},
         {{"GET", "/openapi.json", "This OpenAPI document", false, "", "OpenApi", 200}, &H::openapi, {}},
         {{"GET", "/metrics", "Prometheus metrics", false, "", "text/plain", 200}, &H::metrics, {}},
-        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest", "FitResponse", 200}, &H::fit, {}},
+        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest", "FitResponse", 200, true}, &H::fit, {}},
         {{"GET", "/api/v1/sites", "The body sites the model knows, with their layer thicknesses", false, "", "SiteList", 200}, &H::sites, {}},
         {{"POST", "/api/v1/white-standards", "Store a white standard", true, "WhiteStandardCreate", "WhiteStandard", 201}, &H::create_white_standard, {}},
         {{"GET", "/api/v1/white-standards", "List white standards", false, "", "WhiteStandardList", 200}, &H::list_white_standards, {}},
@@ -436,7 +430,7 @@ const std::vector<Route>& route_table() {
         {{"PATCH", "/api/v1/sessions/{id}", "Change a session's notes or close it", true, "SessionUpdate", "Session", 200}, &H::patch_session, {}},
         {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", false, "", "text/csv", 200}, &H::export_csv, {}},
         {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id", false, "", "Measurement", 200}, &H::get_measurement, {}},
-        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true, "RefitRequest", "Fit", 201}, &H::refit, {}},
+        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true, "RefitRequest", "Fit", 201, true}, &H::refit, {}},
         {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200}, &H::get_fit, {}},
         {{"GET", "/api/v1/instrument", "The instrument's state (connected, measuring, lost ...), port, last error and reconnection", false, "", "Instrument", 200}, &H::instrument, {}},
         {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true, "MeasureRequest", "Job", 202}, &H::measure, {}},
@@ -444,7 +438,7 @@ const std::vector<Route>& route_table() {
         {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
         {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", false, "", "text/event-stream", 200}, &H::job_events, {}},
         {{"GET", "/api/v1/ports", "Serial ports and USB serial adapters present, with the --device URI of each", false, "", "PortList", 200}, &H::ports, {}},
-        {{"GET", "/api/v1/fits/{id}/render.png", "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200}, &H::render_fit, {}},
+        {{"GET", "/api/v1/fits/{id}/render.png", "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200, true}, &H::render_fit, {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;
@@ -462,6 +456,25 @@ bool segment_matches(const std::string& pattern, const std::string& segment, std
   return true;
 }
 
+// The route for `method` on a path's segments, with the ids taken from them; nullptr when there
+// is none, and then the methods the path has in `allow`.
+const Route* find_route(const std::string& method, const std::vector<std::string>& segments, std::vector<store::Id>& ids,
+                        std::string& allow) {
+  for (const auto& route : route_table()) {
+    if (route.segments.size() != segments.size()) continue;
+    std::vector<store::Id> route_ids;
+    bool ok = true;
+    for (std::size_t i = 0; ok && i < segments.size(); ++i) ok = segment_matches(route.segments[i], segments[i], route_ids);
+    if (!ok) continue;
+    if (route.info.method == method) {
+      ids = std::move(route_ids);
+      return &route;
+    }
+    allow += (allow.empty() ? "" : ", ") + route.info.method;
+  }
+  return nullptr;
+}
+
 bool constant_time_equal(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
   unsigned char diff = 0;
@@ -469,15 +482,25 @@ bool constant_time_equal(std::string_view a, std::string_view b) {
   return diff == 0;
 }
 
+// The token of `Authorization: Bearer TOKEN`; the scheme's name is case-insensitive (RFC 9110 §11.1).
+std::optional<std::string_view> bearer_token(std::string_view credentials) {
+  constexpr std::string_view kScheme = "bearer";
+  const auto space = credentials.find(' ');
+  if (space != kScheme.size()) return std::nullopt;
+  for (std::size_t i = 0; i < kScheme.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(credentials[i])) != kScheme[i]) return std::nullopt;
+  const auto start = credentials.find_first_not_of(' ', space);
+  if (start == std::string_view::npos) return std::nullopt;
+  return credentials.substr(start);
+}
+
 void check_access(const AccessPolicy& access, const Request& request, const RouteInfo& route) {
   if (!access.required || route.path == "/healthz") return;
   const auto it = request.headers.find("authorization");
-  constexpr std::string_view kBearer = "Bearer ";
-  if (it == request.headers.end() || it->second.size() <= kBearer.size() || it->second.compare(0, kBearer.size(), kBearer) != 0)
-    fail(ErrorKind::unauthorized, "unauthorized", "a bearer token is required");
-  const std::string_view token = std::string_view(it->second).substr(kBearer.size());
-  if (!access.operator_token.empty() && constant_time_equal(token, access.operator_token)) return;
-  if (!access.read_token.empty() && constant_time_equal(token, access.read_token)) {
+  const auto token = it == request.headers.end() ? std::nullopt : bearer_token(it->second);
+  if (!token) fail(ErrorKind::unauthorized, "unauthorized", "a bearer token is required");
+  if (!access.operator_token.empty() && constant_time_equal(*token, access.operator_token)) return;
+  if (!access.read_token.empty() && constant_time_equal(*token, access.read_token)) {
     if (route.mutating) fail(ErrorKind::forbidden, "forbidden", "this route needs the operator token");
     return;
   }
@@ -494,11 +517,6 @@ bool is_json_content_type(const Request& request) {
 }
 
 }  // namespace
-
-store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
-                      const std::string& tables_digest) {
-  return detail::to_store_fit(result, options, model_version, tables_digest);
-}
 
 Response error_response(const ApiError& error) {
   return Response{http_status(error.kind), "application/json", error_body(error), {}};
@@ -517,6 +535,17 @@ const std::vector<RouteInfo>& Router::routes() {
     return out;
   }();
   return infos;
+}
+
+bool Router::is_heavy(const std::string& method, const std::string& target) {
+  const std::string_view path = std::string_view(target).substr(0, target.find('?'));
+  if (path.empty() || path.front() != '/') return false;
+  const auto decoded = detail::percent_decode(path, false);
+  if (!decoded) return false;
+  std::vector<store::Id> ids;
+  std::string allow;
+  const Route* route = find_route(method, split_path(*decoded), ids, allow);
+  return route != nullptr && route->info.heavy;
 }
 
 Response Router::handle(const Request& request) const {
@@ -540,22 +569,9 @@ Response Router::handle(const Request& request) const {
       context_.metrics->record_request(route_label, response.status, std::chrono::steady_clock::now() - started);
       return response;
     }
-    const Route* matched = nullptr;
     std::vector<store::Id> ids;
     std::string allow;
-    for (const auto& route : route_table()) {
-      if (route.segments.size() != segments.size()) continue;
-      std::vector<store::Id> route_ids;
-      bool ok = true;
-      for (std::size_t i = 0; ok && i < segments.size(); ++i) ok = segment_matches(route.segments[i], segments[i], route_ids);
-      if (!ok) continue;
-      if (route.info.method == request.method) {
-        matched = &route;
-        ids = std::move(route_ids);
-        break;
-      }
-      allow += (allow.empty() ? "" : ", ") + route.info.method;
-    }
+    const Route* matched = find_route(request.method, segments, ids, allow);
     if (matched == nullptr) {
       if (allow.empty()) fail(ErrorKind::not_found, "not_found", "no route for " + *path);
       response = error_response({ErrorKind::method_not_allowed, "", request.method + " is not allowed here; allowed: " + allow});

@@ -1,9 +1,9 @@
 #include "text.hpp"
 
 #include "skinspec/api/acquisition.hpp"
+#include "skinspec/records/record_json.hpp"
 
 #include <charconv>
-#include <cstdio>
 
 namespace skinspec::api::detail {
 
@@ -113,17 +113,7 @@ std::optional<store::Time> parse_time(std::string_view text) {
          std::chrono::microseconds(micros);
 }
 
-std::string format_time(store::Time time) {
-  const auto days = std::chrono::floor<std::chrono::days>(time);
-  const std::chrono::year_month_day ymd{days};
-  const std::chrono::hh_mm_ss hms{time - days};
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%04d-%02u-%02uT%02d:%02d:%02d.%06ldZ", static_cast<int>(ymd.year()),
-                static_cast<unsigned>(ymd.month()), static_cast<unsigned>(ymd.day()), static_cast<int>(hms.hours().count()),
-                static_cast<int>(hms.minutes().count()), static_cast<int>(hms.seconds().count()),
-                static_cast<long>(hms.subseconds().count()));
-  return buf;
-}
+std::string format_time(store::Time time) { return records::json_time(time); }
 
 }  // namespace skinspec::api::detail
 

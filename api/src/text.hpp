@@ -17,6 +17,7 @@ std::optional<std::string> percent_decode(std::string_view text, bool plus_space
 std::optional<std::map<std::string, std::string>> parse_query(std::string_view query);
 // RFC 3339 in UTC, "2026-01-02T03:04:05Z" or with up to six fraction digits.
 std::optional<store::Time> parse_time(std::string_view text);
+// As every record shows its times (records::json_time).
 std::string format_time(store::Time time);
 
 }  // namespace skinspec::api::detail

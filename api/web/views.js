@@ -204,7 +204,7 @@ function showJob(job, bar, status, warnings) {
   let text = `job #${job.id}: ${job.state}`;
   if (job.state === "queued" && job.position) text += `, position ${job.position} in the queue`;
   if (job.state === "running") text += `, ${p.phase || "measuring"}, reading ${done} of ${total}`;
-  if (job.error) text += ` (${job.error})`;
+  if (job.error) text += ` (${job.error.code}: ${job.error.message})`;
   if (job.state === "succeeded" && job.result?.measurement_id)
     text += `: measurement #${job.result.measurement_id}${job.result.fit_id ? `, fit #${job.result.fit_id}` : ""}`;
   status.textContent = text;

@@ -1,8 +1,8 @@
 #include "fitter_loader.hpp"
 
 #include "data_dir.hpp"
-#include "skinspec/fit/colour.hpp"
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/colour.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec {
 

@@ -7,7 +7,8 @@
 #include <fmt/ranges.h>
 #include <numbers>
 
-#include "skinspec/fit/spectrum.hpp"
+#include "skinspec/spectral/spectrum.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec {
 
@@ -113,7 +114,7 @@ std::expected<std::vector<Site>, InputError> load_sites(Loaded& loaded) {
   for (std::size_t i = 0; i < t->rows(); ++i) {
     Site s{t->keys()[i], t->column("epidermis_mm")[i], t->column("dermis_mm")[i]};
     if (!(s.epidermis_mm > 0) || !(s.dermis_mm > 0))
-      return std::unexpected(InputError{t->source(), 0, 0, "site '" + s.name + "' needs positive thicknesses"});
+      return std::unexpected(InputError{t->source(), 0, 0, "site " + quote(s.name) + " needs positive thicknesses"});
     sites.push_back(std::move(s));
   }
   return sites;
@@ -261,7 +262,7 @@ std::vector<std::string> SkinOptics::site_names() const {
 std::expected<Site, std::string> SkinOptics::site(std::string_view name) const {
   const auto it = std::ranges::find(sites_, name, &Site::name);
   if (it == sites_.end())
-    return std::unexpected(fmt::format("unknown site '{}'; known sites: {}", name,
+    return std::unexpected(fmt::format("unknown site {}; known sites: {}", quote(name),
                                        fmt::join(site_names(), ", ")));
   return Site{it->name, it->epidermis_mm * constants_.epidermis_thickness_scale,
               it->dermis_mm * constants_.dermis_thickness_scale};

@@ -6,7 +6,7 @@
 #include <limits>
 #include <numeric>
 
-#include "skinspec/fit/parallel.hpp"
+#include "skinspec/spectral/parallel.hpp"
 
 namespace skinspec {
 

@@ -7,8 +7,8 @@
 #include <string_view>
 #include <vector>
 
-#include "skinspec/fit/table.hpp"
 #include "skinspec/render/mesh.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec::render::detail {
 

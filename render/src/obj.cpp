@@ -2,6 +2,7 @@
 // skipped because the renderer takes its colour from the skin model, not from the file.
 
 #include "mesh_text.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec::render {
 
@@ -21,7 +22,7 @@ struct ObjReader {
     Vec3 p;
     for (int axis = 0; axis < 3; ++axis) {
       const auto v = finite_number(w[static_cast<std::size_t>(axis) + 1]);
-      if (!v) return error(line, "not a finite number: '" + std::string(w[static_cast<std::size_t>(axis) + 1]) + "'");
+      if (!v) return error(line, "not a finite number: " + quote(w[static_cast<std::size_t>(axis) + 1]));
       (axis == 0 ? p.x : axis == 1 ? p.y : p.z) = *v;
     }
     mesh.positions.push_back(p);
@@ -33,7 +34,7 @@ struct ObjReader {
   std::expected<std::uint32_t, InputError> vertex_index(std::string_view word, std::size_t line) const {
     const auto index = integer(word.substr(0, word.find('/')));
     const auto count = static_cast<std::int64_t>(mesh.positions.size());
-    if (!index) return std::unexpected(error(line, "not a vertex index: '" + std::string(word) + "'"));
+    if (!index) return std::unexpected(error(line, "not a vertex index: " + quote(word)));
     const std::int64_t zero_based = *index < 0 ? count + *index : *index - 1;
     if (*index == 0 || zero_based < 0 || zero_based >= count)
       return std::unexpected(error(line, "vertex " + std::to_string(*index) + " is not among the " +

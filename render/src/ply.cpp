@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "mesh_text.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec::render {
 
@@ -55,7 +56,7 @@ std::optional<InputError> header_line(Header& header, const std::vector<std::str
   if (w[0] == "format") {
     if (w.size() != 3) return error_at(source, line, "format needs a kind and a version");
     if (w[1] == "binary_big_endian") return error_at(source, line, "binary big-endian PLY is not supported; use ASCII or little-endian");
-    if (w[1] != "ascii" && w[1] != "binary_little_endian") return error_at(source, line, "unknown format '" + std::string(w[1]) + "'");
+    if (w[1] != "ascii" && w[1] != "binary_little_endian") return error_at(source, line, "unknown format " + quote(w[1]));
     header.binary = w[1] == "binary_little_endian";
     return std::nullopt;
   }
@@ -75,7 +76,7 @@ std::optional<InputError> header_line(Header& header, const std::vector<std::str
     header.elements.back().properties.push_back({std::string(w.back()), *type, count});
     return std::nullopt;
   }
-  return error_at(source, line, "unknown header line '" + std::string(w[0]) + "'");
+  return error_at(source, line, "unknown header line " + quote(w[0]));
 }
 
 // Reads values in body order from text lines (one element instance per line).
@@ -95,7 +96,7 @@ class AsciiBody {
   std::expected<double, InputError> value(Type) {
     if (next_ >= words_.size()) return std::unexpected(error("too few values on the line"));
     const auto v = finite_number(words_[next_]);
-    if (!v) return std::unexpected(error("not a finite number: '" + std::string(words_[next_]) + "'"));
+    if (!v) return std::unexpected(error("not a finite number: " + quote(words_[next_])));
     ++next_;
     return *v;
   }

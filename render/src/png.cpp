@@ -6,7 +6,7 @@
 #include <csetjmp>
 #include <png.h>
 
-#include "skinspec/fit/colour.hpp"
+#include "skinspec/spectral/colour.hpp"
 
 namespace skinspec::render {
 

@@ -8,8 +8,8 @@
 #include <numbers>
 #include <optional>
 
-#include "skinspec/fit/parallel.hpp"
 #include "skinspec/render/bvh.hpp"
+#include "skinspec/spectral/parallel.hpp"
 
 namespace skinspec::render {
 
@@ -116,7 +116,8 @@ Rgb shade_pixel(const Tracer& tracer, const CameraRays& rays, const RenderSettin
     for (int sx = 0; sx < n; ++sx) {
       const auto xyz = tracer.trace(rays.through(x + (sx + 0.5) / n, y + (sy + 0.5) / n));
       const auto rgb = xyz ? xyz_to_linear_srgb(*xyz)
-                           : std::array<double, 3>{settings.background.r, settings.background.g, settings.background.b};
+                           : std::array<double, 3>{static_cast<double>(settings.background.r), static_cast<double>(settings.background.g),
+                                                   static_cast<double>(settings.background.b)};
       r += rgb[0];
       g += rgb[1];
       b += rgb[2];

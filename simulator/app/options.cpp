@@ -8,6 +8,8 @@
 #include <charconv>
 #include <limits>
 
+#include "skinspec/version.hpp"
+
 namespace skinspec::sim_app {
 
 namespace {
@@ -76,7 +78,7 @@ std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
       "SIGTERM or SIGINT; SIGHUP power-cycles the meter. Readings come from --replay, --radiance or\n"
       "--reflectance (with --white and --illuminant); with none, from a white standard.",
       "skinspec-sim"};
-  app.set_version_flag("--version", "skinspec-sim 0.1.0");
+  app.set_version_flag("--version", "skinspec-sim " + std::string(skinspec::kVersion));
 
   app.add_option("--listen", raw.listen, "serve TCP clients on HOST:PORT (numeric address; port 0: any free port)")
       ->type_name("HOST:PORT");
@@ -126,6 +128,10 @@ std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
   app.add_option("--fault-rate", config.fault_rate, "probability of a random fault per command")
       ->type_name("P")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--fault-gap", config.fault_gap, "commands spared after a random fault (1: only single faults)")
+      ->type_name("N")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--seed", config.seed, "seed of random faults, noise and line noise")
       ->type_name("N")
       ->capture_default_str();

@@ -123,6 +123,9 @@ void Server::handle_signals(bool& stopping) {
   }
 }
 
+// With no session on, the first waiting client is served and the others stay in the listen
+// queue: they get the grace period too, since the one served may be a probe that has already
+// closed. With a session on (its grace period over), every waiting client is refused.
 void Server::accept_clients() {
   for (;;) {
     std::string peer;
@@ -137,6 +140,7 @@ void Server::accept_clients() {
     }
     const std::string who = "client " + peer;
     start_session(std::make_unique<FdTransport>(client.release(), who, FdTransport::Ownership::owned), who, false);
+    return;
   }
 }
 

@@ -75,7 +75,7 @@ std::expected<std::unique_ptr<SimulatedMeter>, std::string> make_simulated_meter
     return std::unexpected(fmt::format("time scale {} is negative", config.meter.time_scale));
 
   MeterOptions options = config.meter;
-  auto plan = FaultPlan::parse(config.faults, config.fault_rate, config.seed);
+  auto plan = FaultPlan::parse(config.faults, config.fault_rate, config.seed, config.fault_gap);
   if (!plan) return std::unexpected(plan.error());
   options.faults = std::move(*plan);
   options.seed = config.seed;

@@ -226,20 +226,21 @@ std::expected<FaultSpec, std::string> parse_fault_spec(std::string_view text) {
   return result;
 }
 
-FaultPlan::FaultPlan(std::vector<FaultSpec> specs, double random_rate, std::uint64_t seed)
-    : specs_(std::move(specs)), seen_(specs_.size(), 0), random_rate_(random_rate), rng_(seed) {}
+FaultPlan::FaultPlan(std::vector<FaultSpec> specs, double random_rate, std::uint64_t seed, int gap)
+    : specs_(std::move(specs)), seen_(specs_.size(), 0), random_rate_(random_rate), gap_(gap), rng_(seed) {}
 
 std::expected<FaultPlan, std::string> FaultPlan::parse(std::span<const std::string> texts, double random_rate,
-                                                       std::uint64_t seed) {
+                                                       std::uint64_t seed, int gap) {
   if (!(random_rate >= 0 && random_rate <= 1))
     return std::unexpected(fmt::format("fault rate {} is not a probability between 0 and 1", random_rate));
+  if (gap < 0) return std::unexpected(fmt::format("fault gap {} is negative", gap));
   std::vector<FaultSpec> specs;
   for (const auto& text : texts) {
     auto spec = parse_fault_spec(text);
     if (!spec) return std::unexpected(spec.error());
     specs.push_back(*spec);
   }
-  return FaultPlan(std::move(specs), random_rate, seed);
+  return FaultPlan(std::move(specs), random_rate, seed, gap);
 }
 
 std::vector<Fault> FaultPlan::next(std::string_view key) {
@@ -250,7 +251,11 @@ std::vector<Fault> FaultPlan::next(std::string_view key) {
     const int n = ++seen_[i];
     if (spec.at == 0 || n == spec.at || (spec.onwards && n > spec.at)) faults.push_back(spec.fault);
   }
-  if (random_rate_ > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < random_rate_) {
+  if (random_rate_ <= 0) return faults;
+  if (spared_ > 0) {
+    --spared_;
+  } else if (std::uniform_real_distribution<double>(0, 1)(rng_) < random_rate_) {
+    spared_ = gap_;
     // Line noise for any command; for a measurement also the codes a real meter gives.
     std::vector<Fault> choices;
     for (const FaultKind kind : {FaultKind::no_answer, FaultKind::late, FaultKind::truncate, FaultKind::garbage,

@@ -95,6 +95,7 @@ void RecordingTransport::received(std::string_view bytes) {
 std::expected<void, drivers::TransportError> RecordingTransport::set_modem_lines(bool dtr, bool rts) {
   return inner_->set_modem_lines(dtr, rts);
 }
+bool RecordingTransport::peer_closed() { return inner_->peer_closed(); }
 void RecordingTransport::interrupt() { inner_->interrupt(); }
 void RecordingTransport::clear_interrupt() { inner_->clear_interrupt(); }
 std::string RecordingTransport::describe() const { return inner_->describe(); }

@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "skinspec/drivers/pr650_protocol.hpp"
-#include "skinspec/fit/spectra_csv.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
 
 namespace skinspec::simulator {
 

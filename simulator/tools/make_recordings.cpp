@@ -18,8 +18,8 @@
 #include "data_dir.hpp"
 #include "skinspec/drivers/memory_transport.hpp"
 #include "skinspec/drivers/pr650.hpp"
-#include "skinspec/fit/spectra_csv.hpp"
 #include "skinspec/simulator/meter.hpp"
+#include "skinspec/spectral/spectra_csv.hpp"
 #include "transcripts.hpp"
 
 namespace {

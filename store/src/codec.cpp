@@ -75,6 +75,25 @@ std::vector<std::string> decode_text_list(std::string_view json, std::string_vie
   return items;
 }
 
+std::string encode_job_error(const JobError& error) {
+  const nlohmann::json object = {{"code", std::string(to_string(error.code))}, {"message", error.message}};
+  return object.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+JobError decode_job_error(std::string_view json, std::string_view what) {
+  const auto parsed = nlohmann::json::parse(json, nullptr, false);
+  const auto text_at = [&](const char* key) -> const nlohmann::json* {
+    if (!parsed.is_object()) return nullptr;
+    const auto it = parsed.find(key);
+    return it != parsed.end() && it->is_string() ? &*it : nullptr;
+  };
+  const auto* code_text = text_at("code");
+  const auto* message = text_at("message");
+  const auto code = code_text ? parse_job_error_code(code_text->get<std::string>()) : std::nullopt;
+  if (!code || !message) fail(StoreError::Kind::corrupt, fmt::format("{}: not a job error skinspec writes", what));
+  return {*code, message->get<std::string>()};
+}
+
 void check_spectrum(const SpectralSamples& spectrum, std::string_view what, bool may_be_empty) {
   const auto n = spectrum.wavelength_nm.size();
   if (n != spectrum.values.size())

@@ -1,7 +1,8 @@
 #pragma once
 // How values are laid out in the database (docs/store.md, "Encoding"): spectra as BLOBs of
 // little-endian IEEE-754 float64 (wavelength, value) pairs, times as integer microseconds
-// since the Unix epoch, lists of text as JSON arrays. Also the checks made before writing.
+// since the Unix epoch, lists of text as JSON arrays, a job's error as a JSON object. Also the
+// checks made before writing.
 
 #include <cstdint>
 #include <string>
@@ -21,6 +22,10 @@ Time from_micros(std::int64_t micros);
 
 std::string encode_text_list(const std::vector<std::string>& items);
 std::vector<std::string> decode_text_list(std::string_view json, std::string_view what);
+
+// A job's error as the JSON object {"code": "...", "message": "..."}.
+std::string encode_job_error(const JobError& error);
+JobError decode_job_error(std::string_view json, std::string_view what);
 
 // Each throws Failure (invalid_argument) naming `what`.
 void check_spectrum(const SpectralSamples& spectrum, std::string_view what, bool may_be_empty);

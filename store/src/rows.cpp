@@ -134,7 +134,7 @@ Job read_job(const Statement& row) {
   out.idempotency_key = row.text(5);  // NULL reads as empty
   const auto state = row.text(6);
   out.state = parsed(parse_job_state(state), state, "job state");
-  out.error = row.text(7);
+  if (!row.is_null(7)) out.error = decode_job_error(row.text(7), "jobs.error");
   out.result = row.text(8);
   out.created_at = time_at(row, 9);
   out.started_at = optional_time(row, 10);

@@ -1,6 +1,10 @@
 #include "schema.hpp"
 
+#include <algorithm>
 #include <array>
+#include <tuple>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -146,7 +150,88 @@ CREATE TABLE rejected_readings (
 CREATE INDEX rejected_readings_by_session ON rejected_readings (session_id);
 )sql";
 
-constexpr std::array<std::string_view, 3> kMigrations = {kVersion1, kVersion2, kVersion3};
+// Version 4: a job's error as the JSON object {"code", "message"}, NULL when there is none
+// (it was free text), and jobs that produced a measurement but were left failed by a writer
+// that died between storing the measurement and the job's end marked succeeded with its ids.
+constexpr std::string_view kVersion4 = R"sql(
+ALTER TABLE jobs ADD COLUMN typed_error TEXT CHECK (typed_error IS NULL OR (json_valid(typed_error)
+  AND json_type(typed_error, '$.code') = 'text' AND json_type(typed_error, '$.message') = 'text'));
+)sql";
+
+constexpr std::string_view kVersion4After = R"sql(
+UPDATE jobs SET state = 'succeeded', typed_error = NULL,
+  result = (SELECT json_set(jobs.result, '$.measurement_id', m.id,
+                            '$.fit_id', (SELECT min(f.id) FROM fits f WHERE f.measurement_id = m.id),
+                            '$.white_measurement_id', m.white_measurement_id, '$.readings', m.reading_count,
+                            '$.warnings', json(m.warnings), '$.recovered', json('true'))
+            FROM measurements m WHERE m.job_id = jobs.id ORDER BY m.id LIMIT 1),
+  finished_at = coalesce(finished_at, (SELECT max(m.created_at) FROM measurements m WHERE m.job_id = jobs.id))
+WHERE state <> 'succeeded' AND EXISTS (SELECT 1 FROM measurements m WHERE m.job_id = jobs.id);
+ALTER TABLE jobs DROP COLUMN error;
+ALTER TABLE jobs RENAME COLUMN typed_error TO error;
+)sql";
+
+// The free-text errors of versions 2 and 3 began with the kind of failure and a colon, under
+// these names; the codes they became in version 4.
+constexpr std::array<std::pair<std::string_view, std::string_view>, 13> kVersion3ErrorKinds = {{
+    {"no_contact", "no_contact"},
+    {"lost", "lost"},
+    {"protocol", "protocol"},
+    {"bad_reading", "bad_reading"},
+    {"rejected", "rejected"},
+    {"cancelled", "cancelled"},
+    {"transport", "transport"},
+    {"no_white_reference", "no_white"},
+    {"white_mismatch", "white_mismatch"},
+    {"white_reference_dark", "white_dark"},
+    {"database", "store"},
+    {"internal", "internal"},
+    {"interrupted", "interrupted"},
+}};
+
+// {code, message} of a version-3 error text, as well as the text allows.
+std::pair<std::string_view, std::string> version3_error(std::string_view state, std::string_view text) {
+  if (text.empty()) return {state == "cancelled" ? "cancelled" : "internal", "no reason was recorded"};
+  if (text.starts_with("cancelled")) return {"cancelled", std::string(text)};
+  if (text == "the service stopped") return {"stopped", std::string(text)};
+  if (const auto colon = text.find(':'); colon != std::string_view::npos) {
+    const auto kind = text.substr(0, colon);
+    auto rest = text.substr(colon + 1);
+    rest.remove_prefix(std::min(rest.find_first_not_of(' '), rest.size()));
+    for (const auto& [name, code] : kVersion3ErrorKinds)
+      if (kind == name && !rest.empty()) return {code, std::string(rest)};
+  }
+  return {state == "cancelled" ? "cancelled" : "internal", std::string(text)};
+}
+
+void convert_version3_errors(Connection& writer) {
+  std::vector<std::tuple<std::int64_t, std::string, std::string>> jobs;
+  {
+    auto rows = writer.prepare("SELECT id, state, error FROM jobs WHERE state IN ('failed', 'cancelled')");
+    while (rows.step()) jobs.emplace_back(rows.integer(0), rows.text(1), rows.text(2));
+  }
+  for (const auto& [id, state, text] : jobs) {
+    const auto [code, message] = version3_error(state, text);
+    writer.prepare("UPDATE jobs SET typed_error = json_object('code', ?2, 'message', ?3) WHERE id = ?1")
+        .bind(id, code, message)
+        .run();
+  }
+}
+
+// One step from version N-1 to N: `sql`, then the rows converted where SQL alone would not
+// say it plainly, then `after_sql`.
+struct Migration {
+  std::string_view sql;
+  void (*convert_rows)(Connection&) = nullptr;
+  std::string_view after_sql = {};
+};
+
+constexpr std::array<Migration, 4> kMigrations = {{
+    {kVersion1},
+    {kVersion2},
+    {kVersion3},
+    {kVersion4, convert_version3_errors, kVersion4After},
+}};
 
 }  // namespace
 
@@ -160,7 +245,10 @@ void migrate(Connection& writer, int target) {
     if (version >= target) return;
     if (version < 0)
       fail(StoreError::Kind::corrupt, fmt::format("schema version {} is not one skinspec writes", version));
-    writer.execute(kMigrations[static_cast<std::size_t>(version)]);
+    const auto& step = kMigrations[static_cast<std::size_t>(version)];
+    writer.execute(step.sql);
+    if (step.convert_rows) step.convert_rows(writer);
+    if (!step.after_sql.empty()) writer.execute(step.after_sql);
     // PRAGMA takes no parameters; the value is our own integer.
     writer.execute(fmt::format("PRAGMA user_version = {}", version + 1));
     transaction.commit();

@@ -8,8 +8,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 
 #include "codec.hpp"
 #include "schema.hpp"
@@ -32,8 +35,10 @@ void set_busy_timeout(Connection& connection, std::chrono::milliseconds timeout)
 
 namespace detail {
 
-void ReaderPool::configure(std::string path, std::chrono::milliseconds busy_timeout, int max_connections) {
-  path_ = std::move(path);
+void ReaderPool::configure(std::string filename, int flags, std::chrono::milliseconds busy_timeout,
+                           int max_connections) {
+  filename_ = std::move(filename);
+  flags_ = flags;
   busy_timeout_ = busy_timeout;
   max_ = std::max(1, max_connections);
 }
@@ -49,7 +54,7 @@ ReaderPool::Lease ReaderPool::acquire() {
   ++open_;
   lock.unlock();
   try {
-    auto connection = std::make_unique<Connection>(path_, SQLITE_OPEN_READONLY);
+    auto connection = std::make_unique<Connection>(filename_, flags_);
     set_busy_timeout(*connection, busy_timeout_);
     // A reader never writes the database file, not even a checkpoint when it closes.
     sqlite3_db_config(connection->handle(), SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
@@ -76,18 +81,91 @@ void ReaderPool::close() {
   open_ = 0;
 }
 
+FileIdentity FileIdentity::of(const struct stat& info) {
+  return {info.st_dev, info.st_ino, info.st_size, info.st_mtim, info.st_ctim};
+}
+
+bool FileIdentity::operator==(const FileIdentity& other) const {
+  const auto same_time = [](const timespec& a, const timespec& b) {
+    return a.tv_sec == b.tv_sec && a.tv_nsec == b.tv_nsec;
+  };
+  return device == other.device && inode == other.inode && size == other.size &&
+         same_time(modified, other.modified) && same_time(changed, other.changed);
+}
+
 }  // namespace detail
 
 namespace {
 
-// What an existing file holds, read without changing a byte of it. Throws when it is not a
-// skinspec database, is damaged, or comes from a newer schema.
-int probe(const std::string& path, const OpenOptions& options) {
+using detail::FileIdentity;
+
+// How a connection that only reads reaches the file without creating anything beside it.
+// SQLite opens (and leaves behind) PATH-wal and PATH-shm for any reader of a WAL database, even
+// a read-only one. While they exist a writer is live (or died): read through them, so that
+// what it committed is seen. Without them the file holds every committed page; it is read as
+// immutable, with no locks and no -shm, and the Store checks that it stays unchanged.
+struct ReadAccess {
+  std::string filename;
+  int flags = SQLITE_OPEN_READONLY;
+  bool immutable = false;
+};
+
+// A URI for sqlite3_open_v2: every byte outside a safe set percent-encoded, so that a '?', '#'
+// or '%' in the path stays part of it.
+std::string file_uri(const std::string& path, std::string_view query) {
+  std::error_code failed;  // no working directory: a relative path stays relative
+  auto absolute = std::filesystem::absolute(path, failed).string();
+  if (absolute.empty()) absolute = path;
+  std::string uri = absolute.starts_with('/') ? "file://" : "file:";
+  for (const char c : absolute) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (std::isalnum(byte) || std::strchr("/._-~", c) != nullptr) {
+      uri += c;
+    } else {
+      uri += fmt::format("%{:02X}", byte);
+    }
+  }
+  return uri + "?" + std::string(query);
+}
+
+ReadAccess read_access(const std::string& path) {
+  struct stat wal {};
+  if (::stat((path + "-wal").c_str(), &wal) == 0) return {path, SQLITE_OPEN_READONLY, false};
+  return {file_uri(path, "immutable=1"), SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, true};
+}
+
+// SQLite reads a file shorter than its header as an empty database, which a writer would then
+// fill: so a file that does not start with SQLite's magic string is refused here.
+void require_sqlite_header(Connection& connection) {
+  constexpr std::string_view kMagic{"SQLite format 3\0", 16};
+  sqlite3_file* file = nullptr;
+  if (sqlite3_file_control(connection.handle(), "main", SQLITE_FCNTL_FILE_POINTER, &file) != SQLITE_OK ||
+      file == nullptr || file->pMethods == nullptr)
+    return;  // nothing to read it through: SQLite's own checks follow
+  // Through SQLite's own file handle: closing a descriptor of our own would drop the POSIX
+  // locks SQLite holds on the file for this process.
+  std::array<char, kMagic.size()> header{};
+  const int rc = file->pMethods->xRead(file, header.data(), static_cast<int>(header.size()), 0);
+  if (rc == SQLITE_IOERR_SHORT_READ || (rc == SQLITE_OK && std::string_view(header.data(), header.size()) != kMagic))
+    fail(Kind::corrupt, "not a SQLite database");
+  if (rc != SQLITE_OK) fail(Kind::io, fmt::format("cannot read its header (SQLite error {})", rc), rc);
+}
+
+// quick_check reports on several lines ("*** in database main ***", then the damage).
+std::string one_line(std::string text) {
+  std::ranges::replace(text, '\n', ' ');
+  return text;
+}
+
+// What an existing file holds, read without changing a byte of it or creating a file beside
+// it. Throws when it is not a skinspec database, is damaged, or comes from a newer schema.
+int probe(const ReadAccess& access, const OpenOptions& options) {
   std::unique_ptr<Connection> connection;
   try {
-    connection = std::make_unique<Connection>(path, SQLITE_OPEN_READONLY);
+    connection = std::make_unique<Connection>(access.filename, access.flags);
     sqlite3_db_config(connection->handle(), SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
     set_busy_timeout(*connection, options.busy_timeout);
+    require_sqlite_header(*connection);
     const auto application_id = connection->query_integer("PRAGMA application_id");
     const auto version = connection->query_integer("PRAGMA user_version");
     const auto objects = connection->query_integer("SELECT count(*) FROM sqlite_schema");
@@ -103,7 +181,7 @@ int probe(const std::string& path, const OpenOptions& options) {
     }
     if (options.check_integrity && objects != 0) {
       const auto verdict = connection->query_text("PRAGMA quick_check(1)");
-      if (verdict != "ok") fail(Kind::corrupt, "damaged: " + verdict);
+      if (verdict != "ok") fail(Kind::corrupt, "damaged: " + one_line(verdict));
     }
     return static_cast<int>(version);
   } catch (const detail::Failure& failure) {
@@ -153,7 +231,8 @@ void configure_writer(Connection& writer, const OpenOptions& options) {
 }
 
 // Marks the sessions that were running when the last writer died as interrupted and fails
-// the jobs it left queued or running.
+// the jobs it left queued or running. Such a job has stored nothing: a job's measurement is
+// stored in the transaction that ends it (complete_measurement_job).
 RecoveryReport recover(Connection& writer, RecoveryPolicy policy, Time now) {
   RecoveryReport report;
   Transaction transaction(writer, Transaction::Kind::write);
@@ -170,6 +249,8 @@ RecoveryReport recover(Connection& writer, RecoveryPolicy policy, Time now) {
     while (active.step()) report.failed_jobs.push_back(active.integer(0));
   }
   const auto micros = detail::to_micros(now);
+  const auto interrupted =
+      detail::encode_job_error({JobErrorCode::interrupted, "the program running it stopped before it finished"});
   for (const Id id : report.interrupted_sessions) {
     writer.prepare("UPDATE sessions SET state = 'interrupted', updated_at = ?2, ended_at = ?2 WHERE id = ?1")
         .bind(id, micros)
@@ -177,7 +258,7 @@ RecoveryReport recover(Connection& writer, RecoveryPolicy policy, Time now) {
   }
   for (const Id id : report.failed_jobs) {
     writer.prepare("UPDATE jobs SET state = 'failed', error = ?2, finished_at = ?3 WHERE id = ?1")
-        .bind(id, "interrupted: the program running it stopped before it finished", micros)
+        .bind(id, interrupted, micros)
         .run();
   }
   transaction.commit();
@@ -190,7 +271,7 @@ void open_read_write(Store::Impl& impl) {
   const bool exists = ::stat(path.c_str(), &info) == 0;
   if (exists && !S_ISREG(info.st_mode)) fail(Kind::invalid_argument, "not a regular file");
   if (exists && !writable(path, info)) fail(Kind::read_only, "the file is read-only");
-  if (exists && info.st_size > 0) probe(path, impl.options);
+  if (exists && info.st_size > 0) probe(read_access(path), impl.options);
 
   impl.lock_fd = take_writer_lock(path);
   impl.writer = std::make_unique<Connection>(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
@@ -208,11 +289,25 @@ void open_read_only(Store::Impl& impl) {
   if (::stat(impl.path.c_str(), &info) != 0) fail(Kind::not_found, "no database file there");
   if (!S_ISREG(info.st_mode)) fail(Kind::invalid_argument, "not a regular file");
   if (info.st_size == 0) fail(Kind::corrupt, "an empty file, not a skinspec database");
-  impl.version = probe(impl.path, impl.options);
-  if (impl.version < detail::latest_schema_version()) {
-    fail(Kind::older_schema, fmt::format("schema version {} needs migrating to {}; open it once read-write",
-                                         impl.version, detail::latest_schema_version()));
+  // Taken before looking for a -wal: a writer that starts in between changes the file after it.
+  const auto identity = FileIdentity::of(info);
+  const auto access = read_access(impl.path);
+  if (access.immutable) impl.frozen = identity;
+  try {
+    impl.version = probe(access, impl.options);
+  } catch (const detail::Failure&) {
+    impl.check_still_frozen();  // a writer that started meanwhile explains whatever the probe found
+    throw;
   }
+  impl.check_still_frozen();
+  if (impl.version == 0) fail(Kind::corrupt, "an empty SQLite database, not a skinspec one");
+  if (impl.version < detail::latest_schema_version()) {
+    fail(Kind::older_schema,
+         fmt::format("schema version {} is older than this program's {}; it is migrated when skinspecd "
+                     "next opens it, and left unchanged here",
+                     impl.version, detail::latest_schema_version()));
+  }
+  impl.readers.configure(access.filename, access.flags, impl.options.busy_timeout, impl.options.max_readers);
 }
 
 }  // namespace
@@ -221,6 +316,13 @@ Store::Impl::~Impl() {
   readers.close();
   writer.reset();  // the last connection out checkpoints the WAL into the database
   if (lock_fd >= 0) ::close(lock_fd);
+}
+
+void Store::Impl::check_still_frozen() const {
+  if (!frozen) return;
+  struct stat info {};
+  if (::stat(path.c_str(), &info) == 0 && FileIdentity::of(info) == *frozen) return;
+  fail(Kind::busy, "the file changed while it was read (a program started writing it); read it again");
 }
 
 Time Store::Impl::now() const {
@@ -235,12 +337,12 @@ Result<Store> Store::open(const std::string& path, const OpenOptions& options) {
     auto impl = std::make_unique<Impl>();
     impl->path = path;
     impl->options = options;
-    if (options.read_only) {
+    if (options.mode == OpenMode::read_only) {
       open_read_only(*impl);
     } else {
       open_read_write(*impl);
+      impl->readers.configure(path, SQLITE_OPEN_READONLY, options.busy_timeout, options.max_readers);
     }
-    impl->readers.configure(path, options.busy_timeout, options.max_readers);
     return Store(std::move(impl));
   });
 }

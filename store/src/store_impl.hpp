@@ -3,11 +3,14 @@
 // the lock that makes it the only writer, and the wrappers that turn a body of work into one
 // transaction and a Failure into a returned StoreError.
 
+#include <sys/stat.h>
+
 #include <chrono>
 #include <condition_variable>
 #include <exception>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -36,20 +39,34 @@ class ReaderPool {
     std::unique_ptr<Connection> connection_;
   };
 
-  void configure(std::string path, std::chrono::milliseconds busy_timeout, int max_connections);
+  // `filename` and `flags` as for sqlite3_open_v2 (a URI with SQLITE_OPEN_URI).
+  void configure(std::string filename, int flags, std::chrono::milliseconds busy_timeout, int max_connections);
   Lease acquire();
   void close();
 
  private:
   void release(std::unique_ptr<Connection> connection);
 
-  std::string path_;
+  std::string filename_;
+  int flags_ = SQLITE_OPEN_READONLY;
   std::chrono::milliseconds busy_timeout_{0};
   int max_ = 1;
   std::mutex mutex_;
   std::condition_variable returned_;
   std::vector<std::unique_ptr<Connection>> idle_;
   int open_ = 0;
+};
+
+// What identifies a file's content from outside: a write to it changes at least its times.
+struct FileIdentity {
+  dev_t device = 0;
+  ino_t inode = 0;
+  off_t size = 0;
+  timespec modified{};
+  timespec changed{};
+
+  static FileIdentity of(const struct stat& info);
+  bool operator==(const FileIdentity& other) const;
 };
 
 // Runs `body`, returning its value, or the StoreError it threw with `what` in front.
@@ -82,6 +99,9 @@ struct Store::Impl {
   int version = 0;
   RecoveryReport recovery;
   int lock_fd = -1;  // "<path>-lock", flock()ed while this Store is the writer
+  // Read-only without a -wal file, the readers treat the file as immutable (no locks, no -shm):
+  // it is what the file was when opened, and a read fails as `busy` once it is not.
+  std::optional<detail::FileIdentity> frozen;
 
   std::mutex writer_mutex;
   std::unique_ptr<detail::Connection> writer;  // null when read-only
@@ -93,6 +113,8 @@ struct Store::Impl {
   ~Impl();
 
   Time now() const;
+  // Throws `busy` when a frozen file has changed since it was opened.
+  void check_still_frozen() const;
 
   // One write transaction around `body(writer)`, committed when it returns.
   template <typename F>
@@ -116,8 +138,16 @@ struct Store::Impl {
     return detail::guarded(what, [&] {
       auto lease = readers.acquire();
       detail::Transaction transaction(*lease, detail::Transaction::Kind::read);
-      auto value = body(*lease);
+      auto value = [&] {
+        try {
+          return body(*lease);
+        } catch (const detail::Failure&) {
+          check_still_frozen();  // a change under the reader explains whatever it ran into
+          throw;
+        }
+      }();
       transaction.commit();
+      check_still_frozen();
       return value;
     });
   }

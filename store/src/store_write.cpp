@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 
 #include "codec.hpp"
 #include "rows.hpp"
@@ -119,6 +120,71 @@ bool job_transition_allowed(JobState from, JobState to) {
   }
 }
 
+void check_job_update(const JobUpdate& update) {
+  if (update.result) detail::check_json_object(*update.result, "the job's result");
+  const bool ended_badly = update.state == JobState::failed || update.state == JobState::cancelled;
+  if (ended_badly && !update.error) invalid(fmt::format("a job that becomes {} needs its error", to_string(update.state)));
+  if (!ended_badly && update.error) invalid(fmt::format("a job that becomes {} has no error", to_string(update.state)));
+  if (update.error) detail::check_not_empty(update.error->message, "the job error's message");
+}
+
+Job job_in(Connection& c, Id id) {
+  static const std::string by_id = fmt::format("SELECT {} FROM jobs WHERE id = ?1", detail::kJobColumns);
+  auto row = c.prepare(by_id);
+  row.bind(id);
+  if (!row.step()) fail(Kind::not_found, fmt::format("job {} does not exist", id));
+  return detail::read_job(row);
+}
+
+// Moves job `id` to the update's state, inside the caller's transaction.
+Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
+  check_job_update(update);
+  const JobState current = job_in(c, id).state;
+  if (update.state != current && !job_transition_allowed(current, update.state)) {
+    fail(Kind::conflict, fmt::format("a job that is {} cannot become {}", to_string(current), to_string(update.state)));
+  }
+  const bool finished = update.state != JobState::queued && update.state != JobState::running;
+  const std::optional<std::string> error =
+      update.error ? std::optional<std::string>(detail::encode_job_error(*update.error)) : std::nullopt;
+  c.prepare(
+       "UPDATE jobs SET state = ?2, error = ?3, result = coalesce(?4, result), "
+       "started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?5 ELSE started_at END, "
+       "finished_at = CASE WHEN ?6 AND finished_at IS NULL THEN ?5 ELSE finished_at END WHERE id = ?1")
+      .bind(id, to_string(update.state), error, update.result, detail::to_micros(now), finished)
+      .run();
+  return job_in(c, id);
+}
+
+// A measurement and its fit, inside the caller's transaction, after the checks every
+// measurement passes.
+RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement& m, const std::optional<Fit>& fit, Time now) {
+  check_measurement(m);
+  if (fit) check_fit(*fit);
+  const auto state = session_state_of(c, m.session_id);
+  if (state != to_string(SessionState::open))
+    fail(Kind::conflict, fmt::format("session {} is {}, not open", m.session_id, state));
+  if (m.white_measurement_id) {
+    auto white = c.prepare("SELECT kind FROM measurements WHERE id = ?1");
+    white.bind(*m.white_measurement_id);
+    if (!white.step()) fail(Kind::not_found, fmt::format("measurement {} does not exist", *m.white_measurement_id));
+    if (white.text(0) != to_string(MeasurementKind::white))
+      fail(Kind::conflict, fmt::format("measurement {} is not a white reading", *m.white_measurement_id));
+  }
+  if (m.instrument_id) require_row(c, "SELECT 1 FROM instruments WHERE id = ?1", *m.instrument_id, "instrument");
+  RecordedMeasurement ids;
+  ids.measurement_id = insert_measurement(c, m, now);
+  if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
+  return ids;
+}
+
+std::string with_ids(const std::string& result, const RecordedMeasurement& ids) {
+  auto object = nlohmann::json::parse(result, nullptr, false);
+  if (object.is_discarded() || !object.is_object()) invalid("the job's result: not a JSON object");
+  object["measurement_id"] = ids.measurement_id;
+  object["fit_id"] = ids.fit_id ? nlohmann::json(*ids.fit_id) : nlohmann::json(nullptr);
+  return object.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 }  // namespace
 
 Result<Id> Store::ensure_instrument(const Instrument& in) {
@@ -197,25 +263,27 @@ Result<Session> Store::update_session(Id id, const SessionUpdate& update) {
 
 Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, const std::optional<Fit>& fit) {
   return impl_->write("recording a measurement", [&](Connection& c) {
-    check_measurement(m);
-    if (fit) check_fit(*fit);
-    const auto state = session_state_of(c, m.session_id);
-    if (state != to_string(SessionState::open))
-      fail(Kind::conflict, fmt::format("session {} is {}, not open", m.session_id, state));
-    if (m.white_measurement_id) {
-      auto white = c.prepare("SELECT kind FROM measurements WHERE id = ?1");
-      white.bind(*m.white_measurement_id);
-      if (!white.step()) fail(Kind::not_found, fmt::format("measurement {} does not exist", *m.white_measurement_id));
-      if (white.text(0) != to_string(MeasurementKind::white))
-        fail(Kind::conflict, fmt::format("measurement {} is not a white reading", *m.white_measurement_id));
-    }
-    if (m.instrument_id) require_row(c, "SELECT 1 FROM instruments WHERE id = ?1", *m.instrument_id, "instrument");
-    if (m.job_id) require_row(c, "SELECT 1 FROM jobs WHERE id = ?1", *m.job_id, "job");
+    if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
+    return insert_measurement_and_fit(c, m, fit, impl_->now());
+  });
+}
+
+Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measurement& m, const std::optional<Fit>& fit,
+                                                     const std::string& result) {
+  return impl_->write(fmt::format("completing job {}", job_id), [&](Connection& c) {
+    if (m.job_id && *m.job_id != job_id) invalid(fmt::format("the measurement is of job {}, not {}", *m.job_id, job_id));
+    const auto job = job_in(c, job_id);
+    if (job.state != JobState::running)
+      fail(Kind::conflict, fmt::format("job {} is {}, not running", job_id, to_string(job.state)));
+    if (job.session_id != m.session_id)
+      invalid(fmt::format("job {} is not of session {}", job_id, m.session_id));
+    Measurement of_job = m;
+    of_job.job_id = job_id;
     const auto now = impl_->now();
-    RecordedMeasurement ids;
-    ids.measurement_id = insert_measurement(c, m, now);
-    if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
-    return ids;
+    CompletedJob out;
+    out.ids = insert_measurement_and_fit(c, of_job, fit, now);
+    out.job = change_job(c, job_id, {.state = JobState::succeeded, .result = with_ids(result, out.ids)}, now);
+    return out;
   });
 }
 
@@ -259,46 +327,16 @@ Result<CreatedJob> Store::create_job(const Job& job) {
         job.idempotency_key.empty() ? std::nullopt : std::optional<std::string>(job.idempotency_key);
     c.prepare(
          "INSERT INTO jobs (kind, request, requested_by, session_id, idempotency_key, state, error, result, "
-         "created_at) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', '', ?6, ?7)")
+         "created_at) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', NULL, ?6, ?7)")
         .bind(job.kind, job.request, job.requested_by, job.session_id, key, job.result,
               detail::to_micros(impl_->now()))
         .run();
-    static const std::string by_id = fmt::format("SELECT {} FROM jobs WHERE id = ?1", detail::kJobColumns);
-    auto row = c.prepare(by_id);
-    row.bind(static_cast<Id>(sqlite3_last_insert_rowid(c.handle())));
-    row.step();
-    return CreatedJob{detail::read_job(row), true};
+    return CreatedJob{job_in(c, static_cast<Id>(sqlite3_last_insert_rowid(c.handle()))), true};
   });
 }
 
 Result<Job> Store::update_job(Id id, const JobUpdate& update) {
-  return impl_->write(fmt::format("updating job {}", id), [&](Connection& c) {
-    if (update.result) detail::check_json_object(*update.result, "the job's result");
-    static const std::string by_id = fmt::format("SELECT {} FROM jobs WHERE id = ?1", detail::kJobColumns);
-    JobState current{};
-    {
-      auto row = c.prepare(by_id);
-      row.bind(id);
-      if (!row.step()) fail(Kind::not_found, fmt::format("job {} does not exist", id));
-      current = detail::read_job(row).state;
-    }
-    if (update.state != current && !job_transition_allowed(current, update.state)) {
-      fail(Kind::conflict,
-           fmt::format("a job that is {} cannot become {}", to_string(current), to_string(update.state)));
-    }
-    const auto now = detail::to_micros(impl_->now());
-    const bool finished = update.state != JobState::queued && update.state != JobState::running;
-    c.prepare(
-         "UPDATE jobs SET state = ?2, error = coalesce(?3, error), result = coalesce(?4, result), "
-         "started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?5 ELSE started_at END, "
-         "finished_at = CASE WHEN ?6 AND finished_at IS NULL THEN ?5 ELSE finished_at END WHERE id = ?1")
-        .bind(id, to_string(update.state), update.error, update.result, now, finished)
-        .run();
-    auto row = c.prepare(by_id);
-    row.bind(id);
-    row.step();
-    return detail::read_job(row);
-  });
+  return impl_->write(fmt::format("updating job {}", id), [&](Connection& c) { return change_job(c, id, update, impl_->now()); });
 }
 
 }  // namespace skinspec::store

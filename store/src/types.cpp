@@ -40,6 +40,23 @@ constexpr std::array<std::pair<JobState, std::string_view>, 5> kJobStates = {{
     {JobState::cancelled, "cancelled"},
 }};
 
+constexpr std::array<std::pair<JobErrorCode, std::string_view>, 14> kJobErrorCodes = {{
+    {JobErrorCode::cancelled, "cancelled"},
+    {JobErrorCode::stopped, "stopped"},
+    {JobErrorCode::interrupted, "interrupted"},
+    {JobErrorCode::no_contact, "no_contact"},
+    {JobErrorCode::lost, "lost"},
+    {JobErrorCode::protocol, "protocol"},
+    {JobErrorCode::bad_reading, "bad_reading"},
+    {JobErrorCode::rejected, "rejected"},
+    {JobErrorCode::transport, "transport"},
+    {JobErrorCode::no_white, "no_white"},
+    {JobErrorCode::white_mismatch, "white_mismatch"},
+    {JobErrorCode::white_dark, "white_dark"},
+    {JobErrorCode::store, "store"},
+    {JobErrorCode::internal, "internal"},
+}};
+
 constexpr std::array<std::pair<StoreError::Kind, std::string_view>, 11> kErrorKinds = {{
     {StoreError::Kind::invalid_argument, "invalid_argument"},
     {StoreError::Kind::not_found, "not_found"},
@@ -60,11 +77,16 @@ std::string_view to_string(StoreError::Kind kind) { return name_of(kErrorKinds, 
 std::string_view to_string(SessionState state) { return name_of(kSessionStates, state); }
 std::string_view to_string(MeasurementKind kind) { return name_of(kMeasurementKinds, kind); }
 std::string_view to_string(JobState state) { return name_of(kJobStates, state); }
+std::string_view to_string(JobErrorCode code) { return name_of(kJobErrorCodes, code); }
 
 std::optional<SessionState> parse_session_state(std::string_view text) { return lookup(kSessionStates, text); }
 std::optional<MeasurementKind> parse_measurement_kind(std::string_view text) {
   return lookup(kMeasurementKinds, text);
 }
 std::optional<JobState> parse_job_state(std::string_view text) { return lookup(kJobStates, text); }
+std::optional<JobErrorCode> parse_job_error_code(std::string_view text) { return lookup(kJobErrorCodes, text); }
+
+std::span<const std::pair<JobState, std::string_view>> job_state_names() { return kJobStates; }
+std::span<const std::pair<JobErrorCode, std::string_view>> job_error_code_names() { return kJobErrorCodes; }
 
 }  // namespace skinspec::store

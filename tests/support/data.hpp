@@ -3,10 +3,10 @@
 
 #include <string>
 
-#include "skinspec/fit/colour.hpp"
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/fit/optics.hpp"
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/colour.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec::testing {
 

@@ -12,12 +12,13 @@ inline drivers::DriverOptions fast_driver() {
   using namespace std::chrono_literals;
   drivers::DriverOptions o;
   o.contact_attempts = 3;
-  o.contact_timeout = 100ms;
   o.modem_settle = 0ms;
-  o.reply_timeout = 300ms;
-  o.measurement_overhead = 300ms;
-  o.adaptive_allowance = 300ms;
-  o.line_bytes_per_second = 1e6;
+  o.timing.contact = 100ms;
+  o.timing.reply = 300ms;
+  o.timing.measurement_overhead = 300ms;
+  o.timing.adaptive_allowance = 300ms;
+  o.timing.idle = 100ms;
+  o.timing.line_bytes_per_second = 1e6;
   return o;
 }
 

@@ -19,6 +19,19 @@ namespace beast = boost::beast;
 namespace http = beast::http;
 using tcp = asio::ip::tcp;
 
+namespace {
+
+void copy_headers(const http::response_header<>& from, HttpReply& to) {
+  to.status = static_cast<int>(from.result_int());
+  for (const auto& field : from) {
+    std::string name(field.name_string());
+    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    to.headers[name] = std::string(field.value());
+  }
+}
+
+}  // namespace
+
 struct HttpConnection::Impl {
   asio::io_context ioc;
   beast::tcp_stream stream{ioc};
@@ -76,14 +89,8 @@ HttpReply HttpConnection::request(const std::string& method, const std::string& 
     reply.error = "read: " + ec.message();
     return reply;
   }
-  const auto& res = parser.get();
-  reply.status = static_cast<int>(res.result_int());
-  for (const auto& field : res) {
-    std::string name(field.name_string());
-    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
-    reply.headers[name] = std::string(field.value());
-  }
-  reply.body = res.body();
+  copy_headers(parser.get(), reply);
+  reply.body = parser.get().body();
   return reply;
 }
 
@@ -116,12 +123,7 @@ HttpReply follow_events(unsigned short port, const std::string& target, const st
   parser.body_limit(std::uint64_t{1} << 40);  // a stream is as long as its job
   http::read_header(stream, buffer, parser, ec);
   if (ec) return failed("read");
-  reply.status = static_cast<int>(parser.get().result_int());
-  for (const auto& field : parser.get()) {
-    std::string name(field.name_string());
-    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
-    reply.headers[name] = std::string(field.value());
-  }
+  copy_headers(parser.get(), reply);
   if (reply.status != 200) {
     http::read(stream, buffer, parser, ec);
     reply.body = parser.get().body();
@@ -151,22 +153,54 @@ HttpReply follow_events(unsigned short port, const std::string& target, const st
 }
 
 std::string raw_exchange(unsigned short port, const std::string& bytes, std::chrono::milliseconds timeout) {
+  return raw_exchange_from("127.0.0.1", port, bytes, timeout).bytes;
+}
+
+RawExchange raw_exchange_from(const std::string& source, unsigned short port, const std::string& bytes, std::chrono::milliseconds timeout) {
+  RawExchange out;
   asio::io_context ioc;
   beast::tcp_stream stream(ioc);
   beast::error_code ec;
+  stream.socket().open(tcp::v4(), ec);
+  stream.socket().bind(tcp::endpoint(asio::ip::make_address(source), 0), ec);
+  if (ec) return out;
   stream.expires_after(timeout);
   stream.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), port), ec);
-  if (ec) return {};
+  if (ec) return out;
   stream.expires_after(timeout);
   asio::write(stream, asio::buffer(bytes), ec);
-  std::string out;
   char chunk[4096];
   for (;;) {
     const std::size_t n = stream.read_some(asio::buffer(chunk), ec);
-    out.append(chunk, n);
+    out.bytes.append(chunk, n);
     if (ec) break;
   }
+  out.closed = ec == asio::error::eof || ec == asio::error::connection_reset;
   return out;
+}
+
+std::vector<HttpReply> parse_responses(const std::string& bytes, const std::vector<bool>& heads) {
+  std::vector<HttpReply> replies;
+  std::size_t offset = 0;
+  while (offset < bytes.size()) {
+    http::response_parser<http::string_body> parser;
+    parser.eager(true);
+    parser.skip(replies.size() < heads.size() && heads[replies.size()]);
+    beast::error_code ec;
+    const std::size_t used = parser.put(asio::buffer(bytes.data() + offset, bytes.size() - offset), ec);
+    if (ec || !parser.is_done()) {
+      HttpReply broken;
+      broken.error = "unparsable response at byte " + std::to_string(offset) + (ec ? ": " + ec.message() : ": incomplete");
+      replies.push_back(std::move(broken));
+      break;
+    }
+    HttpReply reply;
+    copy_headers(parser.get(), reply);
+    reply.body = parser.get().body();
+    replies.push_back(std::move(reply));
+    offset += used;
+  }
+  return replies;
 }
 
 }  // namespace skinspec::testing

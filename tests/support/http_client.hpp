@@ -58,4 +58,18 @@ HttpReply follow_events(unsigned short port, const std::string& target, const st
 // passes; everything the server sent.
 std::string raw_exchange(unsigned short port, const std::string& bytes, std::chrono::milliseconds timeout);
 
+// What a raw exchange got back, and whether the server closed the connection (rather than the
+// timeout passing first).
+struct RawExchange {
+  std::string bytes;
+  bool closed = false;
+};
+// As raw_exchange, connecting from `source`: any address of 127/8 (another client to the server).
+RawExchange raw_exchange_from(const std::string& source, unsigned short port, const std::string& bytes,
+                              std::chrono::milliseconds timeout);
+
+// The responses in `bytes`, in order; `heads[i]` says the i-th answers a HEAD, so has no body
+// whatever its Content-Length. A last entry with `error` set when the rest does not parse.
+std::vector<HttpReply> parse_responses(const std::string& bytes, const std::vector<bool>& heads = {});
+
 }  // namespace skinspec::testing

@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <optional>
 #include <thread>
+#include <utility>
 
 namespace skinspec::drivers {
 
@@ -27,8 +29,6 @@ namespace {
 
 constexpr int kMaxIntegrationMs = 6000, kMinIntegrationMs = 10;
 constexpr int kMaxAttempts = 5;
-// The longest reply: the spectral report with a two-line header.
-constexpr std::size_t kSpectralReplyBytes = 1734;
 
 std::unexpected<InstrumentError> fail(InstrumentError::Kind kind, std::string message, int quality = -1,
                                       std::string raw = {}) {
@@ -57,7 +57,28 @@ std::string photometric_units(int code, bool si) {
   }
 }
 
+std::string seconds(std::chrono::milliseconds t) { return fmt::format("{:.3g} s", static_cast<double>(t.count()) / 1000); }
+
+// A report's values and its bytes as received, kept for the record.
+template <typename T>
+struct Parsed {
+  T value;
+  std::string raw;
+};
+
+// A parser's complaint about a reply, as the driver reports it.
+InstrumentError garbled(std::string_view what, const pp::ProtocolError& error, std::string raw) {
+  return {InstrumentError::Kind::protocol, fmt::format("{}: {}", what, error.message), -1, std::move(raw)};
+}
+
 }  // namespace
+
+DriverOptions driver_options_for(const ConnectionUri& uri) {
+  DriverOptions options;
+  options.style.terminator = uri.terminator;
+  if (uri.scheme != ConnectionUri::Scheme::tcp && uri.baud > 0) options.timing.line_bytes_per_second = uri.baud / 10.0;
+  return options;
+}
 
 Pr650::Pr650(std::unique_ptr<Transport> transport, DriverOptions options)
     : transport_(std::move(transport)), options_(options) {}
@@ -74,15 +95,10 @@ void Pr650::disconnect() {
   connected_ = false;
 }
 
-std::chrono::milliseconds Pr650::transfer_time(std::size_t bytes) const {
-  return std::chrono::milliseconds(static_cast<long>(1000.0 * static_cast<double>(bytes) / options_.line_bytes_per_second));
-}
-
-// A fixed integration time is spent twice per average (the dark reading comes on top);
-// adaptive integration gets the allowance the meter's makers' software gives it.
-std::chrono::milliseconds Pr650::measurement_timeout(int integration_ms, int averages) const {
-  const auto per_average = integration_ms > 0 ? std::chrono::milliseconds(2L * integration_ms) : options_.adaptive_allowance;
-  return per_average * averages + options_.measurement_overhead;
+bool Pr650::link_closed() {
+  std::unique_lock lock(call_mutex_, std::try_to_lock);
+  if (!lock) return false;  // a call is on the wire: it will find out itself
+  return !transport_->is_open() || transport_->peer_closed();
 }
 
 InstrumentError Pr650::link_error(const TransportError& error, const std::string& command) const {
@@ -93,35 +109,96 @@ InstrumentError Pr650::link_error(const TransportError& error, const std::string
             fmt::format("no answer from a PR-650 on {} to '{}'", transport_->describe(), printable(command)), -1, {}};
   if (error.kind == K::timeout)
     return {InstrumentError::Kind::lost,
-            fmt::format("the PR-650 on {} did not answer '{}' in time; is it still on and connected?",
+            fmt::format("the PR-650 on {} did not take '{}' in time; is it still on and connected?",
                         transport_->describe(), printable(command)), -1, {}};
   return {InstrumentError::Kind::lost,
           fmt::format("lost the PR-650 on {} during '{}': {}", transport_->describe(), printable(command), error.message),
           -1, {}};
 }
 
-// One command and its whole reply. Stale bytes are flushed first: a late reply to an earlier
-// command would otherwise be taken for this one's.
-std::expected<std::string, InstrumentError> Pr650::exchange(const std::string& command, pp::ReplyShape shape,
-                                                            Deadline deadline) {
+// One command and the wait for its reply, by the rule's two deadlines: the first byte of the
+// reply (an echo of the command does not count), then no pause longer than `idle` until it is
+// whole. Stale bytes are flushed first: a late reply to an earlier command would otherwise be
+// taken for this one's. Silence and a reply that stopped are results, not errors: the caller's
+// rule says what follows; errors are a failed link and cancel().
+std::expected<Pr650::Reply, InstrumentError> Pr650::transact(const std::string& command, const pp::ExchangeRule& rule) {
   if (cancelled_) return fail(InstrumentError::Kind::cancelled, "cancelled");
   if (auto flushed = transport_->flush_input(); !flushed) return std::unexpected(link_error(flushed.error(), command));
-  if (auto written = transport_->write(command, deadline); !written)
+  if (auto written = transport_->write(command, deadline_in(rule.first_byte)); !written)
     return std::unexpected(link_error(written.error(), command));
   std::string received;
+  Deadline next = deadline_in(rule.first_byte);
+  std::optional<Deadline> whole;  // from the reply's first byte
   char buffer[512];
-  while (!pp::reply_complete(shape, pp::strip_echo(received, command))) {
-    auto n = transport_->read(buffer, sizeof buffer, deadline);
+  for (;;) {
+    const std::string_view reply = pp::strip_echo(received, command);
+    if (const std::size_t size = pp::reply_size(rule.shape, reply); size > 0)
+      return Reply{ReplyEnd::complete, std::string(reply.substr(0, size)), std::string(reply.substr(size))};
+    auto n = transport_->read(buffer, sizeof buffer, whole ? std::min(next, *whole) : next);
     if (!n) {
-      if (n.error().kind == TransportError::Kind::timeout && !received.empty())
-        return fail(InstrumentError::Kind::protocol,
-                    fmt::format("the reply to '{}' stopped after {} bytes", printable(command), received.size()), -1,
-                    received);
-      return std::unexpected(link_error(n.error(), command));
+      if (n.error().kind != TransportError::Kind::timeout) return std::unexpected(link_error(n.error(), command));
+      if (reply.empty()) return Reply{ReplyEnd::silent, received, {}};
+      return Reply{ReplyEnd::cut, std::string(reply), {}};
     }
     received.append(buffer, *n);
+    if (pp::strip_echo(received, command).empty()) continue;
+    if (!whole) {
+      whole = deadline_in(rule.whole);
+      ++replies_;
+    }
+    next = deadline_in(rule.idle);
   }
-  return std::string(pp::strip_echo(received, command));
+}
+
+InstrumentError Pr650::unanswered(const std::string& command, const Reply& reply, const pp::ExchangeRule& rule) const {
+  if (reply.end == ReplyEnd::cut)
+    return {InstrumentError::Kind::protocol,
+            fmt::format("the reply to '{}' stopped after {} bytes", printable(command), reply.bytes.size()), -1,
+            reply.bytes};
+  if (!connected_)
+    return {InstrumentError::Kind::no_contact,
+            fmt::format("no answer from a PR-650 on {} to '{}'", transport_->describe(), printable(command)), -1, {}};
+  return {InstrumentError::Kind::lost,
+          fmt::format("the PR-650 on {} did not answer '{}' within {}; is it still on and connected?",
+                      transport_->describe(), printable(command), seconds(rule.first_byte)),
+          -1, {}};
+}
+
+// After asking again for a reply that was missing or cut short, the first request may have
+// been answered late, and then the meter answers the second one too: that reply is let pass
+// (it starts within the meter's reply time, if at all) before the next command.
+void Pr650::settle(const pp::ExchangeRule& rule) {
+  char buffer[512];
+  Deadline next = deadline_in(rule.first_byte);
+  const Deadline limit = deadline_in(rule.first_byte + rule.whole);
+  while (transport_->read(buffer, sizeof buffer, std::min(next, limit))) next = deadline_in(rule.idle);
+}
+
+// A command whose reply `parse` turns into a value or an error, with the rule's second try:
+// a reply that is lost, cut short, garbled or refused is asked for once more, waiting longer.
+template <typename Parse>
+auto Pr650::ask(const std::string& command, const pp::ExchangeRule& rule, Parse parse) -> decltype(parse(std::string())) {
+  InstrumentError failure{InstrumentError::Kind::protocol, "", -1, {}};
+  bool maybe_late = false;  // a reply that did not come may still come, after the second request
+  const int tries = rule.on_lost == pp::LostReply::ask_again ? 2 : 1;
+  for (int attempt = 1; attempt <= tries; ++attempt) {
+    auto reply = transact(command, attempt == 1 ? rule : pp::second_try(rule));
+    if (!reply) return std::unexpected(reply.error());
+    if (reply->end == ReplyEnd::complete) {
+      // Bytes after the reply are damage, unless the meter may be answering twice.
+      auto parsed = parse(maybe_late ? reply->bytes : reply->bytes + reply->surplus);
+      if (parsed) {
+        if (maybe_late) settle(rule);
+        return parsed;
+      }
+      failure = parsed.error();
+    } else {
+      failure = unanswered(command, *reply, rule);
+      maybe_late = true;
+    }
+  }
+  if (tries > 1) failure.message += " (asked twice)";
+  return std::unexpected(failure);
 }
 
 std::expected<void, InstrumentError> Pr650::connect() {
@@ -139,18 +216,17 @@ std::expected<void, InstrumentError> Pr650::connect() {
   std::this_thread::sleep_for(options_.modem_settle);
 
   const std::string ping = pp::format_backlight(3, options_.style);
+  const pp::ExchangeRule contact = rule({pp::CommandKind::contact});
   for (int attempt = 1; attempt <= options_.contact_attempts; ++attempt) {
-    auto reply = exchange(ping, pp::ReplyShape::line, deadline_in(options_.contact_timeout));
-    if (reply) {
-      if (auto status = pp::parse_status(*reply); status && *status == 0) {
-        connected_ = true;
-        return {};
-      }
-      continue;  // garbage on the line at power-on: ask again
+    // Silence is the meter outside its power-on window, garbage the line at power-on: ask
+    // again. Anything else (cancel, a failed link) ends the attempt.
+    auto reply = transact(ping, contact);
+    if (!reply) return std::unexpected(reply.error());
+    if (reply->end != ReplyEnd::complete) continue;
+    if (auto status = pp::parse_status(reply->bytes); status && *status == 0) {
+      connected_ = true;
+      return {};
     }
-    // Silence is the meter outside its power-on window: ask again. Anything else (cancel, a
-    // failed link) ends the attempt.
-    if (reply.error().kind != InstrumentError::Kind::no_contact) return std::unexpected(reply.error());
   }
   return fail(InstrumentError::Kind::no_contact,
               fmt::format("no answer from a PR-650 on {} after {} attempts. The meter accepts remote control only "
@@ -164,37 +240,57 @@ std::expected<Identity, InstrumentError> Pr650::identify() {
   cancelled_ = false;
   transport_->clear_interrupt();
   Identity identity;
-  auto serial = exchange(pp::format_report(110, options_.style), pp::ReplyShape::line, deadline_in(options_.reply_timeout));
+  auto serial = ask(pp::format_report(110, options_.style), rule({pp::CommandKind::report, 110}),
+                    [](const std::string& reply) -> std::expected<std::string, InstrumentError> {
+                      auto parsed = pp::parse_serial_number(reply);
+                      if (!parsed) return std::unexpected(garbled("serial number", parsed.error(), reply));
+                      return *parsed;
+                    });
   if (!serial) return std::unexpected(serial.error());
-  auto parsed_serial = pp::parse_serial_number(*serial);
-  if (!parsed_serial) return fail(InstrumentError::Kind::protocol, "serial number: " + parsed_serial.error().message, -1, *serial);
-  identity.serial_number = serial_number_ = *parsed_serial;
-  auto config = exchange(pp::format_report(120, options_.style), pp::ReplyShape::line, deadline_in(options_.reply_timeout));
+  identity.serial_number = serial_number_ = *serial;
+  auto config = ask(pp::format_report(120, options_.style), rule({pp::CommandKind::report, 120}),
+                    [](const std::string& reply) -> std::expected<pp::SpectralConfiguration, InstrumentError> {
+                      auto parsed = pp::parse_spectral_configuration(reply);
+                      if (!parsed) return std::unexpected(garbled("spectral configuration", parsed.error(), reply));
+                      return *parsed;
+                    });
   if (!config) return std::unexpected(config.error());
-  auto parsed_config = pp::parse_spectral_configuration(*config);
-  if (!parsed_config)
-    return fail(InstrumentError::Kind::protocol, "spectral configuration: " + parsed_config.error().message, -1, *config);
-  identity.configuration = *parsed_config;
+  identity.configuration = *config;
   return identity;
 }
 
+// A refusal is asked about again too: our setups are within the meter's ranges, so a refusal
+// may be a damaged "00"; one given twice is the meter's.
 std::expected<void, InstrumentError> Pr650::send_setup(const pp::Setup& setup) {
-  auto reply = exchange(pp::format_setup(setup, options_.style), pp::ReplyShape::line, deadline_in(options_.reply_timeout));
-  if (!reply) return std::unexpected(reply.error());
-  auto code = pp::parse_setup_reply(*reply);
-  if (!code) return fail(InstrumentError::Kind::protocol, "setup reply: " + code.error().message, -1, *reply);
-  if (*code != 0) return fail(InstrumentError::Kind::rejected, "the PR-650 refused the setup: " + pp::setup_reply_message(*code));
+  auto accepted = ask(pp::format_setup(setup, options_.style), rule({pp::CommandKind::setup}),
+                      [](const std::string& reply) -> std::expected<void, InstrumentError> {
+                        auto code = pp::parse_setup_reply(reply);
+                        if (!code) return std::unexpected(garbled("setup reply", code.error(), reply));
+                        if (*code != 0)
+                          return std::unexpected(InstrumentError{InstrumentError::Kind::rejected,
+                                                                 "the PR-650 refused the setup: " + pp::setup_reply_message(*code),
+                                                                 -1, reply});
+                        return {};
+                      });
+  if (!accepted) return std::unexpected(accepted.error());
   return {};
 }
 
-// Automatic sync measures the light's flicker; a light it cannot lock to is measured unsynced.
+// Automatic sync measures the light's flicker; a light it cannot lock to, or a reply that
+// cannot be read even when asked again, is measured unsynced.
 std::expected<pp::Setup::Sync, InstrumentError> Pr650::choose_sync(const MeasureOptions& options, double& hz) {
   if (options.sync == MeasureOptions::Sync::off) return pp::Setup::Sync::none;
-  auto reply = exchange(pp::format_flicker(options_.style), pp::ReplyShape::line,
-                        deadline_in(options_.reply_timeout + options_.measurement_overhead));
-  if (!reply) return std::unexpected(reply.error());
-  auto flicker = pp::parse_flicker(*reply);
-  if (!flicker || flicker->quality != 0) return pp::Setup::Sync::none;
+  auto flicker = ask(pp::format_flicker(options_.style), rule({pp::CommandKind::flicker}),
+                     [](const std::string& reply) -> std::expected<pp::FlickerReply, InstrumentError> {
+                       auto parsed = pp::parse_flicker(reply);
+                       if (!parsed) return std::unexpected(garbled("flicker reply", parsed.error(), reply));
+                       return *parsed;
+                     });
+  if (!flicker) {
+    if (flicker.error().kind == InstrumentError::Kind::protocol) return pp::Setup::Sync::none;
+    return std::unexpected(flicker.error());
+  }
+  if (flicker->quality != 0) return pp::Setup::Sync::none;
   hz = flicker->frequency_hz;
   return pp::Setup::Sync::last_measured;
 }
@@ -204,7 +300,7 @@ std::expected<pp::Setup::Sync, InstrumentError> Pr650::choose_sync(const Measure
 std::expected<void, InstrumentError> Pr650::drain_pending_measurement() {
   if (!measurement_pending_) return {};
   char buffer[64];
-  const Deadline deadline = deadline_in(measurement_timeout(0, 1));
+  const Deadline deadline = deadline_in(pp::measurement_time(0, 1, options_.timing));
   std::string received;
   while (!pp::reply_complete(pp::ReplyShape::line, received)) {
     auto n = transport_->read(buffer, sizeof buffer, deadline);
@@ -218,25 +314,59 @@ std::expected<void, InstrumentError> Pr650::drain_pending_measurement() {
   return {};
 }
 
-std::expected<pp::SpectralReport, InstrumentError> Pr650::read_spectrum(std::string& raw) {
-  // The meter keeps the last measurement, so a garbled report can simply be asked for again.
-  InstrumentError last{InstrumentError::Kind::protocol, "", -1, {}};
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    auto reply = exchange(pp::format_report(5, options_.style), pp::ReplyShape::spectral,
-                          deadline_in(options_.reply_timeout + 2 * transfer_time(kSpectralReplyBytes)));
-    if (!reply) {
-      if (reply.error().kind != InstrumentError::Kind::protocol) return std::unexpected(reply.error());
-      last = reply.error();
-      continue;
+// M0 and the wait for the measurement to end. Any reply, even a damaged one, says the meter
+// measured: the spectral report that follows carries the measurement and its quality code,
+// which decides (the M0 status is "000" whatever the outcome on most meters). Silence may mean
+// the command never arrived, and a report would then show the previous measurement as if it
+// were new: so the meter measures once more, and the reading says so.
+std::expected<void, InstrumentError> Pr650::start_measurement(const MeasureOptions& options, int integration_ms,
+                                                             Reading& reading) {
+  const std::string command = pp::format_measure(0, options_.style);
+  const pp::ExchangeRule m0 = rule({pp::CommandKind::measure, 0, integration_ms, options.averages});
+  for (int attempt = 1;; ++attempt) {
+    reading.started = std::chrono::system_clock::now();
+    auto status = transact(command, m0);
+    if (!status) {
+      if (status.error().kind == InstrumentError::Kind::cancelled) measurement_pending_ = true;
+      return std::unexpected(status.error());
     }
-    auto report = pp::parse_spectral(*reply);
-    if (report) {
-      raw += *reply;
-      return *report;
+    if (status->end != ReplyEnd::silent) break;
+    auto silent = unanswered(command, *status, m0);
+    if (attempt == 2) {
+      silent.message += " (measured twice)";
+      return std::unexpected(silent);
     }
-    last = {InstrumentError::Kind::protocol, "spectral report: " + report.error().message, -1, *reply};
+    reading.warnings.push_back(fmt::format("remeasured: the PR-650 did not answer 'm0' within {}; it was told to "
+                                           "measure again, and this reading is of that measurement",
+                                           seconds(m0.first_byte)));
+    ++reading.attempts;
   }
-  return std::unexpected(last);
+  reading.finished = std::chrono::system_clock::now();
+  return {};
+}
+
+// Reports 1 and 2 of the measurement just made: luminance and x, y; X, Y, Z.
+std::expected<void, InstrumentError> Pr650::read_colorimetry(const MeasureOptions& options, Reading& reading) {
+  for (const int report : {1, 2}) {
+    auto parsed = ask(pp::format_report(report, options_.style), rule({pp::CommandKind::report, report}),
+                      [report](const std::string& reply) -> std::expected<Parsed<pp::ColorimetricReport>, InstrumentError> {
+                        auto values = pp::parse_colorimetric(report, reply);
+                        if (!values) return std::unexpected(garbled(fmt::format("report {}", report), values.error(), reply));
+                        return Parsed<pp::ColorimetricReport>{std::move(*values), reply};
+                      });
+    if (!parsed) return std::unexpected(parsed.error());
+    const auto& values = parsed->value.values;
+    reading.raw_reply += parsed->raw;
+    if (report == 1) {
+      reading.luminance = values[0];
+      reading.x = values[1];
+      reading.y = values[2];
+      reading.luminance_units = photometric_units(parsed->value.units, options.si_units);
+    } else {
+      std::copy_n(values.begin(), 3, reading.xyz.begin());
+    }
+  }
+  return {};
 }
 
 std::expected<Reading, InstrumentError> Pr650::measure_once(const MeasureOptions& options, int integration_ms) {
@@ -251,54 +381,36 @@ std::expected<Reading, InstrumentError> Pr650::measure_once(const MeasureOptions
   if (auto sent = send_setup(setup); !sent) return std::unexpected(sent.error());
 
   Reading reading;
-  reading.started = std::chrono::system_clock::now();
-  auto status = exchange(pp::format_measure(0, options_.style), pp::ReplyShape::line,
-                         deadline_in(measurement_timeout(integration_ms, options.averages)));
-  if (!status) {
-    if (status.error().kind == InstrumentError::Kind::cancelled) measurement_pending_ = true;
-    return std::unexpected(status.error());
-  }
-  auto code = pp::parse_status(*status);
-  if (!code) return fail(InstrumentError::Kind::protocol, "measurement status: " + code.error().message, -1, *status);
-  if (*code != 0)
-    return fail(InstrumentError::Kind::bad_reading, fmt::format("measurement failed: {}", pp::quality_message(*code)), *code, *status);
-  reading.finished = std::chrono::system_clock::now();
+  if (auto measured = start_measurement(options, integration_ms, reading); !measured) return std::unexpected(measured.error());
 
-  auto spectrum = read_spectrum(reading.raw_reply);
+  // The meter keeps the last measurement, so a damaged report can simply be asked for again.
+  auto spectrum = ask(pp::format_report(5, options_.style), rule({pp::CommandKind::report, 5}),
+                      [](const std::string& reply) -> std::expected<Parsed<pp::SpectralReport>, InstrumentError> {
+                        auto parsed = pp::parse_spectral(reply);
+                        if (!parsed) return std::unexpected(garbled("spectral report", parsed.error(), reply));
+                        return Parsed<pp::SpectralReport>{std::move(*parsed), reply};
+                      });
   if (!spectrum) return std::unexpected(spectrum.error());
+  pp::SpectralReport& report = spectrum->value;
+  reading.raw_reply = spectrum->raw;
   // Past this point a non-zero code means the report's data lines may be those of an earlier
   // measurement (the meter does not update its buffer in low light): never hand them out.
-  if (spectrum->quality != 0)
+  if (report.quality != 0)
     return fail(InstrumentError::Kind::bad_reading,
-                fmt::format("quality {:02d}: {}", spectrum->quality, pp::quality_message(spectrum->quality)),
-                spectrum->quality, reading.raw_reply);
+                fmt::format("quality {:02d}: {}", report.quality, pp::quality_message(report.quality)), report.quality,
+                reading.raw_reply);
+  if (auto colorimetry = read_colorimetry(options, reading); !colorimetry) return std::unexpected(colorimetry.error());
 
-  for (const int report : {1, 2}) {
-    auto reply = exchange(pp::format_report(report, options_.style), pp::ReplyShape::line, deadline_in(options_.reply_timeout));
-    if (!reply) return std::unexpected(reply.error());
-    auto parsed = pp::parse_colorimetric(report, *reply);
-    if (!parsed) return fail(InstrumentError::Kind::protocol, fmt::format("report {}: {}", report, parsed.error().message), -1, *reply);
-    reading.raw_reply += *reply;
-    if (report == 1) {
-      reading.luminance = parsed->values[0];
-      reading.x = parsed->values[1];
-      reading.y = parsed->values[2];
-      reading.luminance_units = photometric_units(parsed->units, options.si_units);
-    } else {
-      std::copy_n(parsed->values.begin(), 3, reading.xyz.begin());
-    }
-  }
-
-  reading.quality_code = spectrum->quality;
-  reading.quality = pp::quality_message(spectrum->quality);
-  reading.units_code = spectrum->units;
-  reading.units = spectral_units(spectrum->units);
+  reading.quality_code = report.quality;
+  reading.quality = pp::quality_message(report.quality);
+  reading.units_code = report.units;
+  reading.units = spectral_units(report.units);
   reading.integration_ms = integration_ms;
   reading.averages = options.averages;
   reading.sync = *sync == pp::Setup::Sync::none ? "off" : fmt::format("last measured frequency ({:.2f} Hz)", sync_hz);
-  reading.wavelength_nm = std::move(spectrum->wavelength_nm);
-  reading.radiance = std::move(spectrum->values);
-  reading.integrated = spectrum->integrated;
+  reading.wavelength_nm = std::move(report.wavelength_nm);
+  reading.radiance = std::move(report.values);
+  reading.integrated = report.integrated;
   reading.serial_number = serial_number_;
   return reading;
 }
@@ -319,7 +431,7 @@ std::expected<Reading, InstrumentError> Pr650::measure(const MeasureOptions& opt
   for (int attempt = 1;; ++attempt) {
     auto reading = measure_once(current, integration);
     if (reading) {
-      reading->attempts = attempt;
+      reading->attempts += attempt - 1;  // the readings rejected before this one
       return reading;
     }
     const InstrumentError& error = reading.error();

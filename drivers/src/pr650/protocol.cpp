@@ -93,20 +93,22 @@ std::string_view drop_trailing_prompts(std::string_view text) {
   return text;
 }
 
-// The number of lines that hold something other than blanks and prompts and have ended.
-// Every CR and every LF ends a line (a CR LF pair ends one); empty lines do not count.
-int count_ended_lines(std::string_view received, int enough) {
+// Where the `enough`th line that holds something other than blanks and prompts ends (past a
+// CR LF pair), or 0 before then. Every CR and every LF ends a line (a CR LF pair ends one);
+// empty lines do not count.
+std::size_t end_of_ended_lines(std::string_view received, int enough) {
   int ended = 0;
   bool has_content = false;
-  for (const char c : received) {
+  for (std::size_t i = 0; i < received.size(); ++i) {
+    const char c = received[i];
     if (detail::is_line_end(c)) {
-      if (has_content && ++ended >= enough) return ended;
+      if (has_content && ++ended >= enough) return i + (c == '\r' && i + 1 < received.size() && received[i + 1] == '\n' ? 2 : 1);
       has_content = false;
     } else if (!detail::is_prompt_or_blank(c)) {
       has_content = true;
     }
   }
-  return ended;
+  return 0;
 }
 
 }  // namespace
@@ -178,12 +180,13 @@ ReplyShape reply_shape_of_report(int report) {
   return report == 5 ? ReplyShape::spectral : ReplyShape::line;
 }
 
-bool reply_complete(ReplyShape shape, std::string_view received) {
+std::size_t reply_size(ReplyShape shape, std::string_view received) {
   // A spectral report is its header (one line with a bare CR inside, or two lines: either
   // way two line ends) and 101 data lines. Anything else is one line.
-  const int needed = shape == ReplyShape::spectral ? 2 + kSpectralPoints : 1;
-  return count_ended_lines(received, needed) >= needed;
+  return end_of_ended_lines(received, shape == ReplyShape::spectral ? 2 + kSpectralPoints : 1);
 }
+
+bool reply_complete(ReplyShape shape, std::string_view received) { return reply_size(shape, received) > 0; }
 
 std::string_view strip_echo(std::string_view reply, std::string_view command) {
   while (!command.empty() && detail::is_line_end(command.back())) command.remove_suffix(1);

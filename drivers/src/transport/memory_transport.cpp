@@ -119,6 +119,11 @@ std::expected<void, TransportError> MemoryTransport::set_modem_lines(bool dtr, b
   return {};
 }
 
+bool MemoryTransport::peer_closed() {
+  std::lock_guard lock(incoming_->mutex);
+  return incoming_->reader_open && !incoming_->writer_open;
+}
+
 void MemoryTransport::interrupt() {
   {
     std::lock_guard lock(incoming_->mutex);

@@ -10,6 +10,7 @@
 #include <libserialport.h>
 
 #include <fmt/format.h>
+#include <poll.h>
 
 #include <algorithm>
 #include <atomic>
@@ -192,6 +193,17 @@ class SerialTransport final : public Transport {
     if (const auto code = sp_set_rts(port_.get(), rts ? SP_RTS_ON : SP_RTS_OFF); code != SP_OK)
       return std::unexpected(io_error(code, label_ + ": set RTS"));
     return {};
+  }
+
+  // An adapter pulled out hangs the tty up, and FIONREAD then fails with EIO.
+  bool peer_closed() override {
+    if (!port_) return false;
+    if (sp_input_waiting(port_.get()) < 0) return true;
+    int fd = -1;
+    if (sp_get_port_handle(port_.get(), &fd) != SP_OK || fd < 0) return false;
+    pollfd one{fd, POLLIN, 0};
+    if (::poll(&one, 1, 0) <= 0) return false;
+    return (one.revents & (POLLHUP | POLLERR | POLLNVAL)) != 0;
   }
 
   void interrupt() override { interrupted_ = true; }

@@ -8,6 +8,7 @@
 // the one thread-safe way into it.
 
 #include <fmt/format.h>
+#include <poll.h>
 
 #include <atomic>
 #include <boost/asio/connect.hpp>
@@ -127,6 +128,15 @@ class TcpTransport final : public Transport {
 
   // A TCP serial server has its own idea of the modem lines; there is nothing to set here.
   std::expected<void, TransportError> set_modem_lines(bool, bool) override { return {}; }
+
+  // The peer's FIN shows as POLLRDHUP even while unread bytes wait before it; a reset as
+  // POLLERR or POLLHUP.
+  bool peer_closed() override {
+    if (!socket_.is_open()) return false;
+    pollfd one{socket_.native_handle(), POLLRDHUP, 0};
+    if (::poll(&one, 1, 0) <= 0) return false;
+    return (one.revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0;
+  }
 
   void interrupt() override {
     interrupted_ = true;

@@ -8,12 +8,14 @@
 #include <cstdint>
 #include <expected>
 #include <optional>
+#include <span>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
 #include "skinspec/api/errors.hpp"
-#include "skinspec/fit/fitter.hpp"
 #include "skinspec/store/store.hpp"
 
 namespace skinspec::api {
@@ -25,19 +27,33 @@ struct MeasureRequest {
   int integration_ms = 0;   // 0: adaptive
 };
 
-// Where a queued or running job is. Phases in order: queued, connecting, measuring, fitting,
-// storing (then done, which only finished jobs show).
+// What the instrument is doing (GET /api/v1/instrument's "state").
+enum class InstrumentState { disconnected, connecting, connected, measuring, lost };
+std::string_view to_string(InstrumentState state);
+std::optional<InstrumentState> parse_instrument_state(std::string_view text);
+std::span<const std::pair<InstrumentState, std::string_view>> instrument_state_names();
+
+// Where a job is, in order; `done` only finished jobs show.
+enum class JobPhase { queued, connecting, measuring, fitting, storing, done };
+std::string_view to_string(JobPhase phase);
+std::optional<JobPhase> parse_job_phase(std::string_view text);
+std::span<const std::pair<JobPhase, std::string_view>> job_phase_names();
+
+// Where a queued or running job is.
 struct JobProgress {
-  int position = 1;  // in the FIFO queue: 1 is next, 0 is running
-  std::string phase = "queued";
+  int position = 1;  // in the FIFO queue while queued: 1 is next; ignored once it runs
+  JobPhase phase = JobPhase::queued;
   int readings_done = 0;
   int readings_total = 1;
+  // Set when the job has ended but the store refused its end: the job is shown failed with
+  // this error (code `store`) instead of the record's state, which stays behind.
+  std::optional<store::JobError> unrecorded_failure{};
 };
 
 class Acquisition {
  public:
   virtual ~Acquisition() = default;
-  // {"device", "port", "state": disconnected|connecting|connected|measuring|lost, "since",
+  // {"device", "port", "state" (an InstrumentState), "since",
   //  "last_error", "serial_number", "attempts", "next_attempt_in_ms", "queued", ...}
   virtual nlohmann::json instrument_status() const = 0;
   // The serial ports and USB serial adapters present: {"ports": [...]} (GET /api/v1/ports).
@@ -49,7 +65,8 @@ class Acquisition {
   virtual std::expected<store::Job, ApiError> cancel(store::Id job_id) = 0;
 
   // The live progress of a queued or running job; nullopt once it has finished (its state is
-  // in the store by then) or for a job this process does not run.
+  // in the store by then) or for a job this process does not run. Read it before the job's
+  // record (current_job_json does): a job's record is written before its progress moves on.
   virtual std::optional<JobProgress> progress(store::Id job_id) const = 0;
   // A count that grows with every change of any job: position, phase, reading count, state.
   // The job's store record is written before the count grows.
@@ -64,15 +81,17 @@ class Acquisition {
 // The model the service fits with: the store keeps the paper's five parameters of a fit.
 inline constexpr ModelKind kServiceModel = ModelKind::paper;
 
-// A fit result as the store keeps it, with the options, program version and tables digest.
-store::Fit stored_fit(const FitResult& result, const nlohmann::json& options, const std::string& model_version,
-                      const std::string& tables_digest);
-
 // A time as every answer of the API shows it: RFC 3339, UTC, with microseconds.
 std::string api_time(store::Time time);
 
-// A job as the API shows it, with `position` (null once finished) and `progress`: its live
-// progress when given, else what the store says (phase done, fraction 1 when it succeeded).
+// A job as the API shows it, with `position` (1 or more while queued, 0 while running, null
+// once finished), `progress` and `error` ({code, message} or null): its live progress and
+// state when given and the record has not finished, else what the store says (phase done,
+// fraction 1 when it succeeded).
 nlohmann::json job_json(const store::Job& job, const std::optional<JobProgress>& live);
+
+// Job `id` as the API shows it now: its live progress read first, then its record, so that
+// the two agree (`acquisition` may be null).
+store::Result<nlohmann::json> current_job_json(const store::Store& db, const Acquisition* acquisition, store::Id id);
 
 }  // namespace skinspec::api

@@ -1,9 +1,12 @@
 #pragma once
-// The service's one error shape, {"error": {"code": "...", "message": "..."}}, and the one
-// place where error kinds become HTTP statuses.
+// The service's one error shape, {"error": {"code": "...", "message": "..."}}, the one place
+// where error kinds become HTTP statuses, and the one place where the store's errors become
+// the service's.
 
 #include <string>
 #include <string_view>
+
+#include "skinspec/store/types.hpp"
 
 namespace skinspec::api {
 
@@ -33,5 +36,13 @@ struct ApiError {
 
 // The JSON body of an error response.
 std::string error_body(const ApiError& error);
+
+// A store error as every route and the acquisition report it. What the client asked for that
+// the store refused: invalid_argument → 422 invalid_value, not_found → 404, conflict → 409.
+// The database unavailable for now (a retry after the condition clears may succeed): busy,
+// full, read_only → 503 database_busy, database_full, database_read_only. The database or
+// the program broken: io, corrupt, newer_schema, older_schema, internal → 500 database_io,
+// database_corrupt, database_schema, database_error.
+ApiError from_store_error(const store::StoreError& error);
 
 }  // namespace skinspec::api

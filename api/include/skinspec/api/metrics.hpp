@@ -21,6 +21,10 @@ class Metrics {
   void record_fit(bool ok);
   void set_open_connections(std::int64_t n);
   void record_rejected_connection();
+  // An idle connection closed to make room for a newcomer.
+  void record_evicted_connection();
+  // Requests on the compute pool (fits, renders): running and waiting.
+  void set_compute_load(std::size_t running, std::size_t waiting);
 
   std::string prometheus_text() const;
 
@@ -36,7 +40,8 @@ class Metrics {
   std::map<std::pair<std::string, int>, std::uint64_t> requests_;
   std::map<std::string, Histogram> latency_;
   std::map<std::string, std::uint64_t> errors_;
-  std::uint64_t fits_ok_ = 0, fits_failed_ = 0, rejected_connections_ = 0;
+  std::uint64_t fits_ok_ = 0, fits_failed_ = 0, rejected_connections_ = 0, evicted_connections_ = 0;
+  std::size_t compute_running_ = 0, compute_waiting_ = 0;
   std::int64_t open_connections_ = 0;
 };
 

@@ -72,7 +72,6 @@ struct RouterContext {
   std::shared_ptr<Metrics> metrics;    // created when null
   std::shared_ptr<RenderCache> render_cache;  // images of GET /api/v1/fits/{id}/render.png; created when null
   AccessPolicy access;
-  std::string version = "0.0.0";
   std::size_t max_spectrum_samples = 10000;
 };
 
@@ -84,6 +83,8 @@ struct RouteInfo {
   std::string request_schema;   // name in components/schemas, empty for none
   std::string response_schema;  // name in components/schemas, or "text/csv", "text/plain"
   int success_status = 200;
+  // CPU-heavy (fits, renders): the server runs it on its bounded compute pool.
+  bool heavy = false;
 };
 
 class Router {
@@ -97,8 +98,10 @@ class Router {
   Response handle(const Request& request) const;
 
   static const std::vector<RouteInfo>& routes();
-  // OpenAPI 3.1, generated from routes().
-  static nlohmann::json openapi_document(const std::string& version);
+  // Whether `method` on `target` (as in a Request) is a heavy route.
+  static bool is_heavy(const std::string& method, const std::string& target);
+  // OpenAPI 3.1, generated from routes(), with this build's version.
+  static nlohmann::json openapi_document();
 
   Metrics& metrics() const { return *context_.metrics; }
 

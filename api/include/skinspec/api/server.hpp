@@ -1,11 +1,14 @@
 #pragma once
-// The Beast HTTP server in front of a Router: a listener that accepts connections (up to a cap)
-// and one session per connection that reads requests with limits and timeouts, hands them to
-// the router on a worker pool, and writes the responses back, keeping the connection alive
-// when the client asks for it. A response with an event source is streamed in chunks, pulled
-// on a thread per stream, until the source ends, the client hangs up or the server stops.
+// The Beast HTTP server in front of a Router: a listener that accepts connections, and one
+// session per connection that reads requests with limits and timeouts, hands them to the
+// router, and writes the responses back, keeping the connection alive when the client asks for
+// it. The router runs on a pool of workers, and the heavy routes (fits, renders) on a bounded
+// pool of their own, so that they never hold up the others. A response with an event source is
+// streamed in chunks, pulled on a thread per stream, until the source ends, the client hangs
+// up or the server stops. Connections are shared out fairly (docs/api.md, "Connections"): each
+// client address may hold a number of them, and a newcomer over a limit takes the place of the
+// connection idle longest.
 
-#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <expected>
@@ -13,7 +16,6 @@
 #include <string>
 
 #include <boost/asio/io_context.hpp>
-#include <boost/asio/thread_pool.hpp>
 
 #include "skinspec/api/router.hpp"
 
@@ -30,9 +32,24 @@ struct ServerOptions {
   std::chrono::milliseconds write_timeout{30000};
   // A streamed body (Server-Sent Events) sends a keep-alive comment after this much silence.
   std::chrono::milliseconds event_keep_alive{15000};
-  std::size_t max_connections = 512;  // beyond it, new connections get a 503 and are closed
+  // Connections held at once, at most what the file-descriptor limit leaves room for; and per
+  // client address. A newcomer over either takes the place of the longest-idle connection, or
+  // gets a 503 when none is idle.
+  std::size_t max_connections = 512;
+  std::size_t max_connections_per_client = 64;
   int io_threads = 2;
-  int worker_threads = 2;  // where the router runs (fits take milliseconds)
+  int worker_threads = 2;  // where the router runs the light routes
+  // The heavy routes (fits, renders): threads, and requests that may wait for one; beyond them
+  // a 503 with Retry-After.
+  std::size_t compute_threads = 2;
+  std::size_t compute_queue = 8;
+};
+
+// The connection limits in force, after listen().
+struct ServerLimits {
+  std::size_t max_connections = 0;  // less than asked when the descriptor limit is too low
+  std::size_t max_connections_per_client = 0;
+  std::size_t descriptor_limit = 0;  // RLIMIT_NOFILE
 };
 
 class Server {
@@ -46,6 +63,7 @@ class Server {
   std::expected<void, std::string> listen();
   // The bound port (useful with port 0), after listen().
   unsigned short port() const;
+  ServerLimits limits() const;
 
   // Serves on io_threads threads (this one included) until stop() and the end of every
   // connection's in-flight request.

@@ -35,6 +35,7 @@ class MemoryTransport final : public Transport {
   std::expected<void, TransportError> write(std::string_view bytes, Deadline deadline) override;
   std::expected<std::size_t, TransportError> read(char* buffer, std::size_t size, Deadline deadline) override;
   std::expected<void, TransportError> set_modem_lines(bool dtr, bool rts) override;
+  bool peer_closed() override;
   void interrupt() override;
   void clear_interrupt() override;
   std::string describe() const override;

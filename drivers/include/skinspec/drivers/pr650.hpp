@@ -5,12 +5,14 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <expected>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "skinspec/drivers/pr650_exchange.hpp"
 #include "skinspec/drivers/pr650_protocol.hpp"
 #include "skinspec/drivers/transport.hpp"
 
@@ -42,14 +44,13 @@ struct Identity {
 struct DriverOptions {
   pr650::CommandStyle style;                              // terminator from the URI
   int contact_attempts = 5;
-  std::chrono::milliseconds contact_timeout{2000};        // per attempt
   std::chrono::milliseconds modem_settle{500};            // after raising DTR/RTS
-  std::chrono::milliseconds reply_timeout{3000};          // replies that need no measurement
-  std::chrono::milliseconds measurement_overhead{5000};   // beyond integration time
-  // Adaptive integration chooses its own time: a dim patch can take 30 s per average.
-  std::chrono::milliseconds adaptive_allowance{30000};
-  double line_bytes_per_second = 960;                     // 9600 baud, 8N1
+  pr650::ReplyTiming timing;                              // how long each reply may take
 };
+
+// The options for a connection: the URI's terminator, and for a serial port its line rate. A
+// TCP serial server relays the meter's own 9600 baud line.
+DriverOptions driver_options_for(const ConnectionUri& uri);
 
 struct MeasureOptions {
   int integration_ms = 0;  // 10-6000, or 0 = adaptive
@@ -77,6 +78,9 @@ struct Reading {
   std::chrono::system_clock::time_point started, finished;
   std::string raw_reply;             // the D5, D1 and D2 replies as received
   int attempts = 1;                  // measurements made for this reading
+  // What whoever keeps the reading should know about how it was taken, each starting with a
+  // code: "remeasured:" when a measurement never answered and was made again.
+  std::vector<std::string> warnings;
 };
 
 class Pr650 {
@@ -91,6 +95,12 @@ class Pr650 {
   std::expected<void, InstrumentError> connect();
   void disconnect();
   bool connected() const { return connected_; }
+  // Whether the link is known to be dead without a word on it (transport.hpp, peer_closed()):
+  // for noticing, while idle, a meter or serial server that went away. Not during a call.
+  bool link_closed();
+  // Replies (whole or not) received since this driver was made: a caller compares two counts
+  // to tell a failure on its first command from one after the meter had answered.
+  std::uint64_t replies_received() const { return replies_; }
 
   std::expected<Identity, InstrumentError> identify();
   std::expected<Reading, InstrumentError> measure(const MeasureOptions& options);
@@ -102,21 +112,32 @@ class Pr650 {
   const std::string& serial_number() const { return serial_number_; }
 
  private:
-  std::expected<std::string, InstrumentError> exchange(const std::string& command, pr650::ReplyShape shape,
-                                                       Deadline deadline);
+  // How the wait for one reply ended: all of it, nothing at all, or a start that stopped.
+  enum class ReplyEnd { complete, silent, cut };
+  struct Reply {
+    ReplyEnd end = ReplyEnd::silent;
+    std::string bytes;    // without any echo of the command
+    std::string surplus;  // what came after a complete reply in the same read
+  };
+  std::expected<Reply, InstrumentError> transact(const std::string& command, const pr650::ExchangeRule& rule);
+  template <typename Parse>
+  auto ask(const std::string& command, const pr650::ExchangeRule& rule, Parse parse) -> decltype(parse(std::string()));
+  void settle(const pr650::ExchangeRule& rule);
+  InstrumentError unanswered(const std::string& command, const Reply& reply, const pr650::ExchangeRule& rule) const;
+  pr650::ExchangeRule rule(const pr650::Command& command) const { return pr650::exchange_rule(command, options_.timing); }
   std::expected<void, InstrumentError> send_setup(const pr650::Setup& setup);
   std::expected<pr650::Setup::Sync, InstrumentError> choose_sync(const MeasureOptions& options, double& hz);
+  std::expected<void, InstrumentError> start_measurement(const MeasureOptions& options, int integration_ms, Reading& reading);
   std::expected<Reading, InstrumentError> measure_once(const MeasureOptions& options, int integration_ms);
-  std::expected<pr650::SpectralReport, InstrumentError> read_spectrum(std::string& raw);
+  std::expected<void, InstrumentError> read_colorimetry(const MeasureOptions& options, Reading& reading);
   std::expected<void, InstrumentError> drain_pending_measurement();
-  std::chrono::milliseconds measurement_timeout(int integration_ms, int averages) const;
-  std::chrono::milliseconds transfer_time(std::size_t bytes) const;
   InstrumentError link_error(const TransportError& error, const std::string& command) const;
 
   std::unique_ptr<Transport> transport_;
   DriverOptions options_;
   std::atomic<bool> cancelled_{false};
   std::atomic<bool> connected_{false};
+  std::atomic<std::uint64_t> replies_{0};
   bool measurement_pending_ = false;  // an M command whose reply never came (cancelled)
   std::string serial_number_;
   std::mutex call_mutex_;             // one call on the wire at a time

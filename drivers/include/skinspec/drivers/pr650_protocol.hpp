@@ -74,6 +74,9 @@ ReplyShape reply_shape_of_measure(int report);  // M5 gives a spectral report, o
 ReplyShape reply_shape_of_report(int report);   // D5 likewise
 // True once `received` holds a whole reply of that shape (after any echo and prompt).
 bool reply_complete(ReplyShape shape, std::string_view received);
+// The bytes of the first whole reply of that shape in `received` (through its last line end),
+// or 0 while it is not complete: what follows belongs to something else.
+std::size_t reply_size(ReplyShape shape, std::string_view received);
 
 // The reply with a leading echo of `command` and any '>' prompts removed.
 std::string_view strip_echo(std::string_view reply, std::string_view command);

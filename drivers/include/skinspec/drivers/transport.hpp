@@ -46,6 +46,10 @@ class Transport {
   virtual std::expected<std::size_t, TransportError> read(char* buffer, std::size_t size, Deadline deadline) = 0;
   // DTR and RTS; transports without modem lines accept and ignore this.
   virtual std::expected<void, TransportError> set_modem_lines(bool dtr, bool rts) = 0;
+  // Whether the other end is known to be gone (a TCP peer that closed or reset the connection,
+  // a device that vanished), told without reading or waiting; false where the transport cannot
+  // tell. For noticing a dead link while nothing is exchanged on it.
+  virtual bool peer_closed() { return false; }
 
   // Makes a blocked or the next read/write return `interrupted`. Safe from any thread.
   virtual void interrupt() = 0;

@@ -10,10 +10,10 @@
 #include <utility>
 #include <vector>
 
-#include "skinspec/fit/colour.hpp"
 #include "skinspec/fit/model.hpp"
 #include "skinspec/fit/optics.hpp"
-#include "skinspec/fit/spectrum.hpp"
+#include "skinspec/spectral/colour.hpp"
+#include "skinspec/spectral/spectrum.hpp"
 
 namespace skinspec {
 

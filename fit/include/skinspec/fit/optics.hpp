@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "skinspec/fit/model_spec.hpp"
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec {
 

@@ -8,8 +8,8 @@
 #include <string_view>
 #include <vector>
 
-#include "skinspec/fit/table.hpp"
 #include "skinspec/render/vec3.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec::render {
 

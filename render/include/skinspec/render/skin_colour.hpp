@@ -6,9 +6,9 @@
 #include <expected>
 #include <string>
 
-#include "skinspec/fit/colour.hpp"
 #include "skinspec/fit/model.hpp"
 #include "skinspec/fit/optics.hpp"
+#include "skinspec/spectral/colour.hpp"
 
 namespace skinspec::render {
 

@@ -66,16 +66,19 @@ struct FaultSpec {
 std::expected<FaultSpec, std::string> parse_fault_spec(std::string_view text);
 
 // Which faults hit which command: the specs, each counting the commands it matches, and an
-// optional seeded random mode that gives each command a fault with probability `rate`. The
-// random mode never chooses disconnect or reboot, which end a session; ask for those by spec.
+// optional seeded random mode that gives each command a fault with probability `rate`, except
+// the `gap` commands after a random fault (gap 1 spares the command a client sends again after
+// a fault: a soak of single faults). The random mode never chooses disconnect or reboot, which
+// end a session; ask for those by spec.
 class FaultPlan {
  public:
   FaultPlan() = default;
-  explicit FaultPlan(std::vector<FaultSpec> specs, double random_rate = 0, std::uint64_t seed = 1);
+  explicit FaultPlan(std::vector<FaultSpec> specs, double random_rate = 0, std::uint64_t seed = 1, int gap = 0);
 
-  // Parses every spec; the error names the spec at fault. The rate must lie in [0, 1].
+  // Parses every spec; the error names the spec at fault. The rate must lie in [0, 1], the gap
+  // must not be negative.
   static std::expected<FaultPlan, std::string> parse(std::span<const std::string> specs, double random_rate = 0,
-                                                     std::uint64_t seed = 1);
+                                                     std::uint64_t seed = 1, int gap = 0);
 
   // The faults for the next command with this key ("m0", "d5", "s", ...), in spec order.
   std::vector<Fault> next(std::string_view command_key);
@@ -88,6 +91,8 @@ class FaultPlan {
   std::vector<FaultSpec> specs_;
   std::vector<int> seen_;  // per spec: matching commands so far
   double random_rate_ = 0;
+  int gap_ = 0;
+  int spared_ = 0;  // commands still spared after the last random fault
   std::mt19937_64 rng_;
 };
 

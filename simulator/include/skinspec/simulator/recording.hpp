@@ -80,6 +80,7 @@ class RecordingTransport final : public drivers::Transport {
   std::expected<std::size_t, drivers::TransportError> read(char* buffer, std::size_t size,
                                                            drivers::Deadline deadline) override;
   std::expected<void, drivers::TransportError> set_modem_lines(bool dtr, bool rts) override;
+  bool peer_closed() override;
   void interrupt() override;
   void clear_interrupt() override;
   std::string describe() const override;

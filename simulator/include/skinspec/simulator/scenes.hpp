@@ -10,8 +10,8 @@
 #include <string_view>
 #include <vector>
 
-#include "skinspec/fit/spectrum.hpp"
-#include "skinspec/fit/table.hpp"
+#include "skinspec/spectral/spectrum.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec::simulator {
 

@@ -31,6 +31,7 @@ struct SimulatorConfig {
   double flicker_hz = 60.02;                   // what F reports; 0: steady light
   std::vector<std::string> faults;             // fault specs (faults.hpp)
   double fault_rate = 0;                       // random faults: probability per command
+  int fault_gap = 0;                           // commands spared after a random fault
   std::uint64_t seed = 1;                      // random faults and noise
   MeterOptions meter;                          // its `faults` and `seed` are set from the above
 };

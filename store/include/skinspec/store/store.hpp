@@ -21,10 +21,18 @@ enum class RecoveryPolicy {
   all_open_sessions,          // every open session
 };
 
+// How a Store uses its file.
+enum class OpenMode {
+  // The one writer (skinspecd): creates a missing file, migrates, recovers, takes the writer lock.
+  read_write,
+  // Only reads (skinspec export), beside a live writer or none: never writes, creates, migrates
+  // or checkpoints anything, not even a -wal or -shm file beside it (docs/store.md, "Opening").
+  // The file must exist and be a skinspec database at the current schema version.
+  read_only,
+};
+
 struct OpenOptions {
-  // read_only: no writes, no migration, no recovery, no writer lock; the file must exist and
-  // be at the current schema version.
-  bool read_only = false;
+  OpenMode mode = OpenMode::read_write;
   RecoveryPolicy recovery = RecoveryPolicy::sessions_with_active_jobs;
   // Run PRAGMA quick_check before using an existing file (time proportional to its size).
   bool check_integrity = true;
@@ -79,7 +87,8 @@ struct RecordedMeasurement {
 struct JobUpdate {
   // queued -> running, failed or cancelled; running -> succeeded, failed or cancelled.
   JobState state = JobState::running;
-  std::optional<std::string> error{};
+  // Required for failed and cancelled, refused for the other states.
+  std::optional<JobError> error{};
   std::optional<std::string> result{};  // a JSON object
 };
 
@@ -88,12 +97,18 @@ struct CreatedJob {
   bool created = true;  // false: an earlier job had the same idempotency key, returned as is
 };
 
+struct CompletedJob {
+  Job job;  // succeeded, its result holding the ids below
+  RecordedMeasurement ids;
+};
+
 class Store {
  public:
-  // Opens the database at `path`, creating it (read-write) when missing, migrating it forward
-  // and recovering from a writer that died (recovery()). Refuses, leaving the file as it was:
-  // a newer schema, a file that is not a skinspec database or is damaged, a read-only file
-  // (read-write), and a database another program holds for writing (busy).
+  // Opens the database at `path`. Read-write: creates it when missing, migrates it forward and
+  // recovers from a writer that died (recovery()). Refuses, leaving the file as it was: a newer
+  // schema, a file that is not a skinspec database or is damaged, a read-only file (read-write),
+  // a database another program holds for writing (busy, read-write), and a missing, empty or
+  // older one (read-only).
   static Result<Store> open(const std::string& path, const OpenOptions& options = {});
 
   // A moved-from Store may only be destroyed or assigned to.
@@ -122,8 +137,15 @@ class Store {
   Result<SessionPage> sessions(const SessionFilter& filter) const;
 
   // Stores a measurement of an open session and, when given, its fit (whose measurement_id is
-  // ignored), in one transaction: both or neither.
+  // ignored), in one transaction: both or neither. A measurement a job made (job_id set) is
+  // refused here: it is stored with the job's end, by complete_measurement_job.
   Result<RecordedMeasurement> record_measurement(const Measurement& measurement, const std::optional<Fit>& fit);
+  // The end of a running job that measured: the measurement (its job_id set to `job_id`), its
+  // fit when given, and the job `succeeded` with `result` (a JSON object, to which the store
+  // adds "measurement_id" and "fit_id"), in one transaction: all of it or nothing. So a
+  // stored measurement's job has always succeeded and names it, whenever the writer dies.
+  Result<CompletedJob> complete_measurement_job(Id job_id, const Measurement& measurement, const std::optional<Fit>& fit,
+                                                const std::string& result);
   Result<Measurement> measurement(Id id) const;
   // The session's most recently stored measurement of `kind`, if any (the session must exist).
   Result<std::optional<Measurement>> latest_measurement(Id session_id, MeasurementKind kind) const;

@@ -10,8 +10,10 @@
 #include <cstdint>
 #include <expected>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace skinspec::store {
@@ -30,7 +32,7 @@ struct StoreError {
     corrupt,           // not a SQLite file, not a skinspec database, or damaged
     read_only,         // the file (or this Store) cannot be written
     full,              // the disk, or the configured size limit, is full
-    busy,              // another program holds the database for writing
+    busy,              // another program holds the database for writing (or wrote one opened read-only)
     io,                // the operating system failed a read or write
     internal,          // anything else SQLite reports
   };
@@ -158,6 +160,35 @@ struct Fit {
 enum class JobState { queued, running, succeeded, failed, cancelled };
 std::string_view to_string(JobState state);
 std::optional<JobState> parse_job_state(std::string_view text);
+// Each state and its name, in declaration order (for listings such as the API's schema).
+std::span<const std::pair<JobState, std::string_view>> job_state_names();
+
+// Why a job failed or was cancelled, in kinds a program can act on (v4; docs/store.md).
+enum class JobErrorCode {
+  cancelled,       // cancelled by request
+  stopped,         // the service stopped before the job ended
+  interrupted,     // the program running it died; found when the database was next opened
+  no_contact,      // the instrument never answered
+  lost,            // the instrument answered before, then went silent or away
+  protocol,        // the instrument's replies made no sense, even when asked again
+  bad_reading,     // too many readings with a quality code that makes them unusable
+  rejected,        // the instrument refused a setting
+  transport,       // the port or host could not be opened
+  no_white,        // a sample asked for before the session's first white reference
+  white_mismatch,  // the white reference was measured on another grid
+  white_dark,      // the white reference has no signal at some wavelength
+  store,           // the database failed a read or a write
+  internal,        // anything else
+};
+std::string_view to_string(JobErrorCode code);
+std::optional<JobErrorCode> parse_job_error_code(std::string_view text);
+std::span<const std::pair<JobErrorCode, std::string_view>> job_error_code_names();
+
+struct JobError {
+  JobErrorCode code = JobErrorCode::internal;
+  std::string message;  // for people; never parsed
+  bool operator==(const JobError&) const = default;
+};
 
 struct Job {
   Id id = 0;
@@ -167,7 +198,7 @@ struct Job {
   std::optional<Id> session_id{};
   std::string idempotency_key;  // empty = none; otherwise unique among jobs
   JobState state = JobState::queued;
-  std::string error;            // why it failed or was cancelled
+  std::optional<JobError> error{};  // why it failed or was cancelled; none in any other state
   std::string result = "{}";    // a JSON object: the ids it produced
   Time created_at{};
   std::optional<Time> started_at{}, finished_at{};

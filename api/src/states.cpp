@@ -1,0 +1,53 @@
+// The names of the instrument's states and of a job's phases, as the API shows them: the one
+// mapping each way.
+
+#include <algorithm>
+#include <array>
+
+#include "skinspec/api/acquisition.hpp"
+
+namespace skinspec::api {
+
+namespace {
+
+constexpr std::array<std::pair<InstrumentState, std::string_view>, 5> kInstrumentStates = {{
+    {InstrumentState::disconnected, "disconnected"},
+    {InstrumentState::connecting, "connecting"},
+    {InstrumentState::connected, "connected"},
+    {InstrumentState::measuring, "measuring"},
+    {InstrumentState::lost, "lost"},
+}};
+
+constexpr std::array<std::pair<JobPhase, std::string_view>, 6> kJobPhases = {{
+    {JobPhase::queued, "queued"},
+    {JobPhase::connecting, "connecting"},
+    {JobPhase::measuring, "measuring"},
+    {JobPhase::fitting, "fitting"},
+    {JobPhase::storing, "storing"},
+    {JobPhase::done, "done"},
+}};
+
+template <typename E>
+std::string_view name_in(std::span<const std::pair<E, std::string_view>> names, E value) {
+  const auto found = std::ranges::find(names, value, &std::pair<E, std::string_view>::first);
+  return found == names.end() ? std::string_view("unknown") : found->second;
+}
+
+template <typename E>
+std::optional<E> value_in(std::span<const std::pair<E, std::string_view>> names, std::string_view text) {
+  const auto found = std::ranges::find(names, text, &std::pair<E, std::string_view>::second);
+  if (found == names.end()) return std::nullopt;
+  return found->first;
+}
+
+}  // namespace
+
+std::span<const std::pair<InstrumentState, std::string_view>> instrument_state_names() { return kInstrumentStates; }
+std::string_view to_string(InstrumentState state) { return name_in(instrument_state_names(), state); }
+std::optional<InstrumentState> parse_instrument_state(std::string_view text) { return value_in(instrument_state_names(), text); }
+
+std::span<const std::pair<JobPhase, std::string_view>> job_phase_names() { return kJobPhases; }
+std::string_view to_string(JobPhase phase) { return name_in(job_phase_names(), phase); }
+std::optional<JobPhase> parse_job_phase(std::string_view text) { return value_in(job_phase_names(), text); }
+
+}  // namespace skinspec::api

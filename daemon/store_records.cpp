@@ -1,0 +1,77 @@
+#include "store_records.hpp"
+
+#include <cmath>
+
+#include "supervisor_common.hpp"
+
+namespace skinspec::daemon {
+
+using nlohmann::json;
+
+json spectral_configuration_json(const drivers::pr650::SpectralConfiguration& c) {
+  return {{"points", c.points}, {"bandwidth_nm", c.bandwidth_nm}, {"first_nm", c.first_nm}, {"last_nm", c.last_nm},
+          {"step_nm", c.step_nm}};
+}
+
+store::Instrument instrument_record(const drivers::Identity& identity, const std::string& connection) {
+  store::Instrument instrument;
+  instrument.model = "PR-650";
+  instrument.serial_number = identity.serial_number;
+  instrument.spectral_configuration = spectral_configuration_json(identity.configuration).dump();
+  instrument.connection = connection;
+  return instrument;
+}
+
+std::expected<store::Measurement, std::string> averaged(const std::vector<drivers::Reading>& readings) {
+  if (readings.empty()) return std::unexpected("no readings");
+  const auto& first = readings.front();
+  const std::size_t n = first.radiance.size();
+  const double count = static_cast<double>(readings.size());
+  store::Measurement m;
+  m.quality_code = first.quality_code;
+  m.quality = first.quality;
+  m.units = first.units;
+  m.reading_count = static_cast<int>(readings.size());
+  m.radiance.wavelength_nm = first.wavelength_nm;
+  m.radiance.values.assign(n, 0.0);
+  for (const auto& r : readings) {
+    if (r.wavelength_nm != first.wavelength_nm || r.radiance.size() != n) return std::unexpected("readings on different grids");
+    for (std::size_t i = 0; i < n; ++i) m.radiance.values[i] += r.radiance[i] / count;
+    m.raw_reply += r.raw_reply;
+  }
+  if (readings.size() > 1) {
+    m.radiance_sd.wavelength_nm = first.wavelength_nm;
+    m.radiance_sd.values.assign(n, 0.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      double sum = 0;
+      for (const auto& r : readings) sum += (r.radiance[i] - m.radiance.values[i]) * (r.radiance[i] - m.radiance.values[i]);
+      m.radiance_sd.values[i] = std::sqrt(sum / (count - 1));
+    }
+  }
+  m.started_at = to_store_time(first.started);
+  m.finished_at = to_store_time(readings.back().finished);
+  return m;
+}
+
+std::string measurement_settings(const std::vector<drivers::Reading>& readings, int integration_ms, int count,
+                                 std::size_t rejected_readings) {
+  json settings = {{"integration_ms", integration_ms}, {"count", count}, {"rejected_readings", rejected_readings}};
+  if (!readings.empty()) {
+    settings["averages"] = readings.front().averages;
+    settings["sync"] = readings.front().sync;
+  }
+  return settings.dump();
+}
+
+store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, int attempt, store::Time measured_at) {
+  store::RejectedReading r;
+  r.attempt = attempt;
+  r.quality_code = error.quality_code;
+  r.quality = drivers::pr650::quality_message(error.quality_code);
+  r.reason = describe(error);
+  r.raw_reply = error.raw_reply;
+  r.measured_at = measured_at;
+  return r;
+}
+
+}  // namespace skinspec::daemon

@@ -1,0 +1,38 @@
+#pragma once
+// What the meter said, as the store keeps it: the daemon's one place where the drivers' values
+// (its identity, its readings, the readings it rejected) become store records. Pure functions;
+// the supervisor adds the ids only it knows (session, job, instrument, white).
+
+#include <expected>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "skinspec/drivers/pr650.hpp"
+#include "skinspec/store/types.hpp"
+
+namespace skinspec::daemon {
+
+// {"points", "bandwidth_nm", "first_nm", "last_nm", "step_nm"}: the meter's D120 reply.
+nlohmann::json spectral_configuration_json(const drivers::pr650::SpectralConfiguration& configuration);
+
+// The meter as the store knows it: model, serial number, the spectral configuration it
+// reported, and the --device it was reached by.
+store::Instrument instrument_record(const drivers::Identity& identity, const std::string& connection);
+
+// The readings' mean radiance, their standard deviation (more than one reading), quality,
+// units, raw replies concatenated, first start and last finish; the caller adds session, kind,
+// settings and the rest. An explanation when the readings differ in grid.
+std::expected<store::Measurement, std::string> averaged(const std::vector<drivers::Reading>& readings);
+
+// A measurement's settings as JSON text: the integration time asked for (0: adaptive), the
+// meter's averages and sync, the readings asked for and how many were rejected on the way.
+std::string measurement_settings(const std::vector<drivers::Reading>& readings, int integration_ms, int count,
+                                 std::size_t rejected_readings);
+
+// A reading the meter returned with a bad quality code: its code, the meter's text for it, the
+// reason as the job reports it, and its raw reply.
+store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, int attempt, store::Time measured_at);
+
+}  // namespace skinspec::daemon

@@ -1,0 +1,164 @@
+#include "skinspec/records/export.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "skinspec/records/record_json.hpp"
+
+namespace skinspec::records {
+
+namespace {
+
+using Json = nlohmann::json;
+using store::Fit;
+using store::Id;
+using store::Measurement;
+using store::Result;
+using store::Session;
+using store::SessionDetail;
+using store::SessionFilter;
+using store::Store;
+
+// A measurement with its fits, each as the service shows it.
+Json measurement_with_fits(const Measurement& m, const std::vector<Fit>& fits) {
+  Json out = to_json(m, latest_fit_of(m.id, fits));
+  out["fits"] = Json::array();
+  for (const auto& f : fits)
+    if (f.measurement_id == m.id) out["fits"].push_back(to_json(f));
+  return out;
+}
+
+Result<Json> detail_json(const Store& store, const SessionDetail& detail) {
+  Json out = {{"session", to_json(detail.session)}, {"white_standard", Json()}};
+  if (detail.session.white_standard_id) {
+    auto white = store.white_standard(*detail.session.white_standard_id);
+    if (!white) return std::unexpected(white.error());
+    out["white_standard"] = to_json(*white);
+  }
+  std::vector<Id> instrument_ids;
+  for (const auto& m : detail.measurements)
+    if (m.instrument_id) instrument_ids.push_back(*m.instrument_id);
+  for (const auto& r : detail.rejected_readings)
+    if (r.instrument_id) instrument_ids.push_back(*r.instrument_id);
+  std::ranges::sort(instrument_ids);
+  instrument_ids.erase(std::unique(instrument_ids.begin(), instrument_ids.end()), instrument_ids.end());
+  out["instruments"] = Json::array();
+  for (const Id id : instrument_ids) {
+    auto instrument = store.instrument(id);
+    if (!instrument) return std::unexpected(instrument.error());
+    out["instruments"].push_back(to_json(*instrument));
+  }
+  out["measurements"] = Json::array();
+  for (const auto& m : detail.measurements) out["measurements"].push_back(measurement_with_fits(m, detail.fits));
+  out["rejected_readings"] = Json::array();
+  for (const auto& r : detail.rejected_readings) out["rejected_readings"].push_back(to_json(r));
+  return out;
+}
+
+// RFC 4180: quoted when it holds a comma, a quote or a line break; quotes doubled.
+std::string csv_field(std::string_view text) {
+  if (text.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(text);
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + '"';
+}
+
+std::string number(double v) { return fmt::format("{}", v); }
+
+using Column = std::map<double, double>;
+
+Column column_of(const std::vector<double>& grid, const std::vector<double>& values) {
+  Column out;
+  for (std::size_t i = 0; i < grid.size(); ++i) out.emplace(grid[i], values[i]);
+  return out;
+}
+
+std::string value_at(const Column& column, double wavelength) {
+  const auto found = column.find(wavelength);
+  return found == column.end() ? std::string() : number(found->second);
+}
+
+void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, const Fit* fit) {
+  const Column radiance = column_of(m.radiance.wavelength_nm, m.radiance.values);
+  const Column sd = column_of(m.radiance_sd.wavelength_nm, m.radiance_sd.values);
+  const Column reflectance = column_of(m.reflectance.wavelength_nm, m.reflectance.values);
+  const Column fitted = fit ? column_of(fit->wavelength_nm, fit->fitted) : Column();
+  std::map<double, bool> grid;
+  for (const auto* column : {&radiance, &sd, &reflectance, &fitted})
+    for (const auto& [w, v] : *column) grid[w] = true;
+
+  std::string prefix = fmt::format("{},{},{},{},{},{},{},{},{},{},{},", s.id, csv_field(s.subject), csv_field(s.site),
+                                   to_string(s.state), m.id, to_string(m.kind), csv_field(m.label),
+                                   m.simulated ? 1 : 0, m.quality_code, m.reading_count, json_time(m.started_at));
+  if (fit) {
+    prefix += fmt::format("{},", fit->id);
+    for (const double p : fit->params) prefix += number(p) + ",";
+    prefix += fmt::format("{},{},{},{},{},{},", number(fit->rmse), number(fit->max_abs_error),
+                          number(fit->delta_e00_d65), fit->converged ? 1 : 0, csv_field(fit->model_version),
+                          csv_field(fit->tables_digest));
+  } else {
+    prefix += std::string(12, ',');
+  }
+  for (const auto& [w, unused] : grid) {
+    out << prefix << number(w) << ',' << value_at(radiance, w) << ',' << value_at(sd, w) << ','
+        << value_at(reflectance, w) << ',' << value_at(fitted, w) << '\n';
+  }
+}
+
+}  // namespace
+
+void write_csv_header(std::ostream& out) {
+  out << "session_id,subject,site,session_state,measurement_id,kind,label,simulated,quality_code,reading_count,"
+         "started_at,fit_id,surface_reflectance,melanin,oxyhemoglobin,deoxyhemoglobin,bilirubin,rmse,max_abs_error,"
+         "delta_e00_d65,converged,model_version,tables_digest,wavelength_nm,radiance,radiance_sd,reflectance,"
+         "fitted\n";
+}
+
+Result<void> export_session(const Store& store, Id session_id, ExportFormat format, std::ostream& out) {
+  auto detail = store.session_detail(session_id);
+  if (!detail) return std::unexpected(detail.error());
+  if (format == ExportFormat::json) {
+    auto json = detail_json(store, *detail);
+    if (!json) return std::unexpected(json.error());
+    out << json->dump(-1, ' ', false, Json::error_handler_t::replace) << '\n';
+    return {};
+  }
+  for (const auto& m : detail->measurements) {
+    bool any = false;
+    for (const auto& f : detail->fits) {
+      if (f.measurement_id != m.id) continue;
+      write_csv_rows(out, detail->session, m, &f);
+      any = true;
+    }
+    if (!any) write_csv_rows(out, detail->session, m, nullptr);
+  }
+  return {};
+}
+
+Result<void> export_all(const Store& store, ExportFormat format, std::ostream& out) {
+  std::vector<Id> ids;
+  SessionFilter filter;
+  filter.limit = 1000;
+  for (;;) {
+    auto page = store.sessions(filter);
+    if (!page) return std::unexpected(page.error());
+    for (const auto& s : page->sessions) ids.push_back(s.id);
+    if (!page->next_cursor) break;
+    filter.cursor = page->next_cursor;
+  }
+  std::ranges::reverse(ids);
+  if (format == ExportFormat::csv) write_csv_header(out);
+  for (const Id id : ids) {
+    if (auto written = export_session(store, id, format, out); !written) return written;
+  }
+  return {};
+}
+
+}  // namespace skinspec::records

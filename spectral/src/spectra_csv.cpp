@@ -1,0 +1,201 @@
+#include "skinspec/spectral/spectra_csv.hpp"
+
+#include <algorithm>
+#include <fmt/format.h>
+#include <utility>
+
+#include "skinspec/spectral/utf8.hpp"
+#include "text.hpp"
+
+namespace skinspec {
+namespace {
+
+constexpr std::string_view kByteOrderMark = "\xEF\xBB\xBF";
+constexpr std::string_view kWavelengthColumn = "wavelength_nm";
+
+// Spreadsheets saving "CSV UTF-8" write a byte order mark before the header; left in place it
+// would become part of the first column name and the header would be refused.
+std::string_view without_byte_order_mark(std::string_view bytes) {
+  if (bytes.starts_with(kByteOrderMark)) bytes.remove_prefix(kByteOrderMark.size());
+  return bytes;
+}
+
+// Blank lines and "#" comment lines (a file's provenance, as in skinspec's own tables) carry
+// no data.
+bool carries_no_data(std::string_view line) {
+  const auto trimmed = text::trim(line);
+  return trimmed.empty() || trimmed.starts_with('#');
+}
+
+using Outcome = std::expected<void, InputError>;
+
+// Reads the file line by line into columns, then turns each value column into a Spectrum.
+// Defects in a line are found while that line is read, so their location is still at hand.
+class SpectraParser {
+ public:
+  SpectraParser(std::string_view source, const SpectraLimits& limits)
+      : source_(source), limits_(limits) {}
+
+  std::expected<std::vector<NamedSpectrum>, InputError> parse(std::string_view bytes) {
+    const auto content = without_byte_order_mark(bytes);
+    text::LineReader lines(content);
+    std::string_view line;
+    std::size_t line_no = 0;
+    while (lines.next(line, line_no)) {
+      // Before anything else, comments included: a name or cell that is not text cannot be shown.
+      if (auto defect = text::utf8_defect(line)) return fail(line_no, defect->column, std::move(defect->message));
+      if (carries_no_data(line)) continue;
+      const auto cells = text::split_csv(line);
+      const auto read = has_header() ? read_row(cells, line_no) : read_header(cells, line_no);
+      if (!read) return std::unexpected(read.error());
+    }
+    if (!has_header()) {
+      const auto* what = content.empty() ? "the input is empty" : "the input holds only blank or comment lines";
+      return fail(1, 0, fmt::format("{}; expected a header starting with '{}'", what, kWavelengthColumn));
+    }
+    if (const auto rows = check_row_count(); !rows) return std::unexpected(rows.error());
+    if (const auto grid = check_coverage(); !grid) return std::unexpected(grid.error());
+    return build_spectra();
+  }
+
+ private:
+  std::unexpected<InputError> fail(std::size_t line, std::size_t column, std::string message) const {
+    return std::unexpected(InputError{source_, line, column, std::move(message)});
+  }
+
+  bool has_header() const { return !names_.empty(); }
+  std::size_t row_count() const { return columns_.front().size(); }
+
+  Outcome read_header(const std::vector<text::Cell>& cells, std::size_t line_no) {
+    const auto& first = cells.front();
+    const auto first_name = text::trim(first.text);
+    // Data pasted without its header starts with a wavelength; "not named wavelength_nm"
+    // would send the reader looking for a typo instead of the missing line.
+    if (text::parse_number(first.text))
+      return fail(line_no, first.column,
+                  fmt::format("the header is missing: this line starts with the number {} where a "
+                              "header starting with '{}' is expected",
+                              first_name, kWavelengthColumn));
+    if (first_name != kWavelengthColumn)
+      return fail(line_no, first.column,
+                  fmt::format("the first column is named {}; it must be '{}'", quote(first_name),
+                              kWavelengthColumn));
+    if (cells.size() < 2)
+      return fail(line_no, 0,
+                  fmt::format("the header names no spectrum: '{}' must be followed by at least "
+                              "one column",
+                              kWavelengthColumn));
+    std::vector<std::string> names;
+    for (const auto& cell : cells) {
+      std::string name(text::trim(cell.text));
+      if (name.empty())
+        return fail(line_no, cell.column, fmt::format("column {} has an empty name", names.size() + 1));
+      if (const auto earlier = std::ranges::find(names, name); earlier != names.end())
+        return fail(line_no, cell.column,
+                    fmt::format("duplicated column name {} (also column {})", quote(name),
+                                earlier - names.begin() + 1));
+      names.push_back(std::move(name));
+    }
+    names_ = std::move(names);
+    columns_.resize(names_.size());
+    last_content_line_ = line_no;
+    return {};
+  }
+
+  Outcome read_row(const std::vector<text::Cell>& cells, std::size_t line_no) {
+    if (const auto shape = check_cell_count(cells, line_no); !shape) return shape;
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+      const auto value = read_number(cells[c], names_[c], line_no);
+      if (!value) return std::unexpected(value.error());
+      const auto valid = c == 0 ? check_wavelength_increases(*value, cells[c], line_no)
+                                : check_within_limits(*value, cells[c], names_[c], line_no);
+      if (!valid) return valid;
+      columns_[c].push_back(*value);
+    }
+    last_content_line_ = line_no;
+    return {};
+  }
+
+  Outcome check_cell_count(const std::vector<text::Cell>& cells, std::size_t line_no) const {
+    if (cells.size() > names_.size())
+      return fail(line_no, cells[names_.size()].column,
+                  fmt::format("{} cells where the header has {}", cells.size(), names_.size()));
+    if (cells.size() < names_.size())
+      return fail(line_no, 0,
+                  fmt::format("{} cells where the header has {}; the first without a value is {}",
+                              cells.size(), names_.size(), quote(names_[cells.size()])));
+    return {};
+  }
+
+  std::expected<double, InputError> read_number(const text::Cell& cell, const std::string& column_name,
+                                                std::size_t line_no) const {
+    const auto value = text::parse_number(cell.text);
+    if (!value)
+      return fail(line_no, cell.column, fmt::format("{} in column {}", value.error(), quote(column_name)));
+    return *value;
+  }
+
+  Outcome check_wavelength_increases(double wavelength, const text::Cell& cell,
+                                     std::size_t line_no) const {
+    if (row_count() == 0) return {};
+    const double previous = columns_.front().back();
+    if (wavelength > previous) return {};
+    const auto* relation = wavelength == previous ? "repeats" : "is below";
+    return fail(line_no, cell.column,
+                fmt::format("wavelength {} nm {} {} nm on line {}; wavelengths must strictly increase",
+                            wavelength, relation, previous, last_content_line_));
+  }
+
+  Outcome check_within_limits(double value, const text::Cell& cell, const std::string& column_name,
+                              std::size_t line_no) const {
+    if (value >= limits_.min_value && value <= limits_.max_value) return {};
+    return fail(line_no, cell.column,
+                fmt::format("value {} in column {} is outside the allowed range [{}, {}]", value,
+                            quote(column_name), limits_.min_value, limits_.max_value));
+  }
+
+  // Points at the header, or at the single row, so the reader sees where the data stops.
+  Outcome check_row_count() const {
+    if (row_count() >= 2) return {};
+    return fail(last_content_line_, 0,
+                fmt::format("{} data row{} below the header; a spectrum needs at least two",
+                            row_count(), row_count() == 1 ? "" : "s"));
+  }
+
+  // Concerns the whole grid rather than one line, hence line 0.
+  Outcome check_coverage() const {
+    const auto& wavelengths = columns_.front();
+    if (wavelengths.front() <= limits_.must_cover_from_nm && wavelengths.back() >= limits_.must_cover_to_nm)
+      return {};
+    return fail(0, 0,
+                fmt::format("the wavelengths cover {}-{} nm but {}-{} nm is needed", wavelengths.front(),
+                            wavelengths.back(), limits_.must_cover_from_nm, limits_.must_cover_to_nm));
+  }
+
+  std::expected<std::vector<NamedSpectrum>, InputError> build_spectra() {
+    std::vector<NamedSpectrum> spectra;
+    spectra.reserve(names_.size() - 1);
+    for (std::size_t c = 1; c < names_.size(); ++c) {
+      // The rows were checked above, so this only fails if Spectrum's rules grow stricter.
+      auto spectrum = Spectrum::create(columns_.front(), std::move(columns_[c]));
+      if (!spectrum) return fail(0, 0, fmt::format("column {}: {}", quote(names_[c]), spectrum.error()));
+      spectra.push_back({std::move(names_[c]), std::move(*spectrum)});
+    }
+    return spectra;
+  }
+
+  std::string source_;
+  SpectraLimits limits_;
+  std::vector<std::string> names_;            // header order; names_[0] is wavelength_nm
+  std::vector<std::vector<double>> columns_;  // columns_[c] holds the values under names_[c]
+  std::size_t last_content_line_ = 0;         // the header's or the latest row's line
+};
+
+}  // namespace
+
+std::expected<std::vector<NamedSpectrum>, InputError> parse_spectra_csv(
+    std::string_view bytes, std::string_view source, const SpectraLimits& limits) {
+  return SpectraParser(source, limits).parse(bytes);
+}
+
+}  // namespace skinspec

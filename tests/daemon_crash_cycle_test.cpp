@@ -1,0 +1,148 @@
+// skinspecd SIGKILLed at seeded random moments while it runs measurement jobs against
+// skinspec-sim (time scale 0), then started again on the same database, 102 times over. After
+// each kill the file is intact and its jobs agree with its rows (every stored measurement's job
+// has succeeded and names it, every succeeded job has its measurement and fit); after each
+// restart every job of the cycle has either succeeded, with its measurement and fit readable
+// through the API, or failed with the code `interrupted`.
+
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <random>
+#include <thread>
+
+#include "support/acquisition_rig.hpp"
+#include "support/http_client.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec::testing {
+namespace {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+struct Tally {
+  int killed_while_running = 0;  // a job had started and not ended when the daemon died
+  int killed_while_queued = 0;   // jobs waited, none ran
+  int succeeded = 0, interrupted = 0;
+};
+
+// The jobs of one cycle after the restart: each ended, and as the kill left it.
+void expect_ended_as_the_kill_left_them(unsigned short port, const std::vector<long long>& jobs, Tally& tally) {
+  for (const long long id : jobs) {
+    const json job = get_json(port, "/api/v1/jobs/" + std::to_string(id));
+    const std::string state = job.value("state", "");
+    if (state == "succeeded") {
+      ++tally.succeeded;
+      EXPECT_TRUE(job["error"].is_null()) << job;
+      const auto& result = job["result"];
+      ASSERT_TRUE(result["measurement_id"].is_number_integer()) << job;
+      ASSERT_TRUE(result["fit_id"].is_number_integer()) << job;
+      const auto m = http_request(port, "GET", "/api/v1/measurements/" + std::to_string(result["measurement_id"].get<long long>()));
+      ASSERT_EQ(m.status, 200) << job;
+      EXPECT_EQ(m.json()["provenance"]["job_id"], id) << job;
+      EXPECT_EQ(http_request(port, "GET", "/api/v1/fits/" + std::to_string(result["fit_id"].get<long long>())).status, 200) << job;
+    } else {
+      ++tally.interrupted;
+      EXPECT_EQ(state, "failed") << job;
+      EXPECT_EQ(job["error"]["code"], "interrupted") << job;
+      EXPECT_TRUE(job["position"].is_null()) << job;
+    }
+  }
+}
+
+// Whether the restarted daemon has the meter again, so that the next kills land among jobs
+// rather than in its reconnection.
+bool meter_connected(unsigned short port) {
+  const auto until = std::chrono::steady_clock::now() + 10s;
+  while (std::chrono::steady_clock::now() < until) {
+    if (get_json(port, "/api/v1/instrument").value("state", "") == "connected") return true;
+    std::this_thread::sleep_for(2ms);
+  }
+  return false;
+}
+
+// One rig's cycles: jobs submitted, the daemon killed after a seeded random delay, checked,
+// started again.
+void run_cycles(const std::string& work_dir, unsigned seed, int cycles, Tally& tally) {
+  // A quick first reconnection: the meter may still be busy with the killed daemon's link.
+  AcquisitionRig rig(rig_options(work_dir, {"--quiet"}, {"--log-level", "warn", "--reconnect-initial-ms", "20"}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const long long session = new_session(rig.port, "C1");
+  ASSERT_EQ(wait_for_job(rig.port, submit(rig.port, session, {{"kind", "white"}}))["state"], "succeeded") << rig.logs();
+  const std::string session_path = "/api/v1/sessions/" + std::to_string(session);
+
+  std::mt19937 random(seed);
+  std::uniform_int_distribution<int> jobs_per_cycle(1, 4);
+  // A sample job takes a few milliseconds here: kills land before, inside and after jobs.
+  std::uniform_int_distribution<int> delay_us(0, 30'000);
+  for (int cycle = 0; cycle < cycles; ++cycle) {
+    SCOPED_TRACE("seed " + std::to_string(seed) + ", cycle " + std::to_string(cycle));
+    ASSERT_TRUE(meter_connected(rig.port)) << rig.logs();
+    std::vector<long long> jobs;
+    for (int n = jobs_per_cycle(random); n > 0; --n) {
+      const json accepted = submit(rig.port, session, {{"kind", "sample"}});
+      ASSERT_TRUE(accepted.contains("job_id")) << accepted << rig.logs();
+      jobs.push_back(accepted["job_id"].get<long long>());
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random)));
+    rig.daemon->send_signal(SIGKILL);
+    ASSERT_EQ(rig.daemon->wait(10s).signal, SIGKILL);
+
+    ASSERT_EQ(sqlite_text(rig.db_path(), "PRAGMA integrity_check"), "ok");
+    EXPECT_EQ(jobs_and_rows_disagreement(rig.db_path()), "");
+    const auto running = sqlite_integer(rig.db_path(), "SELECT count(*) FROM jobs WHERE state = 'running'");
+    const auto queued = sqlite_integer(rig.db_path(), "SELECT count(*) FROM jobs WHERE state = 'queued'");
+    EXPECT_LE(running, 1);
+    tally.killed_while_running += running > 0;
+    tally.killed_while_queued += running == 0 && queued > 0;
+
+    rig.restart_daemon();
+    ASSERT_TRUE(rig.ready()) << rig.logs();
+    EXPECT_EQ(jobs_and_rows_disagreement(rig.db_path()), "");
+    EXPECT_EQ(sqlite_integer(rig.db_path(), "SELECT count(*) FROM jobs WHERE state IN ('queued', 'running')"), 0);
+    expect_ended_as_the_kill_left_them(rig.port, jobs, tally);
+    if (::testing::Test::HasFatalFailure()) return;
+    // Recovery interrupts a session whose jobs were cut short; the operator carries on with it.
+    if (get_json(rig.port, session_path)["state"] == "interrupted") {
+      ASSERT_EQ(http_request(rig.port, "PATCH", session_path, R"({"state": "open"})").status, 200);
+    }
+  }
+}
+
+TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
+  // Three rigs at once, each on its own database: a restarted daemon spends most of its time
+  // waiting for the meter to settle, not computing.
+  constexpr int kRigs = 3;
+  constexpr int kCyclesPerRig = 34;
+  ScratchDirectory dir;
+  std::vector<Tally> tallies(kRigs);
+  const auto started = std::chrono::steady_clock::now();
+  {
+    std::vector<std::jthread> rigs;
+    for (int r = 0; r < kRigs; ++r) {
+      const auto work_dir = dir.path() / ("rig" + std::to_string(r));
+      std::filesystem::create_directories(work_dir);
+      auto& tally = tallies[static_cast<std::size_t>(r)];
+      rigs.emplace_back([&tally, r, work_dir] { run_cycles(work_dir.string(), 1312 + static_cast<unsigned>(r), kCyclesPerRig, tally); });
+    }
+  }
+  Tally total;
+  for (const auto& t : tallies) {
+    total.killed_while_running += t.killed_while_running;
+    total.killed_while_queued += t.killed_while_queued;
+    total.succeeded += t.succeeded;
+    total.interrupted += t.interrupted;
+  }
+  const auto seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  std::printf("%d kills in %.1f s: %d while a job ran, %d while jobs only waited; %d jobs succeeded, %d interrupted\n",
+              kRigs * kCyclesPerRig, seconds, total.killed_while_running, total.killed_while_queued, total.succeeded, total.interrupted);
+  // The kills must have hit jobs at work, and jobs must have finished between them.
+  EXPECT_GE(total.killed_while_running, kRigs * kCyclesPerRig / 4);
+  EXPECT_GE(total.succeeded, kRigs * kCyclesPerRig / 2);
+}
+
+}  // namespace
+}  // namespace skinspec::testing
