@@ -29,7 +29,8 @@ using nlohmann::json;
 using namespace skinspec::testing;
 
 std::int64_t now_us() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
 }
 
 struct Sample {
@@ -45,8 +46,8 @@ double percentile(std::vector<double> values, double p) {
 void report(const char* name, const std::vector<Sample>& samples, double Sample::*field) {
   std::vector<double> values;
   for (const auto& s : samples) values.push_back(s.*field);
-  std::printf("%-38s median %7.3f ms   p95 %7.3f ms   max %7.3f ms\n", name, percentile(values, 0.5), percentile(values, 0.95),
-              percentile(values, 1.0));
+  std::printf("%-38s median %7.3f ms   p95 %7.3f ms   max %7.3f ms\n", name, percentile(values, 0.5),
+              percentile(values, 0.95), percentile(values, 1.0));
 }
 
 [[noreturn]] void die(const std::string& message) {
@@ -69,7 +70,8 @@ int main(int argc, char** argv) {
   AcquisitionRig rig(options);
   if (!rig.ready()) die("the rig did not start:\n" + rig.logs());
   const auto session = new_session(rig.port, "bench");
-  if (wait_for_job(rig.port, submit(rig.port, session, {{"kind", "white"}}))["state"] != "succeeded") die("the white failed");
+  if (wait_for_job(rig.port, submit(rig.port, session, {{"kind", "white"}}))["state"] != "succeeded")
+    die("the white failed");
 
   HttpConnection api(rig.port);
   std::vector<Sample> samples;
@@ -92,10 +94,14 @@ int main(int argc, char** argv) {
   report("reply -> fit visible through the API", samples, &Sample::overhead_ms);
   report("  of which reflectance and fit", samples, &Sample::derive_ms);
   report("  of which the fit", samples, &Sample::fit_ms);
-  std::printf("goal: median <= 10 ms: %s\n", percentile([&] {
-    std::vector<double> v;
-    for (const auto& s : samples) v.push_back(s.overhead_ms);
-    return v;
-  }(), 0.5) <= 10 ? "met" : "NOT met");
+  std::printf("goal: median <= 10 ms: %s\n", percentile(
+                                                 [&] {
+                                                   std::vector<double> v;
+                                                   for (const auto& s : samples) v.push_back(s.overhead_ms);
+                                                   return v;
+                                                 }(),
+                                                 0.5) <= 10
+                                                 ? "met"
+                                                 : "NOT met");
   return 0;
 }

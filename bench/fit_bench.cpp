@@ -32,7 +32,9 @@ const std::vector<double>& grid() {
   return g;
 }
 
-ModelKind model_of(const benchmark::State& state) { return state.range(0) == 0 ? ModelKind::paper : ModelKind::extended; }
+ModelKind model_of(const benchmark::State& state) {
+  return state.range(0) == 0 ? ModelKind::paper : ModelKind::extended;
+}
 
 SkinModel forearm_model(ModelKind kind) {
   return SkinModel(fitter().optics(kind), *fitter().optics(kind).site("forearm"), grid(), true);
@@ -84,7 +86,13 @@ void FitOne(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(fitter().fit(spectra[i++ % spectra.size()], options));
   state.SetItemsProcessed(state.iterations());
 }
-BENCHMARK(FitOne)->ArgName("extended")->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK(FitOne)
+    ->ArgName("extended")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMicrosecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
 
 void FitBatch(benchmark::State& state) {
   const ModelKind kind = model_of(state);
@@ -98,7 +106,13 @@ void FitBatch(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations() * state.range(1));
 }
-BENCHMARK(FitBatch)->ArgNames({"extended", "spectra"})->Args({0, 10000})->Args({1, 10000})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+BENCHMARK(FitBatch)
+    ->ArgNames({"extended", "spectra"})
+    ->Args({0, 10000})
+    ->Args({1, 10000})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
 
 }  // namespace
 }  // namespace skinspec

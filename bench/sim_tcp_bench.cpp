@@ -41,7 +41,8 @@ struct SimulatorProcess {
     posix_spawn_file_actions_adddup2(&actions, out[1], STDOUT_FILENO);
     posix_spawn_file_actions_addclose(&actions, out[0]);
     const std::string program = SKINSPEC_BENCH_BIN_DIR "/skinspec-sim";
-    const char* argv[] = {program.c_str(), "--listen", "127.0.0.1:0", "--time-scale", "0", "--boot-window", "inf", "-q", nullptr};
+    const char* argv[] = {program.c_str(), "--listen", "127.0.0.1:0", "--time-scale", "0",
+                          "--boot-window", "inf",      "-q",          nullptr};
     if (posix_spawn(&pid, program.c_str(), &actions, nullptr, const_cast<char**>(argv), environ) != 0)
       die("cannot start " + program);
     posix_spawn_file_actions_destroy(&actions);

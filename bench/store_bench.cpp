@@ -107,7 +107,8 @@ void BM_ReadFitWhileWriting(benchmark::State& state) {
   if (state.thread_index() == 0) {
     scratch = std::make_unique<Scratch>();
     fits.clear();
-    for (int n = 0; n < 200; ++n) fits.push_back(*scratch->store->record_measurement(measurement(scratch->session, n), fit())->fit_id);
+    for (int n = 0; n < 200; ++n)
+      fits.push_back(*scratch->store->record_measurement(measurement(scratch->session, n), fit())->fit_id);
     stop = false;
     commits = 0;
     writer = std::thread([] {

@@ -48,8 +48,10 @@ void run_figures(const FiguresArgs& args) {
 
 void add_figures_command(CLI::App& app) {
   auto args = std::make_shared<FiguresArgs>();
-  auto* cmd = app.add_subcommand("figures", "recreate the paper's figures 4-6 (illuminants, melanin x haemoglobin, bilirubin) as PNGs");
-  cmd->add_option("--out", args->out_dir, "directory for figure4_illuminants.png, figure5_melanin_haemoglobin.png, figure6_bilirubin.png")
+  auto* cmd = app.add_subcommand(
+      "figures", "recreate the paper's figures 4-6 (illuminants, melanin x haemoglobin, bilirubin) as PNGs");
+  cmd->add_option("--out", args->out_dir,
+                  "directory for figure4_illuminants.png, figure5_melanin_haemoglobin.png, figure6_bilirubin.png")
       ->required();
   add_skin_options(*cmd, args->skin);
   cmd->add_option("--size", args->size, "size of each image of a sheet, WxH")->capture_default_str();

@@ -35,7 +35,8 @@ void print_table(ModelKind model, const std::vector<NamedSpectrum>& spectra,
                  const std::vector<std::expected<FitResult, std::string>>& results) {
   const auto params = model_spec(model).params;
   std::cout << fmt::format("{:<14} ", "spectrum");
-  for (const ParamSpec& p : params) std::cout << fmt::format("{:<{}} ", p.name, std::max<std::size_t>(16, p.name.size()));
+  for (const ParamSpec& p : params)
+    std::cout << fmt::format("{:<{}} ", p.name, std::max<std::size_t>(16, p.name.size()));
   std::cout << fmt::format("{:>7} {:>6} {}\n", "rmse", "dE00", "converged");
   for (std::size_t i = 0; i < results.size(); ++i) {
     const FitResult& r = *results[i];
@@ -60,18 +61,23 @@ void run_fit(const FitArgs& args) {
   limits.must_cover_from_nm = kMinCoverFromNm;
   limits.must_cover_to_nm = kMinCoverToNm;
   const auto spectra = read_spectra(args.file, limits);
-  FitOptions options{.model = args.model, .site = args.site, .lateral_diffusion = !args.no_lateral_diffusion,
-                     .weights = {}, .held = held_for(args.model, args.fixes)};
+  FitOptions options{.model = args.model,
+                     .site = args.site,
+                     .lateral_diffusion = !args.no_lateral_diffusion,
+                     .weights = {},
+                     .held = held_for(args.model, args.fixes)};
   if (auto site = fitter().optics(args.model).site(args.site); !site) throw Failure{kBadInput, site.error()};
   const auto results = fit_all(spectra, options);
   // Refuse the whole file before printing anything, so a failure never leaves partial output.
   for (std::size_t i = 0; i < results.size(); ++i)
     if (!results[i])
-      throw Failure{kBadInput, input_name(args.file) + ": column " + quote(spectra[i].name) + ": " + results[i].error()};
+      throw Failure{kBadInput,
+                    input_name(args.file) + ": column " + quote(spectra[i].name) + ": " + results[i].error()};
   if (args.format == "table") {
     print_table(args.model, spectra, results);
   } else {
-    for (std::size_t i = 0; i < results.size(); ++i) std::cout << fit_to_json(spectra[i].name, *results[i]).dump() << '\n';
+    for (std::size_t i = 0; i < results.size(); ++i)
+      std::cout << fit_to_json(spectra[i].name, *results[i]).dump() << '\n';
   }
   std::size_t ignored = 0;
   for (const auto& r : results) ignored = std::max(ignored, r->samples_ignored);
@@ -96,7 +102,8 @@ void add_fit_command(CLI::App& app) {
                 "leave out the correction for light lost outside the measured spot");
   add_fix_option(*fit, args->fixes);
   fit->add_option("--format", args->format, "json: one JSON object per spectrum per line; table: a summary for people")
-      ->check(CLI::IsMember({"json", "table"}))->capture_default_str();
+      ->check(CLI::IsMember({"json", "table"}))
+      ->capture_default_str();
   fit->callback([args] { run_fit(*args); });
 }
 

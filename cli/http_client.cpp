@@ -89,7 +89,8 @@ std::string error_message(const HttpResult& reply) {
 }
 
 // Splits complete events ("...\n\n") off `pending` and hands each to `on_event`.
-void dispatch_events(std::string& pending, const std::function<void(const std::string&, const std::string&)>& on_event) {
+void dispatch_events(std::string& pending,
+                     const std::function<void(const std::string&, const std::string&)>& on_event) {
   for (auto end = pending.find("\n\n"); end != std::string::npos; end = pending.find("\n\n")) {
     const std::string block = pending.substr(0, end);
     pending.erase(0, end + 2);
@@ -123,7 +124,8 @@ ServerUrl parse_server_url(const std::string& text) {
   if (const auto colon = rest.rfind(':'); colon != std::string::npos && rest.find(']', colon) == std::string::npos) {
     url.port = rest.substr(colon + 1);
     rest.erase(colon);
-    if (url.port.empty() || url.port.find_first_not_of("0123456789") != std::string::npos) throw bad("the port must be a number");
+    if (url.port.empty() || url.port.find_first_not_of("0123456789") != std::string::npos)
+      throw bad("the port must be a number");
   }
   if (rest.size() > 2 && rest.front() == '[' && rest.back() == ']') rest = rest.substr(1, rest.size() - 2);
   if (rest.empty()) throw bad("no host");

@@ -35,7 +35,8 @@ class ApiClient {
   nlohmann::json call(const std::string& method, const std::string& target, const nlohmann::json& body = nullptr) const;
   // GETs `target` as Server-Sent Events, calling `on_event(name, data)` for each event until
   // the server ends the stream. A reply other than 200 is refused as call() refuses it.
-  void follow_events(const std::string& target, const std::function<void(const std::string&, const std::string&)>& on_event) const;
+  void follow_events(const std::string& target,
+                     const std::function<void(const std::string&, const std::string&)>& on_event) const;
 
   const ServerUrl& server() const { return server_; }
 

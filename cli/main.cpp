@@ -35,7 +35,8 @@ int run(int argc, char** argv) {
   add_render_command(app);
   add_figures_command(app);
   // CLI11 reports a mistyped subcommand only as "a subcommand is required"; name it instead.
-  if (argc > 1 && argv[1][0] != '-' && app.get_subcommands([&](CLI::App* sub) { return sub->check_name(argv[1]); }).empty()) {
+  if (argc > 1 && argv[1][0] != '-' &&
+      app.get_subcommands([&](CLI::App* sub) { return sub->check_name(argv[1]); }).empty()) {
     std::string commands;
     for (const auto* sub : app.get_subcommands({})) commands += (commands.empty() ? "" : ", ") + sub->get_name();
     report("skinspec: unknown command " + skinspec::quote(argv[1]) + "; commands: " + commands);

@@ -39,16 +39,25 @@ double unix_seconds(std::chrono::system_clock::time_point t) {
 }
 
 nlohmann::json reading_json(const drivers::Reading& r) {
-  return {{"quality_code", r.quality_code},   {"quality", r.quality},
-          {"units", r.units},                 {"wavelength_nm", r.wavelength_nm},
-          {"radiance", r.radiance},           {"integrated", r.integrated},
-          {"luminance", r.luminance},         {"luminance_units", r.luminance_units},
-          {"x", r.x},                         {"y", r.y},
-          {"XYZ", r.xyz},                     {"serial", r.serial_number},
-          {"integration_ms", r.integration_ms}, {"averages", r.averages},
-          {"sync", r.sync},                   {"attempts", r.attempts},
+  return {{"quality_code", r.quality_code},
+          {"quality", r.quality},
+          {"units", r.units},
+          {"wavelength_nm", r.wavelength_nm},
+          {"radiance", r.radiance},
+          {"integrated", r.integrated},
+          {"luminance", r.luminance},
+          {"luminance_units", r.luminance_units},
+          {"x", r.x},
+          {"y", r.y},
+          {"XYZ", r.xyz},
+          {"serial", r.serial_number},
+          {"integration_ms", r.integration_ms},
+          {"averages", r.averages},
+          {"sync", r.sync},
+          {"attempts", r.attempts},
           {"warnings", r.warnings},
-          {"started", unix_seconds(r.started)}, {"finished", unix_seconds(r.finished)}};
+          {"started", unix_seconds(r.started)},
+          {"finished", unix_seconds(r.finished)}};
 }
 
 Failure instrument_failure(const InstrumentError& e) {
@@ -78,10 +87,10 @@ void run_measure(const MeasureArgs& args) {
     if (args.json) {
       std::cout << reading_json(*reading).dump() << '\n';
     } else {
-      std::cout << fmt::format("reading {}: quality {:02d} ({}), luminance {:.4g} {}, x {:.4f} y {:.4f}, {} points {}-{} nm\n",
-                               i + 1, reading->quality_code, reading->quality, reading->luminance, reading->luminance_units,
-                               reading->x, reading->y, reading->radiance.size(), reading->wavelength_nm.front(),
-                               reading->wavelength_nm.back());
+      std::cout << fmt::format(
+          "reading {}: quality {:02d} ({}), luminance {:.4g} {}, x {:.4f} y {:.4f}, {} points {}-{} nm\n", i + 1,
+          reading->quality_code, reading->quality, reading->luminance, reading->luminance_units, reading->x, reading->y,
+          reading->radiance.size(), reading->wavelength_nm.front(), reading->wavelength_nm.back());
     }
     std::cout.flush();
   }
@@ -92,13 +101,17 @@ void run_measure(const MeasureArgs& args) {
 void add_measure_command(CLI::App& app) {
   auto args = std::make_shared<MeasureArgs>();
   auto* measure = app.add_subcommand("measure", "measure with a PR-650 and print each reading");
-  measure->add_option("--device", args->device,
-                      "serial:/dev/ttyUSB0[?baud=9600&terminator=lf|cr], tcp:HOST:PORT or usb:VID:PID[:SERIAL]")
+  measure
+      ->add_option("--device", args->device,
+                   "serial:/dev/ttyUSB0[?baud=9600&terminator=lf|cr], tcp:HOST:PORT or usb:VID:PID[:SERIAL]")
       ->required();
-  measure->add_option("--count", args->count, "number of readings")->check(CLI::Range(1, 100000))->capture_default_str();
+  measure->add_option("--count", args->count, "number of readings")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
   measure->add_option("--integration-ms", args->integration, "10-6000 ms, or adaptive")->capture_default_str();
   measure->add_option("--sync", args->sync, "off, or auto: measure the light's flicker and sync to it")
-      ->check(CLI::IsMember({"off", "auto"}))->capture_default_str();
+      ->check(CLI::IsMember({"off", "auto"}))
+      ->capture_default_str();
   measure->add_flag("--adjust-integration", args->adjust, "double the time on low light, halve it on overload");
   measure->add_flag("--json", args->json, "one JSON object per reading per line");
   measure->callback([args] { run_measure(*args); });

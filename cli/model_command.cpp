@@ -46,7 +46,8 @@ void run_model(const ModelArgs& args) {
 
 void add_model_command(CLI::App& app) {
   auto args = std::make_shared<ModelArgs>();
-  auto* model = app.add_subcommand("model", "print the model's reflectance for given parameters (defaults: docs/model.md)");
+  auto* model =
+      app.add_subcommand("model", "print the model's reflectance for given parameters (defaults: docs/model.md)");
   add_model_option(*model, args->model);
   add_site_option(*model, args->site);
   add_param_options(*model, args->params);

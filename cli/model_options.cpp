@@ -33,9 +33,10 @@ const ParamSpec* any_spec(std::string_view name) {
 CLI::Option* add_model_option(CLI::App& app, ModelKind& model) {
   std::vector<std::string> names;
   for (const ModelKind kind : kModelKinds) names.emplace_back(to_string(kind));
-  return app.add_option_function<std::string>(
-                "--model", [&model](const std::string& name) { model = *parse_model_kind(name); },
-                "skin model: " + model_names() + " (docs/model.md)")
+  return app
+      .add_option_function<std::string>(
+          "--model", [&model](const std::string& name) { model = *parse_model_kind(name); },
+          "skin model: " + model_names() + " (docs/model.md)")
       ->check(CLI::IsMember(names))
       ->default_str(std::string(to_string(kDefaultModel)));
 }
@@ -52,8 +53,7 @@ std::vector<CLI::Option*> add_param_options(CLI::App& app, ParamArgs& args) {
       if (spec.name == "surface_reflectance") flags = "--surface," + flags;
       const ParamSpec* s = any_spec(spec.name);
       auto* option = app.add_option_function<double>(
-          flags, [&args, name](double value) { args.given[name] = value; },
-          fmt::format("{} ({})", name, s->unit));
+          flags, [&args, name](double value) { args.given[name] = value; }, fmt::format("{} ({})", name, s->unit));
       option->check(finite_range(s->domain_lower, s->domain_upper));
       added.push_back(option);
     }

@@ -27,11 +27,16 @@ std::string stable_uri(const PortInfo& port) {
 }
 
 nlohmann::json port_json(const PortInfo& port) {
-  nlohmann::json out = {{"path", port.path},         {"kind", port.kind},       {"description", port.description},
-                        {"serial_number", port.serial_number}, {"manufacturer", port.manufacturer},
-                        {"product", port.product},   {"uri", stable_uri(port)}};
+  nlohmann::json out = {{"path", port.path},
+                        {"kind", port.kind},
+                        {"description", port.description},
+                        {"serial_number", port.serial_number},
+                        {"manufacturer", port.manufacturer},
+                        {"product", port.product},
+                        {"uri", stable_uri(port)}};
   out["vendor_id"] = port.vendor_id ? nlohmann::json(fmt::format("{:04x}", *port.vendor_id)) : nlohmann::json(nullptr);
-  out["product_id"] = port.product_id ? nlohmann::json(fmt::format("{:04x}", *port.product_id)) : nlohmann::json(nullptr);
+  out["product_id"] =
+      port.product_id ? nlohmann::json(fmt::format("{:04x}", *port.product_id)) : nlohmann::json(nullptr);
   return out;
 }
 
@@ -40,7 +45,8 @@ void print_table(const std::vector<PortInfo>& ports) {
     std::cout << "no serial ports found\n";
     return;
   }
-  std::cout << fmt::format("{:<20} {:<9} {:<9} {:<16} {:<32} {}\n", "path", "kind", "usb_id", "serial", "uri", "description");
+  std::cout << fmt::format("{:<20} {:<9} {:<9} {:<16} {:<32} {}\n", "path", "kind", "usb_id", "serial", "uri",
+                           "description");
   for (const auto& port : ports)
     std::cout << fmt::format("{:<20} {:<9} {:<9} {:<16} {:<32} {}\n", port.path, port.kind, usb_id(port),
                              printable(port.serial_number), printable(stable_uri(port)), printable(port.description));

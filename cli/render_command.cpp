@@ -43,7 +43,8 @@ void run_render(const RenderArgs& args) {
   settings.surface = args.surface;
   settings.samples_per_side = args.samples;
   const auto& f = fitter();
-  const auto image = render::render_skin(f.optics(skin.model), f.colorimetry(), skin, args.scales, illuminant, scene, settings);
+  const auto image =
+      render::render_skin(f.optics(skin.model), f.colorimetry(), skin, args.scales, illuminant, scene, settings);
   if (!image) throw Failure{kBadInput, image.error()};
   const auto png = render::encode_png(*image, args.bits);
   if (!png) throw Failure{kFailure, png.error()};
@@ -52,11 +53,13 @@ void run_render(const RenderArgs& args) {
 
 void add_scale_options(CLI::App& app, render::PigmentScales& s) {
   const std::pair<const char*, double*> scales[] = {{"--scale-melanin", &s.melanin},
-                                                     {"--scale-oxyhemoglobin", &s.oxyhemoglobin},
-                                                     {"--scale-deoxyhemoglobin", &s.deoxyhemoglobin},
-                                                     {"--scale-bilirubin", &s.bilirubin}};
+                                                    {"--scale-oxyhemoglobin", &s.oxyhemoglobin},
+                                                    {"--scale-deoxyhemoglobin", &s.deoxyhemoglobin},
+                                                    {"--scale-bilirubin", &s.bilirubin}};
   for (const auto& [name, value] : scales)
-    app.add_option(name, *value, "multiply this pigment's weight")->check(finite_range(0, render::kMaxPigmentScale))->capture_default_str();
+    app.add_option(name, *value, "multiply this pigment's weight")
+        ->check(finite_range(0, render::kMaxPigmentScale))
+        ->capture_default_str();
 }
 
 }  // namespace
@@ -68,13 +71,18 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--illuminant", args->illuminant, "D65, A, or a CSV file wavelength_nm,power covering 380-780 nm")
       ->capture_default_str();
   add_scale_options(*cmd, args->scales);
-  auto* mesh = cmd->add_option("--mesh", args->mesh_file, "a triangle mesh to render instead: .obj or .ply (ASCII or binary little-endian)");
-  cmd->add_option("--scene", args->scene, "built-in scene")->check(CLI::IsMember({"hand", "sphere"}))->excludes(mesh)->capture_default_str();
+  auto* mesh = cmd->add_option("--mesh", args->mesh_file,
+                               "a triangle mesh to render instead: .obj or .ply (ASCII or binary little-endian)");
+  cmd->add_option("--scene", args->scene, "built-in scene")
+      ->check(CLI::IsMember({"hand", "sphere"}))
+      ->excludes(mesh)
+      ->capture_default_str();
   cmd->add_option("--size", args->size, "image size WxH")->capture_default_str();
   add_surface_options(*cmd, args->surface);
   cmd->add_option("--bits", args->bits, "bits per PNG channel")->check(CLI::IsMember({8, 16}))->capture_default_str();
   cmd->add_option("--samples", args->samples, "rays per pixel along each side (anti-aliasing)")
-      ->check(CLI::Range(1, render::kMaxSamplesPerSide))->capture_default_str();
+      ->check(CLI::Range(1, render::kMaxSamplesPerSide))
+      ->capture_default_str();
   cmd->add_option("-o,--output", args->output, "the PNG file to write")->required();
   cmd->callback([args] { run_render(*args); });
 }

@@ -36,23 +36,26 @@ void run_new(const ServerArgs& server, const NewArgs& args) {
     std::cout << session.dump() << '\n';
     return;
   }
-  std::cout << fmt::format("session {} opened: site {}, subject {}\n", session["id"].get<long long>(), text_or(session["site"]),
-                           text_or(session["subject"]));
+  std::cout << fmt::format("session {} opened: site {}, subject {}\n", session["id"].get<long long>(),
+                           text_or(session["site"]), text_or(session["subject"]));
   std::cout << fmt::format("url: {}/api/v1/sessions/{}\n", client.server().text, session["id"].get<long long>());
 }
 
 void print_session_detail(const json& s) {
-  std::cout << fmt::format("session {}  {}  site {}  subject {}  operator {}\n", s["id"].get<long long>(), text_or(s["state"]),
-                           text_or(s["site"]), text_or(s["subject"]), text_or(s["operator"]));
-  std::cout << fmt::format("created {}  white standard {}\n", text_or(s["created_at"]), text_or(s["white_standard_id"], "default (flat 0.99)"));
+  std::cout << fmt::format("session {}  {}  site {}  subject {}  operator {}\n", s["id"].get<long long>(),
+                           text_or(s["state"]), text_or(s["site"]), text_or(s["subject"]), text_or(s["operator"]));
+  std::cout << fmt::format("created {}  white standard {}\n", text_or(s["created_at"]),
+                           text_or(s["white_standard_id"], "default (flat 0.99)"));
   if (const auto notes = text_or(s["notes"], ""); !notes.empty()) std::cout << "notes: " << notes << '\n';
-  std::cout << fmt::format("\n{:>6} {:<7} {:<16} {:>8} {:>6}  {}\n", "id", "kind", "label", "readings", "fit", "created");
+  std::cout << fmt::format("\n{:>6} {:<7} {:<16} {:>8} {:>6}  {}\n", "id", "kind", "label", "readings", "fit",
+                           "created");
   for (const auto& m : s["measurements"])
-    std::cout << fmt::format("{:>6} {:<7} {:<16} {:>8} {:>6}  {}\n", m["id"].get<long long>(), text_or(m["kind"]), text_or(m["label"], ""),
-                             text_or(m["reading_count"]), text_or(m["fit_id"]), text_or(m["created_at"]));
+    std::cout << fmt::format("{:>6} {:<7} {:<16} {:>8} {:>6}  {}\n", m["id"].get<long long>(), text_or(m["kind"]),
+                             text_or(m["label"], ""), text_or(m["reading_count"]), text_or(m["fit_id"]),
+                             text_or(m["created_at"]));
   if (s["fits"].empty()) return;
-  std::cout << fmt::format("\n{:>6} {:>11} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>7}\n", "fit", "measurement", "surface", "melanin",
-                           "oxy_hb", "deoxy_hb", "bilirubin", "rmse", "dE2000");
+  std::cout << fmt::format("\n{:>6} {:>11} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>7}\n", "fit", "measurement",
+                           "surface", "melanin", "oxy_hb", "deoxy_hb", "bilirubin", "rmse", "dE2000");
   const auto param = [](const json& fit, const char* name) {
     const auto& v = fit["params"][name];
     return v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("-");
@@ -60,8 +63,8 @@ void print_session_detail(const json& s) {
   for (const auto& f : s["fits"])
     std::cout << fmt::format("{:>6} {:>11} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8.4f} {:>7.2f}\n", f["id"].get<long long>(),
                              f["measurement_id"].get<long long>(), param(f, "surface_reflectance"), param(f, "melanin"),
-                             param(f, "oxyhemoglobin"), param(f, "deoxyhemoglobin"), param(f, "bilirubin"), f.value("rmse", 0.0),
-                             f.value("delta_e00_d65", 0.0));
+                             param(f, "oxyhemoglobin"), param(f, "deoxyhemoglobin"), param(f, "bilirubin"),
+                             f.value("rmse", 0.0), f.value("delta_e00_d65", 0.0));
 }
 
 void run_show(const ServerArgs& server, long long id) {
@@ -88,10 +91,12 @@ void run_list(const ServerArgs& server, const ListArgs& args) {
     std::cout << "no sessions\n";
     return;
   }
-  std::cout << fmt::format("{:>6} {:<11} {:<13} {:<20} {:<16} {}\n", "id", "state", "site", "subject", "operator", "created");
+  std::cout << fmt::format("{:>6} {:<11} {:<13} {:<20} {:<16} {}\n", "id", "state", "site", "subject", "operator",
+                           "created");
   for (const auto& s : page["sessions"])
-    std::cout << fmt::format("{:>6} {:<11} {:<13} {:<20} {:<16} {}\n", s["id"].get<long long>(), text_or(s["state"]), text_or(s["site"]),
-                             text_or(s["subject"]), text_or(s["operator"]), text_or(s["created_at"]));
+    std::cout << fmt::format("{:>6} {:<11} {:<13} {:<20} {:<16} {}\n", s["id"].get<long long>(), text_or(s["state"]),
+                             text_or(s["site"]), text_or(s["subject"]), text_or(s["operator"]),
+                             text_or(s["created_at"]));
   if (!page["next_cursor"].is_null()) std::cout << "(more: the API's cursor " << page["next_cursor"] << ")\n";
 }
 
@@ -99,21 +104,29 @@ void run_list(const ServerArgs& server, const ListArgs& args) {
 
 void add_server_options(CLI::App& command, ServerArgs& args) {
   command.add_option("--server", args.server, "skinspecd's URL")->capture_default_str();
-  command.add_option("--token-file", args.token_file, "bearer token: skinspecd's token file or a file holding the token (else $SKINSPEC_TOKEN)");
+  command.add_option("--token-file", args.token_file,
+                     "bearer token: skinspecd's token file or a file holding the token (else $SKINSPEC_TOKEN)");
   command.add_flag("--json", args.json, "print the server's JSON instead of text");
 }
 
 void add_session_command(CLI::App& app) {
-  auto* session = app.add_subcommand("session", "acquisition sessions of a running skinspecd: new, measure, show, list");
+  auto* session =
+      app.add_subcommand("session", "acquisition sessions of a running skinspecd: new, measure, show, list");
   session->require_subcommand(1);
   auto server = std::make_shared<ServerArgs>();
 
   auto new_args = std::make_shared<NewArgs>();
   auto* create = session->add_subcommand("new", "open a session");
-  create->add_option("--site", new_args->site, "body site: forearm, back_of_hand, cheek, forehead, palm")->required()->check(utf8_text());
-  create->add_option("--subject", new_args->subject, "who is measured (a code, not a name)")->capture_default_str()->check(utf8_text());
+  create->add_option("--site", new_args->site, "body site: forearm, back_of_hand, cheek, forehead, palm")
+      ->required()
+      ->check(utf8_text());
+  create->add_option("--subject", new_args->subject, "who is measured (a code, not a name)")
+      ->capture_default_str()
+      ->check(utf8_text());
   create->add_option("--operator", new_args->operator_name, "who measures")->check(utf8_text());
-  create->add_option("--white-standard", new_args->white_standard, "id of a stored white standard (default: a flat 0.99)")->check(CLI::PositiveNumber);
+  create
+      ->add_option("--white-standard", new_args->white_standard, "id of a stored white standard (default: a flat 0.99)")
+      ->check(CLI::PositiveNumber);
   create->add_option("--notes", new_args->notes, "free text")->check(utf8_text());
   add_server_options(*create, *server);
   create->callback([server, new_args] { run_new(*server, *new_args); });
@@ -129,7 +142,8 @@ void add_session_command(CLI::App& app) {
   auto list_args = std::make_shared<ListArgs>();
   auto* list = session->add_subcommand("list", "sessions, newest first");
   list->add_option("--site", list_args->site, "only this body site")->check(utf8_text());
-  list->add_option("--state", list_args->state, "only this state")->check(CLI::IsMember({"open", "complete", "interrupted", "aborted"}));
+  list->add_option("--state", list_args->state, "only this state")
+      ->check(CLI::IsMember({"open", "complete", "interrupted", "aborted"}));
   list->add_option("--limit", list_args->limit, "at most this many")->check(CLI::Range(1, 1000))->capture_default_str();
   add_server_options(*list, *server);
   list->callback([server, list_args] { run_list(*server, *list_args); });

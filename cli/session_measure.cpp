@@ -40,7 +40,8 @@ class ProgressView {
     std::string status = job.value("state", "?");
     if (job["position"].is_number_integer() && job["position"].get<int>() > 0)
       status += fmt::format(", position {}", job["position"].get<int>());
-    status += fmt::format(", {} {}/{}", p.value("phase", "?"), p.value("readings_done", 0), p.value("readings_total", 0));
+    status +=
+        fmt::format(", {} {}/{}", p.value("phase", "?"), p.value("readings_done", 0), p.value("readings_total", 0));
     if (!terminal_) {
       std::cerr << fmt::format("job {}: {}\n", job.value("id", 0LL), status);
       return;
@@ -48,7 +49,8 @@ class ProgressView {
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(p.value("fraction", 0.0) * kWidth + 0.5);
     std::cerr << fmt::format("\r[{}{}] {:3.0f}%  {:<40}", std::string(static_cast<std::size_t>(filled), '#'),
-                             std::string(static_cast<std::size_t>(kWidth - filled), '-'), p.value("fraction", 0.0) * 100, status)
+                             std::string(static_cast<std::size_t>(kWidth - filled), '-'),
+                             p.value("fraction", 0.0) * 100, status)
               << std::flush;
     drawn_ = true;
   }
@@ -65,17 +67,19 @@ json follow(const ApiClient& client, long long job_id) {
   json last;
   {
     ProgressView view(::isatty(STDERR_FILENO) == 1);
-    client.follow_events("/api/v1/jobs/" + std::to_string(job_id) + "/events", [&](const std::string& name, const std::string& data) {
-      if (name != "job") return;
-      json job = json::parse(data, nullptr, false);
-      if (!job.is_object()) return;
-      view.show(job);
-      last = std::move(job);
-    });
+    client.follow_events("/api/v1/jobs/" + std::to_string(job_id) + "/events",
+                         [&](const std::string& name, const std::string& data) {
+                           if (name != "job") return;
+                           json job = json::parse(data, nullptr, false);
+                           if (!job.is_object()) return;
+                           view.show(job);
+                           last = std::move(job);
+                         });
   }
   if (!finished(last)) last = client.call("GET", "/api/v1/jobs/" + std::to_string(job_id));
   if (!finished(last))
-    throw Failure{kUnreachable, fmt::format("the events of job {} ended before the job did (is skinspecd stopping?)", job_id)};
+    throw Failure{kUnreachable,
+                  fmt::format("the events of job {} ended before the job did (is skinspecd stopping?)", job_id)};
   return last;
 }
 
@@ -85,7 +89,9 @@ std::string error_text(const json& error) {
   return fmt::format("{} ({})", error.value("message", ""), error.value("code", "unknown"));
 }
 
-std::string id_text(const json& value) { return value.is_number_integer() ? std::to_string(value.get<long long>()) : "-"; }
+std::string id_text(const json& value) {
+  return value.is_number_integer() ? std::to_string(value.get<long long>()) : "-";
+}
 
 void print_fit(const json& fit) {
   for (const char* name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"}) {
@@ -96,8 +102,9 @@ void print_fit(const json& fit) {
     if (error.is_number()) std::cout << fmt::format(" ± {:.6g}", error.get<double>());
     std::cout << '\n';
   }
-  std::cout << fmt::format("  rmse {:.6g}   max |error| {:.6g}   dE2000 (D65) {:.6g}   converged {}\n", fit.value("rmse", 0.0),
-                           fit.value("max_abs_error", 0.0), fit.value("delta_e00_d65", 0.0), fit.value("converged", false));
+  std::cout << fmt::format("  rmse {:.6g}   max |error| {:.6g}   dE2000 (D65) {:.6g}   converged {}\n",
+                           fit.value("rmse", 0.0), fit.value("max_abs_error", 0.0), fit.value("delta_e00_d65", 0.0),
+                           fit.value("converged", false));
 }
 
 void print_result(const json& job, const json& fit) {
@@ -105,7 +112,8 @@ void print_result(const json& job, const json& fit) {
   std::cout << fmt::format("job {} succeeded: measurement {}", job.value("id", 0LL), id_text(result["measurement_id"]));
   if (result.contains("white_measurement_id") && result["white_measurement_id"].is_number_integer())
     std::cout << fmt::format(" (white {})", id_text(result["white_measurement_id"]));
-  if (result.contains("fit_id") && result["fit_id"].is_number_integer()) std::cout << ", fit " << id_text(result["fit_id"]);
+  if (result.contains("fit_id") && result["fit_id"].is_number_integer())
+    std::cout << ", fit " << id_text(result["fit_id"]);
   std::cout << '\n';
   if (fit.is_object()) print_fit(fit);
   if (result.contains("warnings"))
@@ -126,9 +134,11 @@ void run_measure(const ServerArgs& server, const MeasureArgs& args) {
   }
   const json job = follow(client, job_id);
   if (job["state"] != "succeeded")
-    throw Failure{kInstrumentError, fmt::format("job {} {}: {}", job_id, job["state"].get<std::string>(), error_text(job["error"]))};
+    throw Failure{kInstrumentError,
+                  fmt::format("job {} {}: {}", job_id, job["state"].get<std::string>(), error_text(job["error"]))};
   json fit = nullptr;
-  if (const auto& id = job["result"]["fit_id"]; id.is_number_integer()) fit = client.call("GET", "/api/v1/fits/" + std::to_string(id.get<long long>()));
+  if (const auto& id = job["result"]["fit_id"]; id.is_number_integer())
+    fit = client.call("GET", "/api/v1/fits/" + std::to_string(id.get<long long>()));
   if (server.json) std::cout << json{{"job", job}, {"fit", fit}}.dump() << '\n';
   else print_result(job, fit);
 }
@@ -142,7 +152,8 @@ void add_session_measure_command(CLI::App& session, const std::shared_ptr<Server
   measure->add_option("--kind", args->kind, "white or sample")->required()->check(CLI::IsMember({"white", "sample"}));
   measure->add_option("--count", args->count, "readings averaged")->check(CLI::Range(1, 100))->capture_default_str();
   measure->add_option("--label", args->label, "a label for the measurement")->check(utf8_text());
-  measure->add_option("--integration-ms", args->integration_ms, "integration time, 10-6000 ms (default: adaptive)")->check(CLI::Range(10, 6000));
+  measure->add_option("--integration-ms", args->integration_ms, "integration time, 10-6000 ms (default: adaptive)")
+      ->check(CLI::Range(10, 6000));
   measure->add_flag("--no-wait", args->no_wait, "print the queued job and return at once");
   add_server_options(*measure, *server);
   measure->callback([server, args] { run_measure(*server, *args); });

@@ -26,7 +26,9 @@ render::Skin skin_from_fit_json(const std::string& path) {
   const std::string name = input_name(path);
   const auto [line, number] = first_line(read_input(path));
   if (number == 0) throw Failure{kBadInput, name + ": empty; expected a line of `skinspec fit` JSON"};
-  const auto fail = [&](const std::string& why) { return Failure{kBadInput, fmt::format("{}:{}: {}", name, number, why)}; };
+  const auto fail = [&](const std::string& why) {
+    return Failure{kBadInput, fmt::format("{}:{}: {}", name, number, why)};
+  };
   const auto json = nlohmann::json::parse(line, nullptr, false);
   if (json.is_discarded() || !json.is_object()) throw fail("not a JSON object as `skinspec fit` prints");
   if (!json.contains("site") || !json["site"].is_string()) throw fail("no \"site\" text");
@@ -53,7 +55,8 @@ render::Skin skin_from_fit_json(const std::string& path) {
 }  // namespace
 
 void add_skin_options(CLI::App& app, SkinArgs& args) {
-  auto* fit = app.add_option("--fit", args.fit_file, "a fit's JSON, as printed by `skinspec fit` (its first line is used)");
+  auto* fit =
+      app.add_option("--fit", args.fit_file, "a fit's JSON, as printed by `skinspec fit` (its first line is used)");
   std::vector<CLI::Option*> direct{add_model_option(app, args.model), add_site_option(app, args.site)};
   for (auto* option : add_param_options(app, args.params)) direct.push_back(option);
   for (auto* option : direct) fit->excludes(option);
@@ -61,10 +64,17 @@ void add_skin_options(CLI::App& app, SkinArgs& args) {
 
 void add_surface_options(CLI::App& app, render::SurfaceParams& s) {
   app.add_option("--roughness", s.roughness, "gamma of eq. 3: facet angle (radians) where D halves")
-      ->check(finite_range(1e-3, 1.5707963))->capture_default_str();
-  app.add_option("--index", s.index, "refractive index n of eq. 4")->check(finite_range(1.0001, 5))->capture_default_str();
-  app.add_option("--alpha", s.alpha, "weight of the body term of eq. 2")->check(finite_range(0, 100))->capture_default_str();
-  app.add_option("--beta", s.beta, "weight of the specular term of eq. 2")->check(finite_range(0, 100))->capture_default_str();
+      ->check(finite_range(1e-3, 1.5707963))
+      ->capture_default_str();
+  app.add_option("--index", s.index, "refractive index n of eq. 4")
+      ->check(finite_range(1.0001, 5))
+      ->capture_default_str();
+  app.add_option("--alpha", s.alpha, "weight of the body term of eq. 2")
+      ->check(finite_range(0, 100))
+      ->capture_default_str();
+  app.add_option("--beta", s.beta, "weight of the specular term of eq. 2")
+      ->check(finite_range(0, 100))
+      ->capture_default_str();
 }
 
 render::Skin skin_from(const SkinArgs& args) {
@@ -77,7 +87,8 @@ render::Skin skin_from(const SkinArgs& args) {
 std::pair<int, int> parse_size(const std::string& text) {
   const auto size = render::parse_image_size(text);
   if (!size)
-    throw Failure{kBadInput, fmt::format("--size {}: expected WxH with each side 1..{}, such as 512x512", quote(text), render::kMaxImageSide)};
+    throw Failure{kBadInput, fmt::format("--size {}: expected WxH with each side 1..{}, such as 512x512", quote(text),
+                                         render::kMaxImageSide)};
   return *size;
 }
 

@@ -36,9 +36,12 @@ struct TuneArgs {
 };
 
 nlohmann::json quality_json(const FitQuality& q) {
-  return {{"spectra", q.count},          {"converged", q.converged},
-          {"median_rmse", q.median_rmse}, {"p95_rmse", q.p95_rmse},
-          {"max_rmse", q.max_rmse},       {"median_delta_e00_d65", q.median_delta_e00},
+  return {{"spectra", q.count},
+          {"converged", q.converged},
+          {"median_rmse", q.median_rmse},
+          {"p95_rmse", q.p95_rmse},
+          {"max_rmse", q.max_rmse},
+          {"median_delta_e00_d65", q.median_delta_e00},
           {"p95_delta_e00_d65", q.p95_delta_e00}};
 }
 
@@ -79,7 +82,9 @@ Fitter starting_fitter(const TuneArgs& args) {
 
 TuningResult tune(const std::vector<Spectrum>& training, const TuneArgs& args) {
   const auto tuned = tune_constants(starting_fitter(args), training,
-                                    {.fit = args.fit_options(), .max_evaluations = args.max_evaluations, .threads = 0,
+                                    {.fit = args.fit_options(),
+                                     .max_evaluations = args.max_evaluations,
+                                     .threads = 0,
                                      .held_constants = held_constants(args.held_constants)});
   if (!tuned) throw Failure{kBadInput, tuned.error()};
   return *tuned;
@@ -102,8 +107,9 @@ std::string tune_command_line(const TuneArgs& args) {
 }
 
 std::string constants_csv(const TuneArgs& args, const ModelConstants& c, const std::string& chosen_on) {
-  const std::string title = args.model == ModelKind::paper ? "Fixed constants of the two-layer skin model"
-                                                           : fmt::format("Fixed constants of the {} skin model", to_string(args.model));
+  const std::string title = args.model == ModelKind::paper
+                                ? "Fixed constants of the two-layer skin model"
+                                : fmt::format("Fixed constants of the {} skin model", to_string(args.model));
   std::string out = fmt::format(
       "# title: {}\n"
       "# source: chosen by `{}` (scripts/tune-model): minimum mean fit RMSE over {}; spectra from the NIST "
@@ -130,7 +136,8 @@ nlohmann::json cross_validate(const std::vector<NamedSpectrum>& spectra, const T
   FitScores pooled;
   for (std::size_t fold = 0; fold < folds; ++fold) {
     std::vector<Spectrum> training, held_out;
-    for (std::size_t i = 0; i < spectra.size(); ++i) (i % folds == fold ? held_out : training).push_back(spectra[i].spectrum);
+    for (std::size_t i = 0; i < spectra.size(); ++i)
+      (i % folds == fold ? held_out : training).push_back(spectra[i].spectrum);
     if (training.empty() || held_out.empty()) throw Failure{kBadInput, "too few spectra for that many folds"};
     const TuningResult tuned = tune(training, args);
     pooled.append(score(fitter_with(tuned.constants, args), held_out, args));
@@ -147,14 +154,20 @@ void run_tune(const TuneArgs& args) {
   if (auto site = fitter().optics(args.model).site(args.site); !site) throw Failure{kBadInput, site.error()};
   if (args.only_cross_validation) {
     if (args.cross_validate < 2) throw Failure{kBadInput, "--only-cross-validation needs --cross-validate K, K >= 2"};
-    std::cout << nlohmann::json{{"model", to_string(args.model)}, {"cross_validation", cross_validate(read_spectra(args.file), args)}}.dump(2) << '\n';
+    std::cout << nlohmann::json{{"model", to_string(args.model)},
+                                {"cross_validation", cross_validate(read_spectra(args.file), args)}}
+                     .dump(2)
+              << '\n';
     return;
   }
   std::vector<Spectrum> training, held_out;
   const auto spectra = read_spectra(args.file);
   for (std::size_t i = 0; i < spectra.size(); ++i)
-    (args.holdout_every > 0 && i % static_cast<std::size_t>(args.holdout_every) == static_cast<std::size_t>(args.holdout_every) - 1
-         ? held_out : training).push_back(spectra[i].spectrum);
+    (args.holdout_every > 0 &&
+             i % static_cast<std::size_t>(args.holdout_every) == static_cast<std::size_t>(args.holdout_every) - 1
+         ? held_out
+         : training)
+        .push_back(spectra[i].spectrum);
   if (training.empty()) throw Failure{kBadInput, input_name(args.file) + ": no spectra left to tune on"};
 
   const TuningResult tuned = tune(training, args);
@@ -195,12 +208,15 @@ void add_tune_command(CLI::App& app) {
                    "keep a constant at a value instead of searching it: NAME=VALUE (repeatable)");
   tune->add_option("--holdout-every", args->holdout_every,
                    "hold out every Nth spectrum (the 2nd, 4th, ... for N = 2) to report on; 0 holds none out")
-      ->check(CLI::Range(0, 1000))->capture_default_str();
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
   tune->add_option("--max-evaluations", args->max_evaluations, "budget of the constant search")
-      ->check(CLI::Range(10, 100000))->capture_default_str();
+      ->check(CLI::Range(10, 100000))
+      ->capture_default_str();
   tune->add_option("--cross-validate", args->cross_validate,
                    "also report K-fold cross-validation: every spectrum fitted with constants tuned without it")
-      ->check(CLI::Range(0, 100))->capture_default_str();
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   tune->add_option("--out", args->out, "write the tuned constants as a data/model/constants*.csv table");
   tune->add_flag("--only-cross-validation", args->only_cross_validation,
                  "report only the cross-validation (with --cross-validate K), tuning nothing on all spectra");

@@ -32,7 +32,8 @@ std::expected<ResolvedDevice, std::string> resolve_device(const std::string& dev
   if (device == "auto") {
     const auto adapter = first_usb_adapter(drivers::list_ports());
     if (!adapter) return std::unexpected("no USB serial adapter found");
-    return ResolvedDevice{serial_uri(adapter->path), UsbIdentity{*adapter->vendor_id, *adapter->product_id, adapter->serial_number}};
+    return ResolvedDevice{serial_uri(adapter->path),
+                          UsbIdentity{*adapter->vendor_id, *adapter->product_id, adapter->serial_number}};
   }
   auto uri = drivers::parse_connection_uri(device);
   if (!uri) return std::unexpected("--device '" + device + "': " + uri.error());
@@ -58,12 +59,16 @@ json ports_json(const std::vector<drivers::PortInfo>& ports) {
     json usb = nullptr;
     std::string uri = "serial:" + port.path;
     if (is_usb_adapter(port)) {
-      usb = {{"vid", fmt::format("{:04x}", *port.vendor_id)}, {"pid", fmt::format("{:04x}", *port.product_id)},
-             {"serial", port.serial_number}, {"manufacturer", port.manufacturer}, {"product", port.product}};
+      usb = {{"vid", fmt::format("{:04x}", *port.vendor_id)},
+             {"pid", fmt::format("{:04x}", *port.product_id)},
+             {"serial", port.serial_number},
+             {"manufacturer", port.manufacturer},
+             {"product", port.product}};
       uri = fmt::format("usb:{:04x}:{:04x}{}", *port.vendor_id, *port.product_id,
                         port.serial_number.empty() ? std::string() : ":" + port.serial_number);
     }
-    list.push_back({{"uri", uri}, {"name", port.path}, {"description", port.description}, {"transport", port.kind}, {"usb", usb}});
+    list.push_back(
+        {{"uri", uri}, {"name", port.path}, {"description", port.description}, {"transport", port.kind}, {"usb", usb}});
   }
   return {{"ports", list}};
 }

@@ -23,7 +23,7 @@ struct UsbIdentity {
 };
 
 struct ResolvedDevice {
-  drivers::ConnectionUri uri;        // serial: or tcp:, never usb:
+  drivers::ConnectionUri uri;          // serial: or tcp:, never usb:
   std::optional<UsbIdentity> adapter;  // the USB adapter behind it, when there is one
 };
 

@@ -28,20 +28,27 @@ int serve(const skinspec::daemon::Options& o) {
     if (!access) return spdlog::error("event=bad_token_file message=\"{}\"", access.error()), 2;
     context.access = *access;
   } else if (!daemon::is_loopback(listen->first)) {
-    spdlog::error("event=refused message=\"listening on {} needs --token-file (read and operator tokens)\"", listen->first);
+    spdlog::error("event=refused message=\"listening on {} needs --token-file (read and operator tokens)\"",
+                  listen->first);
     return 2;
   }
 
   auto fitter = skinspec::load_fitter();
   if (!fitter) return spdlog::error("event=model_load_failed message=\"{}\"", fitter.error()), 1;
   auto db = store::Store::open(o.db);
-  if (!db) return spdlog::error("event=db_open_failed path=\"{}\" kind={} message=\"{}\"", o.db, store::to_string(db.error().kind), db.error().message), 1;
+  if (!db)
+    return spdlog::error("event=db_open_failed path=\"{}\" kind={} message=\"{}\"", o.db,
+                         store::to_string(db.error().kind), db.error().message),
+           1;
   if (!db->recovery().interrupted_sessions.empty())
     spdlog::warn("event=recovered interrupted_sessions={}", db->recovery().interrupted_sessions.size());
   context.store = &*db;
   context.fitter = &*fitter;
   if (o.reconnect_initial_ms < 1 || o.reconnect_max_ms < 1 || o.instrument_check_ms < 0)
-    return spdlog::error("event=bad_option message=\"reconnect_initial_ms and reconnect_max_ms must be positive, instrument_check_ms not negative\""), 2;
+    return spdlog::error(
+               "event=bad_option message=\"reconnect_initial_ms and reconnect_max_ms must be positive, "
+               "instrument_check_ms not negative\""),
+           2;
   std::unique_ptr<daemon::Supervisor> supervisor;
   if (!o.device.empty()) {
     supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter);
@@ -70,9 +77,11 @@ int serve(const skinspec::daemon::Options& o) {
   api::Server server(router, options);
   if (auto ok = server.listen(); !ok) return spdlog::error("event=listen_failed message=\"{}\"", ok.error()), 1;
   if (const auto limits = server.limits(); limits.max_connections < o.max_connections)
-    spdlog::warn("event=connection_cap requested={} effective={} open_files_limit={} message=\"the file-descriptor limit (ulimit -n) "
-                 "leaves room for fewer connections than --max-connections\"",
-                 o.max_connections, limits.max_connections, limits.descriptor_limit);
+    spdlog::warn(
+        "event=connection_cap requested={} effective={} open_files_limit={} message=\"the file-descriptor limit "
+        "(ulimit -n) "
+        "leaves room for fewer connections than --max-connections\"",
+        o.max_connections, limits.max_connections, limits.descriptor_limit);
 
   boost::asio::signal_set signals(server.context(), SIGINT, SIGTERM);
   signals.async_wait([&server](const boost::system::error_code& ec, int signal) {
@@ -83,8 +92,9 @@ int serve(const skinspec::daemon::Options& o) {
   spdlog::info("event=listening address={} port={} db=\"{}\" auth={} version={}", options.address, server.port(), o.db,
                context.access.required ? "tokens" : "none", skinspec::kVersion);
   // For people and for programs waiting for the service to come up.
-  std::cout << "skinspecd listening on http://" << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address)
-            << ':' << server.port() << std::endl;
+  std::cout << "skinspecd listening on http://"
+            << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address) << ':'
+            << server.port() << std::endl;
   server.run();
   if (supervisor) supervisor->stop();
   spdlog::info("event=stopped db=\"{}\"", o.db);
@@ -99,31 +109,52 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "skinspecd " + std::string(skinspec::kVersion));
   app.add_option("--listen", o.listen, "HOST:PORT to listen on (port 0: any free port)")->capture_default_str();
   app.add_option("--db", o.db, "SQLite database file, created when missing")->capture_default_str();
-  app.add_option("--device", o.device, "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (the first USB serial adapter)");
-  app.add_option("--reconnect-initial-ms", o.reconnect_initial_ms, "wait after the first failed connection attempt; doubles on each failure")
-      ->check(CLI::Range(1, 3600000))->capture_default_str();
+  app.add_option(
+      "--device", o.device,
+      "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (the first USB serial adapter)");
+  app.add_option("--reconnect-initial-ms", o.reconnect_initial_ms,
+                 "wait after the first failed connection attempt; doubles on each failure")
+      ->check(CLI::Range(1, 3600000))
+      ->capture_default_str();
   app.add_option("--reconnect-max-ms", o.reconnect_max_ms, "longest wait between connection attempts")
-      ->check(CLI::Range(1, 3600000))->capture_default_str();
+      ->check(CLI::Range(1, 3600000))
+      ->capture_default_str();
   app.add_option("--instrument-check-ms", o.instrument_check_ms, "how often an idle meter is checked (0: never)")
-      ->check(CLI::Range(0, 3600000))->capture_default_str();
-  app.add_option("--token-file", o.token_file, "0600 JSON file with read_token and operator_token; required off loopback");
+      ->check(CLI::Range(0, 3600000))
+      ->capture_default_str();
+  app.add_option("--token-file", o.token_file,
+                 "0600 JSON file with read_token and operator_token; required off loopback");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical or off")
-      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))->capture_default_str();
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
+      ->capture_default_str();
   app.add_option("--config", o.config, "JSON file of settings (keys as the flags, '_' for '-'); flags win");
   app.add_option("--body-limit", o.body_limit, "largest request body in bytes")->capture_default_str();
   app.add_option("--max-connections", o.max_connections,
-                 "connections held at once (fewer if the file-descriptor limit is lower); a newcomer over it takes the place of the "
-                 "longest-idle one")->check(CLI::Range(std::size_t{1}, std::size_t{1000000}))->capture_default_str();
-  app.add_option("--max-connections-per-client", o.max_connections_per_client, "connections one client address may hold at once")
-      ->check(CLI::Range(std::size_t{1}, std::size_t{1000000}))->capture_default_str();
-  app.add_option("--compute-threads", o.compute_threads, "threads running fits and renders, apart from the other requests")
-      ->check(CLI::Range(std::size_t{1}, std::size_t{64}))->capture_default_str();
-  app.add_option("--compute-queue", o.compute_queue, "fits and renders that may wait for a thread; beyond them a 503 with Retry-After")
-      ->check(CLI::Range(std::size_t{0}, std::size_t{10000}))->capture_default_str();
-  app.add_option("--read-timeout-ms", o.read_timeout_ms, "time a client has to send a whole request")->capture_default_str();
-  app.add_option("--threads", o.threads, "I/O and worker threads each")->check(CLI::Range(1, 64))->capture_default_str();
+                 "connections held at once (fewer if the file-descriptor limit is lower); a newcomer over it takes the "
+                 "place of the "
+                 "longest-idle one")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{1000000}))
+      ->capture_default_str();
+  app.add_option("--max-connections-per-client", o.max_connections_per_client,
+                 "connections one client address may hold at once")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{1000000}))
+      ->capture_default_str();
+  app.add_option("--compute-threads", o.compute_threads,
+                 "threads running fits and renders, apart from the other requests")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{64}))
+      ->capture_default_str();
+  app.add_option("--compute-queue", o.compute_queue,
+                 "fits and renders that may wait for a thread; beyond them a 503 with Retry-After")
+      ->check(CLI::Range(std::size_t{0}, std::size_t{10000}))
+      ->capture_default_str();
+  app.add_option("--read-timeout-ms", o.read_timeout_ms, "time a client has to send a whole request")
+      ->capture_default_str();
+  app.add_option("--threads", o.threads, "I/O and worker threads each")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
   app.add_option("--max-rejected-readings", o.measure.max_rejected_readings,
-                 "readings with a bad quality code a job stores and retries before it fails")->capture_default_str();
+                 "readings with a bad quality code a job stores and retries before it fails")
+      ->capture_default_str();
   app.add_option("--white-max-age-s", o.measure.white_max_age_s, "warn on samples measured against an older white")
       ->capture_default_str();
   app.add_option("--lamp-change-tolerance", o.measure.lamp_change_tolerance,
@@ -140,9 +171,8 @@ int main(int argc, char** argv) {
     if (!in) return spdlog::error("event=bad_config path=\"{}\" message=\"cannot read\"", o.config), 2;
     std::stringstream text;
     text << in.rdbuf();
-    auto applied = skinspec::daemon::apply_config_json(text.str(), o, [&app](const std::string& flag) {
-      return app.count("--" + flag) > 0;
-    });
+    auto applied = skinspec::daemon::apply_config_json(
+        text.str(), o, [&app](const std::string& flag) { return app.count("--" + flag) > 0; });
     if (!applied) return spdlog::error("event=bad_config path=\"{}\" message=\"{}\"", o.config, applied.error()), 2;
   }
   spdlog::set_level(spdlog::level::from_str(o.log_level));

@@ -29,9 +29,10 @@ std::optional<std::string> white_age_warning(const store::Measurement& white, st
                                              const MeasurePolicy& policy) {
   const double age_s = std::chrono::duration<double>(sample_started - white.finished_at).count();
   if (age_s <= policy.white_max_age_s) return std::nullopt;
-  return fmt::format("white_stale: the white reference (measurement {}) was {:.1f} s old, more than white_max_age_s {:g}: "
-                     "measure the white standard again",
-                     white.id, age_s, policy.white_max_age_s);
+  return fmt::format(
+      "white_stale: the white reference (measurement {}) was {:.1f} s old, more than white_max_age_s {:g}: "
+      "measure the white standard again",
+      white.id, age_s, policy.white_max_age_s);
 }
 
 std::optional<std::string> lamp_change_warning(const store::Measurement& white, const store::Measurement& previous,
@@ -41,21 +42,23 @@ std::optional<std::string> lamp_change_warning(const store::Measurement& white, 
   if (!(before > 0)) return std::nullopt;  // a dark previous white tells nothing about the lamp
   const double change = (now - before) / before;
   if (std::abs(change) <= policy.lamp_change_tolerance) return std::nullopt;
-  return fmt::format("{} the band-integrated radiance of this white ({:.4g}) is {:+.1f} % from the previous white's "
-                     "(measurement {}, {:.4g}), beyond lamp_change_tolerance {:g} %",
-                     kLampChanged, now, 100 * change, previous.id, before, 100 * policy.lamp_change_tolerance);
+  return fmt::format(
+      "{} the band-integrated radiance of this white ({:.4g}) is {:+.1f} % from the previous white's "
+      "(measurement {}, {:.4g}), beyond lamp_change_tolerance {:g} %",
+      kLampChanged, now, 100 * change, previous.id, before, 100 * policy.lamp_change_tolerance);
 }
 
 std::optional<std::string> inherited_lamp_warning(const store::Measurement& white) {
   for (const auto& w : white.warnings)
     if (w.starts_with(kLampChanged))
-      return fmt::format("{} measured against white {}, whose lamp level changed from the white before it", kLampChanged, white.id);
+      return fmt::format("{} measured against white {}, whose lamp level changed from the white before it",
+                         kLampChanged, white.id);
   return std::nullopt;
 }
 
 std::string rejection_warning(int attempt, const drivers::InstrumentError& error, store::Id rejected_id) {
-  return fmt::format("rejected_reading: reading attempt {} rejected ({}); its raw reply is rejected reading {}", attempt,
-                     describe(error), rejected_id);
+  return fmt::format("rejected_reading: reading attempt {} rejected ({}); its raw reply is rejected reading {}",
+                     attempt, describe(error), rejected_id);
 }
 
 store::JobError job_error(const drivers::InstrumentError& error) {
@@ -63,13 +66,20 @@ store::JobError job_error(const drivers::InstrumentError& error) {
   using Code = store::JobErrorCode;
   const auto code = [&] {
     switch (error.kind) {
-      case Kind::no_contact: return Code::no_contact;
-      case Kind::lost: return Code::lost;
-      case Kind::protocol: return Code::protocol;
-      case Kind::bad_reading: return Code::bad_reading;
-      case Kind::rejected: return Code::rejected;
-      case Kind::cancelled: return Code::cancelled;
-      case Kind::transport: return Code::transport;
+      case Kind::no_contact:
+        return Code::no_contact;
+      case Kind::lost:
+        return Code::lost;
+      case Kind::protocol:
+        return Code::protocol;
+      case Kind::bad_reading:
+        return Code::bad_reading;
+      case Kind::rejected:
+        return Code::rejected;
+      case Kind::cancelled:
+        return Code::cancelled;
+      case Kind::transport:
+        return Code::transport;
     }
     return Code::internal;
   }();

@@ -58,7 +58,8 @@ std::expected<std::pair<std::string, unsigned short>, std::string> parse_listen(
   const char* first = text.data() + colon + 1;
   const char* last = text.data() + text.size();
   const auto [end, ec] = std::from_chars(first, last, port);
-  if (ec != std::errc{} || end != last || port > 65535 || first == last) return std::unexpected("bad port in '" + text + "'");
+  if (ec != std::errc{} || end != last || port > 65535 || first == last)
+    return std::unexpected("bad port in '" + text + "'");
   boost::system::error_code bad;
   boost::asio::ip::make_address(host, bad);
   if (bad) return std::unexpected("bad address '" + host + "' (give an IP address)");
@@ -74,7 +75,8 @@ bool is_loopback(const std::string& address) {
 std::expected<api::AccessPolicy, std::string> read_token_file(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) return std::unexpected(path + ": cannot read the token file");
-  if ((st.st_mode & 077) != 0) return std::unexpected(path + ": the token file must be readable by its owner only (chmod 600)");
+  if ((st.st_mode & 077) != 0)
+    return std::unexpected(path + ": the token file must be readable by its owner only (chmod 600)");
   std::ifstream in(path);
   std::stringstream bytes;
   bytes << in.rdbuf();
@@ -82,7 +84,8 @@ std::expected<api::AccessPolicy, std::string> read_token_file(const std::string&
   if (tokens.is_discarded() || !tokens.is_object()) return std::unexpected(path + ": not a JSON object");
   api::AccessPolicy access;
   access.required = true;
-  for (const auto& [key, field] : {std::pair{"read_token", &access.read_token}, std::pair{"operator_token", &access.operator_token}}) {
+  for (const auto& [key, field] :
+       {std::pair{"read_token", &access.read_token}, std::pair{"operator_token", &access.operator_token}}) {
     const auto it = tokens.find(key);
     if (it == tokens.end() || !it->is_string() || it->get<std::string>().size() < 16)
       return std::unexpected(path + ": '" + key + "' must be a string of at least 16 characters");

@@ -8,7 +8,7 @@
 namespace skinspec::daemon {
 
 struct BackoffPolicy {
-  std::chrono::milliseconds initial{500};   // the wait after the first failed attempt
+  std::chrono::milliseconds initial{500};    // the wait after the first failed attempt
   std::chrono::milliseconds maximum{30000};  // the doubling stops here
 };
 

@@ -9,7 +9,10 @@ namespace skinspec::daemon {
 using nlohmann::json;
 
 json spectral_configuration_json(const drivers::pr650::SpectralConfiguration& c) {
-  return {{"points", c.points}, {"bandwidth_nm", c.bandwidth_nm}, {"first_nm", c.first_nm}, {"last_nm", c.last_nm},
+  return {{"points", c.points},
+          {"bandwidth_nm", c.bandwidth_nm},
+          {"first_nm", c.first_nm},
+          {"last_nm", c.last_nm},
           {"step_nm", c.step_nm}};
 }
 
@@ -35,7 +38,8 @@ std::expected<store::Measurement, std::string> averaged(const std::vector<driver
   m.radiance.wavelength_nm = first.wavelength_nm;
   m.radiance.values.assign(n, 0.0);
   for (const auto& r : readings) {
-    if (r.wavelength_nm != first.wavelength_nm || r.radiance.size() != n) return std::unexpected("readings on different grids");
+    if (r.wavelength_nm != first.wavelength_nm || r.radiance.size() != n)
+      return std::unexpected("readings on different grids");
     for (std::size_t i = 0; i < n; ++i) m.radiance.values[i] += r.radiance[i] / count;
     m.raw_reply += r.raw_reply;
   }
@@ -44,7 +48,8 @@ std::expected<store::Measurement, std::string> averaged(const std::vector<driver
     m.radiance_sd.values.assign(n, 0.0);
     for (std::size_t i = 0; i < n; ++i) {
       double sum = 0;
-      for (const auto& r : readings) sum += (r.radiance[i] - m.radiance.values[i]) * (r.radiance[i] - m.radiance.values[i]);
+      for (const auto& r : readings)
+        sum += (r.radiance[i] - m.radiance.values[i]) * (r.radiance[i] - m.radiance.values[i]);
       m.radiance_sd.values[i] = std::sqrt(sum / (count - 1));
     }
   }
@@ -63,7 +68,8 @@ std::string measurement_settings(const std::vector<drivers::Reading>& readings, 
   return settings.dump();
 }
 
-store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, int attempt, store::Time measured_at) {
+store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, int attempt,
+                                               store::Time measured_at) {
   store::RejectedReading r;
   r.attempt = attempt;
   r.quality_code = error.quality_code;

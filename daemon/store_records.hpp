@@ -33,6 +33,7 @@ std::string measurement_settings(const std::vector<drivers::Reading>& readings, 
 
 // A reading the meter returned with a bad quality code: its code, the meter's text for it, the
 // reason as the job reports it, and its raw reply.
-store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, int attempt, store::Time measured_at);
+store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, int attempt,
+                                               store::Time measured_at);
 
 }  // namespace skinspec::daemon

@@ -56,7 +56,8 @@ void Supervisor::stop() {
   }
 }
 
-std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id session_id, const api::MeasureRequest& request,
+std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id session_id,
+                                                                   const api::MeasureRequest& request,
                                                                    const std::string& idempotency_key) {
   if (!idempotency_key.empty()) {
     auto earlier = db_.job_by_idempotency_key(idempotency_key);
@@ -66,22 +67,27 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
   auto session = db_.session(session_id);
   if (!session) return std::unexpected(api::from_store_error(session.error()));
   if (session->state != store::SessionState::open)
-    return std::unexpected(api::ApiError{api::ErrorKind::conflict, "conflict",
-                                         "session " + std::to_string(session_id) + " is " + std::string(store::to_string(session->state))});
+    return std::unexpected(api::ApiError{
+        api::ErrorKind::conflict, "conflict",
+        "session " + std::to_string(session_id) + " is " + std::string(store::to_string(session->state))});
   store::Job job;
   job.kind = "measure";
   job.session_id = session_id;
   job.idempotency_key = idempotency_key;
-  job.request = json{{"kind", std::string(store::to_string(request.kind))}, {"count", request.count},
-                     {"label", request.label}, {"integration_ms", request.integration_ms}}
+  job.request = json{{"kind", std::string(store::to_string(request.kind))},
+                     {"count", request.count},
+                     {"label", request.label},
+                     {"integration_ms", request.integration_ms}}
                     .dump();
   std::lock_guard lock(mutex_);  // queue order is the order of the jobs' ids
-  if (stopping_) return std::unexpected(api::ApiError{api::ErrorKind::unavailable, "unavailable", "the service is stopping"});
+  if (stopping_)
+    return std::unexpected(api::ApiError{api::ErrorKind::unavailable, "unavailable", "the service is stopping"});
   auto created = db_.create_job(job);
   if (!created) return std::unexpected(api::from_store_error(created.error()));
   if (created->created) {
     queue_.push_back({created->job.id, request});
-    live_[created->job.id] = api::JobProgress{static_cast<int>(queue_.size()), api::JobPhase::queued, 0, request.count, std::nullopt};
+    live_[created->job.id] =
+        api::JobProgress{static_cast<int>(queue_.size()), api::JobPhase::queued, 0, request.count, std::nullopt};
     job_changed();
     wake_.notify_all();
   }
@@ -119,8 +125,9 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
   auto job = db_.job(job_id);
   if (!job) return std::unexpected(api::from_store_error(job.error()));
   if (job->state != store::JobState::queued && job->state != store::JobState::running && !was_running)
-    return std::unexpected(api::ApiError{api::ErrorKind::conflict, "conflict",
-                                         "job " + std::to_string(job_id) + " has already " + std::string(store::to_string(job->state))});
+    return std::unexpected(
+        api::ApiError{api::ErrorKind::conflict, "conflict",
+                      "job " + std::to_string(job_id) + " has already " + std::string(store::to_string(job->state))});
   return *job;
 }
 
@@ -166,7 +173,8 @@ void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome, 
     std::lock_guard lock(mutex_);
     failure = cancel_requested() ? cancellation(*cancel_running_) : outcome.error();
     if (failure->code != outcome.error().code)
-      spdlog::info("event=job_cancelled job={} while=\"{}: {}\"", id, store::to_string(outcome.error().code), outcome.error().message);
+      spdlog::info("event=job_cancelled job={} while=\"{}: {}\"", id, store::to_string(outcome.error().code),
+                   outcome.error().message);
   }
   std::optional<store::StoreError> refused;
   if (failure) refused = record_end(id, *failure, partial.dump());
@@ -174,7 +182,8 @@ void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome, 
     std::lock_guard lock(mutex_);
     running_.reset();
     cancel_running_.reset();
-    if (state_ == api::InstrumentState::measuring) state_ = meter_ ? api::InstrumentState::connected : api::InstrumentState::disconnected;
+    if (state_ == api::InstrumentState::measuring)
+      state_ = meter_ ? api::InstrumentState::connected : api::InstrumentState::disconnected;
     if (refused) {
       // The record stays running (failed as interrupted at the next start); this process shows
       // the job failed meanwhile.
@@ -194,13 +203,17 @@ void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome, 
   } else {
     // The service's own failures stand out from the meter's and the operator's.
     const bool ours = failure->code == store::JobErrorCode::store || failure->code == store::JobErrorCode::internal;
-    spdlog::log(ours ? spdlog::level::err : spdlog::level::info, "event=job_finished job={} state={} code={} error=\"{}\"", id,
-                store::to_string(ended_state(*failure)), store::to_string(failure->code), failure->message);
+    spdlog::log(ours ? spdlog::level::err : spdlog::level::info,
+                "event=job_finished job={} state={} code={} error=\"{}\"", id, store::to_string(ended_state(*failure)),
+                store::to_string(failure->code), failure->message);
   }
 }
 
-std::optional<store::StoreError> Supervisor::record_end(store::Id id, const store::JobError& error, std::optional<std::string> result) {
-  const auto written = with_retries("job_end", id, [&] { return db_.update_job(id, {ended_state(error), error, result}); });
+std::optional<store::StoreError> Supervisor::record_end(store::Id id, const store::JobError& error,
+                                                        std::optional<std::string> result) {
+  const auto written = with_retries("job_end", id, [&] {
+    return db_.update_job(id, {ended_state(error), error, result});
+  });
   if (written) return std::nullopt;
   return written.error();
 }

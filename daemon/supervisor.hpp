@@ -74,19 +74,20 @@ class Supervisor final : public api::Acquisition {
   // Runs a job to its end; a job that succeeds is stored succeeded with its measurement. What
   // a job that fails got done (readings, rejected readings) goes to `partial`.
   Step<store::CompletedJob> execute(const store::Job& job, const api::MeasureRequest& request, nlohmann::json& partial);
-  Step<void> take_readings(const store::Job& job, const api::MeasureRequest& request, std::shared_ptr<drivers::Pr650>& meter,
-                           Readings& out);
+  Step<void> take_readings(const store::Job& job, const api::MeasureRequest& request,
+                           std::shared_ptr<drivers::Pr650>& meter, Readings& out);
   Step<store::Id> keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error);
   Step<std::optional<store::Fit>> derive_sample(const store::Session& session, const store::Measurement& white,
                                                 store::Measurement& m, nlohmann::json& timing) const;
-  Step<store::CompletedJob> store_measurement(const store::Job& job, const store::Measurement& m, const std::optional<store::Fit>& fit,
-                                         const nlohmann::json& result);
+  Step<store::CompletedJob> store_measurement(const store::Job& job, const store::Measurement& m,
+                                              const std::optional<store::Fit>& fit, const nlohmann::json& result);
   // Stores the end of a job that did not succeed and lets its followers know; a job cancelled
   // meanwhile ends cancelled whatever stopped it.
   void finish(store::Id id, const Step<store::CompletedJob>& outcome, const nlohmann::json& partial);
   // Writes a failed or cancelled job's end (and its result, when given), asking again after a
   // refusal that may pass; the store's error when it still refuses.
-  std::optional<store::StoreError> record_end(store::Id id, const store::JobError& error, std::optional<std::string> result);
+  std::optional<store::StoreError> record_end(store::Id id, const store::JobError& error,
+                                              std::optional<std::string> result);
   // Whether the running job was asked to stop, and why (cancelled or stopped), with mutex_ held.
   bool cancel_requested() const { return cancel_running_.has_value(); }
   std::optional<drivers::InstrumentError> ensure_connected();
@@ -182,10 +183,10 @@ class Supervisor final : public api::Acquisition {
   // Held by whoever connects, checks or (through ensure_connected) is about to measure, so that
   // only one of them owns the meter; always taken before mutex_, never while holding it.
   std::mutex wire_mutex_;
-  std::string port_;                     // the concrete URI of the last connection
-  std::optional<UsbIdentity> adapter_;   // the USB adapter of that connection
-  bool ever_connected_ = false;          // "lost" rather than "disconnected" when unreachable
-  int failed_attempts_ = 0;              // in a row, reset on success
+  std::string port_;                    // the concrete URI of the last connection
+  std::optional<UsbIdentity> adapter_;  // the USB adapter of that connection
+  bool ever_connected_ = false;         // "lost" rather than "disconnected" when unreachable
+  int failed_attempts_ = 0;             // in a row, reset on success
   std::optional<std::chrono::steady_clock::time_point> next_attempt_;  // while unreachable
   std::chrono::steady_clock::time_point next_check_{};
   std::chrono::steady_clock::time_point next_hangup_look_{};

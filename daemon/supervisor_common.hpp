@@ -31,7 +31,8 @@ auto with_retries(std::string_view what, store::Id job_id, Write write) {
     if (result) break;
     const auto kind = result.error().kind;
     if (kind != Kind::busy && kind != Kind::io && kind != Kind::internal) break;
-    spdlog::warn("event=store_retry what={} job={} kind={} error=\"{}\"", what, job_id, store::to_string(kind), result.error().message);
+    spdlog::warn("event=store_retry what={} job={} kind={} error=\"{}\"", what, job_id, store::to_string(kind),
+                 result.error().message);
     std::this_thread::sleep_for(wait);
     result = write();
   }

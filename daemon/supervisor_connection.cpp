@@ -45,7 +45,8 @@ json Supervisor::instrument_status() const {
   std::lock_guard lock(mutex_);
   json next_attempt_in_ms = nullptr;
   if (!meter_ && next_attempt_ && state_ != api::InstrumentState::connecting)
-    next_attempt_in_ms = std::max<long long>(0, std::chrono::duration_cast<milliseconds>(*next_attempt_ - SteadyClock::now()).count());
+    next_attempt_in_ms =
+        std::max<long long>(0, std::chrono::duration_cast<milliseconds>(*next_attempt_ - SteadyClock::now()).count());
   return {{"device", device_},
           {"port", port_.empty() ? json(nullptr) : json(port_)},
           {"state", std::string(api::to_string(state_.value()))},
@@ -224,7 +225,8 @@ void Supervisor::keep_connected() {
 // When the connector has something to do (mutex_ held); nullopt: nothing until woken.
 std::optional<SteadyClock::time_point> Supervisor::next_link_action() const {
   if (running_ || !queue_.empty()) return SteadyClock::now() + kBusyRecheck;
-  if (meter_) return link_.check_interval > milliseconds::zero() ? std::min(next_check_, next_hangup_look_) : next_hangup_look_;
+  if (meter_)
+    return link_.check_interval > milliseconds::zero() ? std::min(next_check_, next_hangup_look_) : next_hangup_look_;
   return next_attempt_;
 }
 
@@ -273,7 +275,8 @@ void Supervisor::on_usb_event(const drivers::UsbDeviceEvent& event) {
     if (!meter_) next_attempt_ = SteadyClock::now();
   } else if (meter_ && adapter_ && concerns(event, *adapter_)) {
     // The meter cannot be used any more; a running job fails on its own and says why.
-    lose_meter(fmt::format("lost: the USB adapter {:04x}:{:04x} of {} was unplugged", event.vendor_id, event.product_id, port_));
+    lose_meter(fmt::format("lost: the USB adapter {:04x}:{:04x} of {} was unplugged", event.vendor_id, event.product_id,
+                           port_));
   }
   wake_.notify_all();
 }

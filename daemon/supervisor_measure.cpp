@@ -31,7 +31,9 @@ std::vector<double> standard_on(const std::optional<store::WhiteStandard>& stand
   return {resampled.values().begin(), resampled.values().end()};
 }
 
-double ms_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
 
 std::int64_t wall_micros(std::chrono::system_clock::time_point t) {
   return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
@@ -51,9 +53,10 @@ std::string no_white_reference(const store::Store& db, store::Id session_id) {
       const auto request = json::parse(job.request, nullptr, false);
       if (!request.is_object() || request.value("kind", "") != "white") continue;
       if (job.state == store::JobState::failed || job.state == store::JobState::cancelled)
-        return fmt::format("session {} has no white reference, its white measurement (job {}) {}; "
-                           "measure the white standard again",
-                           session_id, job.id, store::to_string(job.state));
+        return fmt::format(
+            "session {} has no white reference, its white measurement (job {}) {}; "
+            "measure the white standard again",
+            session_id, job.id, store::to_string(job.state));
       break;
     }
   }
@@ -62,7 +65,8 @@ std::string no_white_reference(const store::Store& db, store::Id session_id) {
 
 }  // namespace
 
-Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error) {
+Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int attempt,
+                                                      const drivers::InstrumentError& error) {
   store::RejectedReading r = rejected_reading_record(error, attempt, to_store_time(std::chrono::system_clock::now()));
   r.session_id = job.session_id.value_or(0);
   r.job_id = job.id;
@@ -94,7 +98,8 @@ Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const ap
       if (!id) return std::unexpected(id.error());
       out.rejected_ids.push_back(*id);
       out.warnings.push_back(rejection_warning(attempt, error, *id));
-      spdlog::warn("event=reading_rejected job={} attempt={} quality={} rejected_reading={}", job.id, attempt, error.quality_code, *id);
+      spdlog::warn("event=reading_rejected job={} attempt={} quality={} rejected_reading={}", job.id, attempt,
+                   error.quality_code, *id);
       if (std::cmp_greater(out.rejected_ids.size(), policy_.max_rejected_readings)) {
         note_instrument_error(error);
         auto failure = job_error(error);
@@ -111,10 +116,12 @@ Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const ap
 
 // Reflectance against `white` into `m`, and its fit (none when the spectrum cannot be fitted,
 // with a warning saying why).
-Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const store::Session& session, const store::Measurement& white,
+Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const store::Session& session,
+                                                                      const store::Measurement& white,
                                                                       store::Measurement& m, json& timing) const {
   if (white.radiance.wavelength_nm != m.radiance.wavelength_nm)
-    return std::unexpected(store::JobError{store::JobErrorCode::white_mismatch, "the white reference was measured on another grid"});
+    return std::unexpected(
+        store::JobError{store::JobErrorCode::white_mismatch, "the white reference was measured on another grid"});
   if (auto stale = white_age_warning(white, m.started_at, policy_)) m.warnings.push_back(*stale);
   if (auto lamp = inherited_lamp_warning(white)) m.warnings.push_back(*lamp);
   std::optional<store::WhiteStandard> standard;
@@ -129,8 +136,9 @@ Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const stor
   for (std::size_t i = 0; i < m.radiance.values.size(); ++i) {
     const double w = white.radiance.values[i];
     if (!(w > 0))
-      return std::unexpected(store::JobError{
-          store::JobErrorCode::white_dark, fmt::format("the white reference has no signal at {:.0f} nm", m.radiance.wavelength_nm[i])});
+      return std::unexpected(
+          store::JobError{store::JobErrorCode::white_dark,
+                          fmt::format("the white reference has no signal at {:.0f} nm", m.radiance.wavelength_nm[i])});
     m.reflectance.values.push_back(m.radiance.values[i] / w * calibrated[i]);
   }
   const auto fit_started = Clock::now();
@@ -141,10 +149,8 @@ Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const stor
   fit_options.site = session.site;
   if (spectrum) {
     auto result = fitter_.fit(*spectrum, fit_options);
-    if (result)
-      fit = records::to_store_fit(*result, fit_options, fitter_.optics(api::kServiceModel).tables_digest());
-    else
-      m.warnings.push_back("fit_failed: " + result.error());
+    if (result) fit = records::to_store_fit(*result, fit_options, fitter_.optics(api::kServiceModel).tables_digest());
+    else m.warnings.push_back("fit_failed: " + result.error());
   } else {
     m.warnings.push_back("not_fittable: " + spectrum.error());
   }
@@ -152,7 +158,8 @@ Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const stor
   return fit;
 }
 
-Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job, const api::MeasureRequest& request, json& partial) {
+Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job, const api::MeasureRequest& request,
+                                                          json& partial) {
   const store::Id session_id = job.session_id.value_or(0);
   auto session = db_.session(session_id);
   if (!session) return store_error("the job's session could not be read", session.error());
@@ -175,7 +182,8 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
     meter = meter_;
     // The adapter can be unplugged between connecting and here; the hot-plug handler has
     // then already dropped the meter and marked it lost.
-    if (!meter) return std::unexpected(store::JobError{store::JobErrorCode::lost, "the instrument went away before measuring"});
+    if (!meter)
+      return std::unexpected(store::JobError{store::JobErrorCode::lost, "the instrument went away before measuring"});
     state_ = api::InstrumentState::measuring;
   }
   Readings readings;
@@ -184,12 +192,14 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   if (!taken) return std::unexpected(taken.error());
   {
     std::lock_guard lock(mutex_);
-    if (state_ == api::InstrumentState::measuring) state_ = api::InstrumentState::connected;  // not over a "lost" set meanwhile
+    if (state_ == api::InstrumentState::measuring)
+      state_ = api::InstrumentState::connected;  // not over a "lost" set meanwhile
   }
   const auto derive_started = Clock::now();
 
   auto averaged_reading = averaged(readings.good);
-  if (!averaged_reading) return std::unexpected(store::JobError{store::JobErrorCode::protocol, averaged_reading.error()});
+  if (!averaged_reading)
+    return std::unexpected(store::JobError{store::JobErrorCode::protocol, averaged_reading.error()});
   store::Measurement m = std::move(*averaged_reading);
   m.session_id = session_id;
   m.kind = request.kind;
@@ -221,10 +231,12 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
 }
 
 Supervisor::Step<store::CompletedJob> Supervisor::store_measurement(const store::Job& job, const store::Measurement& m,
-                                                              const std::optional<store::Fit>& fit, const json& result) {
+                                                                    const std::optional<store::Fit>& fit,
+                                                                    const json& result) {
   const auto started = Clock::now();
   const auto text = result.dump();
-  auto completed = with_retries("job_success", job.id, [&] { return db_.complete_measurement_job(job.id, m, fit, text); });
+  auto completed =
+      with_retries("job_success", job.id, [&] { return db_.complete_measurement_job(job.id, m, fit, text); });
   if (!completed) return store_error("the measurement could not be stored", completed.error());
   spdlog::debug("event=job_stored job={} store_ms={:.3f}", job.id, ms_since(started));
   return std::move(*completed);

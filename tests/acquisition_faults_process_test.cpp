@@ -26,8 +26,9 @@ std::string session_path(long long session) { return "/api/v1/sessions/" + std::
 
 // Stored samples without their fit: there must never be any.
 long long samples_without_fit(const std::string& db) {
-  return sqlite_integer(db, "SELECT count(*) FROM measurements m WHERE kind = 'sample' AND NOT EXISTS "
-                            "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id)");
+  return sqlite_integer(db,
+                        "SELECT count(*) FROM measurements m WHERE kind = 'sample' AND NOT EXISTS "
+                        "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id)");
 }
 
 bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds limit = 10s) {
@@ -78,7 +79,8 @@ TEST_P(FaultTest, TheJobEndsAsItMustAndTheNextOneSucceeds) {
     EXPECT_FALSE(job["result"]["fit_id"].is_null()) << job;
   } else {
     ASSERT_EQ(job["state"], "failed") << job << rig.logs();
-    EXPECT_TRUE((job["error"]["code"].get<std::string>() + ": " + job["error"]["message"].get<std::string>()).starts_with(c.error))
+    EXPECT_TRUE((job["error"]["code"].get<std::string>() + ": " + job["error"]["message"].get<std::string>())
+                    .starts_with(c.error))
         << job["error"];
     EXPECT_EQ(detail["measurements"].size(), 1u) << detail;  // only the white
     EXPECT_EQ(sqlite_integer(rig.db_path(), "SELECT count(*) FROM fits"), 0);
@@ -86,8 +88,9 @@ TEST_P(FaultTest, TheJobEndsAsItMustAndTheNextOneSucceeds) {
   EXPECT_EQ(job["result"]["rejected_reading_ids"].size(), c.rejected) << job;
   if (!c.warning.empty()) {
     const auto& warnings = job["result"]["warnings"];
-    EXPECT_TRUE(std::ranges::any_of(warnings, [&](const json& w) { return w.get<std::string>().starts_with(c.warning); }))
-        << job;
+    EXPECT_TRUE(std::ranges::any_of(warnings, [&](const json& w) {
+      return w.get<std::string>().starts_with(c.warning);
+    })) << job;
   }
   EXPECT_EQ(detail["rejected_readings"].size(), c.rejected) << detail;
   EXPECT_EQ(samples_without_fit(rig.db_path()), 0);
@@ -96,9 +99,10 @@ TEST_P(FaultTest, TheJobEndsAsItMustAndTheNextOneSucceeds) {
   // The fault is over once the meter has finished with the connection the daemon gave up on
   // (a late reply is still being sent), or has been power-cycled after a reboot.
   if (!c.succeeds && !c.error.starts_with("bad_reading")) {
-    EXPECT_TRUE(eventually([&] { return rig.sim->err().find(": closed") != std::string::npos ||
-                                        rig.sim->err().find(": disconnected") != std::string::npos; }))
-        << rig.logs();
+    EXPECT_TRUE(eventually([&] {
+      return rig.sim->err().find(": closed") != std::string::npos ||
+             rig.sim->err().find(": disconnected") != std::string::npos;
+    })) << rig.logs();
   }
   if (c.power_cycle) rig.sim->send_signal(SIGHUP);
   const auto next = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
@@ -124,26 +128,23 @@ INSTANTIATE_TEST_SUITE_P(
         FaultCase{"late_past_the_deadline", {"d1:late=4000@2"}, false, "lost"},
         // One garbled or cut reply is asked for again (the meter keeps its last measurement);
         // a cut one after the reply's pause deadline. A damaged M0 status is not measured again.
-        FaultCase{"garbage_s", {"s:garbage@2"}, true, ""},
-        FaultCase{"garbage_m0", {"m0:garbage@2"}, true, ""},
-        FaultCase{"garbage_d1", {"d1:garbage@2"}, true, ""},
-        FaultCase{"truncate_d2", {"d2:truncate@2"}, true, ""},
-        FaultCase{"truncate", {"d5:truncate@2"}, true, ""},
-        FaultCase{"garbage", {"d5:garbage@2"}, true, ""},
-        FaultCase{"bitflip", {"d5:bitflip=8@2"}, true, ""},
-        FaultCase{"drop_line", {"d5:drop-line@2"}, true, ""},
+        FaultCase{"garbage_s", {"s:garbage@2"}, true, ""}, FaultCase{"garbage_m0", {"m0:garbage@2"}, true, ""},
+        FaultCase{"garbage_d1", {"d1:garbage@2"}, true, ""}, FaultCase{"truncate_d2", {"d2:truncate@2"}, true, ""},
+        FaultCase{"truncate", {"d5:truncate@2"}, true, ""}, FaultCase{"garbage", {"d5:garbage@2"}, true, ""},
+        FaultCase{"bitflip", {"d5:bitflip=8@2"}, true, ""}, FaultCase{"drop_line", {"d5:drop-line@2"}, true, ""},
         FaultCase{"line_count", {"d5:line-count=90@2"}, true, ""},
         FaultCase{"garbage_twice", {"d5:garbage@2", "d5:garbage@3"}, false, "protocol"},
         FaultCase{"disconnect", {"d5:disconnect@2"}, false, "lost"},
         // A bad quality code: stored apart, measured again.
-        FaultCase{"quality", {"m0:quality=19@2"}, true, "", 1},
-        FaultCase{"stale", {"m0:stale@2"}, true, "", 1},
-        FaultCase{"quality_beyond_the_limit", {"m0:quality=19@2", "m0:quality=19@3", "m0:quality=19@4"}, false,
-                  "bad_reading: quality 19", 3},
+        FaultCase{"quality", {"m0:quality=19@2"}, true, "", 1}, FaultCase{"stale", {"m0:stale@2"}, true, "", 1},
+        FaultCase{"quality_beyond_the_limit",
+                  {"m0:quality=19@2", "m0:quality=19@3", "m0:quality=19@4"},
+                  false,
+                  "bad_reading: quality 19",
+                  3},
         FaultCase{"reboot", {"d5:reboot@2"}, false, "lost", 0, true},
         // Other reply styles of the same meter are read as well.
-        FaultCase{"exponent", {"d5:exponent=e@2"}, true, ""},
-        FaultCase{"header", {"d5:header=h2@2"}, true, ""}),
+        FaultCase{"exponent", {"d5:exponent=e@2"}, true, ""}, FaultCase{"header", {"d5:header=h2@2"}, true, ""}),
     [](const ::testing::TestParamInfo<FaultCase>& param_info) { return param_info.param.name; });
 
 class AcquisitionFaultsTest : public ::testing::Test {
@@ -192,7 +193,8 @@ TEST_F(AcquisitionFaultsTest, ADaemonKilledMidSessionLeavesAnIntactDatabaseAndAn
   EXPECT_EQ(job["error"]["code"], "interrupted") << job;
   EXPECT_EQ(samples_without_fit(rig.db_path()), 0);
   // An interrupted session takes no measurement until it is reopened.
-  EXPECT_EQ(http_request(p, "POST", session_path(session) + "/measurements", json{{"kind", "sample"}}.dump()).status, 409);
+  EXPECT_EQ(http_request(p, "POST", session_path(session) + "/measurements", json{{"kind", "sample"}}.dump()).status,
+            409);
 }
 
 // The commands the simulator received, from its log of a fault that fires on every command and
@@ -218,7 +220,10 @@ TEST_F(AcquisitionFaultsTest, TwentyClientsAtOnceAreServedOneWholeMeasurementAft
   {
     std::vector<std::jthread> clients;
     for (int i = 0; i < kClients; ++i)
-      clients.emplace_back([&, i] { accepted[static_cast<std::size_t>(i)] = submit(p, session, {{"kind", "sample"}, {"label", "c" + std::to_string(i)}}); });
+      clients.emplace_back([&, i] {
+        accepted[static_cast<std::size_t>(i)] =
+            submit(p, session, {{"kind", "sample"}, {"label", "c" + std::to_string(i)}});
+      });
   }
   std::vector<json> jobs;
   for (const auto& a : accepted) {
@@ -248,7 +253,8 @@ TEST_F(AcquisitionFaultsTest, TwentyClientsAtOnceAreServedOneWholeMeasurementAft
   ASSERT_NE(first_setup, commands.end()) << rig.sim->err();
   commands.erase(commands.begin(), first_setup);
   ASSERT_EQ(commands.size(), measurement.size() * (kClients + 1)) << rig.sim->err();
-  for (std::size_t i = 0; i < commands.size(); ++i) EXPECT_EQ(commands[i], measurement[i % measurement.size()]) << "command " << i;
+  for (std::size_t i = 0; i < commands.size(); ++i)
+    EXPECT_EQ(commands[i], measurement[i % measurement.size()]) << "command " << i;
 }
 
 // A radiance file whose scenes the meter sees in turn: a white, the same white under a lamp 20 %
@@ -301,9 +307,11 @@ TEST_F(AcquisitionFaultsTest, AChangedLampWarnsOnItsWhiteAndOnSamplesMeasuredAga
   ASSERT_EQ(sample["state"], "succeeded") << sample;
   ASSERT_EQ(sample["result"]["warnings"].size(), 1u) << sample;  // not stale: the default age is 30 min
   EXPECT_TRUE(sample["result"]["warnings"][0].get<std::string>().starts_with("lamp_changed:")) << sample;
-  const auto stored = get_json(p, "/api/v1/measurements/" + std::to_string(sample["result"]["measurement_id"].get<long long>()));
+  const auto stored =
+      get_json(p, "/api/v1/measurements/" + std::to_string(sample["result"]["measurement_id"].get<long long>()));
   EXPECT_EQ(stored["warnings"], sample["result"]["warnings"]);
-  EXPECT_EQ(get_json(p, "/api/v1/measurements/" + std::to_string(second["result"]["measurement_id"].get<long long>()))["warnings"],
+  EXPECT_EQ(get_json(p, "/api/v1/measurements/" +
+                            std::to_string(second["result"]["measurement_id"].get<long long>()))["warnings"],
             second["result"]["warnings"]);
 }
 

@@ -31,7 +31,10 @@ std::vector<double> first_subject_on_4nm() {
   bool header = false;
   for (std::string line; std::getline(in, line);) {
     if (line.empty() || line[0] == '#') continue;
-    if (!header) { header = true; continue; }
+    if (!header) {
+      header = true;
+      continue;
+    }
     std::stringstream cells(line);
     std::string a, b;
     std::getline(cells, a, ',');
@@ -41,8 +44,14 @@ std::vector<double> first_subject_on_4nm() {
   }
   std::vector<double> out;
   for (int w = 380; w <= 780; w += 4) {
-    if (w <= wl.front()) { out.push_back(r.front()); continue; }
-    if (w >= wl.back()) { out.push_back(r.back()); continue; }
+    if (w <= wl.front()) {
+      out.push_back(r.front());
+      continue;
+    }
+    if (w >= wl.back()) {
+      out.push_back(r.back());
+      continue;
+    }
     std::size_t i = 1;
     while (wl[i] < w) ++i;
     const double t = (w - wl[i - 1]) / (wl[i] - wl[i - 1]);
@@ -88,7 +97,9 @@ TEST_F(AcquisitionTest, WhiteThenSampleStoresTheSourceReflectanceAndItsFit) {
   ASSERT_EQ(job["state"], "succeeded") << job << rig.daemon->err();
   EXPECT_EQ(job["result"]["white_measurement_id"], white["result"]["measurement_id"]);
 
-  const auto m = http_request(p, "GET", "/api/v1/measurements/" + std::to_string(job["result"]["measurement_id"].get<long long>())).json();
+  const auto m =
+      http_request(p, "GET", "/api/v1/measurements/" + std::to_string(job["result"]["measurement_id"].get<long long>()))
+          .json();
   EXPECT_EQ(m["kind"], "sample");
   EXPECT_EQ(m["reading_count"], 1);
   const auto expected = first_subject_on_4nm();
@@ -97,14 +108,16 @@ TEST_F(AcquisitionTest, WhiteThenSampleStoresTheSourceReflectanceAndItsFit) {
   for (std::size_t i = 0; i < expected.size(); ++i)
     EXPECT_NEAR(stored[i].get<double>(), expected[i], 1e-3 * expected[i] + 1e-6) << "at " << 380 + 4 * i << " nm";
 
-  const auto fit = http_request(p, "GET", "/api/v1/fits/" + std::to_string(job["result"]["fit_id"].get<long long>())).json();
-  for (const char* field : {"name", "site", "params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations", "converged",
-                            "wavelength_nm", "measured", "fitted"})
+  const auto fit =
+      http_request(p, "GET", "/api/v1/fits/" + std::to_string(job["result"]["fit_id"].get<long long>())).json();
+  for (const char* field : {"name", "site", "params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations",
+                            "converged", "wavelength_nm", "measured", "fitted"})
     EXPECT_TRUE(fit.contains(field)) << field << " " << fit;
   EXPECT_EQ(fit["site"], "forearm");
   // The same fit as the stateless fitter gives for the stored reflectance.
-  const auto direct = http_request(p, "POST", "/api/v1/fit",
-                                   json{{"wavelength_nm", m["reflectance"]["wavelength_nm"]}, {"reflectance", stored}, {"site", "forearm"}}.dump());
+  const auto direct = http_request(
+      p, "POST", "/api/v1/fit",
+      json{{"wavelength_nm", m["reflectance"]["wavelength_nm"]}, {"reflectance", stored}, {"site", "forearm"}}.dump());
   ASSERT_EQ(direct.status, 200) << direct.body;
   for (const auto& name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
     EXPECT_NEAR(fit["params"][name].get<double>(), direct.json()["params"][name].get<double>(), 1e-9) << name;
@@ -169,18 +182,23 @@ TEST_F(AcquisitionTest, TheStoredInstrumentConfigurationIsWhatTheMeterReports) {
   const long long session = new_session(rig.port, "V4");
   const auto white = wait_for_job(rig.port, submit(rig.port, session, {{"kind", "white"}}));
   ASSERT_EQ(white["state"], "succeeded") << white << rig.logs();
-  const auto m = get_json(rig.port, "/api/v1/measurements/" + std::to_string(white["result"]["measurement_id"].get<long long>()));
+  const auto m =
+      get_json(rig.port, "/api/v1/measurements/" + std::to_string(white["result"]["measurement_id"].get<long long>()));
   ASSERT_TRUE(m["provenance"]["instrument_id"].is_number_integer()) << m;
-  const json stored = json::parse(sqlite_text(
-      rig.db_path(), "SELECT spectral_configuration FROM instruments WHERE id = " + std::to_string(m["provenance"]["instrument_id"].get<long long>())));
+  const json stored =
+      json::parse(sqlite_text(rig.db_path(), "SELECT spectral_configuration FROM instruments WHERE id = " +
+                                                 std::to_string(m["provenance"]["instrument_id"].get<long long>())));
   const auto stopped = rig.stop_daemon();  // the simulator serves one client at a time
   ASSERT_TRUE(stopped.exited()) << stopped.describe();
 
   const auto identity = identify_directly(rig.sim_port);
   ASSERT_TRUE(identity) << identity.error();
   const auto& reported = identity->configuration;
-  EXPECT_EQ(stored, (json{{"points", reported.points}, {"bandwidth_nm", reported.bandwidth_nm}, {"first_nm", reported.first_nm},
-                          {"last_nm", reported.last_nm}, {"step_nm", reported.step_nm}}));
+  EXPECT_EQ(stored, (json{{"points", reported.points},
+                          {"bandwidth_nm", reported.bandwidth_nm},
+                          {"first_nm", reported.first_nm},
+                          {"last_nm", reported.last_nm},
+                          {"step_nm", reported.step_nm}}));
   EXPECT_EQ(stored["points"], m["radiance"]["values"].size());
   EXPECT_EQ(stored["first_nm"], m["radiance"]["wavelength_nm"].front());
   EXPECT_EQ(stored["last_nm"], m["radiance"]["wavelength_nm"].back());
@@ -192,11 +210,16 @@ TEST_F(AcquisitionTest, QueuedJobsCanBeCancelledAndUnknownOnesAreNotFound) {
   const auto p = rig.port;
   EXPECT_EQ(http_request(p, "GET", "/api/v1/jobs/999").status, 404);
   EXPECT_EQ(http_request(p, "POST", "/api/v1/sessions/999/measurements", json{{"kind", "white"}}.dump()).status, 404);
-  const long long session = http_request(p, "POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "V3"}}.dump()).json()["id"];
-  EXPECT_EQ(http_request(p, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", json{{"kind", "dark"}}.dump()).status, 422);
+  const long long session =
+      http_request(p, "POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "V3"}}.dump()).json()["id"];
+  EXPECT_EQ(http_request(p, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements",
+                         json{{"kind", "dark"}}.dump())
+                .status,
+            422);
   std::vector<json> jobs;
   for (int i = 0; i < 5; ++i) jobs.push_back(submit(p, session, {{"kind", "white"}, {"count", 3}}));
-  const auto cancelled = http_request(p, "DELETE", "/api/v1/jobs/" + std::to_string(jobs.back()["job_id"].get<long long>()));
+  const auto cancelled =
+      http_request(p, "DELETE", "/api/v1/jobs/" + std::to_string(jobs.back()["job_id"].get<long long>()));
   EXPECT_EQ(cancelled.status == 200 || cancelled.status == 409, true) << cancelled.body;
   for (auto& j : jobs) j = wait_for_job(p, j);
   for (std::size_t i = 0; i + 1 < jobs.size(); ++i) EXPECT_EQ(jobs[i]["state"], "succeeded") << jobs[i];
@@ -204,7 +227,8 @@ TEST_F(AcquisitionTest, QueuedJobsCanBeCancelledAndUnknownOnesAreNotFound) {
     EXPECT_EQ(jobs.back()["state"], "cancelled") << jobs.back();
   }
   // Finished in the order submitted.
-  for (std::size_t i = 1; i + 1 < jobs.size(); ++i) EXPECT_LE(jobs[i - 1]["finished_at"].get<std::string>(), jobs[i]["started_at"].get<std::string>());
+  for (std::size_t i = 1; i + 1 < jobs.size(); ++i)
+    EXPECT_LE(jobs[i - 1]["finished_at"].get<std::string>(), jobs[i]["started_at"].get<std::string>());
 }
 
 }  // namespace

@@ -23,8 +23,8 @@ using nlohmann::json;
 using namespace std::chrono_literals;
 using Micros = std::chrono::microseconds;
 
-constexpr int kJobs = 120;            // a white, then samples, in one session
-constexpr double kFaultRate = 0.05;   // per command, as in the field campaign that found the holes
+constexpr int kJobs = 120;           // a white, then samples, in one session
+constexpr double kFaultRate = 0.05;  // per command, as in the field campaign that found the holes
 constexpr const char* kSeed = "13";
 // A fixed integration time that suits the simulated white and skin: a silent M0 then costs
 // 2 x 600 ms plus the meter's overhead, not the 30 s adaptive integration is allowed.
@@ -35,7 +35,8 @@ constexpr auto kP95Limit = 2s;
 std::chrono::sys_time<Micros> parse_api_time(const std::string& text) {
   int year = 0, month = 0, day = 0, hour = 0, minute = 0, second = 0;
   long micros = 0;
-  const int fields = std::sscanf(text.c_str(), "%d-%d-%dT%d:%d:%d.%6ldZ", &year, &month, &day, &hour, &minute, &second, &micros);
+  const int fields =
+      std::sscanf(text.c_str(), "%d-%d-%dT%d:%d:%d.%6ldZ", &year, &month, &day, &hour, &minute, &second, &micros);
   EXPECT_EQ(fields, 7) << text;
   const auto date = std::chrono::sys_days(std::chrono::year(year) / month / day);
   return date + std::chrono::hours(hour) + std::chrono::minutes(minute) + std::chrono::seconds(second) + Micros(micros);
@@ -103,7 +104,8 @@ TEST_F(AcquisitionSoakTest, NoJobFailsForASingleLostOrDamagedReplyAndJobsStaySho
     ASSERT_TRUE(state == "succeeded" || state == "failed") << job;
     durations.push_back(duration_of(job));
     if (state == "succeeded") {
-      for (const auto& warning : job["result"]["warnings"]) remeasured += warning.get<std::string>().starts_with("remeasured:");
+      for (const auto& warning : job["result"]["warnings"])
+        remeasured += warning.get<std::string>().starts_with("remeasured:");
       rejected += static_cast<int>(job["result"]["rejected_reading_ids"].size());
       continue;
     }
@@ -119,18 +121,21 @@ TEST_F(AcquisitionSoakTest, NoJobFailsForASingleLostOrDamagedReplyAndJobsStaySho
   }
 
   std::ranges::sort(durations);
-  const auto at = [&](double q) { return durations[static_cast<std::size_t>(q * static_cast<double>(durations.size() - 1))]; };
+  const auto at = [&](double q) {
+    return durations[static_cast<std::size_t>(q * static_cast<double>(durations.size() - 1))];
+  };
   const Micros p95 = at(0.95);
   const FiredFaults fired = fired_faults(rig.sim->err());
   std::string by_command, by_kind;
   for (const auto& [command, n] : fired.by_command) by_command += " " + command + " " + std::to_string(n);
   for (const auto& [kind, n] : fired.by_kind) by_kind += " " + kind + " " + std::to_string(n);
-  std::printf("soak: %d jobs in %.1f s at fault rate %.2f (seed %s): %d failed, %d failed on quality codes, "
-              "%d readings rejected, %d measured again\n"
-              "soak: job duration p50 %.0f ms, p95 %.0f ms, max %.0f ms\n"
-              "soak: %d faults fired; by command:%s; by kind:%s\n",
-              kJobs, std::chrono::duration<double>(wall).count(), kFaultRate, kSeed, failed, failed_on_quality, rejected,
-              remeasured, ms(at(0.5)), ms(p95), ms(durations.back()), fired.total, by_command.c_str(), by_kind.c_str());
+  std::printf(
+      "soak: %d jobs in %.1f s at fault rate %.2f (seed %s): %d failed, %d failed on quality codes, "
+      "%d readings rejected, %d measured again\n"
+      "soak: job duration p50 %.0f ms, p95 %.0f ms, max %.0f ms\n"
+      "soak: %d faults fired; by command:%s; by kind:%s\n",
+      kJobs, std::chrono::duration<double>(wall).count(), kFaultRate, kSeed, failed, failed_on_quality, rejected,
+      remeasured, ms(at(0.5)), ms(p95), ms(durations.back()), fired.total, by_command.c_str(), by_kind.c_str());
 
   EXPECT_GE(static_cast<int>(jobs.size()), 100);
   EXPECT_EQ(failed, 0) << rig.logs();

@@ -23,11 +23,14 @@ using namespace std::chrono_literals;
 // Live progress set by the test; the jobs themselves are in the store.
 class FakeAcquisition final : public Acquisition {
  public:
-  json instrument_status() const override { return {{"device", "fake"}, {"state", "connected"}, {"last_error", nullptr}}; }
+  json instrument_status() const override {
+    return {{"device", "fake"}, {"state", "connected"}, {"last_error", nullptr}};
+  }
   json ports() const override { return {{"ports", json::array()}}; }
   // Like a worker that was idle: the job is queued and taken at once, before the answer is
   // made from it.
-  std::expected<store::CreatedJob, ApiError> submit(store::Id session, const MeasureRequest& request, const std::string&) override {
+  std::expected<store::CreatedJob, ApiError> submit(store::Id session, const MeasureRequest& request,
+                                                    const std::string&) override {
     if (db_ == nullptr) return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "not in this test"});
     store::Job job;
     job.kind = "measure";
@@ -35,7 +38,8 @@ class FakeAcquisition final : public Acquisition {
     const auto created = db_->create_job(job);
     if (!created) return std::unexpected(ApiError{ErrorKind::internal, "", created.error().message});
     set(created->job.id, JobProgress{1, JobPhase::queued, 0, request.count});
-    if (!db_->update_job(created->job.id, {store::JobState::running})) return std::unexpected(ApiError{ErrorKind::internal, "", "start"});
+    if (!db_->update_job(created->job.id, {store::JobState::running}))
+      return std::unexpected(ApiError{ErrorKind::internal, "", "start"});
     set(created->job.id, JobProgress{0, JobPhase::connecting, 0, request.count});
     return *created;
   }
@@ -52,7 +56,8 @@ class FakeAcquisition final : public Acquisition {
     std::lock_guard lock(mutex_);
     return changes_;
   }
-  std::uint64_t wait_for_change(std::uint64_t seen, std::chrono::milliseconds timeout, const std::atomic<bool>& abandoned) const override {
+  std::uint64_t wait_for_change(std::uint64_t seen, std::chrono::milliseconds timeout,
+                                const std::atomic<bool>& abandoned) const override {
     std::unique_lock lock(mutex_);
     changed_.wait_for(lock, timeout, [&] { return changes_ > seen || abandoned.load(); });
     return changes_;
@@ -101,7 +106,8 @@ class ApiJobsTest : public ::testing::Test {
     EXPECT_TRUE(created) << created.error().message;
     return created->job.id;
   }
-  void update(store::Id id, store::JobState state, std::optional<store::JobError> error = {}, std::optional<std::string> result = {}) {
+  void update(store::Id id, store::JobState state, std::optional<store::JobError> error = {},
+              std::optional<std::string> result = {}) {
     auto updated = db_->update_job(id, {state, std::move(error), std::move(result)});
     ASSERT_TRUE(updated) << updated.error().message;
   }
@@ -163,8 +169,10 @@ TEST_F(ApiJobsTest, FinishedJobsShowTheirStoredProgress) {
   update(ok, store::JobState::running);
   update(ok, store::JobState::succeeded, std::nullopt, json{{"measurement_id", 1}, {"readings", 3}}.dump());
   update(failed, store::JobState::running);
-  update(failed, store::JobState::failed, store::JobError{store::JobErrorCode::lost, "the meter went away"}, json{{"readings", 2}}.dump());
-  update(cancelled, store::JobState::cancelled, store::JobError{store::JobErrorCode::cancelled, "cancelled by request"});
+  update(failed, store::JobState::failed, store::JobError{store::JobErrorCode::lost, "the meter went away"},
+         json{{"readings", 2}}.dump());
+  update(cancelled, store::JobState::cancelled,
+         store::JobError{store::JobErrorCode::cancelled, "cancelled by request"});
   // Live progress not yet cleared does not override a finished record.
   acquisition_.set(ok, JobProgress{0, JobPhase::storing, 3, 3});
 
@@ -204,7 +212,8 @@ TEST_F(ApiJobsTest, EventsFollowAJobUntilItEnds) {
   EXPECT_EQ(second["state"], "running");
   EXPECT_EQ(second["progress"]["readings_done"], 1);
 
-  update(id, store::JobState::succeeded, std::nullopt, json{{"measurement_id", 7}, {"fit_id", 3}, {"readings", 2}}.dump());
+  update(id, store::JobState::succeeded, std::nullopt,
+         json{{"measurement_id", 7}, {"fit_id", 3}, {"readings", 2}}.dump());
   acquisition_.set(id, std::nullopt);
   auto [last_id, last] = parse_event(events->next(1s).value());
   EXPECT_EQ(last_id, 3);
@@ -242,8 +251,10 @@ TEST_F(ApiJobsTest, ClosingTheEventsEndsAWaitingPull) {
 // as the progress says, never queued at position 0.
 TEST_F(ApiJobsTest, ANewJobTheWorkerTookAtOnceShowsRunningAtPositionZero) {
   acquisition_.take_jobs_from(*db_);
-  const auto r = router_->handle(Request{"POST", "/api/v1/sessions/" + std::to_string(session_) + "/measurements",
-                                         {{"content-type", "application/json"}}, R"({"kind": "white", "count": 3})"});
+  const auto r = router_->handle(Request{"POST",
+                                         "/api/v1/sessions/" + std::to_string(session_) + "/measurements",
+                                         {{"content-type", "application/json"}},
+                                         R"({"kind": "white", "count": 3})"});
   ASSERT_EQ(r.status, 202) << r.body;
   const json accepted = json::parse(r.body);
   EXPECT_EQ(accepted["state"], "running");
@@ -276,7 +287,8 @@ TEST_F(ApiJobsTest, AJobWhoseEndTheStoreRefusedShowsFailedWithAStoreError) {
   const auto id = add_job(2);
   update(id, store::JobState::running);
   JobProgress refused{0, JobPhase::done, 1, 2};
-  refused.unrecorded_failure = store::JobError{store::JobErrorCode::store, "the job ended (lost: gone) but the database refused"};
+  refused.unrecorded_failure =
+      store::JobError{store::JobErrorCode::store, "the job ended (lost: gone) but the database refused"};
   acquisition_.set(id, refused);
   const json job = get_job(id);
   EXPECT_EQ(job["state"], "failed");
@@ -295,12 +307,14 @@ TEST_F(ApiJobsTest, TheOpenApiJobSchemaHasPositionAndProgress) {
   EXPECT_TRUE(job.contains("position"));
   EXPECT_EQ(job["progress"]["$ref"], "#/components/schemas/JobProgress");
   EXPECT_TRUE(doc["components"]["schemas"]["JobProgress"]["properties"].contains("fraction"));
-  EXPECT_TRUE(doc["paths"]["/api/v1/jobs/{id}/events"]["get"]["responses"]["200"]["content"].contains("text/event-stream"));
+  EXPECT_TRUE(
+      doc["paths"]["/api/v1/jobs/{id}/events"]["get"]["responses"]["200"]["content"].contains("text/event-stream"));
   // The job's error is {code, message}, its codes those of the one mapping.
   EXPECT_EQ(job["error"]["oneOf"][0]["$ref"], "#/components/schemas/JobError");
   const json& codes = doc["components"]["schemas"]["JobError"]["properties"]["code"]["enum"];
   EXPECT_EQ(codes.size(), store::job_error_code_names().size());
-  for (const auto& [code, name] : store::job_error_code_names()) EXPECT_NE(std::ranges::find(codes, json(name)), codes.end()) << name;
+  for (const auto& [code, name] : store::job_error_code_names())
+    EXPECT_NE(std::ranges::find(codes, json(name)), codes.end()) << name;
   EXPECT_EQ(doc["components"]["schemas"]["JobProgress"]["properties"]["phase"]["enum"],
             json({"queued", "connecting", "measuring", "fitting", "storing", "done"}));
 }

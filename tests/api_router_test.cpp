@@ -85,11 +85,18 @@ class ApiRouterTest : public ::testing::Test {
 };
 
 TEST(ApiErrors, EveryKindHasOneStatus) {
-  const std::pair<ErrorKind, int> expected[] = {
-      {ErrorKind::bad_request, 400}, {ErrorKind::unauthorized, 401}, {ErrorKind::forbidden, 403},
-      {ErrorKind::not_found, 404}, {ErrorKind::method_not_allowed, 405}, {ErrorKind::conflict, 409},
-      {ErrorKind::payload_too_large, 413}, {ErrorKind::unsupported_media_type, 415}, {ErrorKind::unprocessable, 422},
-      {ErrorKind::unavailable, 503}, {ErrorKind::timeout, 504}, {ErrorKind::internal, 500}};
+  const std::pair<ErrorKind, int> expected[] = {{ErrorKind::bad_request, 400},
+                                                {ErrorKind::unauthorized, 401},
+                                                {ErrorKind::forbidden, 403},
+                                                {ErrorKind::not_found, 404},
+                                                {ErrorKind::method_not_allowed, 405},
+                                                {ErrorKind::conflict, 409},
+                                                {ErrorKind::payload_too_large, 413},
+                                                {ErrorKind::unsupported_media_type, 415},
+                                                {ErrorKind::unprocessable, 422},
+                                                {ErrorKind::unavailable, 503},
+                                                {ErrorKind::timeout, 504},
+                                                {ErrorKind::internal, 500}};
   for (const auto& [kind, status] : expected) {
     EXPECT_EQ(http_status(kind), status);
     const json b = json::parse(error_body({kind, "", "m"}));
@@ -102,13 +109,17 @@ TEST(ApiErrors, EveryKindHasOneStatus) {
 // is broken a 500. The store's message is passed on.
 TEST(ApiErrors, EveryStoreErrorKindHasOneStatusAndCode) {
   using K = store::StoreError::Kind;
-  const std::map<K, std::pair<int, std::string>> expected = {
-      {K::invalid_argument, {422, "invalid_value"}},  {K::not_found, {404, "not_found"}},
-      {K::conflict, {409, "conflict"}},               {K::busy, {503, "database_busy"}},
-      {K::full, {503, "database_full"}},              {K::read_only, {503, "database_read_only"}},
-      {K::io, {500, "database_io"}},                  {K::corrupt, {500, "database_corrupt"}},
-      {K::newer_schema, {500, "database_schema"}},    {K::older_schema, {500, "database_schema"}},
-      {K::internal, {500, "database_error"}}};
+  const std::map<K, std::pair<int, std::string>> expected = {{K::invalid_argument, {422, "invalid_value"}},
+                                                             {K::not_found, {404, "not_found"}},
+                                                             {K::conflict, {409, "conflict"}},
+                                                             {K::busy, {503, "database_busy"}},
+                                                             {K::full, {503, "database_full"}},
+                                                             {K::read_only, {503, "database_read_only"}},
+                                                             {K::io, {500, "database_io"}},
+                                                             {K::corrupt, {500, "database_corrupt"}},
+                                                             {K::newer_schema, {500, "database_schema"}},
+                                                             {K::older_schema, {500, "database_schema"}},
+                                                             {K::internal, {500, "database_error"}}};
   for (int k = 0; k <= static_cast<int>(K::internal); ++k) {
     const auto kind = static_cast<K>(k);
     const auto it = expected.find(kind);
@@ -155,13 +166,15 @@ TEST_F(ApiRouterTest, PathTraversalAndBadPathsAreRefused) {
 TEST_F(ApiRouterTest, FitReturnsTheFieldsOfTheCommandLine) {
   const auto wl = grid();
   const auto refl = skin_like(wl);
-  const auto r = call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", refl}, {"site", "forearm"}}.dump());
+  const auto r =
+      call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", refl}, {"site", "forearm"}}.dump());
   ASSERT_EQ(r.status, 200) << r.body;
   auto direct = shared_fitter().fit(*Spectrum::create(wl, refl), FitOptions{.model = kServiceModel});
   ASSERT_TRUE(direct);
   EXPECT_EQ(body(r), json::parse(fit_to_json("spectrum", *direct).dump()));
 
-  const auto several = call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"spectra", {{"a", refl}, {"b", refl}}}}.dump());
+  const auto several =
+      call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"spectra", {{"a", refl}, {"b", refl}}}}.dump());
   ASSERT_EQ(several.status, 200) << several.body;
   ASSERT_EQ(body(several)["fits"].size(), 2u);
   EXPECT_EQ(body(several)["fits"][1]["name"], "b");
@@ -203,11 +216,13 @@ TEST_F(ApiRouterTest, FitRefusesBadInput) {
   auto decreasing = wl;
   std::reverse(decreasing.begin(), decreasing.end());
   expect_error(call("POST", "/api/v1/fit", with("wavelength_nm", decreasing)), 422, "invalid_spectrum");
-  expect_error(call("POST", "/api/v1/fit", with("spectra", json::object({{"a", skin_like(wl)}}))), 422, "missing_field");
+  expect_error(call("POST", "/api/v1/fit", with("spectra", json::object({{"a", skin_like(wl)}}))), 422,
+               "missing_field");
 }
 
 TEST_F(ApiRouterTest, WhiteStandards) {
-  const json ws = {{"name", "Spectralon 99"}, {"certificate", "C-1"}, {"wavelength_nm", {380, 780}}, {"reflectance", {0.99, 0.99}}};
+  const json ws = {
+      {"name", "Spectralon 99"}, {"certificate", "C-1"}, {"wavelength_nm", {380, 780}}, {"reflectance", {0.99, 0.99}}};
   const auto created = call("POST", "/api/v1/white-standards", ws.dump());
   ASSERT_EQ(created.status, 201) << created.body;
   const auto id = body(created)["id"].get<std::int64_t>();
@@ -229,8 +244,9 @@ TEST_F(ApiRouterTest, SessionsCreateListPaginateFilterAndClose) {
   }
   expect_error(call("POST", "/api/v1/sessions", json{{"site", "forearm"}}.dump()), 422, "missing_field");
   expect_error(call("POST", "/api/v1/sessions", json{{"site", "elbow"}, {"subject", "x"}}.dump()), 422, "unknown_site");
-  expect_error(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "x"}, {"white_standard_id", 42}}.dump()), 422,
-               "unknown_white_standard");
+  expect_error(
+      call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "x"}, {"white_standard_id", 42}}.dump()),
+      422, "unknown_white_standard");
 
   auto page = body(call("GET", "/api/v1/sessions?limit=2"));
   ASSERT_EQ(page["sessions"].size(), 2u);
@@ -239,11 +255,13 @@ TEST_F(ApiRouterTest, SessionsCreateListPaginateFilterAndClose) {
   for (int pages = 0; pages < 10; ++pages) {
     for (const auto& s : page["sessions"]) seen.insert(s["subject"].get<std::string>());
     if (page["next_cursor"].is_null()) break;
-    page = body(call("GET", "/api/v1/sessions?limit=2&cursor=" + std::to_string(page["next_cursor"].get<std::int64_t>())));
+    page =
+        body(call("GET", "/api/v1/sessions?limit=2&cursor=" + std::to_string(page["next_cursor"].get<std::int64_t>())));
   }
   EXPECT_EQ(seen.size(), 5u);
   EXPECT_EQ(body(call("GET", "/api/v1/sessions?site=cheek"))["sessions"].size(), 2u);
-  EXPECT_EQ(body(call("GET", "/api/v1/sessions?from=2000-01-01T00:00:00Z&to=2999-01-01T00:00:00Z"))["sessions"].size(), 5u);
+  EXPECT_EQ(body(call("GET", "/api/v1/sessions?from=2000-01-01T00:00:00Z&to=2999-01-01T00:00:00Z"))["sessions"].size(),
+            5u);
   EXPECT_EQ(body(call("GET", "/api/v1/sessions?to=2000-01-01T00:00:00Z"))["sessions"].size(), 0u);
   expect_error(call("GET", "/api/v1/sessions?state=sleeping"), 400, "invalid_parameter");
   expect_error(call("GET", "/api/v1/sessions?from=yesterday"), 400, "invalid_parameter");
@@ -267,7 +285,8 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   ASSERT_EQ(got.status, 200) << got.body;
   EXPECT_TRUE(body(got)["fit_id"].is_null());
   EXPECT_EQ(body(got)["reflectance"]["values"].size(), grid().size());
-  EXPECT_TRUE(body(got)["provenance"]["raw_reply_base64"].get<std::string>().starts_with("MDAwMCwwDQo"));  // "0000,0\r\n"
+  EXPECT_TRUE(
+      body(got)["provenance"]["raw_reply_base64"].get<std::string>().starts_with("MDAwMCwwDQo"));  // "0000,0\r\n"
 
   const auto refit = call("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", json{{"site", "cheek"}}.dump());
   ASSERT_EQ(refit.status, 201) << refit.body;
@@ -275,12 +294,15 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   const auto fit_id = body(refit)["id"].get<std::int64_t>();
   const auto stored = call("GET", "/api/v1/fits/" + std::to_string(fit_id));
   ASSERT_EQ(stored.status, 200);
-  auto direct = shared_fitter().fit(*Spectrum::create(grid(), skin_like(grid())), FitOptions{.model = kServiceModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}});
+  auto direct = shared_fitter().fit(
+      *Spectrum::create(grid(), skin_like(grid())),
+      FitOptions{.model = kServiceModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}});
   ASSERT_TRUE(direct);
   const json cli = json::parse(fit_to_json("x", *direct).dump());
   // The store keeps the values, not the judgement of what the spectrum determined.
   for (const auto& item : cli.items())
-    if (item.key() != "name" && item.key() != "determination" && item.key() != "derived" && item.key() != "correlation") {
+    if (item.key() != "name" && item.key() != "determination" && item.key() != "derived" &&
+        item.key() != "correlation") {
       EXPECT_EQ(body(stored)[item.key()], item.value()) << item.key();
     }
   EXPECT_EQ(body(call("GET", "/api/v1/measurements/" + std::to_string(m)))["fit_id"], fit_id);
@@ -334,8 +356,8 @@ TEST_F(ApiRouterTest, RendersAFitAsPngCachedByItsParameters) {
   ASSERT_TRUE(defaults.has_value());
   EXPECT_EQ(defaults->width, 256);
 
-  for (const char* query : {"size=0x5", "size=5000x5000", "size=64", "illuminant=F2", "scale_melanin=-1", "scale_bilirubin=nan",
-                            "scale_oxyhemoglobin=abc", "scale_deoxyhemoglobin=101"})
+  for (const char* query : {"size=0x5", "size=5000x5000", "size=64", "illuminant=F2", "scale_melanin=-1",
+                            "scale_bilirubin=nan", "scale_oxyhemoglobin=abc", "scale_deoxyhemoglobin=101"})
     expect_error(call("GET", base + "?" + query), 400, "invalid_parameter");
   expect_error(call("GET", base + "?colour=red"), 400, "unknown_parameter");
   expect_error(call("GET", "/api/v1/fits/77/render.png"), 404, "not_found");
@@ -371,7 +393,8 @@ TEST_F(ApiRouterTest, OpenApiDocumentAndRouteTableAgree) {
       documented.emplace(op.key(), path.key());
       // Every referenced schema exists.
       const std::string text = op.value().dump();
-      for (auto pos = text.find("#/components/schemas/"); pos != std::string::npos; pos = text.find("#/components/schemas/", pos + 1)) {
+      for (auto pos = text.find("#/components/schemas/"); pos != std::string::npos;
+           pos = text.find("#/components/schemas/", pos + 1)) {
         const auto start = pos + std::string("#/components/schemas/").size();
         const auto name = text.substr(start, text.find('"', start) - start);
         EXPECT_TRUE(doc["components"]["schemas"].contains(name)) << name;
@@ -400,10 +423,12 @@ TEST_F(ApiRouterTest, MetricsCountRequestsFitsAndErrors) {
   const auto r = call("GET", "/metrics");
   ASSERT_EQ(r.status, 200);
   EXPECT_EQ(r.content_type.rfind("text/plain", 0), 0u);
-  EXPECT_NE(r.body.find("skinspec_http_requests_total{route=\"GET /healthz\",status=\"200\"} 1"), std::string::npos) << r.body;
+  EXPECT_NE(r.body.find("skinspec_http_requests_total{route=\"GET /healthz\",status=\"200\"} 1"), std::string::npos)
+      << r.body;
   EXPECT_NE(r.body.find("skinspec_http_errors_total{code=\"not_found\"} 1"), std::string::npos);
   EXPECT_NE(r.body.find("skinspec_fits_total{outcome=\"ok\"} 1"), std::string::npos);
-  EXPECT_NE(r.body.find("skinspec_http_request_duration_seconds_count{route=\"POST /api/v1/fit\"} 1"), std::string::npos);
+  EXPECT_NE(r.body.find("skinspec_http_request_duration_seconds_count{route=\"POST /api/v1/fit\"} 1"),
+            std::string::npos);
 }
 
 TEST_F(ApiRouterTest, TokensGuardEveryRouteButHealthz) {
@@ -422,8 +447,10 @@ TEST_F(ApiRouterTest, TokensGuardEveryRouteButHealthz) {
   expect_error(guarded.handle(with_token(req("GET", "/api/v1/sessions"), "wrong")), 401, "unauthorized");
   EXPECT_EQ(guarded.handle(with_token(req("GET", "/api/v1/sessions"), "read-token-0123456789")).status, 200);
   const std::string session = json{{"site", "forearm"}, {"subject", "S"}}.dump();
-  expect_error(guarded.handle(with_token(req("POST", "/api/v1/sessions", session), "read-token-0123456789")), 403, "forbidden");
-  EXPECT_EQ(guarded.handle(with_token(req("POST", "/api/v1/sessions", session), "operator-token-0123456789")).status, 201);
+  expect_error(guarded.handle(with_token(req("POST", "/api/v1/sessions", session), "read-token-0123456789")), 403,
+               "forbidden");
+  EXPECT_EQ(guarded.handle(with_token(req("POST", "/api/v1/sessions", session), "operator-token-0123456789")).status,
+            201);
 }
 
 // The routes report the store's refusals through the one mapping: a read-only or full
@@ -449,9 +476,10 @@ TEST_F(ApiRouterTest, StoreFailuresReachTheClientAsTheirStatus) {
   {
     auto reader = open(true, 0);
     const auto router = router_over(reader);
-    expect_error(router->handle(req("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "T"}}.dump())), 503,
+    expect_error(router->handle(req("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "T"}}.dump())),
+                 503, "database_read_only");
+    expect_error(router->handle(req("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", "{}")), 503,
                  "database_read_only");
-    expect_error(router->handle(req("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", "{}")), 503, "database_read_only");
     EXPECT_EQ(router->handle(req("GET", "/api/v1/sessions/1")).status, 200);
   }
   router_.reset();
@@ -470,7 +498,8 @@ TEST_F(ApiRouterTest, StoreFailuresReachTheClientAsTheirStatus) {
   }
   testing::sqlite_execute(path, "UPDATE measurements SET radiance = x'0102' WHERE id = " + std::to_string(m));
   auto damaged = open(false, 0);
-  expect_error(router_over(damaged)->handle(req("GET", "/api/v1/measurements/" + std::to_string(m))), 500, "database_corrupt");
+  expect_error(router_over(damaged)->handle(req("GET", "/api/v1/measurements/" + std::to_string(m))), 500,
+               "database_corrupt");
 }
 
 TEST(ApiRouterWithoutDatabase, DataRoutesAnswer503) {
@@ -485,11 +514,13 @@ TEST_F(ApiRouterTest, ARepeatedKeyInABodyIsRefusedByName) {
   const auto top = call("POST", "/api/v1/sessions", R"({"site": "forearm", "subject": "A", "subject": "B"})");
   expect_error(top, 400, "duplicate_key");
   EXPECT_NE(body(top)["error"]["message"].get<std::string>().find("'subject'"), std::string::npos) << top.body;
-  const auto nested = call("POST", "/api/v1/fit", R"({"wavelength_nm": [400, 500], "spectra": {"a": [0.1, 0.2], "a": [0.3, 0.4]}})");
+  const auto nested =
+      call("POST", "/api/v1/fit", R"({"wavelength_nm": [400, 500], "spectra": {"a": [0.1, 0.2], "a": [0.3, 0.4]}})");
   expect_error(nested, 400, "duplicate_key");
   EXPECT_NE(body(nested)["error"]["message"].get<std::string>().find("'a'"), std::string::npos) << nested.body;
   // The same key in two different objects is no repetition.
-  const auto sibling = call("POST", "/api/v1/fit", R"({"wavelength_nm": [400, 500], "spectra": {"a": [0.1, 0.2]}, "site": "forearm"})");
+  const auto sibling =
+      call("POST", "/api/v1/fit", R"({"wavelength_nm": [400, 500], "spectra": {"a": [0.1, 0.2]}, "site": "forearm"})");
   EXPECT_NE(sibling.status, 400) << sibling.body;
   const std::string long_key(5000, 'k');
   const auto long_repeat = call("POST", "/api/v1/sessions", "{\"" + long_key + "\": 1, \"" + long_key + "\": 2}");
@@ -512,8 +543,8 @@ TEST_F(ApiRouterTest, TheBearerSchemeIsCaseInsensitive) {
   for (const char* scheme : {"Bearer", "bearer", "BEARER", "bEaReR"})
     EXPECT_EQ(with(std::string(scheme) + " read-token-0123456789").status, 200) << scheme;
   EXPECT_EQ(with("Bearer   read-token-0123456789").status, 200) << "several spaces";
-  for (const char* refused : {"Bearerread-token-0123456789", "Basic read-token-0123456789", "Bearer ", "Bearer", "bearer read-token-012345678",
-                              "Bearers read-token-0123456789"})
+  for (const char* refused : {"Bearerread-token-0123456789", "Basic read-token-0123456789", "Bearer ", "Bearer",
+                              "bearer read-token-012345678", "Bearers read-token-0123456789"})
     expect_error(with(refused), 401, "unauthorized");
 }
 
@@ -522,13 +553,19 @@ TEST(ApiRouterRoutes, FitsAndRendersAreTheHeavyRoutes) {
   EXPECT_TRUE(Router::is_heavy("POST", "/api/v1/measurements/12/fit"));
   EXPECT_TRUE(Router::is_heavy("GET", "/api/v1/fits/3/render.png?size=64x64"));
   EXPECT_TRUE(Router::is_heavy("GET", "/api/v1/fits/%33/render.png"));
-  for (const auto& [method, target] : std::vector<std::pair<std::string, std::string>>{
-           {"GET", "/healthz"}, {"GET", "/api/v1/fits/3"}, {"GET", "/api/v1/fit"}, {"GET", "/api/v1/sessions"}, {"GET", "/nope"}, {"GET", ""}, {"GET", "x"}})
+  for (const auto& [method, target] : std::vector<std::pair<std::string, std::string>>{{"GET", "/healthz"},
+                                                                                       {"GET", "/api/v1/fits/3"},
+                                                                                       {"GET", "/api/v1/fit"},
+                                                                                       {"GET", "/api/v1/sessions"},
+                                                                                       {"GET", "/nope"},
+                                                                                       {"GET", ""},
+                                                                                       {"GET", "x"}})
     EXPECT_FALSE(Router::is_heavy(method, target)) << method << ' ' << target;
   std::set<std::string> heavy;
   for (const auto& r : Router::routes())
     if (r.heavy) heavy.insert(r.method + " " + r.path);
-  EXPECT_EQ(heavy, (std::set<std::string>{"POST /api/v1/fit", "POST /api/v1/measurements/{id}/fit", "GET /api/v1/fits/{id}/render.png"}));
+  EXPECT_EQ(heavy, (std::set<std::string>{"POST /api/v1/fit", "POST /api/v1/measurements/{id}/fit",
+                                          "GET /api/v1/fits/{id}/render.png"}));
 }
 
 TEST_F(ApiRouterTest, TheWebConsoleIsServedWithoutATokenAndOutsideTheApiDocument) {
@@ -570,7 +607,9 @@ TEST_F(ApiRouterTest, SitesAndTheColourOfAMeasurementUnderTwoLights) {
     EXPECT_EQ(colour[light]["srgb"], json(rgb)) << light;
   }
   // Under the tungsten lamp, unadapted, skin looks warmer than in daylight.
-  const auto ratio = [&](const char* light) { return colour[light]["srgb"][0].get<double>() / colour[light]["srgb"][2].get<double>(); };
+  const auto ratio = [&](const char* light) {
+    return colour[light]["srgb"][0].get<double>() / colour[light]["srgb"][2].get<double>();
+  };
   EXPECT_GT(ratio("A"), ratio("D65"));
 }
 

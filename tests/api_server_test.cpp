@@ -3,9 +3,7 @@
 
 #include <gtest/gtest.h>
 
-
 #include <future>
-
 
 #include "compute_pool.hpp"
 #include "connection_table.hpp"
@@ -103,7 +101,6 @@ TEST(ComputePool, RunsSoManyAtOnceQueuesSoManyAndRefusesTheRest) {
   EXPECT_EQ(loads.back(), std::make_pair(std::size_t{0}, std::size_t{0}));
 }
 
-
 // The header of `head` (a request up to its blank line) as the server's parser reads it.
 detail::RequestMessage parsed(const std::string& head) {
   detail::RequestParser parser;
@@ -115,11 +112,13 @@ detail::RequestMessage parsed(const std::string& head) {
 }
 
 TEST(HttpExchange, OnlyChunkedAloneIsAcceptedAsTransferEncoding) {
-  for (const char* accepted : {"", "Transfer-Encoding: chunked\r\n", "Transfer-Encoding: Chunked\r\n", "Content-Length: 3\r\n"})
+  for (const char* accepted :
+       {"", "Transfer-Encoding: chunked\r\n", "Transfer-Encoding: Chunked\r\n", "Content-Length: 3\r\n"})
     EXPECT_FALSE(detail::check_framing(parsed(std::string("POST / HTTP/1.1\r\n") + accepted + "\r\n"))) << accepted;
-  for (const char* refused : {"Transfer-Encoding: gzip\r\n", "Transfer-Encoding: identity\r\n", "Transfer-Encoding: chunked, identity\r\n",
-                              "Transfer-Encoding: gzip, chunked\r\n", "Transfer-Encoding: gzip\r\nTransfer-Encoding: chunked\r\n",
-                              "Transfer-Encoding: gzip\r\nContent-Length: 3\r\n"}) {
+  for (const char* refused :
+       {"Transfer-Encoding: gzip\r\n", "Transfer-Encoding: identity\r\n", "Transfer-Encoding: chunked, identity\r\n",
+        "Transfer-Encoding: gzip, chunked\r\n", "Transfer-Encoding: gzip\r\nTransfer-Encoding: chunked\r\n",
+        "Transfer-Encoding: gzip\r\nContent-Length: 3\r\n"}) {
     const auto error = detail::check_framing(parsed(std::string("POST / HTTP/1.1\r\n") + refused + "\r\n"));
     ASSERT_TRUE(error) << refused;
     EXPECT_EQ(error->kind, ErrorKind::bad_request);

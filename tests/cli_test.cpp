@@ -91,9 +91,7 @@ class CliTest : public ::testing::Test {
   void SetUp() override { directory_.emplace(); }
   void TearDown() override { directory_.reset(); }
 
-  std::string write(const std::string& name, const std::string& bytes) const {
-    return directory_->write(name, bytes);
-  }
+  std::string write(const std::string& name, const std::string& bytes) const { return directory_->write(name, bytes); }
   std::string path_of(const std::string& name) const { return (directory_->path() / name).string(); }
 
  private:
@@ -108,7 +106,8 @@ void expect_printable(const std::string& text) {
   EXPECT_TRUE(utf8::is_valid(text)) << "not UTF-8: " << printable(text);
   for (const char c : text) {
     const auto byte = static_cast<unsigned char>(c);
-    EXPECT_TRUE(c == '\n' || (byte >= 0x20 && byte != 0x7f)) << "control byte " << int(byte) << " in " << printable(text);
+    EXPECT_TRUE(c == '\n' || (byte >= 0x20 && byte != 0x7f))
+        << "control byte " << int(byte) << " in " << printable(text);
   }
 }
 
@@ -179,41 +178,45 @@ struct BadSpectra {
 };
 
 const BadSpectra kBadSpectra[] = {
-    {"non_numeric_cell", "wavelength_nm,a,b\n400,0.1,0.2\n550,0.3,abc\n700,0.2,0.3\n", ":3:9: ",
-     "'abc' is not a number in column 'b'"},
+    {"non_numeric_cell", "wavelength_nm,a,b\n400,0.1,0.2\n550,0.3,abc\n700,0.2,0.3\n",
+     ":3:9: ", "'abc' is not a number in column 'b'"},
     {"missing_header", "400,0.1\n550,0.2\n700,0.3\n", ":1:1: ", "the header is missing"},
     {"misnamed_first_column", "wavelength,a\n400,0.1\n700,0.3\n", ":1:1: ", "must be 'wavelength_nm'"},
-    {"duplicated_header", "wavelength_nm,a,b,a\n400,0.1,0.1,0.1\n700,0.2,0.2,0.2\n", ":1:19: ",
-     "duplicated column name 'a'"},
+    {"duplicated_header", "wavelength_nm,a,b,a\n400,0.1,0.1,0.1\n700,0.2,0.2,0.2\n",
+     ":1:19: ", "duplicated column name 'a'"},
     {"single_column", "wavelength_nm\n400\n700\n", ":1: ", "names no spectrum"},
     {"ragged_row", "wavelength_nm,a\n400,0.1\n550,0.2,0.3\n700,0.3\n", ":3:9: ", "3 cells where the header has 2"},
-    {"decreasing_wavelength", "wavelength_nm,a\n400,0.1\n700,0.2\n600,0.3\n", ":4:1: ",
-     "wavelength 600 nm is below 700 nm"},
-    {"repeated_wavelength", "wavelength_nm,a\n400,0.1\n550,0.2\n550,0.3\n700,0.3\n", ":4:1: ",
-     "wavelength 550 nm repeats"},
+    {"decreasing_wavelength", "wavelength_nm,a\n400,0.1\n700,0.2\n600,0.3\n",
+     ":4:1: ", "wavelength 600 nm is below 700 nm"},
+    {"repeated_wavelength", "wavelength_nm,a\n400,0.1\n550,0.2\n550,0.3\n700,0.3\n",
+     ":4:1: ", "wavelength 550 nm repeats"},
     {"nan", "wavelength_nm,a\n400,0.1\n550,nan\n700,0.2\n", ":3:5: ", "'nan' is not a finite number"},
     {"inf", "wavelength_nm,a\n400,0.1\n550,inf\n700,0.2\n", ":3:5: ", "'inf' is not a finite number"},
-    {"minus_inf_wavelength", "wavelength_nm,a\n400,0.1\n-inf,0.1\n700,0.2\n", ":3:1: ",
-     "'-inf' is not a finite number"},
-    {"negative_reflectance", "wavelength_nm,a\n400,0.1\n550,-0.01\n700,0.2\n", ":3:5: ",
-     "value -0.01 in column 'a' is outside the allowed range [0, 1.5]"},
-    {"reflectance_above_1_5", "wavelength_nm,a\n400,0.1\n550,1.51\n700,0.2\n", ":3:5: ",
-     "value 1.51 in column 'a' is outside the allowed range [0, 1.5]"},
+    {"minus_inf_wavelength", "wavelength_nm,a\n400,0.1\n-inf,0.1\n700,0.2\n",
+     ":3:1: ", "'-inf' is not a finite number"},
+    {"negative_reflectance", "wavelength_nm,a\n400,0.1\n550,-0.01\n700,0.2\n",
+     ":3:5: ", "value -0.01 in column 'a' is outside the allowed range [0, 1.5]"},
+    {"reflectance_above_1_5", "wavelength_nm,a\n400,0.1\n550,1.51\n700,0.2\n",
+     ":3:5: ", "value 1.51 in column 'a' is outside the allowed range [0, 1.5]"},
     {"one_row", "wavelength_nm,a\n400,0.1\n", ":2: ", "1 data row below the header"},
     {"empty", "", ":1: ", "the input is empty"},
     {"only_blank_lines", "\n  \n\n", ":1: ", "the input holds only blank"},
     // Bytes that are not UTF-8, anywhere: shown escaped, never raw.
-    {"utf8_in_header", "wavelength_nm,\xff\xfe\n400,0.3\n500,0.3\n600,0.3\n700,0.3\n", ":1:15: ",
-     "\\xff\\xfe is not UTF-8 text (after 'wavelength_nm,')"},
+    {"utf8_in_header", "wavelength_nm,\xff\xfe\n400,0.3\n500,0.3\n600,0.3\n700,0.3\n",
+     ":1:15: ", "\\xff\\xfe is not UTF-8 text (after 'wavelength_nm,')"},
     {"utf8_in_name", "wavelength_nm,ok,b\xe9\n400,0.3,0.3\n700,0.3,0.3\n", ":1:19: ", "\\xe9 is not UTF-8 text"},
     {"utf8_in_comment", "# \xc0\xaf\nwavelength_nm,a\n400,0.3\n700,0.3\n", ":1:3: ", "\\xc0\\xaf is not UTF-8 text"},
-    {"utf8_in_value", "wavelength_nm,a\n400,0.3\n700,0.3\xf4\x90\x80\x80\n", ":3:8: ", "\\xf4\\x90\\x80\\x80 is not UTF-8"},
+    {"utf8_in_value", "wavelength_nm,a\n400,0.3\n700,0.3\xf4\x90\x80\x80\n",
+     ":3:8: ", "\\xf4\\x90\\x80\\x80 is not UTF-8"},
     {"utf8_lone_continuation", "wavelength_nm,a\n400,\x80\n700,0.3\n", ":2:5: ", "\\x80 is not UTF-8 text"},
     {"utf8_overlong", "wavelength_nm,a\xc1\xbf\n400,0.3\n700,0.3\n", ":1:16: ", "\\xc1\\xbf is not UTF-8 text"},
     {"utf8_surrogate", "wavelength_nm,a\n400,0.3\n700,0.\xed\xa0\x80\n", ":3:7: ", "\\xed\\xa0\\x80 is not UTF-8"},
-    {"escape_sequence_in_name", "wavelength_nm,\x1b[31mred,\x1b[31mred\n400,0.1,0.1\n700,0.2,0.2\n", ":1:24: ",
-     "duplicated column name '\\x1b[31mred'"},
-    {"vertical_tab_in_cell", "wavelength_nm,a\n400,0.1\n550,0\x0b" "2\n700,0.2\n", ":3:5: ", "'0\\x0b2' is not a number"},
+    {"escape_sequence_in_name", "wavelength_nm,\x1b[31mred,\x1b[31mred\n400,0.1,0.1\n700,0.2,0.2\n",
+     ":1:24: ", "duplicated column name '\\x1b[31mred'"},
+    {"vertical_tab_in_cell",
+     "wavelength_nm,a\n400,0.1\n550,0\x0b"
+     "2\n700,0.2\n",
+     ":3:5: ", "'0\\x0b2' is not a number"},
 };
 
 struct BadSpectraRun {
@@ -294,22 +297,26 @@ TEST_F(CliRefuses, ArgumentsAreEchoedPrintably) {
   expect_refused(skinspec({"fit", "--site", "arm\xff", file}), HasSubstr("unknown site 'arm\\xff'"));
   expect_refused(skinspec({"fit", "--bogus\x07", file}), HasSubstr("--bogus\\x07"));
   expect_refused(skinspec({"model", "--grid", "\t\x1b"}), HasSubstr("--grid '\\t\\x1b'"));
-  expect_refused(skinspec({"model", "--melanin", "\x9b" "2J"}), HasSubstr("\\x9b2J"));
+  expect_refused(skinspec({"model", "--melanin",
+                           "\x9b"
+                           "2J"}),
+                 HasSubstr("\\x9b2J"));
   expect_refused(skinspec({"colour", "--illuminant", "nosuch\x1b", file}), HasSubstr("'nosuch\\x1b'"));
   const auto missing = path_of("no\x1b[2Jsuch.csv");
   expect_refused(skinspec({"fit", missing}), HasSubstr("no\\x1b[2Jsuch.csv"));
   // Text sent to skinspecd must be UTF-8: refused before any connection is tried.
-  expect_refused(skinspec({"session", "new", "--site", "forearm", "--subject", "S\xff", "--server", "http://127.0.0.1:1"}),
-                 HasSubstr("'S\\xff' is not UTF-8 text"));
-  expect_refused(skinspec({"session", "measure", "1", "--kind", "white", "--label", "\xc0\x80", "--server", "http://127.0.0.1:1"}),
-                 HasSubstr("is not UTF-8 text"));
+  expect_refused(
+      skinspec({"session", "new", "--site", "forearm", "--subject", "S\xff", "--server", "http://127.0.0.1:1"}),
+      HasSubstr("'S\\xff' is not UTF-8 text"));
+  expect_refused(
+      skinspec({"session", "measure", "1", "--kind", "white", "--label", "\xc0\x80", "--server", "http://127.0.0.1:1"}),
+      HasSubstr("is not UTF-8 text"));
 }
 
 TEST_F(CliRefuses, UnknownSiteListingTheKnownOnes) {
   const auto file = write("good.csv", kGoodSpectra);
-  const auto known_sites =
-      AllOf(HasSubstr("unknown site 'elbow'"), HasSubstr("forearm"), HasSubstr("back_of_hand"),
-            HasSubstr("cheek"), HasSubstr("forehead"), HasSubstr("palm"));
+  const auto known_sites = AllOf(HasSubstr("unknown site 'elbow'"), HasSubstr("forearm"), HasSubstr("back_of_hand"),
+                                 HasSubstr("cheek"), HasSubstr("forehead"), HasSubstr("palm"));
   expect_refused(skinspec({"fit", "--site", "elbow", file}), known_sites);
   expect_refused(skinspec({"model", "--site", "elbow"}), known_sites);
   expect_refused(skinspec({"optics", "--site", "elbow"}), known_sites);
@@ -363,10 +370,23 @@ struct TrueSkin {
   double surface_reflectance, melanin, oxyhemoglobin, deoxyhemoglobin, bilirubin;
 
   std::vector<std::string> model_args(const std::string& grid) const {
-    return {"model", "--model", "paper", "--site", "forearm", "--grid", grid,
-            "--surface-reflectance", text(surface_reflectance), "--melanin", text(melanin),
-            "--oxyhemoglobin", text(oxyhemoglobin), "--deoxyhemoglobin", text(deoxyhemoglobin),
-            "--bilirubin", text(bilirubin)};
+    return {"model",
+            "--model",
+            "paper",
+            "--site",
+            "forearm",
+            "--grid",
+            grid,
+            "--surface-reflectance",
+            text(surface_reflectance),
+            "--melanin",
+            text(melanin),
+            "--oxyhemoglobin",
+            text(oxyhemoglobin),
+            "--deoxyhemoglobin",
+            text(deoxyhemoglobin),
+            "--bilirubin",
+            text(bilirubin)};
   }
   static std::string text(double v) {
     std::ostringstream out;
@@ -468,10 +488,10 @@ std::string spectra_csv(const std::vector<std::pair<std::string, ModelSpectrum>>
   return csv;
 }
 
-const std::vector<std::string> kExtendedSkin = {"--surface-reflectance", "0.04", "--melanin", "4",
-                                                "--total-hemoglobin", "4", "--oxygen-saturation", "0.75",
-                                                "--bilirubin", "1", "--dermis-scattering", "30",
-                                                "--dermis-scattering-power", "1.3"};
+const std::vector<std::string> kExtendedSkin = {
+    "--surface-reflectance",     "0.04", "--melanin",   "4", "--total-hemoglobin",  "4",
+    "--oxygen-saturation",       "0.75", "--bilirubin", "1", "--dermis-scattering", "30",
+    "--dermis-scattering-power", "1.3"};
 
 std::vector<std::string> extended_model_args(const std::string& grid) {
   std::vector<std::string> args = {"model", "--grid", grid};
@@ -542,7 +562,8 @@ TEST_F(CliFit, HeldParametersAreShownAsHeld) {
 }
 
 TEST_F(CliFit, AParameterOfTheOtherModelIsRefused) {
-  expect_refused(skinspec({"model", "--oxyhemoglobin", "3"}), AllOf(HasSubstr("--oxyhemoglobin"), HasSubstr("extended")));
+  expect_refused(skinspec({"model", "--oxyhemoglobin", "3"}),
+                 AllOf(HasSubstr("--oxyhemoglobin"), HasSubstr("extended")));
   expect_refused(skinspec({"model", "--model", "paper", "--total-hemoglobin", "3"}),
                  AllOf(HasSubstr("--total-hemoglobin"), HasSubstr("paper")));
   expect_refused(skinspec({"model", "--model", "papier"}), HasSubstr("--model"));
@@ -553,7 +574,8 @@ TEST_F(CliFit, AParameterOfTheOtherModelIsRefused) {
 TEST_F(CliFit, PartialCoverageIsFittedWithANote) {
   const auto inside = model_output(extended_model_args("415:780:5"));
   std::string camera = "wavelength_nm,camera\n";
-  for (std::size_t i = 0; i < inside.wavelength.size(); ++i) camera += inside.wavelength[i] + "," + inside.reflectance[i] + "\n";
+  for (std::size_t i = 0; i < inside.wavelength.size(); ++i)
+    camera += inside.wavelength[i] + "," + inside.reflectance[i] + "\n";
   for (int w = 785; w <= 950; w += 5) camera += std::to_string(w) + ",0.6\n";
   const auto run = skinspec({"fit", write("camera.csv", camera)});
   ASSERT_EQ(run.exit_status, 0) << run.describe();
@@ -571,8 +593,8 @@ TEST_F(CliFit, PartialCoverageIsFittedWithANote) {
 }
 
 TEST(CliTune, RefusesAConstantTheModelDoesNotHave) {
-  const auto run = skinspec({"tune", SKINSPEC_TEST_DATA_DIR "/examples/forearm.csv", "--hold-constant",
-                             "dermis_scattering_scale=1"});
+  const auto run = skinspec(
+      {"tune", SKINSPEC_TEST_DATA_DIR "/examples/forearm.csv", "--hold-constant", "dermis_scattering_scale=1"});
   EXPECT_EQ(run.exit_status, kBadInput) << run.describe();
   EXPECT_THAT(run.err, HasSubstr("dermis_scattering_scale"));
 }
@@ -587,9 +609,9 @@ using testing::reference::Weights;
 // hypodermis (reflectance 1).
 double eq1_reflectance(const Json& optics, std::size_t i, const Weights& w) {
   const auto at = [&](const char* key) { return optics[key][i].get<double>(); };
-  return testing::reference::eq1(
-      {at("Ke"), at("Se"), at("Kd"), at("Sd"), at("Km"), at("Kh"), at("Kdh"), at("Kb")},
-      optics["epidermis_thickness_mm"].get<double>(), optics["dermis_thickness_mm"].get<double>(), w);
+  return testing::reference::eq1({at("Ke"), at("Se"), at("Kd"), at("Sd"), at("Km"), at("Kh"), at("Kdh"), at("Kb")},
+                                 optics["epidermis_thickness_mm"].get<double>(),
+                                 optics["dermis_thickness_mm"].get<double>(), w);
 }
 
 class CliOptics : public CliTest {};
@@ -639,8 +661,8 @@ TEST_F(CliModel, PrintsTheRequestedGrid) {
 }
 
 TEST_F(CliModel, RefusesABadGrid) {
-  for (const char* grid : {"400:700", "400-700-5", "700:400:5", "300:700:5", "400:800:5", "400:700:0",
-                           "400:700:-5", "400:700:nan", "a:b:c", "400:700:5x", ""}) {
+  for (const char* grid : {"400:700", "400-700-5", "700:400:5", "300:700:5", "400:800:5", "400:700:0", "400:700:-5",
+                           "400:700:nan", "a:b:c", "400:700:5x", ""}) {
     SCOPED_TRACE(grid);
     expect_refused(skinspec({"model", "--grid", grid}), HasSubstr("--grid"));
   }
@@ -648,9 +670,15 @@ TEST_F(CliModel, RefusesABadGrid) {
 
 TEST_F(CliModel, RefusesWeightsOutOfRange) {
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {"--melanin", "-1"},          {"--oxyhemoglobin", "-0.5"}, {"--deoxyhemoglobin", "-1e-3"},
-      {"--bilirubin", "-2"},        {"--melanin", "nan"},        {"--bilirubin", "inf"},
-      {"--surface-reflectance", "-0.1"}, {"--surface-reflectance", "1.5"}, {"--surface-reflectance", "nan"},
+      {"--melanin", "-1"},
+      {"--oxyhemoglobin", "-0.5"},
+      {"--deoxyhemoglobin", "-1e-3"},
+      {"--bilirubin", "-2"},
+      {"--melanin", "nan"},
+      {"--bilirubin", "inf"},
+      {"--surface-reflectance", "-0.1"},
+      {"--surface-reflectance", "1.5"},
+      {"--surface-reflectance", "nan"},
       {"--melanin", "lots"},
   };
   for (const auto& [option, value] : bad) {
@@ -727,8 +755,8 @@ TEST_F(CliColour, WhiteUnderAHasTheChromaticityOfA) {
 TEST_F(CliColour, IlluminantFromAFile) {
   // A path is bytes: one that is not UTF-8 names an illuminant too, and the JSON that echoes it
   // shows U+FFFD for what cannot be text (it used to end the program by an uncaught exception).
-  for (const auto& [name, shown] : {std::pair{"equal_energy.csv", "equal_energy.csv"},
-                                    std::pair{"lamp\xff.csv", "lamp\xef\xbf\xbd.csv"}}) {
+  for (const auto& [name, shown] :
+       {std::pair{"equal_energy.csv", "equal_energy.csv"}, std::pair{"lamp\xff.csv", "lamp\xef\xbf\xbd.csv"}}) {
     SCOPED_TRACE(printable(name));
     expect_white_under_equal_energy(write(name, "wavelength_nm,power\n380,100\n780,100\n"), path_of(shown));
   }
@@ -749,8 +777,7 @@ void CliColour::expect_white_under_equal_energy(const std::string& illuminant, c
 
 TEST_F(CliColour, RefusesAnUnknownIlluminant) {
   const auto white = write("white.csv", kWhiteAndGrey);
-  expect_refused(skinspec({"colour", "--illuminant", "nosuch", white}),
-                 AllOf(HasSubstr("'nosuch'"), HasSubstr("D65")));
+  expect_refused(skinspec({"colour", "--illuminant", "nosuch", white}), AllOf(HasSubstr("'nosuch'"), HasSubstr("D65")));
   // A file that does not span 380-780 nm cannot weight the whole observer range.
   const auto narrow = write("narrow.csv", "wavelength_nm,power\n400,1\n700,1\n");
   expect_refused(skinspec({"colour", "--illuminant", narrow, white}),
@@ -773,8 +800,8 @@ TEST(CliHelp, EverySubcommandDescribesItsOptions) {
   const std::vector<HelpCase> cases = {
       {"fit", {"FILE", "--model", "--site", "--no-lateral-diffusion", "--fix"}},
       {"model",
-       {"--model", "--site", "--surface-reflectance", "--melanin", "--oxyhemoglobin", "--deoxyhemoglobin", "--bilirubin",
-        "--total-hemoglobin", "--oxygen-saturation", "--dermis-scattering", "--dermis-scattering-power",
+       {"--model", "--site", "--surface-reflectance", "--melanin", "--oxyhemoglobin", "--deoxyhemoglobin",
+        "--bilirubin", "--total-hemoglobin", "--oxygen-saturation", "--dermis-scattering", "--dermis-scattering-power",
         "--no-lateral-diffusion", "--grid"}},
       {"optics", {"--model", "--site"}},
       {"colour", {"FILE", "--illuminant"}},
@@ -793,7 +820,8 @@ TEST(CliHelp, EverySubcommandDescribesItsOptions) {
 TEST(CliHelp, TopLevelHelpListsTheSubcommands) {
   const auto run = skinspec({"--help"});
   EXPECT_EQ(run.exit_status, 0) << run.describe();
-  for (const char* subcommand : {"fit", "model", "optics", "colour", "tune"}) EXPECT_THAT(run.out, HasSubstr(subcommand));
+  for (const char* subcommand : {"fit", "model", "optics", "colour", "tune"})
+    EXPECT_THAT(run.out, HasSubstr(subcommand));
 }
 
 }  // namespace

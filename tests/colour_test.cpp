@@ -12,8 +12,8 @@
 namespace skinspec {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::colorimetry;
+using ::testing::HasSubstr;
 
 // ---------------------------------------------------------------------------------------------
 // CIEDE2000
@@ -71,8 +71,7 @@ constexpr double kPublishedPrecision = 1e-4;
 TEST(Ciede2000, MatchesAllPublishedSharmaPairs) {
   for (std::size_t i = 0; i < std::size(kSharmaPairs); ++i) {
     const auto& pair = kSharmaPairs[i];
-    EXPECT_NEAR(delta_e2000(pair.first, pair.second), pair.delta_e, kPublishedPrecision)
-        << "Sharma pair " << i + 1;
+    EXPECT_NEAR(delta_e2000(pair.first, pair.second), pair.delta_e, kPublishedPrecision) << "Sharma pair " << i + 1;
   }
 }
 
@@ -207,8 +206,7 @@ TEST(ColorimetryTables, MissingCmfColumnIsNamedWithTheTable) {
 
 TEST(ColorimetryTables, MissingIlluminantColumnIsNamedWithTheTable) {
   const Table illuminants = parsed(table_text("wavelength_nm,D65", "360,1\n830,1\n"), "ill.csv");
-  const auto result =
-      Colorimetry::from_tables(testing::table("colour/cie1931_2deg_cmf.csv"), illuminants);
+  const auto result = Colorimetry::from_tables(testing::table("colour/cie1931_2deg_cmf.csv"), illuminants);
   ASSERT_FALSE(result);
   EXPECT_EQ(result.error().source, "ill.csv");
   EXPECT_THAT(result.error().message, HasSubstr("missing column 'A'"));
@@ -223,8 +221,7 @@ TEST(ColorimetryTables, MissingWavelengthColumnIsRefused) {
 
 TEST(ColorimetryTables, TableShortOfTheObserverRangeIsRefused) {
   const Table illuminants = parsed(table_text("wavelength_nm,D65,A", "380,1,1\n780,1,1\n"), "ill.csv");
-  const auto result =
-      Colorimetry::from_tables(testing::table("colour/cie1931_2deg_cmf.csv"), illuminants);
+  const auto result = Colorimetry::from_tables(testing::table("colour/cie1931_2deg_cmf.csv"), illuminants);
   ASSERT_FALSE(result);
   EXPECT_EQ(result.error().source, "ill.csv");
   EXPECT_THAT(result.error().message, HasSubstr("D65"));

@@ -40,10 +40,13 @@ void expect_ended_as_the_kill_left_them(unsigned short port, const std::vector<l
       const auto& result = job["result"];
       ASSERT_TRUE(result["measurement_id"].is_number_integer()) << job;
       ASSERT_TRUE(result["fit_id"].is_number_integer()) << job;
-      const auto m = http_request(port, "GET", "/api/v1/measurements/" + std::to_string(result["measurement_id"].get<long long>()));
+      const auto m = http_request(port, "GET",
+                                  "/api/v1/measurements/" + std::to_string(result["measurement_id"].get<long long>()));
       ASSERT_EQ(m.status, 200) << job;
       EXPECT_EQ(m.json()["provenance"]["job_id"], id) << job;
-      EXPECT_EQ(http_request(port, "GET", "/api/v1/fits/" + std::to_string(result["fit_id"].get<long long>())).status, 200) << job;
+      EXPECT_EQ(http_request(port, "GET", "/api/v1/fits/" + std::to_string(result["fit_id"].get<long long>())).status,
+                200)
+          << job;
     } else {
       ++tally.interrupted;
       EXPECT_EQ(state, "failed") << job;
@@ -126,7 +129,9 @@ TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
       const auto work_dir = dir.path() / ("rig" + std::to_string(r));
       std::filesystem::create_directories(work_dir);
       auto& tally = tallies[static_cast<std::size_t>(r)];
-      rigs.emplace_back([&tally, r, work_dir] { run_cycles(work_dir.string(), 1312 + static_cast<unsigned>(r), kCyclesPerRig, tally); });
+      rigs.emplace_back([&tally, r, work_dir] {
+        run_cycles(work_dir.string(), 1312 + static_cast<unsigned>(r), kCyclesPerRig, tally);
+      });
     }
   }
   Tally total;
@@ -138,7 +143,8 @@ TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
   }
   const auto seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::printf("%d kills in %.1f s: %d while a job ran, %d while jobs only waited; %d jobs succeeded, %d interrupted\n",
-              kRigs * kCyclesPerRig, seconds, total.killed_while_running, total.killed_while_queued, total.succeeded, total.interrupted);
+              kRigs * kCyclesPerRig, seconds, total.killed_while_running, total.killed_while_queued, total.succeeded,
+              total.interrupted);
   // The kills must have hit jobs at work, and jobs must have finished between them.
   EXPECT_GE(total.killed_while_running, kRigs * kCyclesPerRig / 4);
   EXPECT_GE(total.succeeded, kRigs * kCyclesPerRig / 2);

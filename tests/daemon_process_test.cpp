@@ -81,28 +81,33 @@ TEST_F(DaemonTest, EveryRouteOverHttpAndARestartKeepsTheData) {
     const auto p = d.port();
     EXPECT_EQ(http_request(p, "GET", "/healthz").json()["database"]["state"], "open");
     EXPECT_EQ(http_request(p, "GET", "/openapi.json").json()["openapi"], "3.1.0");
-    const auto fitted = http_request(p, "POST", "/api/v1/fit", json{{"wavelength_nm", grid()}, {"reflectance", skin_like()}}.dump());
+    const auto fitted =
+        http_request(p, "POST", "/api/v1/fit", json{{"wavelength_nm", grid()}, {"reflectance", skin_like()}}.dump());
     ASSERT_EQ(fitted.status, 200) << fitted.body;
     EXPECT_TRUE(fitted.json()["converged"].is_boolean());
-    const auto several = http_request(p, "POST", "/api/v1/fit", json{{"wavelength_nm", grid()}, {"spectra", {{"a", skin_like()}}}}.dump());
+    const auto several = http_request(p, "POST", "/api/v1/fit",
+                                      json{{"wavelength_nm", grid()}, {"spectra", {{"a", skin_like()}}}}.dump());
     EXPECT_EQ(several.json()["fits"][0]["params"], fitted.json()["params"]);
 
-    const auto w = http_request(p, "POST", "/api/v1/white-standards",
-                                json{{"name", "PTFE"}, {"wavelength_nm", {380, 780}}, {"reflectance", {0.99, 0.98}}}.dump());
+    const auto w =
+        http_request(p, "POST", "/api/v1/white-standards",
+                     json{{"name", "PTFE"}, {"wavelength_nm", {380, 780}}, {"reflectance", {0.99, 0.98}}}.dump());
     ASSERT_EQ(w.status, 201) << w.body;
     ws = w.json()["id"];
     EXPECT_EQ(w.header("location"), "/api/v1/white-standards/" + std::to_string(ws));
     EXPECT_EQ(http_request(p, "GET", "/api/v1/white-standards").json()["white_standards"].size(), 1u);
     EXPECT_EQ(http_request(p, "GET", "/api/v1/white-standards/" + std::to_string(ws)).status, 200);
 
-    const auto s = http_request(p, "POST", "/api/v1/sessions",
-                                json{{"site", "forearm"}, {"subject", "V1"}, {"white_standard_id", ws}, {"notes", "n"}}.dump());
+    const auto s =
+        http_request(p, "POST", "/api/v1/sessions",
+                     json{{"site", "forearm"}, {"subject", "V1"}, {"white_standard_id", ws}, {"notes", "n"}}.dump());
     ASSERT_EQ(s.status, 201) << s.body;
     session = s.json()["id"];
     EXPECT_EQ(http_request(p, "GET", "/api/v1/sessions?site=forearm&limit=10").json()["sessions"].size(), 1u);
     const auto m = http_request(p, "GET", "/api/v1/measurements/1");
     expect_error(m, 404, "not_found");
-    const auto patched = http_request(p, "PATCH", "/api/v1/sessions/" + std::to_string(session), json{{"notes", "windy"}}.dump());
+    const auto patched =
+        http_request(p, "PATCH", "/api/v1/sessions/" + std::to_string(session), json{{"notes", "windy"}}.dump());
     ASSERT_EQ(patched.status, 200) << patched.body;
     const auto detail = http_request(p, "GET", "/api/v1/sessions/" + std::to_string(session));
     EXPECT_EQ(detail.json()["notes"], "windy");
@@ -120,7 +125,8 @@ TEST_F(DaemonTest, EveryRouteOverHttpAndARestartKeepsTheData) {
   ASSERT_EQ(detail.status, 200);
   EXPECT_EQ(detail.json()["notes"], "windy");
   EXPECT_EQ(detail.json()["white_standard_id"], ws);
-  EXPECT_EQ(http_request(again.port(), "GET", "/api/v1/white-standards/" + std::to_string(ws)).json()["reflectance"][1], 0.98);
+  EXPECT_EQ(http_request(again.port(), "GET", "/api/v1/white-standards/" + std::to_string(ws)).json()["reflectance"][1],
+            0.98);
   EXPECT_EQ(http_request(again.port(), "GET", "/api/v1/sessions/" + std::to_string(session) + "/export.csv").body, csv);
 }
 
@@ -146,7 +152,8 @@ TEST_F(DaemonTest, MeasurementsAndRefitsOfAStoredSession) {
   ASSERT_EQ(http_request(d.port(), "GET", path).status, 200);
   const auto refit = http_request(d.port(), "POST", path + "/fit", json{{"lateral_diffusion", false}}.dump());
   ASSERT_EQ(refit.status, 201) << refit.body;
-  const auto fit = http_request(d.port(), "GET", "/api/v1/fits/" + std::to_string(refit.json()["id"].get<std::int64_t>()));
+  const auto fit =
+      http_request(d.port(), "GET", "/api/v1/fits/" + std::to_string(refit.json()["id"].get<std::int64_t>()));
   ASSERT_EQ(fit.status, 200);
   EXPECT_EQ(fit.json()["params"], refit.json()["params"]);
   EXPECT_EQ(http_request(d.port(), "GET", path).json()["fit_id"], refit.json()["id"]);
@@ -232,24 +239,32 @@ TEST_F(DaemonTest, BadInputOnTheWireGetsJsonErrorsAndTheServerKeepsServing) {
   const auto p = d.port();
   expect_error(http_request(p, "POST", "/api/v1/fit", "{not json"), 400, "malformed_json");
   expect_error(http_request(p, "POST", "/api/v1/fit", "{\"site\":\"\xff\"}"), 400, "invalid_utf8");
-  expect_error(http_request(p, "POST", "/api/v1/fit", "{}", {{"Content-Type", "text/csv"}}), 415, "unsupported_media_type");
-  expect_error(http_request(p, "POST", "/api/v1/fit", json{{"wavelength_nm", {400, 500, 600}}, {"reflectance", {0.1, 0.2}}}.dump()), 422, "unequal_lengths");
-  expect_error(http_request(p, "POST", "/api/v1/fit", json{{"wavelength_nm", "x"}, {"reflectance", {0.1}}}.dump()), 422, "wrong_type");
+  expect_error(http_request(p, "POST", "/api/v1/fit", "{}", {{"Content-Type", "text/csv"}}), 415,
+               "unsupported_media_type");
+  expect_error(http_request(p, "POST", "/api/v1/fit",
+                            json{{"wavelength_nm", {400, 500, 600}}, {"reflectance", {0.1, 0.2}}}.dump()),
+               422, "unequal_lengths");
+  expect_error(http_request(p, "POST", "/api/v1/fit", json{{"wavelength_nm", "x"}, {"reflectance", {0.1}}}.dump()), 422,
+               "wrong_type");
   expect_error(http_request(p, "POST", "/api/v1/sessions", json{{"subject", "x"}}.dump()), 422, "missing_field");
-  expect_error(http_request(p, "POST", "/api/v1/fit", "{\"wavelength_nm\":[1e300,2],\"reflectance\":[0,0]}"), 422, "out_of_range");
+  expect_error(http_request(p, "POST", "/api/v1/fit", "{\"wavelength_nm\":[1e300,2],\"reflectance\":[0,0]}"), 422,
+               "out_of_range");
   expect_error(http_request(p, "POST", "/api/v1/fit", std::string(5000, ' ')), 413, "payload_too_large");
   expect_error(http_request(p, "GET", "/api/v2/everything"), 404, "not_found");
   const auto method = http_request(p, "DELETE", "/api/v1/fit");
   expect_error(method, 405, "method_not_allowed");
   EXPECT_EQ(method.header("allow"), "POST");
-  const std::string traversal = raw_exchange(p, "GET /api/v1/../../etc/passwd HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 10s);
+  const std::string traversal =
+      raw_exchange(p, "GET /api/v1/../../etc/passwd HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 10s);
   EXPECT_EQ(traversal.rfind("HTTP/1.1 400", 0), 0u) << traversal;
   EXPECT_NE(traversal.find("invalid_path"), std::string::npos);
-  const std::string bad_utf8 = raw_exchange(p, "GET /api/v1/fits/\xc0\xaf HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 10s);
+  const std::string bad_utf8 =
+      raw_exchange(p, "GET /api/v1/fits/\xc0\xaf HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 10s);
   EXPECT_NE(bad_utf8.find("invalid_path"), std::string::npos) << bad_utf8;
   const std::string garbage = raw_exchange(p, "HELLO\r\n\r\n", 10s);
   EXPECT_EQ(garbage.rfind("HTTP/1.1 400", 0), 0u) << garbage;
-  const std::string big_headers = raw_exchange(p, "GET /healthz HTTP/1.1\r\nX-A: " + std::string(20000, 'a') + "\r\n\r\n", 10s);
+  const std::string big_headers =
+      raw_exchange(p, "GET /healthz HTTP/1.1\r\nX-A: " + std::string(20000, 'a') + "\r\n\r\n", 10s);
   EXPECT_EQ(big_headers.rfind("HTTP/1.1 413", 0), 0u) << big_headers.substr(0, 200);
   EXPECT_EQ(http_request(p, "GET", "/healthz").status, 200);
 }
@@ -285,14 +300,16 @@ TEST_F(DaemonTest, KeepAliveServesManyRequestsOnOneConnection) {
 }
 
 TEST_F(DaemonTest, OffLoopbackNeedsAPrivateTokenFile) {
-  const auto refused = run_process(kDaemon, {"--listen", "0.0.0.0:0", "--db", dir_.file("t.db")}, {.stdin_bytes = {}, .timeout = 30s, .environment = {}});
+  const auto refused = run_process(kDaemon, {"--listen", "0.0.0.0:0", "--db", dir_.file("t.db")},
+                                   {.stdin_bytes = {}, .timeout = 30s, .environment = {}});
   EXPECT_EQ(refused.exit_status, 2) << refused.describe();
   EXPECT_NE(refused.err.find("token"), std::string::npos);
   const std::string tokens = dir_.file("tokens.json");
   std::ofstream(tokens) << R"({"read_token": "read-0123456789abcdef", "operator_token": "oper-0123456789abcdef"})";
   ::chmod(tokens.c_str(), 0644);
-  const auto open_file = run_process(kDaemon, {"--listen", "0.0.0.0:0", "--db", dir_.file("t.db"), "--token-file", tokens},
-                                     {.stdin_bytes = {}, .timeout = 30s, .environment = {}});
+  const auto open_file =
+      run_process(kDaemon, {"--listen", "0.0.0.0:0", "--db", dir_.file("t.db"), "--token-file", tokens},
+                  {.stdin_bytes = {}, .timeout = 30s, .environment = {}});
   EXPECT_EQ(open_file.exit_status, 2) << open_file.describe();
   EXPECT_NE(open_file.err.find("chmod 600"), std::string::npos) << open_file.err;
   ::chmod(tokens.c_str(), 0600);
@@ -303,19 +320,27 @@ TEST_F(DaemonTest, OffLoopbackNeedsAPrivateTokenFile) {
   EXPECT_EQ(http_request(port, "GET", "/healthz").status, 200);
   expect_error(http_request(port, "GET", "/api/v1/sessions"), 401, "unauthorized");
   const std::string session = json{{"site", "forearm"}, {"subject", "S"}}.dump();
-  EXPECT_EQ(http_request(port, "GET", "/api/v1/sessions", "", {{"Authorization", "Bearer read-0123456789abcdef"}}).status, 200);
-  expect_error(http_request(port, "POST", "/api/v1/sessions", session, {{"Authorization", "Bearer read-0123456789abcdef"}}), 403, "forbidden");
-  EXPECT_EQ(http_request(port, "POST", "/api/v1/sessions", session, {{"Authorization", "Bearer oper-0123456789abcdef"}}).status, 201);
+  EXPECT_EQ(
+      http_request(port, "GET", "/api/v1/sessions", "", {{"Authorization", "Bearer read-0123456789abcdef"}}).status,
+      200);
+  expect_error(
+      http_request(port, "POST", "/api/v1/sessions", session, {{"Authorization", "Bearer read-0123456789abcdef"}}), 403,
+      "forbidden");
+  EXPECT_EQ(http_request(port, "POST", "/api/v1/sessions", session, {{"Authorization", "Bearer oper-0123456789abcdef"}})
+                .status,
+            201);
   d.send_signal(SIGTERM);
   EXPECT_EQ(d.wait(30s).exit_status, 0);
 }
 
 TEST_F(DaemonTest, ConfigFileSetsOptionsAndFlagsWin) {
   const std::string config = dir_.file("config.json");
-  std::ofstream(config) << R"({"db": ")" << dir_.file("from-config.db") << R"(", "body_limit": 100, "log_level": "warn"})";
+  std::ofstream(config) << R"({"db": ")" << dir_.file("from-config.db")
+                        << R"(", "body_limit": 100, "log_level": "warn"})";
   Daemon d(dir_.file("flag.db"), {"--config", config});
   ASSERT_NE(d.port(), 0) << d.process().err();
-  EXPECT_NE(http_request(d.port(), "GET", "/healthz").json()["database"]["path"].get<std::string>().find("flag.db"), std::string::npos);
+  EXPECT_NE(http_request(d.port(), "GET", "/healthz").json()["database"]["path"].get<std::string>().find("flag.db"),
+            std::string::npos);
   expect_error(http_request(d.port(), "POST", "/api/v1/fit", std::string(200, ' ')), 413, "payload_too_large");
   d.stop();
   std::ofstream(config) << R"({"listen": 5})";
@@ -329,7 +354,9 @@ TEST_F(DaemonTest, SigtermFinishesTheRequestInFlight) {
   json spectra = json::object();
   for (int i = 0; i < 20; ++i) spectra["s" + std::to_string(i)] = skin_like();
   HttpReply reply;
-  std::thread client([&] { reply = http_request(d.port(), "POST", "/api/v1/fit", json{{"wavelength_nm", grid()}, {"spectra", spectra}}.dump()); });
+  std::thread client([&] {
+    reply = http_request(d.port(), "POST", "/api/v1/fit", json{{"wavelength_nm", grid()}, {"spectra", spectra}}.dump());
+  });
   std::this_thread::sleep_for(100ms);
   d.process().send_signal(SIGTERM);
   client.join();

@@ -118,7 +118,8 @@ TEST_F(ExportTest, JsonHoldsTheSessionItsSpectraFitsAndProvenance) {
   EXPECT_EQ(json["session"]["subject"], "S-1000, left");
   EXPECT_EQ(json["session"]["state"], "open");
   EXPECT_EQ(json["white_standard"]["name"], testing::sample_white_standard(1).name);
-  EXPECT_EQ(json["white_standard"]["reflectance"].get<std::vector<double>>(), testing::sample_white_standard(1).reflectance.values);
+  EXPECT_EQ(json["white_standard"]["reflectance"].get<std::vector<double>>(),
+            testing::sample_white_standard(1).reflectance.values);
   ASSERT_EQ(json["instruments"].size(), 1u);
   EXPECT_EQ(json["instruments"][0]["serial_number"], "609501");
   EXPECT_EQ(json["instruments"][0]["spectral_configuration"]["step_nm"], 4);  // stored JSON, embedded as JSON
@@ -142,9 +143,11 @@ TEST_F(ExportTest, JsonHoldsTheSessionItsSpectraFitsAndProvenance) {
 
   ASSERT_EQ(sample["fits"].size(), 2u);
   const auto& fit = sample["fits"][0];
-  for (const char* field : {"name", "site", "params", "stderr", "rmse", "max_abs_error", "delta_e00_d65", "iterations", "converged",
-                            "wavelength_nm", "measured", "fitted", "id", "measurement_id", "samples_ignored", "solver_summary",
-                            "options", "model_version", "tables_digest", "created_at"})
+  for (const char* field : {"name",      "site",           "params",          "stderr",
+                            "rmse",      "max_abs_error",  "delta_e00_d65",   "iterations",
+                            "converged", "wavelength_nm",  "measured",        "fitted",
+                            "id",        "measurement_id", "samples_ignored", "solver_summary",
+                            "options",   "model_version",  "tables_digest",   "created_at"})
     EXPECT_TRUE(fit.contains(field)) << field;
   EXPECT_EQ(fit["params"]["melanin"], testing::sample_fit(1).params[1]);
   EXPECT_TRUE(fit["stderr"]["bilirubin"].is_null());  // undetermined
@@ -302,8 +305,9 @@ TEST_F(ExportRefusesTest, ForeignFiles) {
 }
 
 TEST_F(ExportRefusesTest, AnotherProgramsSqliteDatabase) {
-  testing::sqlite_execute(path_, "PRAGMA journal_mode = WAL; CREATE TABLE photos (id INTEGER PRIMARY KEY, name TEXT);"
-                                 "INSERT INTO photos VALUES (1, 'cat');");
+  testing::sqlite_execute(path_,
+                          "PRAGMA journal_mode = WAL; CREATE TABLE photos (id INTEGER PRIMARY KEY, name TEXT);"
+                          "INSERT INTO photos VALUES (1, 'cat');");
   expect_refused_untouched(path_, "not a skinspec one");
 }
 

@@ -132,8 +132,8 @@ TEST(ExtendedRecovery, EveryParameterIsWithinToleranceOrMarkedNotDetermined) {
       ++total;
       if (!c.fit.determination[i].determined()) continue;
       ++determined;
-      EXPECT_LE(std::abs(c.fit.params[i] - c.truth[i]), tolerance(i, c.truth[i]))
-          << kSpecs[i].name << "\n" << describe(c.truth, c.fit);
+      EXPECT_LE(std::abs(c.fit.params[i] - c.truth[i]), tolerance(i, c.truth[i])) << kSpecs[i].name << "\n"
+                                                                                  << describe(c.truth, c.fit);
     }
   // The rule must not excuse everything.
   EXPECT_GE(determined, 3 * total / 4) << determined << " of " << total << " determined";
@@ -143,9 +143,11 @@ TEST(ExtendedRecovery, EveryParameterIsWithinToleranceOrMarkedNotDetermined) {
 TEST(ExtendedRecovery, MelaninSurfaceAndScatteringAreDeterminedInLightSkin) {
   for (const auto& c : recovery_cases()) {
     if (c.truth[kMelanin] > 8) continue;
-    for (const int i : {static_cast<int>(kSurfaceReflectance), static_cast<int>(kMelanin), static_cast<int>(kDermisScattering)})
+    for (const int i :
+         {static_cast<int>(kSurfaceReflectance), static_cast<int>(kMelanin), static_cast<int>(kDermisScattering)})
       EXPECT_TRUE(c.fit.determination[static_cast<std::size_t>(i)].determined())
-          << kSpecs[static_cast<std::size_t>(i)].name << "\n" << describe(c.truth, c.fit);
+          << kSpecs[static_cast<std::size_t>(i)].name << "\n"
+          << describe(c.truth, c.fit);
   }
 }
 
@@ -170,7 +172,8 @@ TEST(ExtendedRecovery, DeterminedMeansWithinItsPrecisionAndNotDeterminedSaysWhy)
   for (const auto& c : recovery_cases())
     for (std::size_t i = 0; i < kSpecs.size(); ++i) {
       const auto& d = c.fit.determination[i];
-      const double precision = std::max(kSpecs[i].precision_absolute, kSpecs[i].precision_relative * std::abs(c.fit.params[i]));
+      const double precision =
+          std::max(kSpecs[i].precision_absolute, kSpecs[i].precision_relative * std::abs(c.fit.params[i]));
       if (d.determined()) {
         EXPECT_LE(c.fit.standard_error[i], precision) << kSpecs[i].name;
         EXPECT_GT(c.fit.params[i], kSpecs[i].lower) << kSpecs[i].name;
@@ -180,7 +183,8 @@ TEST(ExtendedRecovery, DeterminedMeansWithinItsPrecisionAndNotDeterminedSaysWhy)
         EXPECT_GE(std::abs(c.fit.correlation_between(i, static_cast<std::size_t>(d.correlated_with))), 0.9);
       } else if (d.status == Determination::at_bound) {
         EXPECT_TRUE(c.fit.params[i] == kSpecs[i].lower || c.fit.params[i] == kSpecs[i].upper ||
-                    std::abs(c.fit.params[i] - kSpecs[i].lower) < 1e-9 || std::abs(c.fit.params[i] - kSpecs[i].upper) < 1e-9)
+                    std::abs(c.fit.params[i] - kSpecs[i].lower) < 1e-9 ||
+                    std::abs(c.fit.params[i] - kSpecs[i].upper) < 1e-9)
             << kSpecs[i].name << " " << c.fit.params[i];
       }
     }
@@ -227,8 +231,8 @@ TEST(DerivedQuantities, FollowFromTheParametersByTheDeltaMethod) {
   EXPECT_EQ(fit->oxygen_saturation.value, fit->params[kOxygenSaturation]);
   EXPECT_EQ(fit->oxygen_saturation.standard_error, fit->standard_error[kOxygenSaturation]);
   EXPECT_NEAR(fit->blood_volume_fraction.value, kReferenceBloodFraction * fit->params[kTotalHemoglobin], 1e-15);
-  EXPECT_NEAR(fit->blood_volume_fraction.standard_error, kReferenceBloodFraction * fit->standard_error[kTotalHemoglobin],
-              1e-15);
+  EXPECT_NEAR(fit->blood_volume_fraction.standard_error,
+              kReferenceBloodFraction * fit->standard_error[kTotalHemoglobin], 1e-15);
 }
 
 TEST(DerivedQuantities, PaperSaturationCombinesOxyAndDeoxyWithTheirCorrelation) {
@@ -296,7 +300,8 @@ TEST(PartialCoverage, AHyperspectralCamerasRangeIsFittedInsideTheModelsWithANote
   EXPECT_EQ(fit->wavelength_nm.back(), 780);
   EXPECT_THAT(fit->coverage_note, HasSubstr("415-780 nm"));
   EXPECT_LT(fit->rmse, 1e-6);
-  for (std::size_t i = 0; i < kSpecs.size(); ++i) EXPECT_NEAR(fit->params[i], kOrdinary[i], 1e-3 * kOrdinary[i]) << kSpecs[i].name;
+  for (std::size_t i = 0; i < kSpecs.size(); ++i)
+    EXPECT_NEAR(fit->params[i], kOrdinary[i], 1e-3 * kOrdinary[i]) << kSpecs[i].name;
 }
 
 TEST(PartialCoverage, LessOfTheSpectrumGivesWiderStandardErrors) {

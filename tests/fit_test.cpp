@@ -90,8 +90,11 @@ Spectrum synthetic_measurement(const Params& truth, unsigned seed, bool lateral_
 }
 
 FitOptions options_for(bool lateral_diffusion = true, std::vector<double> weights = {}) {
-  return {.model = ModelKind::paper, .site = kSite, .lateral_diffusion = lateral_diffusion,
-          .weights = std::move(weights), .held = {}};
+  return {.model = ModelKind::paper,
+          .site = kSite,
+          .lateral_diffusion = lateral_diffusion,
+          .weights = std::move(weights),
+          .held = {}};
 }
 
 const auto& kSpecs = model_spec(ModelKind::paper).params;
@@ -189,8 +192,8 @@ const std::vector<RecoveryCase>& recovery_cases(Constants constants) {
 std::string describe(const RecoveryCase& c) {
   std::ostringstream out;
   out << "true {" << describe(c.truth) << "}\n  fitted {" << describe(c.fit.params) << "}\n  standard errors {"
-      << describe(c.fit.standard_error) << "}\n  seed " << c.seed << ", " << c.fit.iterations
-      << " iterations, " << c.fit.solver_message;
+      << describe(c.fit.standard_error) << "}\n  seed " << c.seed << ", " << c.fit.iterations << " iterations, "
+      << c.fit.solver_message;
   return out.str();
 }
 
@@ -304,9 +307,9 @@ TEST_P(RecoveryWithoutLateralDiffusion, RecoversAModelWithoutIt) {
     const auto fit = fitter(GetParam()).fit(measured, options_for(false));
     ASSERT_TRUE(fit.has_value()) << fit.error();
     EXPECT_TRUE(fit->converged) << describe(truth);
-    EXPECT_TRUE(recovered(*fit, truth))
-        << "true {" << describe(truth) << "}\n  fitted {" << describe(fit->params) << "}\n  standard errors {"
-        << describe(fit->standard_error) << "}\n  " << fit->iterations << " iterations";
+    EXPECT_TRUE(recovered(*fit, truth)) << "true {" << describe(truth) << "}\n  fitted {" << describe(fit->params)
+                                        << "}\n  standard errors {" << describe(fit->standard_error) << "}\n  "
+                                        << fit->iterations << " iterations";
   }
 }
 

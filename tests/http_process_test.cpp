@@ -130,14 +130,16 @@ TEST_F(HttpProcessTest, EveryTransferEncodingButChunkedAloneIsRefusedAndTheConne
   };
   for (const auto& framing : framings) {
     SCOPED_TRACE(framing);
-    const auto got = raw_exchange_from("127.0.0.1", d.port, "GET /healthz HTTP/1.1\r\nHost: x\r\n" + framing + "\r\n" + smuggled, 10s);
+    const auto got = raw_exchange_from("127.0.0.1", d.port,
+                                       "GET /healthz HTTP/1.1\r\nHost: x\r\n" + framing + "\r\n" + smuggled, 10s);
     EXPECT_TRUE(got.closed) << "the connection should have been closed";
     const auto replies = parse_responses(got.bytes);
     ASSERT_EQ(replies.size(), 1u) << got.bytes;
     expect_json_error(replies[0], 400, "invalid_framing");
     EXPECT_EQ(replies[0].header("connection"), "close");
   }
-  const auto old = raw_exchange_from("127.0.0.1", d.port, "POST /api/v1/fit HTTP/1.0\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n", 10s);
+  const auto old = raw_exchange_from("127.0.0.1", d.port,
+                                     "POST /api/v1/fit HTTP/1.0\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n", 10s);
   EXPECT_TRUE(old.closed);
   const auto old_replies = parse_responses(old.bytes);
   ASSERT_EQ(old_replies.size(), 1u) << old.bytes;
@@ -146,8 +148,10 @@ TEST_F(HttpProcessTest, EveryTransferEncodingButChunkedAloneIsRefusedAndTheConne
   // `chunked` alone is understood, and what follows the last chunk is the next request.
   const std::string session = json{{"site", "forearm"}, {"subject", "S"}}.dump();
   std::ostringstream chunked;
-  chunked << "POST /api/v1/sessions HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nTransfer-Encoding: Chunked\r\n\r\n"
-          << std::hex << session.size() << "\r\n" << session << "\r\n0\r\n\r\n"
+  chunked << "POST /api/v1/sessions HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nTransfer-Encoding: "
+             "Chunked\r\n\r\n"
+          << std::hex << session.size() << "\r\n"
+          << session << "\r\n0\r\n\r\n"
           << "GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
   const auto good = raw_exchange_from("127.0.0.1", d.port, chunked.str(), 10s);
   const auto replies = parse_responses(good.bytes);
@@ -189,8 +193,15 @@ TEST_F(HttpProcessTest, HeadAnswersAsGetWithTheHeadersOnly) {
 TEST_F(HttpProcessTest, OutOfFileDescriptorsTheDaemonNeitherSpinsNorStopsAnswering) {
   // 200 descriptors for a daemon asked to hold 512 connections, and 400 clients that connect
   // and send nothing.
-  const std::vector<std::string> args = {kBin + "/skinspecd", "--listen", "127.0.0.1:0", "--db", dir_.file("fd.db"),
-                                         "--max-connections", "512", "--max-connections-per-client", "512"};
+  const std::vector<std::string> args = {kBin + "/skinspecd",
+                                         "--listen",
+                                         "127.0.0.1:0",
+                                         "--db",
+                                         dir_.file("fd.db"),
+                                         "--max-connections",
+                                         "512",
+                                         "--max-connections-per-client",
+                                         "512"};
   std::vector<std::string> wrapped = {"200"};
   wrapped.insert(wrapped.end(), args.begin(), args.end());
   BackgroundProcess daemon(kBin + "/limit_open_files", wrapped);
@@ -237,9 +248,11 @@ TEST_F(HttpProcessTest, HealthzStaysFastWhileFitsFillTheComputePoolAndTheOverflo
   // Four batch fits of 40 spectra (a second or more each): two run, two wait.
   const std::string body = batch_fit_body(40);
   std::vector<std::future<HttpReply>> fits;
-  for (int i = 0; i < 4; ++i) fits.push_back(std::async(std::launch::async, [&] { return http_request(d.port, "POST", "/api/v1/fit", body); }));
+  for (int i = 0; i < 4; ++i)
+    fits.push_back(std::async(std::launch::async, [&] { return http_request(d.port, "POST", "/api/v1/fit", body); }));
   const auto deadline = Clock::now() + 30s;
-  while ((metric(d.port, "skinspec_compute_running") < 2 || metric(d.port, "skinspec_compute_waiting") < 2) && Clock::now() < deadline)
+  while ((metric(d.port, "skinspec_compute_running") < 2 || metric(d.port, "skinspec_compute_waiting") < 2) &&
+         Clock::now() < deadline)
     std::this_thread::sleep_for(10ms);
   ASSERT_EQ(metric(d.port, "skinspec_compute_waiting"), 2) << "the compute pool never filled";
 

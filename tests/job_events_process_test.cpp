@@ -47,10 +47,13 @@ std::string events_path(long long job) { return "/api/v1/jobs/" + std::to_string
 // Every event of a job's stream until the server ends it.
 std::vector<Event> all_events(unsigned short port, long long job, HttpReply* reply = nullptr) {
   std::vector<Event> events;
-  const auto r = follow_events(port, events_path(job), [&](const std::string& text) {
-    if (auto e = parse_event(text)) events.push_back(std::move(*e));
-    return true;
-  }, 120s);
+  const auto r = follow_events(
+      port, events_path(job),
+      [&](const std::string& text) {
+        if (auto e = parse_event(text)) events.push_back(std::move(*e));
+        return true;
+      },
+      120s);
   EXPECT_EQ(r.status, 200) << r.error << r.body;
   EXPECT_TRUE(r.error.empty()) << r.error;
   if (reply) *reply = r;
@@ -75,11 +78,14 @@ std::future<Stream> follow_in_background(unsigned short port, long long job) {
       first->set_value();
       told = true;
     };
-    out.reply = follow_events(port, events_path(job), [&](const std::string& text) {
-      if (auto e = parse_event(text)) out.events.push_back(std::move(*e));
-      tell();
-      return true;
-    }, 120s);
+    out.reply = follow_events(
+        port, events_path(job),
+        [&](const std::string& text) {
+          if (auto e = parse_event(text)) out.events.push_back(std::move(*e));
+          tell();
+          return true;
+        },
+        120s);
     tell();
     return out;
   });
@@ -90,12 +96,14 @@ std::future<Stream> follow_in_background(unsigned short port, long long job) {
 class JobEventsTest : public ::testing::Test {
  protected:
   long long open_session() {
-    const auto r = http_request(port(), "POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "E1"}}.dump());
+    const auto r =
+        http_request(port(), "POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "E1"}}.dump());
     EXPECT_EQ(r.status, 201) << r.body;
     return r.json().value("id", 0LL);
   }
   long long submit(long long session, const json& body) {
-    const auto r = http_request(port(), "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", body.dump());
+    const auto r =
+        http_request(port(), "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", body.dump());
     EXPECT_EQ(r.status, 202) << r.body;
     return r.json().value("id", 0LL);
   }
@@ -176,7 +184,8 @@ TEST_F(JobEventsTest, QueuedJobsShowTheirPlaceAndASampleStreamsItsReadingsToItsR
 TEST_F(JobEventsTest, UnknownJobsAreNotFound) {
   rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), 0));
   ASSERT_NE(port(), 0) << rig_->logs();
-  const auto r = follow_events(port(), events_path(999), [](const std::string&) { return true; }, 30s);
+  const auto r = follow_events(
+      port(), events_path(999), [](const std::string&) { return true; }, 30s);
   EXPECT_EQ(r.status, 404) << r.error;
   EXPECT_EQ(r.header("content-type"), "application/json");
   EXPECT_EQ(json::parse(r.body, nullptr, false)["error"]["code"], "not_found") << r.body;
@@ -192,7 +201,8 @@ TEST_F(JobEventsTest, AClientHangingUpMidStreamDoesNotDisturbTheService) {
   // Several followers leave after the first event, while the job runs.
   for (int i = 0; i < 5; ++i) {
     int events = 0;
-    const auto r = follow_events(port(), events_path(white), [&](const std::string&) { return ++events < 1; }, 30s);
+    const auto r = follow_events(
+        port(), events_path(white), [&](const std::string&) { return ++events < 1; }, 30s);
     EXPECT_EQ(r.status, 200) << r.error;
     EXPECT_EQ(events, 1);
   }

@@ -57,7 +57,9 @@ TEST(StoreRecordsTest, SettingsNameWhatWasAskedAndWhatTheMeterDid) {
   first.averages = 3;
   first.sync = "off";
   const auto settings = nlohmann::json::parse(measurement_settings({first, reading({1, 2, 3}, 2)}, 0, 2, 1));
-  EXPECT_EQ(settings, (nlohmann::json{{"integration_ms", 0}, {"count", 2}, {"rejected_readings", 1}, {"averages", 3}, {"sync", "off"}}));
+  EXPECT_EQ(settings,
+            (nlohmann::json{
+                {"integration_ms", 0}, {"count", 2}, {"rejected_readings", 1}, {"averages", 3}, {"sync", "off"}}));
 }
 
 TEST(StoreRecordsTest, TheInstrumentKeepsTheConfigurationTheMeterReported) {
@@ -67,11 +69,13 @@ TEST(StoreRecordsTest, TheInstrumentKeepsTheConfigurationTheMeterReported) {
   EXPECT_EQ(record.serial_number, "60912345");
   EXPECT_EQ(record.connection, "usb:0403:6001");
   EXPECT_EQ(nlohmann::json::parse(record.spectral_configuration),
-            (nlohmann::json{{"points", 201}, {"bandwidth_nm", 5.0}, {"first_nm", 360.0}, {"last_nm", 830.0}, {"step_nm", 2.5}}));
+            (nlohmann::json{
+                {"points", 201}, {"bandwidth_nm", 5.0}, {"first_nm", 360.0}, {"last_nm", 830.0}, {"step_nm", 2.5}}));
 }
 
 TEST(StoreRecordsTest, ARejectedReadingKeepsItsCodeReasonAndRawReply) {
-  const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "quality 19: overload", 19, "19,0\r\n"};
+  const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "quality 19: overload", 19,
+                                       "19,0\r\n"};
   const store::Time at(std::chrono::seconds(5));
   const auto r = rejected_reading_record(error, 3, at);
   EXPECT_EQ(r.attempt, 3);
@@ -128,14 +132,15 @@ TEST(MeasurePolicyTest, SettingsOutOfRangeAreExplained) {
 TEST(MeasurePolicyTest, ARejectionNamesItsAttemptReasonAndStoredRow) {
   const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "quality 19: overload", 19, "19,0"};
   EXPECT_EQ(rejection_warning(2, error, 12),
-            "rejected_reading: reading attempt 2 rejected (bad_reading: quality 19: overload); its raw reply is rejected reading 12");
+            "rejected_reading: reading attempt 2 rejected (bad_reading: quality 19: overload); its raw reply is "
+            "rejected reading 12");
 }
 
 TEST(MeasurePolicyTest, EachDriverFailureEndsAJobWithItsOwnCode) {
   using Kind = drivers::InstrumentError::Kind;
   using Code = store::JobErrorCode;
   const std::vector<std::pair<Kind, Code>> expected = {
-      {Kind::no_contact, Code::no_contact}, {Kind::lost, Code::lost},         {Kind::protocol, Code::protocol},
+      {Kind::no_contact, Code::no_contact},   {Kind::lost, Code::lost},         {Kind::protocol, Code::protocol},
       {Kind::bad_reading, Code::bad_reading}, {Kind::rejected, Code::rejected}, {Kind::cancelled, Code::cancelled},
       {Kind::transport, Code::transport}};
   for (const auto& [kind, code] : expected) {
@@ -147,8 +152,10 @@ TEST(MeasurePolicyTest, EachDriverFailureEndsAJobWithItsOwnCode) {
 }
 
 TEST(MeasurePolicyTest, ACancelledJobIsKnownByItsCode) {
-  EXPECT_EQ(cancellation(store::JobErrorCode::cancelled), (store::JobError{store::JobErrorCode::cancelled, "cancelled by request"}));
-  EXPECT_EQ(cancellation(store::JobErrorCode::stopped), (store::JobError{store::JobErrorCode::stopped, "the service stopped"}));
+  EXPECT_EQ(cancellation(store::JobErrorCode::cancelled),
+            (store::JobError{store::JobErrorCode::cancelled, "cancelled by request"}));
+  EXPECT_EQ(cancellation(store::JobErrorCode::stopped),
+            (store::JobError{store::JobErrorCode::stopped, "the service stopped"}));
   EXPECT_EQ(ended_state(cancellation(store::JobErrorCode::cancelled)), store::JobState::cancelled);
   EXPECT_EQ(ended_state(cancellation(store::JobErrorCode::stopped)), store::JobState::cancelled);
   // Its words do not make a job cancelled.

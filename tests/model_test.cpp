@@ -56,16 +56,13 @@ namespace reference = testing::reference;
 
 // R(lambda) of eq. 1 at index i of the tables' 1 nm grid.
 double plain_eq1(const LayerOptics& o, std::size_t i, const Site& site, const Params& p) {
-  return reference::eq1({o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i]},
-                        site.epidermis_mm, site.dermis_mm,
-                        {p[kSurfaceReflectance], p[kMelanin], p[kOxyhemoglobin], p[kDeoxyhemoglobin],
-                         p[kBilirubin]});
+  return reference::eq1({o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i]}, site.epidermis_mm,
+                        site.dermis_mm,
+                        {p[kSurfaceReflectance], p[kMelanin], p[kOxyhemoglobin], p[kDeoxyhemoglobin], p[kBilirubin]});
 }
 
 // Index of a whole wavelength on the tables' grid (380-780 nm every 1 nm).
-std::size_t table_index(double wavelength_nm) {
-  return static_cast<std::size_t>(wavelength_nm - SkinOptics::kFirstNm);
-}
+std::size_t table_index(double wavelength_nm) { return static_cast<std::size_t>(wavelength_nm - SkinOptics::kFirstNm); }
 
 // ---------------------------------------------------------------------------------------------
 // Hand-computed values
@@ -170,16 +167,16 @@ TEST(SkinModel, ReflectanceStaysStrictlyBetweenZeroAndOneForOrdinarySkin) {
   for (const SkinOptics* optics_under_test : {&shipped_optics(), &textbook_optics()}) {
     const SkinOptics& optics = *optics_under_test;
     for (const auto& name : optics.site_names())
-    for (const bool lateral : {false, true}) {
-      const SkinModel model(optics, *optics.site(name), grid, lateral);
-      for (const Params& p : kOrdinarySkins) {
-        const auto r = model.reflectance(p);
-        for (std::size_t i = 0; i < grid.size(); ++i) {
-          ASSERT_GT(r[i], 0.0) << name << " " << grid[i] << " nm";
-          ASSERT_LT(r[i], 1.0) << name << " " << grid[i] << " nm";
+      for (const bool lateral : {false, true}) {
+        const SkinModel model(optics, *optics.site(name), grid, lateral);
+        for (const Params& p : kOrdinarySkins) {
+          const auto r = model.reflectance(p);
+          for (std::size_t i = 0; i < grid.size(); ++i) {
+            ASSERT_GT(r[i], 0.0) << name << " " << grid[i] << " nm";
+            ASSERT_LT(r[i], 1.0) << name << " " << grid[i] << " nm";
+          }
         }
       }
-    }
   }
 }
 
@@ -310,8 +307,8 @@ TEST_P(ModelGradient, AutomaticDerivativesMatchNumericOnes) {
     const double* parameters[] = {p.data()};
     ceres::GradientChecker::ProbeResults results;
     EXPECT_TRUE(checker_.Probe(parameters, kRelativePrecision, &results))
-        << "melanin " << p[kMelanin] << ": worst relative error " << results.maximum_relative_error
-        << "\n" << results.error_log;
+        << "melanin " << p[kMelanin] << ": worst relative error " << results.maximum_relative_error << "\n"
+        << results.error_log;
   }
 }
 
@@ -344,9 +341,12 @@ INSTANTIATE_TEST_SUITE_P(LateralDiffusion, ModelGradient, ::testing::Bool(),
 
 // Every file SkinOptics::load reads.
 const std::vector<std::string> kModelFiles = {
-    "optics/hemoglobin_prahl.csv",          "optics/bilirubin_photochemcad.csv",
-    "optics/melanosome_jacques2013.csv",    "optics/skin_baseline_jacques1998.csv",
-    "optics/scattering_salomatina.csv",     "model/sites.csv",
+    "optics/hemoglobin_prahl.csv",
+    "optics/bilirubin_photochemcad.csv",
+    "optics/melanosome_jacques2013.csv",
+    "optics/skin_baseline_jacques1998.csv",
+    "optics/scattering_salomatina.csv",
+    "model/sites.csv",
     "model/constants.csv",
 };
 
@@ -356,8 +356,8 @@ const std::string kExtendedConstantsFile = "model/constants-extended.csv";
 // The source data directory, with `file`'s bytes passed through `change` (or replaced by a
 // read error when change is null).
 DataReader reader_changing(std::string file, std::function<std::string(std::string)> change) {
-  return [file = std::move(file), change = std::move(change)](
-             std::string_view path) -> std::expected<std::string, std::string> {
+  return [file = std::move(file),
+          change = std::move(change)](std::string_view path) -> std::expected<std::string, std::string> {
     auto bytes = source_data_reader()(path);
     if (path != file || !bytes) return bytes;
     if (!change) return std::unexpected(std::string("disk on fire"));
@@ -410,20 +410,22 @@ TEST_P(TableLoading, MissingSourceLineIsRefused) {
 }
 
 TEST_P(TableLoading, ChangingATableChangesTheDigest) {
-  const auto changed = SkinOptics::load(reader_changing(GetParam(), [](std::string bytes) {
-    return bytes + "\n";  // a blank line: same numbers, different bytes
-  }), ModelKind::paper);
+  const auto changed =
+      SkinOptics::load(reader_changing(GetParam(),
+                                       [](std::string bytes) {
+                                         return bytes + "\n";  // a blank line: same numbers, different bytes
+                                       }),
+                       ModelKind::paper);
   ASSERT_TRUE(changed.has_value()) << changed.error().what();
   EXPECT_NE(changed->tables_digest(), shipped_optics().tables_digest());
 }
 
-INSTANTIATE_TEST_SUITE_P(EachFile, TableLoading, ::testing::ValuesIn(kModelFiles),
-                         [](const auto& test) {
-                           std::string name = test.param;
-                           for (char& c : name)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return name;
-                         });
+INSTANTIATE_TEST_SUITE_P(EachFile, TableLoading, ::testing::ValuesIn(kModelFiles), [](const auto& test) {
+  std::string name = test.param;
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
+});
 
 // ---------------------------------------------------------------------------------------------
 // Sites
@@ -471,10 +473,9 @@ const std::vector<Params> kExtendedSkins = {
 
 double plain_extended(const SkinOptics& optics, std::size_t i, const Site& site, const Params& p) {
   const LayerOptics& o = optics.optics();
-  return testing::reference::extended({o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i]},
-                                      o.wavelength_nm[i], site.epidermis_mm, site.dermis_mm,
-                                      optics.constants().vessel_radius_um / 1000,
-                                      {p[0], p[1], p[2], p[3], p[4], p[5], p[6]});
+  return testing::reference::extended(
+      {o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i]}, o.wavelength_nm[i], site.epidermis_mm,
+      site.dermis_mm, optics.constants().vessel_radius_um / 1000, {p[0], p[1], p[2], p[3], p[4], p[5], p[6]});
 }
 
 TEST(ExtendedModel, MatchesItsEquationsWrittenOutByHandOnEverySiteAndTheWholeGrid) {
@@ -548,7 +549,8 @@ TEST(MelaninExponent, ScalesTheTabulatedMelaninAroundItsPivot) {
   const SkinOptics steeper = base.with_constants(constants);
   for (std::size_t i = 0; i < base.optics().wavelength_nm.size(); i += 25) {
     const double w = base.optics().wavelength_nm[i];
-    EXPECT_NEAR(steeper.optics().Km[i], base.optics().Km[i] * std::pow(w / 500, -0.6), 1e-12 * base.optics().Km[i]) << w;
+    EXPECT_NEAR(steeper.optics().Km[i], base.optics().Km[i] * std::pow(w / 500, -0.6), 1e-12 * base.optics().Km[i])
+        << w;
   }
 }
 
@@ -586,7 +588,8 @@ TEST(ExtendedModel, AutomaticDerivativesMatchNumericOnes) {
       ceres::GradientChecker::ProbeResults results;
       EXPECT_TRUE(checker.Probe(parameters, 1e-6, &results))
           << "lateral " << lateral << ", melanin " << p[kMelanin] << ": worst relative error "
-          << results.maximum_relative_error << "\n" << results.error_log;
+          << results.maximum_relative_error << "\n"
+          << results.error_log;
     }
   }
 }
@@ -597,7 +600,8 @@ TEST(ModelDigest, EachModelHasItsOwnAndOnlyItsConstantsChangeIt) {
   EXPECT_NE(paper.tables_digest(), extended.tables_digest());
   const auto blank_line = [](std::string bytes) { return bytes + "\n"; };
   const auto paper_again = SkinOptics::load(reader_changing(kExtendedConstantsFile, blank_line), ModelKind::paper);
-  const auto extended_again = SkinOptics::load(reader_changing(kExtendedConstantsFile, blank_line), ModelKind::extended);
+  const auto extended_again =
+      SkinOptics::load(reader_changing(kExtendedConstantsFile, blank_line), ModelKind::extended);
   ASSERT_TRUE(paper_again && extended_again);
   EXPECT_EQ(paper_again->tables_digest(), paper.tables_digest());
   EXPECT_NE(extended_again->tables_digest(), extended.tables_digest());

@@ -77,8 +77,9 @@ Rig rig(std::vector<MeterStep> script, DriverOptions options = fast_options()) {
 }
 
 TEST(Pr650Driver, ConnectsMeasuresAndReportsEverything) {
-  auto r = rig(contact() + std::vector<MeterStep>{{"d110", "60912345\r\n"}, {"d120", "0101,008.0,0380.,0780.,004.\r\n"}} +
-               measurement("s01,,,,,0,01,1", d5(1e-4)));
+  auto r =
+      rig(contact() + std::vector<MeterStep>{{"d110", "60912345\r\n"}, {"d120", "0101,008.0,0380.,0780.,004.\r\n"}} +
+          measurement("s01,,,,,0,01,1", d5(1e-4)));
   ASSERT_TRUE(r.driver->connect());
   const auto identity = r.driver->identify();
   ASSERT_TRUE(identity) << identity.error().message;
@@ -127,8 +128,8 @@ TEST(Pr650Driver, RetriesFirstContactAndGivesUpWithPowerCycleAdvice) {
 }
 
 TEST(Pr650Driver, FallsBackToNoSyncWhenTheLightCannotBeLockedTo) {
-  auto r = rig(contact() + std::vector<MeterStep>{{"f", "00,60.02\r\n"}} + failed_measurement("s01,,,,1,0,01,1", d5(1e-4, 8)) +
-               measurement("s01,,,,,0,01,1", d5(2e-4)));
+  auto r = rig(contact() + std::vector<MeterStep>{{"f", "00,60.02\r\n"}} +
+               failed_measurement("s01,,,,1,0,01,1", d5(1e-4, 8)) + measurement("s01,,,,,0,01,1", d5(2e-4)));
   ASSERT_TRUE(r.driver->connect());
   MeasureOptions options;
   options.sync = MeasureOptions::Sync::automatic;
@@ -152,8 +153,8 @@ TEST(Pr650Driver, UsesTheMeasuredFlickerFrequency) {
 
 TEST(Pr650Driver, LowLightIsABadReadingAndNeverAStaleSpectrum) {
   // The meter answers 18 with the data lines of the previous measurement: they must not come out.
-  auto r = rig(contact() + measurement("s01,,,,,0,01,1", d5(1e-4)) +
-               failed_measurement("s01,,,,,0,01,1", d5(1e-4, 18)));
+  auto r =
+      rig(contact() + measurement("s01,,,,,0,01,1", d5(1e-4)) + failed_measurement("s01,,,,,0,01,1", d5(1e-4, 18)));
   ASSERT_TRUE(r.driver->connect());
   ASSERT_TRUE(r.driver->measure({}));
   const auto dim = r.driver->measure({});
@@ -165,8 +166,9 @@ TEST(Pr650Driver, LowLightIsABadReadingAndNeverAStaleSpectrum) {
 }
 
 TEST(Pr650Driver, DoublesIntegrationOnLowLightAndHalvesOnOverload) {
-  auto r = rig(contact() + failed_measurement("s01,,,,,100,01,1", d5(1e-6, 18)) + measurement("s01,,,,,200,01,1", d5(1e-6)) +
-               failed_measurement("s01,,,,,400,01,1", d5(1e-2, 19)) + measurement("s01,,,,,200,01,1", d5(1e-2)));
+  auto r =
+      rig(contact() + failed_measurement("s01,,,,,100,01,1", d5(1e-6, 18)) + measurement("s01,,,,,200,01,1", d5(1e-6)) +
+          failed_measurement("s01,,,,,400,01,1", d5(1e-2, 19)) + measurement("s01,,,,,200,01,1", d5(1e-2)));
   ASSERT_TRUE(r.driver->connect());
   MeasureOptions options;
   options.integration_ms = 100;
@@ -192,12 +194,15 @@ TEST(Pr650Driver, ReportsOverloadWithoutAdjustment) {
 TEST(Pr650Driver, AsksAgainForAGarbledReportAndGivesUpOnASecond) {
   std::string garbled = d5(1e-4);
   garbled[garbled.find("0384.")] = '9';
-  auto once = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", garbled}, {"d5", d5(1e-4)},
-                                                     {"d1", kD1}, {"d2", kD2}});
+  auto once =
+      rig(contact() +
+          std::vector<MeterStep>{
+              {"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", garbled}, {"d5", d5(1e-4)}, {"d1", kD1}, {"d2", kD2}});
   ASSERT_TRUE(once.driver->connect());
   EXPECT_TRUE(once.driver->measure({}));
 
-  auto twice = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", garbled}, {"d5", garbled}});
+  auto twice = rig(contact() +
+                   std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", garbled}, {"d5", garbled}});
   ASSERT_TRUE(twice.driver->connect());
   const auto reading = twice.driver->measure({});
   ASSERT_FALSE(reading);
@@ -272,7 +277,8 @@ TEST(Pr650Driver, ASetupTheMeterRefusesTwiceIsReported) {
 
 TEST(Pr650Driver, ARefusalGivenOnceIsTakenForADamagedReply) {
   // "00" with one bit flipped reads as a refusal of field 1, 2, 4 or 8.
-  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", "04\r\n"}} + measurement("s01,,,,,0,01,1", d5(1e-4)));
+  auto r =
+      rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", "04\r\n"}} + measurement("s01,,,,,0,01,1", d5(1e-4)));
   ASSERT_TRUE(r.driver->connect());
   const auto reading = r.driver->measure({});
   ASSERT_TRUE(reading) << reading.error().message;
@@ -280,8 +286,9 @@ TEST(Pr650Driver, ARefusalGivenOnceIsTakenForADamagedReply) {
 }
 
 TEST(Pr650Driver, AMeasurementThatNeverAnswersIsMadeOnceMoreAndTheReadingSaysSo) {
-  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", ""}, {"m0", kOk},
-                                                  {"d5", d5(1e-4)}, {"d1", kD1}, {"d2", kD2}});
+  auto r = rig(contact() +
+               std::vector<MeterStep>{
+                   {"s01,,,,,0,01,1", kSetupOk}, {"m0", ""}, {"m0", kOk}, {"d5", d5(1e-4)}, {"d1", kD1}, {"d2", kD2}});
   ASSERT_TRUE(r.driver->connect());
   const auto reading = r.driver->measure({});
   ASSERT_TRUE(reading) << reading.error().message;
@@ -293,8 +300,9 @@ TEST(Pr650Driver, AMeasurementThatNeverAnswersIsMadeOnceMoreAndTheReadingSaysSo)
 
 TEST(Pr650Driver, AGarbledMeasurementStatusGoesOnToTheReportWithoutMeasuringAgain) {
   for (const std::string status : {"0#0\r\n", "00", "018\r\n"}) {
-    auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", status}, {"d5", d5(1e-4)},
-                                                    {"d1", kD1}, {"d2", kD2}});
+    auto r =
+        rig(contact() + std::vector<MeterStep>{
+                            {"s01,,,,,0,01,1", kSetupOk}, {"m0", status}, {"d5", d5(1e-4)}, {"d1", kD1}, {"d2", kD2}});
     ASSERT_TRUE(r.driver->connect());
     const auto reading = r.driver->measure({});
     ASSERT_TRUE(reading) << reading.error().message;
@@ -306,8 +314,13 @@ TEST(Pr650Driver, AGarbledMeasurementStatusGoesOnToTheReportWithoutMeasuringAgai
 
 TEST(Pr650Driver, AReportCutShortIsAskedForAgain) {
   const std::string half = d5(1e-4).substr(0, 700);
-  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", half}, {"d5", d5(1e-4)},
-                                                  {"d1", kD1.substr(0, 10)}, {"d1", kD1}, {"d2", kD2}});
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk},
+                                                  {"m0", kOk},
+                                                  {"d5", half},
+                                                  {"d5", d5(1e-4)},
+                                                  {"d1", kD1.substr(0, 10)},
+                                                  {"d1", kD1},
+                                                  {"d2", kD2}});
   ASSERT_TRUE(r.driver->connect());
   const auto reading = r.driver->measure({});
   ASSERT_TRUE(reading) << reading.error().message;
@@ -320,8 +333,12 @@ TEST(Pr650Driver, ALateReplyAndTheAnswerToTheSecondRequestAreNotTakenForTheNextR
   // The first D1 is answered after 450 ms, past the 300 ms wait: the driver asks again, takes
   // the late reply, and lets the answer to its second request pass before D2.
   const std::string other_d1 = "00,0,9.999E+01,.3355,.3270\r\n";
-  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk}, {"d5", d5(1e-4)},
-                                                  {"d1", kD1, 450ms}, {"d1", other_d1}, {"d2", kD2}});
+  auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk},
+                                                  {"m0", kOk},
+                                                  {"d5", d5(1e-4)},
+                                                  {"d1", kD1, 450ms},
+                                                  {"d1", other_d1},
+                                                  {"d2", kD2}});
   ASSERT_TRUE(r.driver->connect());
   const auto reading = r.driver->measure({});
   ASSERT_TRUE(reading) << reading.error().message;
@@ -331,7 +348,8 @@ TEST(Pr650Driver, ALateReplyAndTheAnswerToTheSecondRequestAreNotTakenForTheNextR
 }
 
 TEST(Pr650Driver, IdentificationAsksAgainForALostReply) {
-  auto r = rig(contact() + std::vector<MeterStep>{{"d110", ""}, {"d110", "60912345\r\n"}, {"d120", "0101,008.0,0380.,0780.,004.\r\n"}});
+  auto r = rig(contact() + std::vector<MeterStep>{
+                               {"d110", ""}, {"d110", "60912345\r\n"}, {"d120", "0101,008.0,0380.,0780.,004.\r\n"}});
   ASSERT_TRUE(r.driver->connect());
   const auto identity = r.driver->identify();
   ASSERT_TRUE(identity) << identity.error().message;
@@ -360,8 +378,9 @@ TEST(ExchangeRules, AMeasurementMayTakeItsIntegrationsPlusTheOverheadOtherReplie
   const auto adaptive = pr650::exchange_rule({CommandKind::measure, 0, 0, 2}, timing);
   EXPECT_EQ(adaptive.first_byte, 2 * timing.adaptive_allowance + timing.measurement_overhead);
 
-  for (const pr650::Command command : {pr650::Command{CommandKind::setup}, pr650::Command{CommandKind::report, 1},
-                                       pr650::Command{CommandKind::report, 5}, pr650::Command{CommandKind::report, 110}}) {
+  for (const pr650::Command command :
+       {pr650::Command{CommandKind::setup}, pr650::Command{CommandKind::report, 1},
+        pr650::Command{CommandKind::report, 5}, pr650::Command{CommandKind::report, 110}}) {
     const auto rule = pr650::exchange_rule(command, timing);
     EXPECT_EQ(rule.first_byte, 500ms);
     EXPECT_EQ(rule.on_lost, LostReply::ask_again);
@@ -384,7 +403,8 @@ TEST(ExchangeRules, PausesAndWholeRepliesFollowTheLineRate) {
   EXPECT_EQ(slow.idle, 1133ms);
   EXPECT_GT(slow.whole, 115s);
 
-  EXPECT_EQ(driver_options_for(*parse_connection_uri("serial:/dev/ttyUSB0?baud=1200")).timing.line_bytes_per_second, 120);
+  EXPECT_EQ(driver_options_for(*parse_connection_uri("serial:/dev/ttyUSB0?baud=1200")).timing.line_bytes_per_second,
+            120);
   EXPECT_EQ(driver_options_for(*parse_connection_uri("tcp:127.0.0.1:4001")).timing.line_bytes_per_second, 960);
   EXPECT_EQ(driver_options_for(*parse_connection_uri("tcp:127.0.0.1:4001?terminator=cr")).style.terminator, '\r');
 }

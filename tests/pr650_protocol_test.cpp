@@ -47,11 +47,16 @@ const std::string& m5_b() {
 
 std::string kind_name(Kind kind) {
   switch (kind) {
-    case Kind::truncated: return "truncated";
-    case Kind::garbled: return "garbled";
-    case Kind::surplus: return "surplus";
-    case Kind::wrong_count: return "wrong_count";
-    case Kind::wrong_wavelength: return "wrong_wavelength";
+    case Kind::truncated:
+      return "truncated";
+    case Kind::garbled:
+      return "garbled";
+    case Kind::surplus:
+      return "surplus";
+    case Kind::wrong_count:
+      return "wrong_count";
+    case Kind::wrong_wavelength:
+      return "wrong_wavelength";
   }
   return "?";
 }
@@ -87,8 +92,7 @@ ProtocolError error_of(const std::expected<T, ProtocolError>& result, std::strin
       << printable(std::string_view(reply).substr(0, 200))
 
 std::string replace_all(std::string text, std::string_view from, std::string_view to) {
-  for (std::size_t at = text.find(from); at != std::string::npos;
-       at = text.find(from, at + to.size())) {
+  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
     text.replace(at, from.size(), to);
   }
   return text;
@@ -256,8 +260,7 @@ TEST(Pr650Commands, OnlyReport5IsSpectral) {
     EXPECT_EQ(reply_shape_of_measure(report), expected) << report;
     EXPECT_EQ(reply_shape_of_report(report), expected) << report;
   }
-  for (const int report : {110, 120, 201})
-    EXPECT_EQ(reply_shape_of_report(report), ReplyShape::line);
+  for (const int report : {110, 120, 201}) EXPECT_EQ(reply_shape_of_report(report), ReplyShape::line);
 }
 
 // ---- Transcripts of the reference -------------------------------------------------------
@@ -350,22 +353,20 @@ TEST(Pr650Transcripts, FormattersReproduceEveryReplyByteForByte) {
   EXPECT_EQ(format_setup_reply(0), transcript("transcript_a_s.txt"));
   EXPECT_EQ(format_flicker_reply({0, 60.02}), transcript("transcript_b_f.txt"));
   EXPECT_EQ(format_spectral_reply(parsed_a()), d5_a());
-  EXPECT_EQ(format_spectral_reply(*parse_spectral(m5_b()), {.header = HeaderVariant::h2_two_lines}),
-            m5_b());
+  EXPECT_EQ(format_spectral_reply(*parse_spectral(m5_b()), {.header = HeaderVariant::h2_two_lines}), m5_b());
   EXPECT_EQ(format_colorimetric_reply(*parse_colorimetric(2, transcript("transcript_a_d2.txt"))),
             transcript("transcript_a_d2.txt"));
   EXPECT_EQ(format_colorimetric_reply(*parse_colorimetric(1, transcript("transcript_a_d1.txt"))),
             transcript("transcript_a_d1.txt"));
   EXPECT_EQ(format_serial_number_reply("60912345"), transcript("transcript_d_d110.txt"));
-  EXPECT_EQ(format_spectral_configuration_reply({101, 8, 380, 780, 4}),
-            transcript("transcript_d_d120.txt"));
+  EXPECT_EQ(format_spectral_configuration_reply({101, 8, 380, 780, 4}), transcript("transcript_d_d120.txt"));
 }
 
 // ---- Line replies -----------------------------------------------------------------------
 
 TEST(Pr650Status, AcceptsEveryKnownForm) {
-  for (const std::string_view reply : {"000\r\n", "00\r\n", "0\r\n", "000\n", "000\r", "000", "00",
-                                       "0", "000\r\n>", "000\r\n\r\n", "\r\n000\r\n"}) {
+  for (const std::string_view reply :
+       {"000\r\n", "00\r\n", "0\r\n", "000\n", "000\r", "000", "00", "0", "000\r\n>", "000\r\n\r\n", "\r\n000\r\n"}) {
     EXPECT_EQ(parse_status(reply), 0) << printable(reply);
   }
   EXPECT_EQ(parse_status("101\r\n"), 101);
@@ -432,25 +433,20 @@ TEST(Pr650Colorimetric, ChecksTheFieldCountOfEachReport) {
   const std::string d1 = "00,0,1.000E+02,.3355,.3270\r\n";
   const std::string d2 = "00,0,1.026E+02,1.000E+02,1.032E+02\r\n";
   EXPECT_KIND(parse_colorimetric(1, "00,0,1.000E+02,.3355\r\n"), "4 fields", Kind::truncated);
-  EXPECT_KIND(parse_colorimetric(1, "00,0,1.000E+02,.3355,.3270,.2146\r\n"), "6 fields",
-              Kind::surplus);
+  EXPECT_KIND(parse_colorimetric(1, "00,0,1.000E+02,.3355,.3270,.2146\r\n"), "6 fields", Kind::surplus);
   EXPECT_KIND(parse_colorimetric(6, d1), "d1 as 6", Kind::truncated);
   EXPECT_KIND(parse_colorimetric(1, d2), "d2 as 1", Kind::garbled);
   EXPECT_KIND(parse_colorimetric(2, d1), "d1 as 2", Kind::garbled);
   EXPECT_KIND(parse_colorimetric(5, d1), "report 5", Kind::garbled);
   EXPECT_KIND(parse_colorimetric(1, "00,3,1.000E+02,.3355,.3270\r\n"), "units 3", Kind::garbled);
-  EXPECT_KIND(parse_colorimetric(1, "00,0,1.000E+02,.335,.3270\r\n"), "short middle",
-              Kind::garbled);
-  EXPECT_KIND(parse_colorimetric(2, "00,0,1.026E+02,1.00E+02,1.032E+02\r\n"), "digit lost",
-              Kind::garbled);
-  EXPECT_KIND(parse_colorimetric(2, "00,0,-1.02E+02,1.000E+02,1.032E+02\r\n"), "negative",
-              Kind::garbled);
+  EXPECT_KIND(parse_colorimetric(1, "00,0,1.000E+02,.335,.3270\r\n"), "short middle", Kind::garbled);
+  EXPECT_KIND(parse_colorimetric(2, "00,0,1.026E+02,1.00E+02,1.032E+02\r\n"), "digit lost", Kind::garbled);
+  EXPECT_KIND(parse_colorimetric(2, "00,0,-1.02E+02,1.000E+02,1.032E+02\r\n"), "negative", Kind::garbled);
   EXPECT_KIND(parse_colorimetric(1, d1 + "00\r\n"), "second line", Kind::surplus);
 }
 
 TEST(Pr650Colorimetric, EveryCutIsTruncated) {
-  for (const std::string reply :
-       {"00,0,1.000E+02,.3355,.3270\r\n", "00,0,1.026E+02,1.000E+02,1.032E+02\r\n"}) {
+  for (const std::string reply : {"00,0,1.000E+02,.3355,.3270\r\n", "00,0,1.026E+02,1.000E+02,1.032E+02\r\n"}) {
     const int report = reply.size() == 28 ? 1 : 2;
     for (std::size_t length = 0; length + 2 < reply.size(); ++length) {
       const std::string cut = reply.substr(0, length);
@@ -469,7 +465,10 @@ TEST(Pr650SerialNumber, TakesEightCharactersWithoutTrailingBlanks) {
   EXPECT_KIND(parse_serial_number("        \r\n"), "blank", Kind::garbled);
   EXPECT_KIND(parse_serial_number("60912345"), "no line end", Kind::truncated);
   EXPECT_KIND(parse_serial_number("609123456789\r\n"), "12 characters", Kind::surplus);
-  EXPECT_KIND(parse_serial_number(std::string("6091\0" "345\r\n", 10)), "NUL", Kind::garbled);
+  EXPECT_KIND(parse_serial_number(std::string("6091\0"
+                                              "345\r\n",
+                                              10)),
+              "NUL", Kind::garbled);
   EXPECT_KIND(parse_serial_number("6091\x07"
                                   "345\r\n"),
               "BEL", Kind::garbled);
@@ -485,8 +484,7 @@ TEST(Pr650Configuration, RefusesCutsAndDamage) {
     EXPECT_KIND(parse_spectral_configuration(cut), cut, Kind::truncated);
   }
   EXPECT_KIND(parse_spectral_configuration("01x1,008.0,0380.,0780.,004.\r\n"), "x", Kind::garbled);
-  EXPECT_KIND(parse_spectral_configuration("0101,008.0,0380.,0780.,004.,1\r\n"), "6",
-              Kind::surplus);
+  EXPECT_KIND(parse_spectral_configuration("0101,008.0,0380.,0780.,004.,1\r\n"), "6", Kind::surplus);
   EXPECT_KIND(parse_spectral_configuration("0101,008.0,-380.,0780.,004.\r\n"), "-", Kind::garbled);
 }
 
@@ -513,8 +511,8 @@ TEST(Pr650Spectral, EveryHeaderExponentAndLineEndVariantReadsTheSame) {
 
 TEST(Pr650Spectral, ToleratesBlankLinesAndPromptsAround) {
   const SpectralReport reference = parsed_a();
-  for (const std::string& reply : {d5_a() + "\r\n", d5_a() + "\r\n\r\n", d5_a() + ">",
-                                   d5_a() + "\r\n> ", "\r\n" + d5_a(), ">\r\n" + d5_a()}) {
+  for (const std::string& reply :
+       {d5_a() + "\r\n", d5_a() + "\r\n\r\n", d5_a() + ">", d5_a() + "\r\n> ", "\r\n" + d5_a(), ">\r\n" + d5_a()}) {
     const auto report = parse_spectral(reply);
     ASSERT_TRUE(report) << printable(reply.substr(0, 20)) << ": " << report.error().message;
     EXPECT_TRUE(same_report(*report, reference));
@@ -530,10 +528,8 @@ TEST(Pr650Spectral, EveryQualityCodeInTheHeaderIsReported) {
     ASSERT_TRUE(report) << quality << ": " << report.error().message;
     EXPECT_EQ(report->quality, quality);
     const auto listed = manual.find(quality);
-    if (listed != manual.end())
-      EXPECT_EQ(quality_message(report->quality), listed->second) << quality;
-    else
-      EXPECT_EQ(quality_message(report->quality), fmt::format("unknown quality code {:02d}", quality)) << quality;
+    if (listed != manual.end()) EXPECT_EQ(quality_message(report->quality), listed->second) << quality;
+    else EXPECT_EQ(quality_message(report->quality), fmt::format("unknown quality code {:02d}", quality)) << quality;
   }
 }
 
@@ -557,8 +553,7 @@ TEST(Pr650SpectralDamage, EveryCutIsTruncatedAndNeverAccepted) {
       const std::string_view cut = std::string_view(*full).substr(0, length);
       const auto report = parse_spectral(cut);
       ASSERT_FALSE(report) << "accepted a cut at byte " << length;
-      ASSERT_EQ(kind_name(report.error().kind), "truncated")
-          << length << ": " << report.error().message;
+      ASSERT_EQ(kind_name(report.error().kind), "truncated") << length << ": " << report.error().message;
       ASSERT_FALSE(reply_complete(ReplyShape::spectral, cut)) << length;
     }
     EXPECT_TRUE(parse_spectral(std::string_view(*full).substr(0, full->size() - 1)));
@@ -585,9 +580,9 @@ TEST(Pr650SpectralDamage, ALineCutShortInsideTheReplyIsTruncated) {
 }
 
 TEST(Pr650SpectralDamage, GarbledValuesAreRefused) {
-  const std::vector<std::string> garbled_values = {
-      "5.8a2E-05", "-.882E-05", "-5.882E-05", "5.882E-005", "      nan", "      NaN", "      inf",
-      "5,882E-05", "5.882F-05", "5.882E 05",  "5.882E-0 ",  " 5.882E-0", "5.882e-05x"};
+  const std::vector<std::string> garbled_values = {"5.8a2E-05", "-.882E-05", "-5.882E-05", "5.882E-005", "      nan",
+                                                   "      NaN", "      inf", "5,882E-05",  "5.882F-05",  "5.882E 05",
+                                                   "5.882E-0 ", " 5.882E-0", "5.882e-05x"};
   for (const auto& value : garbled_values) {
     const std::string reply = replace_line(d5_a(), data_line(0), "0380.," + value);
     const auto error = error_of(parse_spectral(reply), value);
@@ -660,8 +655,7 @@ TEST(Pr650SpectralDamage, InsertedBytesFailOrChangeNothing) {
       const auto report = parse_spectral(reply);
       if (report) {
         // Only line ends, and prompts or blanks after the report, are harmless.
-        const bool harmless = byte == '\r' || byte == '\n' ||
-                              ((byte == '>' || byte == ' ') && at + 1 >= d5_a().size());
+        const bool harmless = byte == '\r' || byte == '\n' || ((byte == '>' || byte == ' ') && at + 1 >= d5_a().size());
         ASSERT_TRUE(harmless) << "accepted '" << printable(std::string(1, byte)) << "' at " << at;
         ASSERT_TRUE(same_report(*report, reference)) << at;
       }
@@ -703,16 +697,14 @@ TEST(Pr650SpectralDamage, WrongNumberOfDataLines) {
   error = error_of(parse_spectral(d5_a() + "0784.,5.900E-05\r\n"), "0784");
   EXPECT_EQ(kind_name(error.kind), "wrong_count");
   EXPECT_EQ(error.line, 104u);
-  EXPECT_KIND(parse_spectral(duplicate_line(d5_a(), data_line(100))), "780 twice",
-              Kind::wrong_count);
+  EXPECT_KIND(parse_spectral(duplicate_line(d5_a(), data_line(100))), "780 twice", Kind::wrong_count);
 }
 
 TEST(Pr650SpectralDamage, WrongWavelengths) {
   // Two lines swapped: the count is right but the order is not.
   const std::string first = line_text(d5_a(), data_line(10));
   const std::string second = line_text(d5_a(), data_line(11));
-  const std::string swapped =
-      replace_line(replace_line(d5_a(), data_line(10), second), data_line(11), first);
+  const std::string swapped = replace_line(replace_line(d5_a(), data_line(10), second), data_line(11), first);
   auto error = error_of(parse_spectral(swapped), "swapped");
   EXPECT_EQ(kind_name(error.kind), "wrong_wavelength");
   EXPECT_EQ(error.line, data_line(10));
@@ -730,8 +722,8 @@ TEST(Pr650SpectralDamage, WrongWavelengths) {
 }
 
 TEST(Pr650SpectralDamage, TrailingGarbageIsSurplus) {
-  for (const std::string& tail : {std::string("xyz\r\n"), std::string("00"),
-                                  std::string("\r\n0380."), std::string("000\r\n")}) {
+  for (const std::string& tail :
+       {std::string("xyz\r\n"), std::string("00"), std::string("\r\n0380."), std::string("000\r\n")}) {
     const auto error = error_of(parse_spectral(d5_a() + tail), tail);
     EXPECT_EQ(kind_name(error.kind), "surplus") << printable(tail);
     EXPECT_GE(error.line, 104u);
@@ -835,8 +827,7 @@ TEST(Pr650Format, SpectralReplySizesMatchTheReference) {
   EXPECT_EQ(format_spectral_reply(report, {.header = HeaderVariant::h2_two_lines}).size(), 1734u);
   report.wavelength_nm.clear();  // the native grid is the default
   EXPECT_EQ(format_spectral_reply(report), d5_a());
-  const std::string lower =
-      format_spectral_reply(report, {.header = HeaderVariant::h1_bare_cr, .exponent = 'e'});
+  const std::string lower = format_spectral_reply(report, {.header = HeaderVariant::h1_bare_cr, .exponent = 'e'});
   EXPECT_EQ(lower, replace_all(d5_a(), "E", "e"));
 }
 
@@ -886,8 +877,7 @@ TEST(Pr650RoundTrip, EveryColorimetricReport) {
       EXPECT_EQ(parsed->units, report.units);
       ASSERT_EQ(parsed->values.size(), report.values.size());
       for (std::size_t i = 0; i < report.values.size(); ++i) {
-        EXPECT_NEAR(parsed->values[i], report.values[i], std::abs(report.values[i]) * 5e-4)
-            << bytes;
+        EXPECT_NEAR(parsed->values[i], report.values[i], std::abs(report.values[i]) * 5e-4) << bytes;
       }
       EXPECT_EQ(format_colorimetric_reply(*parsed, {.exponent = exponent}), bytes);
     }
@@ -899,8 +889,7 @@ TEST(Pr650RoundTrip, EveryColorimetricReport) {
 TEST(Pr650RoundTrip, LineReplies) {
   for (const int status : {0, 1, 101}) EXPECT_EQ(parse_status(format_status_reply(status)), status);
   for (const int code : {0, 1, 8, 50}) EXPECT_EQ(parse_setup_reply(format_setup_reply(code)), code);
-  for (const FlickerReply reply :
-       {FlickerReply{0, 60.02}, FlickerReply{0, 50}, FlickerReply{7, 0}}) {
+  for (const FlickerReply reply : {FlickerReply{0, 60.02}, FlickerReply{0, 50}, FlickerReply{7, 0}}) {
     const auto parsed = parse_flicker(format_flicker_reply(reply));
     ASSERT_TRUE(parsed) << parsed.error().message;
     EXPECT_EQ(parsed->quality, reply.quality);
@@ -911,8 +900,7 @@ TEST(Pr650RoundTrip, LineReplies) {
     EXPECT_EQ(parse_serial_number(format_serial_number_reply(serial)), serial);
   }
   const SpectralConfiguration configuration{201, 5.0, 380, 780, 2};
-  const auto parsed =
-      parse_spectral_configuration(format_spectral_configuration_reply(configuration));
+  const auto parsed = parse_spectral_configuration(format_spectral_configuration_reply(configuration));
   ASSERT_TRUE(parsed) << parsed.error().message;
   EXPECT_EQ(parsed->points, 201);
   EXPECT_EQ(parsed->bandwidth_nm, 5.0);

@@ -47,7 +47,8 @@ Fitter fold_fitter(ModelKind model, int fold) {
   const std::string file = fmt::format("model/cross-validation/{}-fold-{}.csv", to_string(model), fold);
   const auto constants = parse_constants(testing::table(file), model);
   EXPECT_TRUE(constants) << file << ": " << constants.error().what();
-  return Fitter(testing::shipped_optics(model).with_constants(constants.value_or(ModelConstants{})), testing::colorimetry());
+  return Fitter(testing::shipped_optics(model).with_constants(constants.value_or(ModelConstants{})),
+                testing::colorimetry());
 }
 
 // Spectrum i of the 50 in fold i mod 5 + 1, fitted by that fold's model.

@@ -19,7 +19,7 @@ using namespace std::chrono_literals;
 
 // Quick retries and checks, so that losses and returns show within a fraction of a second.
 const std::vector<std::string> kFastReconnect = {"--reconnect-initial-ms", "50", "--reconnect-max-ms", "200",
-                                                 "--instrument-check-ms", "100"};
+                                                 "--instrument-check-ms",  "100"};
 
 json instrument(unsigned short port) { return http_request(port, "GET", "/api/v1/instrument").json(); }
 
@@ -48,7 +48,8 @@ long long open_session(unsigned short port) {
 
 // Submits a white measurement and waits for its job to end; the job.
 json measure_white(unsigned short port, long long session) {
-  const auto r = http_request(port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", R"({"kind":"white"})");
+  const auto r = http_request(port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements",
+                              R"({"kind":"white"})");
   EXPECT_EQ(r.status, 202) << r.body;
   const std::string path = "/api/v1/jobs/" + std::to_string(r.json().value("job_id", 0LL));
   json job;
@@ -102,7 +103,8 @@ TEST_F(ReconnectTest, AKilledSimulatorIsReconnectedInTheBackgroundWhenItComesBac
 
   // The idle check notices the meter is gone; no job was submitted.
   kill_meter(sim);
-  status = wait_for_instrument(daemon.port, [](const json& s) { return s["state"] == "lost" && has_failed_attempts(s); });
+  status =
+      wait_for_instrument(daemon.port, [](const json& s) { return s["state"] == "lost" && has_failed_attempts(s); });
   ASSERT_EQ(status["state"], "lost") << status;
   EXPECT_TRUE(status["last_error"].is_string()) << status;
   EXPECT_TRUE(status["next_attempt_in_ms"].is_number_integer()) << status;
@@ -133,7 +135,8 @@ TEST_F(ReconnectTest, AMeasurementWhileTheMeterIsDownFailsClearlyAndTheServiceKe
   const auto failed = measure_white(daemon.port, session);
   EXPECT_EQ(failed["state"], "failed") << failed;
   EXPECT_EQ(failed["error"]["code"], "transport") << failed;
-  EXPECT_TRUE(failed["error"]["message"].get<std::string>().starts_with("cannot open tcp:" + loopback(sim.port))) << failed;
+  EXPECT_TRUE(failed["error"]["message"].get<std::string>().starts_with("cannot open tcp:" + loopback(sim.port)))
+      << failed;
 
   const auto health = http_request(daemon.port, "GET", "/healthz");
   EXPECT_EQ(health.status, 200) << health.body;
@@ -201,7 +204,8 @@ TEST_F(ReconnectTest, AJobWhileTheMeterStaysSilentFailsClearlyAfterConnectingAga
   const auto run = second_white_job(dir_, {"--fault", "s:reboot@2"});
   ASSERT_EQ(run.job["state"], "failed") << run.job;
   ASSERT_TRUE(run.job["error"].is_object()) << run.job;
-  const std::string error = run.job["error"]["code"].get<std::string>() + ": " + run.job["error"]["message"].get<std::string>();
+  const std::string error =
+      run.job["error"]["code"].get<std::string>() + ": " + run.job["error"]["message"].get<std::string>();
   EXPECT_TRUE(error.starts_with("no_contact: ")) << error;
   EXPECT_NE(error.find("did not answer 's01"), std::string::npos) << error;
   EXPECT_NE(error.find("connecting again failed: no answer from a PR-650"), std::string::npos) << error;

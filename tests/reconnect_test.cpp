@@ -49,7 +49,8 @@ drivers::PortInfo port(std::string path, std::optional<unsigned short> vid = {},
 }
 
 TEST(AutoDevice, IsTheFirstUsbAdapterInPathOrder) {
-  const auto chosen = first_usb_adapter({port("/dev/ttyUSB1", 0x0403, "B"), port("/dev/ttyS0"), port("/dev/ttyUSB0", 0x067b, "A")});
+  const auto chosen =
+      first_usb_adapter({port("/dev/ttyUSB1", 0x0403, "B"), port("/dev/ttyS0"), port("/dev/ttyUSB0", 0x067b, "A")});
   ASSERT_TRUE(chosen);
   EXPECT_EQ(chosen->path, "/dev/ttyUSB0");
   EXPECT_FALSE(first_usb_adapter({port("/dev/ttyS0"), port("/dev/ttyS1")}));

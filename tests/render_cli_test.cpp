@@ -74,7 +74,8 @@ TEST_F(RenderCommand, RendersTheSkinOfAFitAndAMeshFile) {
   ASSERT_EQ(fit.exit_status, 0) << fit.describe();
   write(dir.file("fit.json"), fit.out);
   write(dir.file("tri.obj"), "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n");
-  const auto r = skinspec({"render", "--fit", dir.file("fit.json"), "--mesh", dir.file("tri.obj"), "--size", "32x32", "-o", out});
+  const auto r =
+      skinspec({"render", "--fit", dir.file("fit.json"), "--mesh", dir.file("tri.obj"), "--size", "32x32", "-o", out});
   ASSERT_EQ(r.exit_status, 0) << r.describe();
   const auto png = testing::decode_png(contents(out));
   ASSERT_TRUE(png.has_value());

@@ -26,7 +26,8 @@ Spectrum perfect_white() { return *Spectrum::create({380, 780}, {1, 1}); }
 // A square in the z = 0 plane facing +z, `half` wide either way from (cx, cy).
 Mesh square(double cx, double cy, double z, double half) {
   Mesh m;
-  m.positions = {{cx - half, cy - half, z}, {cx + half, cy - half, z}, {cx + half, cy + half, z}, {cx - half, cy + half, z}};
+  m.positions = {
+      {cx - half, cy - half, z}, {cx + half, cy - half, z}, {cx + half, cy + half, z}, {cx - half, cy + half, z}};
   m.triangles = {{0, 1, 2}, {0, 2, 3}};
   return with_vertex_normals(std::move(m));
 }
@@ -172,13 +173,9 @@ Lab skin_lab(const PigmentScales& scales) {
   return testing::colorimetry().lab(skin_reflectance_spectrum(testing::shipped_optics(), forearm(), p), d65());
 }
 
-TEST(RenderPigments, FourTimesTheMelaninIsDarker) {
-  EXPECT_LT(skin_lab({4, 1, 1, 1}).l, skin_lab({}).l - 5);
-}
+TEST(RenderPigments, FourTimesTheMelaninIsDarker) { EXPECT_LT(skin_lab({4, 1, 1, 1}).l, skin_lab({}).l - 5); }
 
-TEST(RenderPigments, TenTimesTheBilirubinIsYellower) {
-  EXPECT_GT(skin_lab({1, 1, 1, 10}).b, skin_lab({}).b + 3);
-}
+TEST(RenderPigments, TenTimesTheBilirubinIsYellower) { EXPECT_GT(skin_lab({1, 1, 1, 10}).b, skin_lab({}).b + 3); }
 
 TEST(RenderPigments, MelaninDarkensTheRenderedHand) {
   const auto& c = testing::colorimetry();
@@ -215,7 +212,8 @@ TEST(RenderPigments, ASkinIsRenderedOnlyWithItsModelsOptics) {
   const Scene scene = builtin_scene(SceneKind::sphere, 1.0);
   const auto& c = testing::colorimetry();
   EXPECT_TRUE(render_skin(testing::shipped_optics(ModelKind::extended), c, skin, {}, d65(), scene, settings(8, 1, 2)));
-  const auto wrong = render_skin(testing::shipped_optics(ModelKind::paper), c, skin, {}, d65(), scene, settings(8, 1, 2));
+  const auto wrong =
+      render_skin(testing::shipped_optics(ModelKind::paper), c, skin, {}, d65(), scene, settings(8, 1, 2));
   ASSERT_FALSE(wrong);
   EXPECT_NE(wrong.error().find("extended"), std::string::npos);
 }

@@ -111,7 +111,9 @@ TEST_F(SessionCliTest, JsonOutputCarriesTheJobAndItsFit) {
   const json out = json::parse(r.out, nullptr, false);
   ASSERT_TRUE(out.is_object()) << r.out;
   EXPECT_EQ(out["job"]["state"], "succeeded");
-  const auto fit = http_request(rig_->port, "GET", "/api/v1/fits/" + std::to_string(out["job"]["result"]["fit_id"].get<long long>())).json();
+  const auto fit =
+      http_request(rig_->port, "GET", "/api/v1/fits/" + std::to_string(out["job"]["result"]["fit_id"].get<long long>()))
+          .json();
   EXPECT_EQ(out["fit"], fit);
 
   const auto queued = skinspec({"session", "measure", id, "--kind", "white", "--no-wait", "--json"});
@@ -124,7 +126,9 @@ TEST_F(SessionCliTest, AFailedJobExitsWith3) {
   // A sample without a white reference fails.
   const auto r = skinspec({"session", "measure", std::to_string(session), "--kind", "sample"});
   EXPECT_EQ(r.exit_status, 3) << r.describe();
-  EXPECT_NE(r.err.find("failed: measure the white standard of session " + std::to_string(session) + " first (no_white)"), std::string::npos)
+  EXPECT_NE(
+      r.err.find("failed: measure the white standard of session " + std::to_string(session) + " first (no_white)"),
+      std::string::npos)
       << r.err;
 }
 
@@ -146,10 +150,12 @@ TEST_F(SessionCliTest, AnUnreachableServerExitsWith4) {
   // A port nothing listens on: the daemon's, once it has stopped.
   const std::string url = rig_->url();
   rig_.reset();
-  const auto r = run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", {"session", "list", "--server", url}, ProcessOptions{std::nullopt, 60s, {}});
+  const auto r = run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", {"session", "list", "--server", url},
+                             ProcessOptions{std::nullopt, 60s, {}});
   EXPECT_EQ(r.exit_status, 4) << r.describe();
   EXPECT_NE(r.err.find("cannot reach skinspecd at " + url), std::string::npos) << r.err;
-  const auto bad = run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", {"session", "list", "--server", "ftp://x"}, ProcessOptions{std::nullopt, 60s, {}});
+  const auto bad = run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", {"session", "list", "--server", "ftp://x"},
+                               ProcessOptions{std::nullopt, 60s, {}});
   EXPECT_EQ(bad.exit_status, 2) << bad.describe();
 }
 

@@ -255,14 +255,15 @@ TEST(SimProcess, WhiteStandardAndReflectanceUnderIlluminantA) {
   const auto readings = json_lines(result.out);
   ASSERT_EQ(readings.size(), 2u);
   EXPECT_NEAR(readings[0]["luminance"].get<double>(), 196, 0.5);  // 0.98 x 200 cd/m2
-  EXPECT_NEAR(readings[0]["x"].get<double>(), 0.4476, 0.001);    // illuminant A's chromaticity
+  EXPECT_NEAR(readings[0]["x"].get<double>(), 0.4476, 0.001);     // illuminant A's chromaticity
   EXPECT_LT(readings[1]["luminance"].get<double>(), 100);         // skin reflects far less
   EXPECT_EQ(terminate(sim).exit_status, 0);
 }
 
 TEST(SimProcess, ReplaysAStoredRecordingToTheRealDriver) {
-  auto sim = start_simulator({"--time-scale", "0", "--replay",
-                              SKINSPEC_TEST_SOURCE_DIR "/simulator/recordings/synthetic-white-and-skin-illuminant-a.jsonl"});
+  auto sim =
+      start_simulator({"--time-scale", "0", "--replay",
+                       SKINSPEC_TEST_SOURCE_DIR "/simulator/recordings/synthetic-white-and-skin-illuminant-a.jsonl"});
   const auto result = measure(sim, {"--count", "2"});
   ASSERT_EQ(result.exit_status, 0) << result.describe();
   EXPECT_EQ(json_lines(result.out).size(), 2u);

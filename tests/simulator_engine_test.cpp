@@ -18,12 +18,12 @@ namespace skinspec::simulator {
 namespace {
 
 namespace pp = drivers::pr650;
-using ::testing::HasSubstr;
-using ::testing::StartsWith;
 using testing::ask;
 using testing::fast_meter;
+using ::testing::HasSubstr;
 using testing::MeterRig;
 using testing::observer;
+using ::testing::StartsWith;
 using testing::white_scene;
 
 Synthesis white() { return Synthesis{observer(), {white_scene()}}; }
@@ -67,11 +67,11 @@ TEST(SimulatorEngine, UnknownCommandsGetNoAnswerAndAreReported) {
 TEST(SimulatorEngine, SetupNamesTheFirstInvalidField) {
   MeterRig rig(white());
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"s01,,,,,0,01,1\n", "00\r\n"},    {"S1,,,,,1000,,1\n", "00\r\n"}, {"s01,,,,,,01,1\n", "00\r\n"},
-      {"s01,,,,1,0,01,1\n", "00\r\n"},   {"s01,,,,60,0,01,1\n", "00\r\n"}, {"sxx,,,,,0,01,1\n", "01\r\n"},
-      {"s13,,,,,0,01,1\n", "50\r\n"},    {"s01,1,,,,0,01,1\n", "02\r\n"},  {"s01,,13,,,0,01,1\n", "03\r\n"},
+      {"s01,,,,,0,01,1\n", "00\r\n"},    {"S1,,,,,1000,,1\n", "00\r\n"},    {"s01,,,,,,01,1\n", "00\r\n"},
+      {"s01,,,,1,0,01,1\n", "00\r\n"},   {"s01,,,,60,0,01,1\n", "00\r\n"},  {"sxx,,,,,0,01,1\n", "01\r\n"},
+      {"s13,,,,,0,01,1\n", "50\r\n"},    {"s01,1,,,,0,01,1\n", "02\r\n"},   {"s01,,13,,,0,01,1\n", "03\r\n"},
       {"s01,,,x,,0,01,1\n", "04\r\n"},   {"s01,,,,300,0,01,1\n", "05\r\n"}, {"s01,,,,,5,01,1\n", "06\r\n"},
-      {"s01,,,,,7000,01,1\n", "06\r\n"}, {"s01,,,,,0,00,1\n", "07\r\n"},   {"s01,,,,,0,100,1\n", "07\r\n"},
+      {"s01,,,,,7000,01,1\n", "06\r\n"}, {"s01,,,,,0,00,1\n", "07\r\n"},    {"s01,,,,,0,100,1\n", "07\r\n"},
       {"s01,,,,,0,01,2\n", "08\r\n"},    {"s01,,,,,0,01,1,1\n", "09\r\n"},
   };
   for (const auto& [command, reply] : cases) EXPECT_EQ(ask(*rig.host(), command), reply) << command;

@@ -23,10 +23,10 @@ namespace skinspec::simulator {
 namespace {
 
 namespace pp = drivers::pr650;
-using ::testing::HasSubstr;
 using testing::ask;
 using testing::fast_driver;
 using testing::fast_meter;
+using ::testing::HasSubstr;
 using testing::MeterRig;
 
 const std::string kRecordings = SKINSPEC_TEST_RECORDINGS_DIR;

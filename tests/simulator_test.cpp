@@ -20,9 +20,9 @@ namespace {
 
 using drivers::InstrumentError;
 using drivers::MeasureOptions;
-using ::testing::HasSubstr;
 using testing::fast_driver;
 using testing::fast_meter;
+using ::testing::HasSubstr;
 using testing::MeterRig;
 using testing::observer;
 using testing::skin_scene;
@@ -311,8 +311,8 @@ TEST(SimulatorDriver, MeterThatReportsQualityInTheM0StatusIsJudgedByItsReport) {
 // ---- Damaged replies ------------------------------------------------------------------------
 
 struct DamageCase {
-  std::string fault;        // hits every time
-  std::string once;         // hits the first time only
+  std::string fault;  // hits every time
+  std::string once;   // hits the first time only
 };
 
 class DamagedReply : public ::testing::TestWithParam<DamageCase> {};
@@ -341,8 +341,7 @@ INSTANTIATE_TEST_SUITE_P(
                       DamageCase{"d5:line-count=100", "d5:line-count=100@1"},
                       DamageCase{"d5:line-count=102", "d5:line-count=102@1"}, DamageCase{"s:garbage", "s:garbage@1"},
                       DamageCase{"s:truncate=1", "s:truncate=1@1"}, DamageCase{"d1:garbage", "d1:garbage@1"},
-                      DamageCase{"d2:truncate", "d2:truncate@1"},
-                      DamageCase{"d2:garbage=3", "d2:garbage=3@1"}),
+                      DamageCase{"d2:truncate", "d2:truncate@1"}, DamageCase{"d2:garbage=3", "d2:garbage=3@1"}),
     [](const ::testing::TestParamInfo<DamageCase>& param_info) {
       std::string name = param_info.param.fault;
       for (char& c : name)

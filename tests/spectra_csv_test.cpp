@@ -16,8 +16,7 @@ constexpr std::string_view kThreeSubjects =
     "550, 0.45 ,+4e-1,0.35\n"
     "700,0.60,0.55,0.50\n";
 
-std::expected<std::vector<NamedSpectrum>, InputError> parse(std::string_view bytes,
-                                                            const SpectraLimits& limits = {}) {
+std::expected<std::vector<NamedSpectrum>, InputError> parse(std::string_view bytes, const SpectraLimits& limits = {}) {
   return parse_spectra_csv(bytes, "data.csv", limits);
 }
 
@@ -153,12 +152,10 @@ TEST(SpectraCsv, RefusesNonFiniteAndEmptyCells) {
     std::size_t column;
     std::string_view says;
   };
-  for (const auto& [row, column, says] : {Case{"550,nan", 5, "not a finite number in column 'a'"},
-                                          Case{"550, inf", 5, "not a finite number"},
-                                          Case{"550,-inf", 5, "not a finite number"},
-                                          Case{"550,1e999", 5, "out of range"},
-                                          Case{"550,", 5, "empty cell"},
-                                          Case{"x5,0.1", 1, "in column 'wavelength_nm'"}}) {
+  for (const auto& [row, column, says] :
+       {Case{"550,nan", 5, "not a finite number in column 'a'"}, Case{"550, inf", 5, "not a finite number"},
+        Case{"550,-inf", 5, "not a finite number"}, Case{"550,1e999", 5, "out of range"}, Case{"550,", 5, "empty cell"},
+        Case{"x5,0.1", 1, "in column 'wavelength_nm'"}}) {
     SCOPED_TRACE(row);
     const auto e = error_of("wavelength_nm,a\n400,0.1\n" + std::string(row) + "\n700,0.2\n");
     EXPECT_EQ(e.line, 3u);
@@ -209,8 +206,8 @@ TEST(SpectraCsv, RefusesValuesOutsideTheLimitsNamingThem) {
 TEST(SpectraCsv, LimitsAreConfigurable) {
   constexpr std::string_view percent = "wavelength_nm,a\n450,55\n650,98\n";
   EXPECT_FALSE(parse(percent));
-  const SpectraLimits percent_visible{.min_value = 0.0, .max_value = 100.0,
-                                      .must_cover_from_nm = 450.0, .must_cover_to_nm = 650.0};
+  const SpectraLimits percent_visible{
+      .min_value = 0.0, .max_value = 100.0, .must_cover_from_nm = 450.0, .must_cover_to_nm = 650.0};
   const auto spectra = parse(percent, percent_visible);
   ASSERT_TRUE(spectra) << spectra.error().what();
   EXPECT_DOUBLE_EQ((*spectra)[0].spectrum.values()[1], 98.0);
@@ -229,8 +226,8 @@ namespace skinspec {
 namespace {
 
 TEST(SpectraCsvComments, SkipsCommentLinesAnywhere) {
-  const auto spectra = parse_spectra_csv("# measured 2026-11-21\nwavelength_nm,a\n400,0.1\n  # lamp warm\n700,0.2\n",
-                                         "c.csv");
+  const auto spectra =
+      parse_spectra_csv("# measured 2026-11-21\nwavelength_nm,a\n400,0.1\n  # lamp warm\n700,0.2\n", "c.csv");
   ASSERT_TRUE(spectra) << spectra.error().what();
   ASSERT_EQ(spectra->size(), 1u);
   EXPECT_EQ((*spectra)[0].spectrum.size(), 2u);
@@ -257,7 +254,10 @@ const NotUtf8 kNotUtf8[] = {
     {"in a comment", "# lamp \xc0\xaf warm\nwavelength_nm,a\n400,0.3\n700,0.3\n", 1, 8, "\\xc0\\xaf"},
     {"in a comment after the data", "wavelength_nm,a\n400,0.3\n700,0.3\n# \xf8\x88\x80\x80\x80\n", 4, 3,
      "\\xf8\\x88\\x80\\x80\\x80"},
-    {"in a value", "wavelength_nm,a\n400,0.3\n550,0.\x80" "3\n700,0.3\n", 3, 7, "\\x80"},
+    {"in a value",
+     "wavelength_nm,a\n400,0.3\n550,0.\x80"
+     "3\n700,0.3\n",
+     3, 7, "\\x80"},
     {"a lone continuation byte", "wavelength_nm,a\n400,0.3\n\x80\n700,0.3\n", 3, 1, "\\x80"},
     {"an overlong encoding", "wavelength_nm,a\xe0\x80\xaf\n400,0.3\n700,0.3\n", 1, 16, "\\xe0\\x80\\xaf"},
     {"a surrogate", "wavelength_nm,a\n400,0.3\n700,0.3\xed\xa0\x80\n", 3, 8, "\\xed\\xa0\\x80"},
@@ -282,7 +282,8 @@ TEST(SpectraCsvUtf8, QuotesTheTextBeforeTheBadBytes) {
             "data.csv:1:15: \\xff\\xfe is not UTF-8 text (after 'wavelength_nm,'); the file must be saved as UTF-8");
   // A long line is quoted from a character boundary shortly before the defect.
   // Here 24 bytes back falls inside the two bytes of the é, so the quote starts after it.
-  const auto long_name = error_of("wavelength_nm," + std::string(40, 'a') + "\xc3\xa9" + std::string(23, 'b') + "\xff\n");
+  const auto long_name =
+      error_of("wavelength_nm," + std::string(40, 'a') + "\xc3\xa9" + std::string(23, 'b') + "\xff\n");
   EXPECT_THAT(long_name.message, HasSubstr("(after ...'" + std::string(23, 'b') + "')"));
 }
 
@@ -299,7 +300,9 @@ TEST(SpectraCsvUtf8, KeepsUtf8NamesAsTheyAre) {
 TEST(SpectraCsvUtf8, EscapesControlCharactersInQuotedNamesAndCells) {
   const auto duplicate = error_of("wavelength_nm,a\x1b[2J,a\x1b[2J\n400,0.1,0.1\n700,0.2,0.2\n");
   EXPECT_THAT(duplicate.message, HasSubstr("duplicated column name 'a\\x1b[2J'"));
-  const auto cell = error_of("wavelength_nm,a\n400,0.1\n550,0\x07" "1\n700,0.2\n");
+  const auto cell = error_of(
+      "wavelength_nm,a\n400,0.1\n550,0\x07"
+      "1\n700,0.2\n");
   EXPECT_THAT(cell.message, HasSubstr("'0\\x071' is not a number"));
   const auto first = error_of("wave\tlength,a\n400,0.1\n700,0.2\n");
   EXPECT_THAT(first.message, HasSubstr("'wave\\tlength'"));

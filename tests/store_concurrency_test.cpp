@@ -170,8 +170,9 @@ TEST(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
     all_reported.insert(reported.begin(), reported.end());
     ASSERT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");
     EXPECT_EQ(testing::jobs_and_rows_disagreement(path), "");
-    EXPECT_EQ(testing::sqlite_integer(path, "SELECT count(*) FROM measurements m WHERE m.job_id IS NULL OR NOT EXISTS "
-                                            "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id)"),
+    EXPECT_EQ(testing::sqlite_integer(path,
+                                      "SELECT count(*) FROM measurements m WHERE m.job_id IS NULL OR NOT EXISTS "
+                                      "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id)"),
               0);
     expect_reported_present(path, reported);
     if (HasFatalFailure()) return;

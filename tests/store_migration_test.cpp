@@ -41,11 +41,13 @@ INSERT INTO white_standards VALUES (1, 'Spectralon', 'cert 7',
 INSERT INTO sessions VALUES (1, 'S-1', 'forearm', 'op', 'first', 1, 'open', 1700000000000002, 1700000000000002, NULL);
 INSERT INTO measurements VALUES (1, 1, 'white', 'w', 1, NULL, 0, 0, 'OK', 'W/(sr m2 nm)', '{}', 1,
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL, NULL, '[]', X'303030302C300D0A',
-  1700000000000003, 1700000000000004, 1700000000000005)sql" + job_column + R"sql();
+  1700000000000003, 1700000000000004, 1700000000000005)sql" +
+         job_column + R"sql();
 INSERT INTO measurements VALUES (2, 1, 'sample', 's', 1, 1, 1, 0, 'OK', 'W/(sr m2 nm)', '{"averages":2}', 2,
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL,
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', '["old white"]', X'00FF',
-  1700000000000006, 1700000000000007, 1700000000000008)sql" + job_column + R"sql();
+  1700000000000006, 1700000000000007, 1700000000000008)sql" +
+         job_column + R"sql();
 INSERT INTO fits VALUES (1, 2, 'forearm', 0.1, 7, 3, 2, 1, 0.01, 0.2, 0.3, 0.2, NULL, 0.012, 0.03, 0.9, 14, 1,
   'converged', '{"site":"forearm"}', 'skinspec 0.1.0', 'abc123',
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F',
@@ -187,8 +189,10 @@ TEST_F(StoreMigrationTest, VersionThreeJobErrorsBecomeCodesAndMessages) {
   EXPECT_EQ(error_of(7), (JobError{JobErrorCode::internal, "no reason was recorded"}));
   EXPECT_FALSE(error_of(8));
   EXPECT_EQ(value_of(store.job(8)).result, R"({"measurement_id":2})");
-  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM jobs WHERE error IS NOT NULL AND NOT json_valid(error)"), 0);
-  EXPECT_THAT(testing::sqlite_text(path_, "SELECT sql FROM sqlite_schema WHERE name = 'jobs'"), HasSubstr("json_valid(error)"));
+  EXPECT_EQ(
+      testing::sqlite_integer(path_, "SELECT count(*) FROM jobs WHERE error IS NOT NULL AND NOT json_valid(error)"), 0);
+  EXPECT_THAT(testing::sqlite_text(path_, "SELECT sql FROM sqlite_schema WHERE name = 'jobs'"),
+              HasSubstr("json_valid(error)"));
 }
 
 // A job whose measurement a version-3 writer stored before dying ends succeeded and names it:
@@ -208,9 +212,11 @@ TEST_F(StoreMigrationTest, AVersionThreeJobLeftFailedWithItsMeasurementStoredSuc
   EXPECT_EQ(result["readings"], 1);
   EXPECT_EQ(result["warnings"], nlohmann::json::array({"white_stale: old"}));
   EXPECT_EQ(result["recovered"], true);
-  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements m JOIN jobs j ON j.id = m.job_id "
-                                          "WHERE j.state <> 'succeeded' OR json_extract(j.result, '$.measurement_id') <> m.id"),
-            0);
+  EXPECT_EQ(
+      testing::sqlite_integer(path_,
+                              "SELECT count(*) FROM measurements m JOIN jobs j ON j.id = m.job_id "
+                              "WHERE j.state <> 'succeeded' OR json_extract(j.result, '$.measurement_id') <> m.id"),
+      0);
   EXPECT_EQ(value_of(store.job(1)).state, JobState::failed);  // nothing stored: stays failed
 }
 
@@ -226,8 +232,9 @@ TEST_F(StoreMigrationTest, TheCurrentVersionBuiltStepByStepMatchesANewDatabase) 
   ASSERT_TRUE(create_database_at_version(stepwise, 1));
   { value_of(Store::open(stepwise)); }
   { value_of(Store::open(path_)); }
-  const std::string schema = "SELECT group_concat(type || ' ' || name || ' ' || coalesce(sql, ''), char(10)) "
-                             "FROM (SELECT * FROM sqlite_schema ORDER BY name)";
+  const std::string schema =
+      "SELECT group_concat(type || ' ' || name || ' ' || coalesce(sql, ''), char(10)) "
+      "FROM (SELECT * FROM sqlite_schema ORDER BY name)";
   EXPECT_EQ(testing::sqlite_text(stepwise, schema), testing::sqlite_text(path_, schema));
 }
 
@@ -240,8 +247,9 @@ TEST_F(StoreMigrationTest, AFailedMigrationLeavesThePreviousVersionWhole) {
   EXPECT_THAT(opened.error().message, HasSubstr("jobs"));
   EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA user_version"), 1);
   EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM sqlite_schema WHERE name = 'sessions_by_site'"), 0);
-  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM pragma_table_info('measurements') "
-                                           "WHERE name = 'job_id'"),
+  EXPECT_EQ(testing::sqlite_integer(path_,
+                                    "SELECT count(*) FROM pragma_table_info('measurements') "
+                                    "WHERE name = 'job_id'"),
             0);
   EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 2);
 }
@@ -261,8 +269,8 @@ class StoreBadInputTest : public StoreMigrationTest {
   void make_database(const std::string& path) {
     auto store = value_of(Store::open(path));
     const Id session = value_of(store.create_session(testing::sample_session(1)));
-    for (int n = 0; n < 20; ++n) value_of(store.record_measurement(testing::sample_measurement(session, n),
-                                                                   testing::sample_fit(n)));
+    for (int n = 0; n < 20; ++n)
+      value_of(store.record_measurement(testing::sample_measurement(session, n), testing::sample_fit(n)));
   }
 
   // Opens `path` read-write and read-only, expecting `kind` both times, no change to it and
@@ -414,10 +422,11 @@ TEST_F(StoreBadInputTest, AFullDiskFailsTheWholeMeasurementAndFit) {
     EXPECT_EQ(detail.fits.size(), static_cast<std::size_t>(stored));
     EXPECT_EQ(testing::sqlite_integer(path, "SELECT count(*) FROM measurements"), stored);
     EXPECT_EQ(testing::sqlite_integer(path, "SELECT count(*) FROM fits"), stored);
-    EXPECT_EQ(testing::sqlite_integer(
-                  path, "SELECT count(*) FROM measurements m WHERE NOT EXISTS (SELECT 1 FROM fits f WHERE "
-                        "f.measurement_id = m.id)"),
-              0);
+    EXPECT_EQ(
+        testing::sqlite_integer(path,
+                                "SELECT count(*) FROM measurements m WHERE NOT EXISTS (SELECT 1 FROM fits f WHERE "
+                                "f.measurement_id = m.id)"),
+        0);
     EXPECT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");
 
     // When the measurement alone still fits, it was the fit's row that failed, after the

@@ -20,11 +20,11 @@ namespace {
 using namespace skinspec::store;
 using testing::check_sample_fit;
 using testing::check_sample_measurement;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
 using testing::sample_fit;
 using testing::sample_measurement;
 using testing::sample_session;
-using ::testing::ElementsAre;
-using ::testing::HasSubstr;
 using Kind = StoreError::Kind;
 
 // A clock a test moves by hand, one second per reading unless set.
@@ -291,8 +291,7 @@ TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
 
   auto bad_options = sample_fit(1);
   bad_options.options = "{";
-  EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad_options).error().kind,
-            Kind::invalid_argument);
+  EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad_options).error().kind, Kind::invalid_argument);
   EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 0);
   EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM fits"), 0);
 }
@@ -413,7 +412,9 @@ TEST_F(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
   const Id unattached = value_of(store.create_job(other)).job.id;
   // Failed and cancelled jobs say why, the others do not.
   EXPECT_EQ(store.update_job(unattached, {.state = JobState::cancelled}).error().kind, Kind::invalid_argument);
-  EXPECT_EQ(store.update_job(unattached, {.state = JobState::running, .error = JobError{JobErrorCode::lost, "gone"}}).error().kind,
+  EXPECT_EQ(store.update_job(unattached, {.state = JobState::running, .error = JobError{JobErrorCode::lost, "gone"}})
+                .error()
+                .kind,
             Kind::invalid_argument);
   const JobError why{JobErrorCode::cancelled, "by the operator, \"at once\""};
   const auto cancelled = value_of(store.update_job(unattached, {.state = JobState::cancelled, .error = why}));
@@ -443,7 +444,8 @@ TEST_F(StoreTest, OpeningAfterAWriterDiedInterruptsItsRunningSessions) {
     job.session_id = busy_session;
     job_id = value_of(store.create_job(job)).job.id;
     value_of(store.update_job(job_id, {.state = JobState::running}));
-    measurement_id = value_of(store.record_measurement(sample_measurement(busy_session, 1), sample_fit(1))).measurement_id;
+    measurement_id =
+        value_of(store.record_measurement(sample_measurement(busy_session, 1), sample_fit(1))).measurement_id;
     EXPECT_TRUE(store.recovery().interrupted_sessions.empty());
   }
   auto store = open();
@@ -471,18 +473,21 @@ TEST_F(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
   job.session_id = session;
   const Id job_id = value_of(store.create_job(job)).job.id;
   const auto m = sample_measurement(session, 1);
-  EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "{}").error().kind, Kind::conflict);  // still queued
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "{}").error().kind,
+            Kind::conflict);  // still queued
   value_of(store.update_job(job_id, {.state = JobState::running}));
 
   auto bad_fit = sample_fit(1);
   bad_fit.params[1] = std::nan("");
   EXPECT_EQ(store.complete_measurement_job(job_id, m, bad_fit, "{}").error().kind, Kind::invalid_argument);
   EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "[]").error().kind, Kind::invalid_argument);
-  EXPECT_EQ(store.complete_measurement_job(job_id, sample_measurement(other_session, 1), std::nullopt, "{}").error().kind,
-            Kind::invalid_argument);
+  EXPECT_EQ(
+      store.complete_measurement_job(job_id, sample_measurement(other_session, 1), std::nullopt, "{}").error().kind,
+      Kind::invalid_argument);
   auto of_another_job = m;
   of_another_job.job_id = job_id + 1;
-  EXPECT_EQ(store.complete_measurement_job(job_id, of_another_job, std::nullopt, "{}").error().kind, Kind::invalid_argument);
+  EXPECT_EQ(store.complete_measurement_job(job_id, of_another_job, std::nullopt, "{}").error().kind,
+            Kind::invalid_argument);
   value_of(store.update_session(session, {.state = SessionState::complete}));
   EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "{}").error().kind, Kind::conflict);
 

@@ -113,7 +113,8 @@ TEST_F(SupervisorJobsTest, AJobWhoseEndTheDatabaseRefusesShowsFailedAtOnceAndSto
   const json job = shown(sample);
   EXPECT_EQ(job["state"], "failed") << job;
   EXPECT_EQ(job["error"]["code"], "store") << job;
-  EXPECT_NE(job["error"]["message"].get<std::string>().find("the measurement could not be stored"), std::string::npos) << job;
+  EXPECT_NE(job["error"]["message"].get<std::string>().find("the measurement could not be stored"), std::string::npos)
+      << job;
   EXPECT_TRUE(job["position"].is_null()) << job;
   lock.release();
 

@@ -7,8 +7,7 @@
 namespace skinspec {
 namespace {
 
-constexpr std::string_view kHeader =
-    "# title: t\n# source: s\n# licence: l\n# units: u\n";
+constexpr std::string_view kHeader = "# title: t\n# source: s\n# licence: l\n# units: u\n";
 
 std::expected<Table, InputError> parse(std::string body) {
   return parse_table(std::string(kHeader) + body, "t.csv", {});
@@ -49,10 +48,10 @@ TEST(Table, RefusesRaggedRowsDuplicatesAndDisorder) {
 }
 
 TEST(Table, EveryShippedTableLoads) {
-  for (const char* name : {"optics/hemoglobin_prahl.csv", "optics/bilirubin_photochemcad.csv",
-                           "optics/melanosome_jacques2013.csv", "optics/skin_baseline_jacques1998.csv",
-                           "optics/scattering_salomatina.csv", "colour/cie1931_2deg_cmf.csv",
-                           "colour/cie_illuminants.csv"}) {
+  for (const char* name :
+       {"optics/hemoglobin_prahl.csv", "optics/bilirubin_photochemcad.csv", "optics/melanosome_jacques2013.csv",
+        "optics/skin_baseline_jacques1998.csv", "optics/scattering_salomatina.csv", "colour/cie1931_2deg_cmf.csv",
+        "colour/cie_illuminants.csv"}) {
     const auto t = parse_table(testing::data_file(name), name, {});
     EXPECT_TRUE(t) << (t ? "" : t.error().what());
   }
@@ -72,7 +71,8 @@ TEST(TableUtf8, RefusesBytesThatAreNotUtf8InMetadataHeaderAndCells) {
     const char* shown;
   };
   const Case cases[] = {
-      {"metadata", "# title: t\n# source: Jacques \xe9t al.\n# licence: l\n# units: u\nwavelength_nm,a\n400,1\n", 2, 19, "\\xe9"},
+      {"metadata", "# title: t\n# source: Jacques \xe9t al.\n# licence: l\n# units: u\nwavelength_nm,a\n400,1\n", 2, 19,
+       "\\xe9"},
       {"header", std::string(kHeader) + "wavelength_nm,\xc0\xae\n400,1\n", 5, 15, "\\xc0\\xae"},
       {"key", std::string(kHeader) + "site,a\nforearm\xed\xb0\x80,1\n", 6, 8, "\\xed\\xb0\\x80"},
       {"cell", std::string(kHeader) + "wavelength_nm,a\n400,1\n410,\xff\n", 7, 5, "\\xff"},
@@ -88,7 +88,10 @@ TEST(TableUtf8, RefusesBytesThatAreNotUtf8InMetadataHeaderAndCells) {
 }
 
 TEST(TableUtf8, QuotesKeysAndColumnsPrintably) {
-  const auto t = parse("site,a\nfore\x1b" "arm,1\nfore\x1b" "arm,2\n");
+  const auto t = parse(
+      "site,a\nfore\x1b"
+      "arm,1\nfore\x1b"
+      "arm,2\n");
   ASSERT_FALSE(t);
   EXPECT_EQ(t.error().what(), "t.csv:7:1: duplicated key 'fore\\x1barm'");
 }

@@ -103,9 +103,9 @@ TEST(ConnectionUri, UsbIdsAreHex) {
 }
 
 TEST(ConnectionUri, PrintsBackWhatItParsed) {
-  for (const char* text : {"serial:/dev/ttyUSB0", "serial:/dev/ttyS0?baud=19200&flow=xonxoff&terminator=cr",
-                           "tcp:127.0.0.1:4001", "tcp:[::1]:4001?terminator=cr", "usb:067b:2303",
-                           "usb:0403:6001:FT1234?flow=rtscts"})
+  for (const char* text :
+       {"serial:/dev/ttyUSB0", "serial:/dev/ttyS0?baud=19200&flow=xonxoff&terminator=cr", "tcp:127.0.0.1:4001",
+        "tcp:[::1]:4001?terminator=cr", "usb:067b:2303", "usb:0403:6001:FT1234?flow=rtscts"})
     EXPECT_EQ(parse(text).to_string(), text);
   EXPECT_EQ(parse("usb:67B:2303").to_string(), "usb:067b:2303");
   EXPECT_EQ(parse("serial:/dev/x?baud=9600&terminator=lf").to_string(), "serial:/dev/x");
@@ -136,12 +136,13 @@ INSTANTIATE_TEST_SUITE_P(
                       BadUri{"tcp:[::1]", "':PORT'"}, BadUri{"tcp:[]:4001", "empty host"},
                       BadUri{"usb:067b", "usb:VID:PID"}, BadUri{"usb:067g:2303", "vendor id '067g'"},
                       BadUri{"usb:067b:23030", "product id '23030'"}, BadUri{"usb::2303", "vendor id ''"},
-                      BadUri{"usb:067b:2303:", "empty serial"}, BadUri{"serial:/dev/x?parity=even", "unknown option 'parity'"},
+                      BadUri{"usb:067b:2303:", "empty serial"},
+                      BadUri{"serial:/dev/x?parity=even", "unknown option 'parity'"},
                       BadUri{"tcp:host:1?baud=9600", "unknown option 'baud'"},
                       BadUri{"serial:/dev/x?baud=9600&baud=4800", "'baud' is given twice"},
-                      BadUri{"serial:/dev/x?baud", "'baud' has no '=value'"}, BadUri{"serial:/dev/x?baud=", "empty value"},
-                      BadUri{"serial:/dev/x?baud=fast", "baud 'fast'"}, BadUri{"serial:/dev/x?baud=0", "baud '0'"},
-                      BadUri{"serial:/dev/x?flow=dtrdsr", "flow 'dtrdsr'"},
+                      BadUri{"serial:/dev/x?baud", "'baud' has no '=value'"},
+                      BadUri{"serial:/dev/x?baud=", "empty value"}, BadUri{"serial:/dev/x?baud=fast", "baud 'fast'"},
+                      BadUri{"serial:/dev/x?baud=0", "baud '0'"}, BadUri{"serial:/dev/x?flow=dtrdsr", "flow 'dtrdsr'"},
                       BadUri{"serial:/dev/x?terminator=crlf", "terminator 'crlf'"},
                       BadUri{"serial:/dev/x?baud=9600&", "stray"}, BadUri{"serial:/dev/x?", "stray"}));
 

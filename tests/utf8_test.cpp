@@ -78,9 +78,14 @@ TEST(Printable, EscapesControlsAndBadBytesAndKeepsText) {
   EXPECT_EQ(printable("\xc0\xaf"), "\\xc0\\xaf");
   EXPECT_EQ(printable("\xed\xa0\x80"), "\\xed\\xa0\\x80");
   // C1 controls (U+009B is a terminal's CSI) and the right-to-left override, as code points.
-  EXPECT_EQ(printable("\xc2\x9b" "2J"), "\\u009b2J");
-  EXPECT_EQ(printable("abc\xe2\x80\xae" "fdp.exe"), "abc\\u202efdp.exe");
-  EXPECT_EQ(printable("Probandin \xc3\x84 \xe6\x97\xa5 \xf0\x9f\x98\x80"), "Probandin \xc3\x84 \xe6\x97\xa5 \xf0\x9f\x98\x80");
+  EXPECT_EQ(printable("\xc2\x9b"
+                      "2J"),
+            "\\u009b2J");
+  EXPECT_EQ(printable("abc\xe2\x80\xae"
+                      "fdp.exe"),
+            "abc\\u202efdp.exe");
+  EXPECT_EQ(printable("Probandin \xc3\x84 \xe6\x97\xa5 \xf0\x9f\x98\x80"),
+            "Probandin \xc3\x84 \xe6\x97\xa5 \xf0\x9f\x98\x80");
   EXPECT_EQ(quote("x\ty"), "'x\\ty'");
 }
 

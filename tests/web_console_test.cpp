@@ -25,11 +25,12 @@ const std::string kArtifacts = SKINSPEC_TEST_ARTIFACT_DIR;
 class WebConsoleTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (!Browser::available()) GTEST_SKIP() << "needs Debian's chromium and chromium-driver (scripts/setup installs them)";
+    if (!Browser::available())
+      GTEST_SKIP() << "needs Debian's chromium and chromium-driver (scripts/setup installs them)";
     // A little meter time per reading, so that a long job can be watched and cancelled.
     RigOptions options = rig_options(dir_.path().string(),
-                                     {"--time-scale", "0.02", "--white", kData + "/examples/white-standard.csv", "--reflectance",
-                                      kData + "/examples/forearm.csv", "--illuminant", "A"},
+                                     {"--time-scale", "0.02", "--white", kData + "/examples/white-standard.csv",
+                                      "--reflectance", kData + "/examples/forearm.csv", "--illuminant", "A"},
                                      {"--log-level", "warn"});
     options.default_scenes = false;
     rig_ = std::make_unique<AcquisitionRig>(std::move(options));
@@ -48,14 +49,16 @@ class WebConsoleTest : public ::testing::Test {
   void shot(const std::string& name) { EXPECT_TRUE(browser_->screenshot(kArtifacts + "/" + name)) << name; }
   // The numbers a plotted series was drawn from.
   std::vector<double> plotted(const std::string& plot, const std::string& series) {
-    const json v = browser_->run("const p = document.querySelector(arguments[0]); return p ? JSON.parse(p.dataset.y) : null;",
-                                 json::array({"#" + plot + " path[data-series='" + series + "']"}));
+    const json v =
+        browser_->run("const p = document.querySelector(arguments[0]); return p ? JSON.parse(p.dataset.y) : null;",
+                      json::array({"#" + plot + " path[data-series='" + series + "']"}));
     return v.is_array() ? v.get<std::vector<double>>() : std::vector<double>{};
   }
   // Waits for the job box to show an ended job; its state.
   std::string job_end_state() {
     const bool ended = browser_->wait_until(
-        "const j = document.getElementById('job'); return !!j && ['succeeded','failed','cancelled','refused'].includes(j.dataset.state);",
+        "const j = document.getElementById('job'); return !!j && "
+        "['succeeded','failed','cancelled','refused'].includes(j.dataset.state);",
         60s);
     if (!ended) return "still running";
     return browser_->run("return document.getElementById('job').dataset.state;").get<std::string>();
@@ -70,7 +73,8 @@ class WebConsoleTest : public ::testing::Test {
 void expect_same(const std::vector<double>& shown, const std::vector<double>& api, const std::string& what) {
   ASSERT_EQ(shown.size(), api.size()) << what;
   ASSERT_FALSE(api.empty()) << what;
-  for (std::size_t i = 0; i < api.size(); ++i) EXPECT_NEAR(shown[i], api[i], 1e-12 * (1 + std::abs(api[i]))) << what << " at " << i;
+  for (std::size_t i = 0; i < api.size(); ++i)
+    EXPECT_NEAR(shown[i], api[i], 1e-12 * (1 + std::abs(api[i]))) << what << " at " << i;
 }
 
 TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
@@ -82,7 +86,8 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   browser_->type(browser_->find("#new-session [name=subject]"), "volunteer-7");
   browser_->type(browser_->find("#new-session [name=operator]"), "bench operator");
   browser_->click(browser_->find("#new-session button[type=submit]"));
-  ASSERT_TRUE(browser_->wait_until("return location.hash === '#/sessions/1';")) << browser_->run("return location.hash;");
+  ASSERT_TRUE(browser_->wait_until("return location.hash === '#/sessions/1';"))
+      << browser_->run("return location.hash;");
   const json session = get("/api/v1/sessions/1");
   EXPECT_EQ(session["subject"], "volunteer-7");
   EXPECT_EQ(session["operator"], "bench operator");
@@ -96,12 +101,15 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   EXPECT_TRUE(browser_->wait_until("return document.getElementById('instrument-state').textContent === 'connected';"))
       << browser_->run("return document.getElementById('instrument').textContent;");
   EXPECT_EQ(get("/api/v1/instrument")["state"], "connected");
-  browser_->run("document.getElementById('count').value = '3'; document.getElementById('label').value = 'left forearm';");
+  browser_->run(
+      "document.getElementById('count').value = '3'; document.getElementById('label').value = 'left forearm';");
   browser_->click(browser_->find("#measure-sample"));
   EXPECT_EQ(job_end_state(), "succeeded");
-  const json job = get("/api/v1/jobs/" + browser_->run("return document.getElementById('job').dataset.job;").get<std::string>());
+  const json job =
+      get("/api/v1/jobs/" + browser_->run("return document.getElementById('job').dataset.job;").get<std::string>());
   EXPECT_EQ(job["state"], "succeeded");
-  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("measurement #" + std::to_string(job["result"]["measurement_id"].get<long long>())),
+  EXPECT_NE(browser_->text(browser_->find("#job-status"))
+                .find("measurement #" + std::to_string(job["result"]["measurement_id"].get<long long>())),
             std::string::npos);
   shot("02-acquisition.png");
   // The session reloads to list the new measurement; the next click goes to the new screen.
@@ -111,8 +119,9 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   // A long job cancelled from the keyboard.
   browser_->run("document.getElementById('count').value = '100';");
   browser_->click(browser_->find("#measure-sample"));
-  ASSERT_TRUE(browser_->wait_until("const j = document.getElementById('job'); return !!j.dataset.job && j.dataset.job !== '"
-                                   + std::to_string(job["id"].get<long long>()) + "';"));
+  ASSERT_TRUE(
+      browser_->wait_until("const j = document.getElementById('job'); return !!j.dataset.job && j.dataset.job !== '" +
+                           std::to_string(job["id"].get<long long>()) + "';"));
   browser_->run("document.activeElement.blur();");
   browser_->type(browser_->find("body"), "\xEE\x80\x8C");  // WebDriver's Escape key
   EXPECT_EQ(job_end_state(), "cancelled");
@@ -127,21 +136,25 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   const json m = get("/api/v1/measurements/" + std::to_string(sample));
   const json fit = get("/api/v1/fits/" + std::to_string(m["fit_id"].get<long long>()));
   expect_same(plotted("plot-radiance", "radiance"), m["radiance"]["values"].get<std::vector<double>>(), "radiance");
-  expect_same(plotted("plot-reflectance", "measured"), m["reflectance"]["values"].get<std::vector<double>>(), "reflectance");
+  expect_same(plotted("plot-reflectance", "measured"), m["reflectance"]["values"].get<std::vector<double>>(),
+              "reflectance");
   expect_same(plotted("plot-reflectance", "fitted"), fit["fitted"].get<std::vector<double>>(), "fitted curve");
   std::vector<double> residuals;
-  for (std::size_t i = 0; i < fit["fitted"].size(); ++i) residuals.push_back(fit["measured"][i].get<double>() - fit["fitted"][i].get<double>());
+  for (std::size_t i = 0; i < fit["fitted"].size(); ++i)
+    residuals.push_back(fit["measured"][i].get<double>() - fit["fitted"][i].get<double>());
   expect_same(plotted("plot-residuals", "residual"), residuals, "residuals");
   for (const char* p : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"}) {
-    const std::string shown = browser_->text(browser_->find(std::string("#fit-params tr[data-param='") + p + "'] td.value"));
+    const std::string shown =
+        browser_->text(browser_->find(std::string("#fit-params tr[data-param='") + p + "'] td.value"));
     const double value = fit["params"][p].get<double>();
     EXPECT_NEAR(std::stod(shown), value, 1e-3 * std::abs(value) + 1e-9) << p;
   }
-  EXPECT_NEAR(std::stod(browser_->text(browser_->find("#fit-params tr[data-param='rmse'] td.value"))), fit["rmse"].get<double>(),
-              1e-2 * fit["rmse"].get<double>());
+  EXPECT_NEAR(std::stod(browser_->text(browser_->find("#fit-params tr[data-param='rmse'] td.value"))),
+              fit["rmse"].get<double>(), 1e-2 * fit["rmse"].get<double>());
   for (const char* light : {"D65", "A"}) {
     const auto rgb = m["colour"][light]["srgb"];
-    const std::string expected = std::to_string(rgb[0].get<int>()) + "," + std::to_string(rgb[1].get<int>()) + "," + std::to_string(rgb[2].get<int>());
+    const std::string expected = std::to_string(rgb[0].get<int>()) + "," + std::to_string(rgb[1].get<int>()) + "," +
+                                 std::to_string(rgb[2].get<int>());
     EXPECT_EQ(browser_->run("return document.querySelector(arguments[0]).dataset.srgb;",
                             json::array({std::string(".chip[data-illuminant='") + light + "']"})),
               expected)
@@ -150,11 +163,16 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   shot("04-measurement.png");
 
   // The rendered hand, re-rendered with four times the melanin.
-  ASSERT_TRUE(browser_->wait_until("const i = document.getElementById('render'); return i.complete && i.naturalWidth > 0;", 60s))
+  ASSERT_TRUE(browser_->wait_until(
+      "const i = document.getElementById('render'); return i.complete && i.naturalWidth > 0;", 60s))
       << browser_->run("return document.getElementById('render-status').textContent;");
-  browser_->run("const s = document.getElementById('scale-melanin'); s.value = '4'; s.dispatchEvent(new Event('change'));");
-  EXPECT_TRUE(browser_->wait_until("return (document.getElementById('render').dataset.query || '').includes('scale_melanin=4');", 60s))
-      << browser_->run("return document.getElementById('render-status').textContent + ' ' + document.getElementById('render').dataset.query;");
+  browser_->run(
+      "const s = document.getElementById('scale-melanin'); s.value = '4'; s.dispatchEvent(new Event('change'));");
+  EXPECT_TRUE(browser_->wait_until(
+      "return (document.getElementById('render').dataset.query || '').includes('scale_melanin=4');", 60s))
+      << browser_->run(
+             "return document.getElementById('render-status').textContent + ' ' + "
+             "document.getElementById('render').dataset.query;");
   browser_->run("document.getElementById('render').scrollIntoView();");
   shot("05-render.png");
 
@@ -170,7 +188,8 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   ASSERT_TRUE(browser_->wait_until("return window.savedFiles.length === 1;"));
   const json saved = browser_->run_async(
       "const done = arguments[arguments.length - 1];"
-      "window.savedBlobs.find(b => b.type === 'text/csv').text().then(t => done({name: window.savedFiles[0], text: t}));");
+      "window.savedBlobs.find(b => b.type === 'text/csv').text().then(t => done({name: window.savedFiles[0], text: "
+      "t}));");
   EXPECT_EQ(saved["name"], "session-1.csv");
   EXPECT_EQ(saved["text"], http_request(port_, "GET", "/api/v1/sessions/1/export.csv").body);
 
@@ -180,7 +199,9 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   EXPECT_EQ(browser_->run("return document.querySelectorAll('#sessions tr[data-session]').length;"),
             get("/api/v1/sessions?site=forearm")["sessions"].size());
   browser_->open(url("#/sessions?site=cheek"));
-  EXPECT_TRUE(browser_->wait_until("return document.querySelectorAll('#sessions tr[data-session]').length === 0 && !!document.getElementById('new-session');"));
+  EXPECT_TRUE(
+      browser_->wait_until("return document.querySelectorAll('#sessions tr[data-session]').length === 0 && "
+                           "!!document.getElementById('new-session');"));
 }
 
 TEST_F(WebConsoleTest, ARefusedRequestIsShownAndTheConsoleKeepsWorking) {
@@ -192,7 +213,8 @@ TEST_F(WebConsoleTest, ARefusedRequestIsShownAndTheConsoleKeepsWorking) {
   browser_->open(url("#/sessions/1"));
   browser_->click(browser_->find("#measure-sample"));
   EXPECT_EQ(job_end_state(), "failed");
-  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("(no_white: measure the white standard of session"), std::string::npos)
+  EXPECT_NE(browser_->text(browser_->find("#job-status")).find("(no_white: measure the white standard of session"),
+            std::string::npos)
       << browser_->text(browser_->find("#job-status"));
   shot("06-failed-job.png");
 }

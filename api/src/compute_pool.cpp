@@ -6,7 +6,8 @@
 
 namespace skinspec::api::detail {
 
-ComputePool::ComputePool(std::size_t threads, std::size_t queue, std::function<void(std::size_t, std::size_t)> on_change)
+ComputePool::ComputePool(std::size_t threads, std::size_t queue,
+                         std::function<void(std::size_t, std::size_t)> on_change)
     : threads_(std::max<std::size_t>(1, threads)), queue_(queue), on_change_(std::move(on_change)), pool_(threads_) {}
 
 bool ComputePool::try_post(std::function<void()> work) {

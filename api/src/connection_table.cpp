@@ -69,7 +69,8 @@ std::optional<ConnectionTable::Id> ConnectionTable::evict_oldest(const IdleOrder
 void ConnectionTable::forget_idle(Id id, Entry& entry) {
   if (entry.idle_since == 0) return;
   idle_.erase({entry.idle_since, id});
-  if (const auto owner = clients_.find(entry.client); owner != clients_.end()) owner->second.idle.erase({entry.idle_since, id});
+  if (const auto owner = clients_.find(entry.client); owner != clients_.end())
+    owner->second.idle.erase({entry.idle_since, id});
   entry.idle_since = 0;
 }
 

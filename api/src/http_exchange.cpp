@@ -64,16 +64,21 @@ std::optional<ApiError> check_framing(const http::request_header<>& header) {
 }
 
 bool client_gone(const beast::error_code& ec) {
-  return ec == http::error::end_of_stream || ec == beast::error::timeout || ec == boost::asio::error::operation_aborted ||
-         ec == boost::asio::error::connection_reset || ec == boost::asio::error::eof;
+  return ec == http::error::end_of_stream || ec == beast::error::timeout ||
+         ec == boost::asio::error::operation_aborted || ec == boost::asio::error::connection_reset ||
+         ec == boost::asio::error::eof;
 }
 
 ApiError read_failure(const beast::error_code& ec, const RequestLimits& limits) {
   if (ec == http::error::body_limit)
-    return {ErrorKind::payload_too_large, "payload_too_large", "the body is larger than " + std::to_string(limits.body_limit) + " bytes"};
-  if (ec == http::error::header_limit) return {ErrorKind::payload_too_large, "headers_too_large", "the request headers are too large"};
-  if (ec == http::error::bad_transfer_encoding) return bad_framing("Transfer-Encoding is repeated or beside Content-Length");
-  if (ec == http::error::bad_content_length) return bad_framing("Content-Length is malformed, repeated with another value or beside Transfer-Encoding");
+    return {ErrorKind::payload_too_large, "payload_too_large",
+            "the body is larger than " + std::to_string(limits.body_limit) + " bytes"};
+  if (ec == http::error::header_limit)
+    return {ErrorKind::payload_too_large, "headers_too_large", "the request headers are too large"};
+  if (ec == http::error::bad_transfer_encoding)
+    return bad_framing("Transfer-Encoding is repeated or beside Content-Length");
+  if (ec == http::error::bad_content_length)
+    return bad_framing("Content-Length is malformed, repeated with another value or beside Transfer-Encoding");
   return {ErrorKind::bad_request, "malformed_http", ec.message()};
 }
 
@@ -83,7 +88,8 @@ Request to_request(const RequestMessage& message) {
   out.target = std::string(message.target());
   for (const auto& field : message) {
     std::string name(field.name_string());
-    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    std::transform(name.begin(), name.end(), name.begin(),
+                   [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
     out.headers[name] = std::string(field.value());
   }
   out.body = message.body();

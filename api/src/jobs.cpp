@@ -19,7 +19,10 @@ bool finished(store::JobState state) {
 }
 
 json progress_json(JobPhase phase, int done, int total, double fraction) {
-  return {{"phase", std::string(to_string(phase))}, {"readings_done", done}, {"readings_total", total}, {"fraction", fraction}};
+  return {{"phase", std::string(to_string(phase))},
+          {"readings_done", done},
+          {"readings_total", total},
+          {"fraction", fraction}};
 }
 
 // Measuring takes most of a job's time: it covers 0 to 0.9, reading by reading; fitting and
@@ -41,9 +44,12 @@ json stored_progress(const store::Job& job, const json& request, const json& res
   };
   const int total = integer(request, "count", 1);
   switch (job.state) {
-    case store::JobState::succeeded: return progress_json(JobPhase::done, total, total, 1.0);
-    case store::JobState::queued: return progress_json(JobPhase::queued, 0, total, 0.0);
-    case store::JobState::running: return progress_json(JobPhase::measuring, 0, total, 0.0);
+    case store::JobState::succeeded:
+      return progress_json(JobPhase::done, total, total, 1.0);
+    case store::JobState::queued:
+      return progress_json(JobPhase::queued, 0, total, 0.0);
+    case store::JobState::running:
+      return progress_json(JobPhase::measuring, 0, total, 0.0);
     default: {
       const int done = integer(result, "readings", 0);
       return progress_json(JobPhase::done, done, total, measuring_fraction(done, total));

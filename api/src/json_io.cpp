@@ -54,7 +54,8 @@ std::optional<std::string> optional_string(const json& object, const char* key, 
   if (!it->is_string()) fail(ErrorKind::unprocessable, "wrong_type", std::string("'") + key + "' must be a string");
   auto text = it->get<std::string>();
   if (text.size() > max_length)
-    fail(ErrorKind::unprocessable, "too_long", std::string("'") + key + "' is longer than " + std::to_string(max_length) + " bytes");
+    fail(ErrorKind::unprocessable, "too_long",
+         std::string("'") + key + "' is longer than " + std::to_string(max_length) + " bytes");
   return text;
 }
 
@@ -68,7 +69,8 @@ std::string required_string(const json& object, const char* key, std::size_t max
 std::optional<bool> optional_bool(const json& object, const char* key) {
   const auto it = object.find(key);
   if (it == object.end() || it->is_null()) return std::nullopt;
-  if (!it->is_boolean()) fail(ErrorKind::unprocessable, "wrong_type", std::string("'") + key + "' must be true or false");
+  if (!it->is_boolean())
+    fail(ErrorKind::unprocessable, "wrong_type", std::string("'") + key + "' must be true or false");
   return it->get<bool>();
 }
 
@@ -81,7 +83,8 @@ std::optional<store::Id> optional_id(const json& object, const char* key) {
   return it->get<store::Id>();
 }
 
-std::vector<double> number_array(const json& value, const std::string& name, double min, double max, std::size_t max_size) {
+std::vector<double> number_array(const json& value, const std::string& name, double min, double max,
+                                 std::size_t max_size) {
   if (!value.is_array()) fail(ErrorKind::unprocessable, "wrong_type", "'" + name + "' must be an array of numbers");
   if (value.size() < 2 || value.size() > max_size)
     fail(ErrorKind::unprocessable, "invalid_length",
@@ -90,7 +93,8 @@ std::vector<double> number_array(const json& value, const std::string& name, dou
   out.reserve(value.size());
   for (std::size_t i = 0; i < value.size(); ++i) {
     const json& v = value[i];
-    if (!v.is_number()) fail(ErrorKind::unprocessable, "wrong_type", "'" + name + "'[" + std::to_string(i) + "] is not a number");
+    if (!v.is_number())
+      fail(ErrorKind::unprocessable, "wrong_type", "'" + name + "'[" + std::to_string(i) + "] is not a number");
     const double x = v.get<double>();
     if (!std::isfinite(x) || x < min || x > max)
       fail(ErrorKind::unprocessable, "out_of_range",

@@ -42,17 +42,24 @@ void refuse_connection(tcp::socket& socket, std::string_view reply) {
 }
 
 Listener::Listener(asio::io_context& ioc, Admit admit, std::function<void()> shed)
-    : ioc_(ioc), strand_(asio::make_strand(ioc)), acceptor_(strand_), pause_(strand_), admit_(std::move(admit)),
+    : ioc_(ioc),
+      strand_(asio::make_strand(ioc)),
+      acceptor_(strand_),
+      pause_(strand_),
+      admit_(std::move(admit)),
       shed_(std::move(shed)),
       shed_reply_(refusal_bytes(out_of_connections())) {}
 
 std::expected<void, std::string> Listener::open(const tcp::endpoint& endpoint) {
   boost::system::error_code ec;
   if (acceptor_.open(endpoint.protocol(), ec); ec) return std::unexpected("open: " + ec.message());
-  if (acceptor_.set_option(asio::socket_base::reuse_address(true), ec); ec) return std::unexpected("reuse_address: " + ec.message());
+  if (acceptor_.set_option(asio::socket_base::reuse_address(true), ec); ec)
+    return std::unexpected("reuse_address: " + ec.message());
   if (acceptor_.bind(endpoint, ec); ec)
-    return std::unexpected("cannot bind " + endpoint.address().to_string() + ":" + std::to_string(endpoint.port()) + ": " + ec.message());
-  if (acceptor_.listen(asio::socket_base::max_listen_connections, ec); ec) return std::unexpected("listen: " + ec.message());
+    return std::unexpected("cannot bind " + endpoint.address().to_string() + ":" + std::to_string(endpoint.port()) +
+                           ": " + ec.message());
+  if (acceptor_.listen(asio::socket_base::max_listen_connections, ec); ec)
+    return std::unexpected("listen: " + ec.message());
   // shed_one() accepts directly, and must never block.
   if (acceptor_.non_blocking(true, ec); ec) return std::unexpected("non_blocking: " + ec.message());
   return {};
@@ -79,12 +86,13 @@ void Listener::close() {
 
 void Listener::accept() {
   if (closed_) return;
-  acceptor_.async_accept(asio::make_strand(ioc_), [self = shared_from_this()](boost::system::error_code ec, tcp::socket socket) {
-    if (self->closed_ || ec == asio::error::operation_aborted) return;
-    if (ec) return self->on_error(ec);
-    self->admit_(std::move(socket));
-    self->accept();
-  });
+  acceptor_.async_accept(asio::make_strand(ioc_),
+                         [self = shared_from_this()](boost::system::error_code ec, tcp::socket socket) {
+                           if (self->closed_ || ec == asio::error::operation_aborted) return;
+                           if (ec) return self->on_error(ec);
+                           self->admit_(std::move(socket));
+                           self->accept();
+                         });
 }
 
 void Listener::on_error(const boost::system::error_code& ec) {

@@ -10,7 +10,10 @@ std::string escape_label(const std::string& value) {
   std::string out;
   for (char c : value) {
     if (c == '\\' || c == '"') out += '\\';
-    if (c == '\n') { out += "\\n"; continue; }
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
     out += c;
   }
   return out;
@@ -65,22 +68,23 @@ std::string Metrics::prometheus_text() const {
   out << "# HELP skinspec_http_requests_total Requests answered, by route and status.\n"
          "# TYPE skinspec_http_requests_total counter\n";
   for (const auto& [key, n] : requests_)
-    out << "skinspec_http_requests_total{route=\"" << escape_label(key.first) << "\",status=\"" << key.second
-        << "\"} " << n << '\n';
+    out << "skinspec_http_requests_total{route=\"" << escape_label(key.first) << "\",status=\"" << key.second << "\"} "
+        << n << '\n';
   out << "# HELP skinspec_http_request_duration_seconds Time spent answering, by route.\n"
          "# TYPE skinspec_http_request_duration_seconds histogram\n";
   for (const auto& [route, h] : latency_) {
     const std::string label = escape_label(route);
     for (std::size_t i = 0; i < kBuckets.size(); ++i)
-      out << "skinspec_http_request_duration_seconds_bucket{route=\"" << label << "\",le=\"" << kBuckets[i]
-          << "\"} " << h.counts[i] << '\n';
+      out << "skinspec_http_request_duration_seconds_bucket{route=\"" << label << "\",le=\"" << kBuckets[i] << "\"} "
+          << h.counts[i] << '\n';
     out << "skinspec_http_request_duration_seconds_bucket{route=\"" << label << "\",le=\"+Inf\"} " << h.count << '\n';
     out << "skinspec_http_request_duration_seconds_sum{route=\"" << label << "\"} " << h.sum << '\n';
     out << "skinspec_http_request_duration_seconds_count{route=\"" << label << "\"} " << h.count << '\n';
   }
   out << "# HELP skinspec_http_errors_total Error responses, by error code.\n"
          "# TYPE skinspec_http_errors_total counter\n";
-  for (const auto& [code, n] : errors_) out << "skinspec_http_errors_total{code=\"" << escape_label(code) << "\"} " << n << '\n';
+  for (const auto& [code, n] : errors_)
+    out << "skinspec_http_errors_total{code=\"" << escape_label(code) << "\"} " << n << '\n';
   out << "# HELP skinspec_fits_total Model fits run, by outcome.\n"
          "# TYPE skinspec_fits_total counter\n"
       << "skinspec_fits_total{outcome=\"ok\"} " << fits_ok_ << '\n'

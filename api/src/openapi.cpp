@@ -38,31 +38,50 @@ json instrument_schema() {
   json states = names(instrument_state_names());
   states.insert(states.begin(), "none");  // skinspecd started without --device
   return {{"type", "object"},
-          {"properties", {{"device", nullable("string")}, {"port", nullable("string")},
-                          {"state", {{"type", "string"}, {"enum", states}}},
-                          {"since", {{"type", "string"}, {"format", "date-time"}}},
-                          {"last_error", nullable("string")}, {"serial_number", nullable("string")},
-                          {"attempts", {{"type", "integer"}, {"description", "failed connection attempts in a row"}}},
-                          {"next_attempt_in_ms", nullable("integer")},
-                          {"running_job", nullable("integer")}, {"queued", {{"type", "integer"}}}}}};
+          {"properties",
+           {{"device", nullable("string")},
+            {"port", nullable("string")},
+            {"state", {{"type", "string"}, {"enum", states}}},
+            {"since", {{"type", "string"}, {"format", "date-time"}}},
+            {"last_error", nullable("string")},
+            {"serial_number", nullable("string")},
+            {"attempts", {{"type", "integer"}, {"description", "failed connection attempts in a row"}}},
+            {"next_attempt_in_ms", nullable("integer")},
+            {"running_job", nullable("integer")},
+            {"queued", {{"type", "integer"}}}}}};
 }
 
 json port_list_schema() {
   const json usb = {{"type", json::array({"object", "null"})},
-                    {"properties", {{"vid", {{"type", "string"}}}, {"pid", {{"type", "string"}}}, {"serial", {{"type", "string"}}},
-                                    {"manufacturer", {{"type", "string"}}}, {"product", {{"type", "string"}}}}}};
+                    {"properties",
+                     {{"vid", {{"type", "string"}}},
+                      {"pid", {{"type", "string"}}},
+                      {"serial", {{"type", "string"}}},
+                      {"manufacturer", {{"type", "string"}}},
+                      {"product", {{"type", "string"}}}}}};
   const json port = {{"type", "object"},
-                     {"properties", {{"uri", {{"type", "string"}}}, {"name", {{"type", "string"}}}, {"description", {{"type", "string"}}},
-                                     {"transport", {{"type", "string"}}}, {"usb", usb}}}};
+                     {"properties",
+                      {{"uri", {{"type", "string"}}},
+                       {"name", {{"type", "string"}}},
+                       {"description", {{"type", "string"}}},
+                       {"transport", {{"type", "string"}}},
+                       {"usb", usb}}}};
   return {{"type", "object"}, {"properties", {{"ports", {{"type", "array"}, {"items", port}}}}}};
 }
 
 json schemas() {
-  const json fit_fields = {
-      {"name", {{"type", "string"}}}, {"site", {{"type", "string"}}}, {"params", params_schema()},
-      {"stderr", params_schema()}, {"rmse", {{"type", "number"}}}, {"max_abs_error", {{"type", "number"}}},
-      {"delta_e00_d65", {{"type", "number"}}}, {"iterations", {{"type", "integer"}}}, {"converged", {{"type", "boolean"}}},
-      {"wavelength_nm", numbers()}, {"measured", numbers()}, {"fitted", numbers()}};
+  const json fit_fields = {{"name", {{"type", "string"}}},
+                           {"site", {{"type", "string"}}},
+                           {"params", params_schema()},
+                           {"stderr", params_schema()},
+                           {"rmse", {{"type", "number"}}},
+                           {"max_abs_error", {{"type", "number"}}},
+                           {"delta_e00_d65", {{"type", "number"}}},
+                           {"iterations", {{"type", "integer"}}},
+                           {"converged", {{"type", "boolean"}}},
+                           {"wavelength_nm", numbers()},
+                           {"measured", numbers()},
+                           {"fitted", numbers()}};
   json stored_fit = fit_fields;
   stored_fit["id"] = {{"type", "integer"}};
   stored_fit["measurement_id"] = {{"type", "integer"}};
@@ -72,100 +91,188 @@ json schemas() {
   stored_fit["samples_ignored"] = {{"type", "integer"}};
   stored_fit["solver_summary"] = {{"type", "string"}};
   stored_fit["created_at"] = {{"type", "string"}, {"format", "date-time"}};
-  const json session_props = {
-      {"id", {{"type", "integer"}}}, {"subject", {{"type", "string"}}}, {"site", {{"type", "string"}}},
-      {"operator", {{"type", "string"}}}, {"notes", {{"type", "string"}}}, {"white_standard_id", nullable("integer")},
-      {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}},
-      {"created_at", {{"type", "string"}, {"format", "date-time"}}}, {"updated_at", {{"type", "string"}, {"format", "date-time"}}},
-      {"ended_at", nullable("string")}};
+  const json session_props = {{"id", {{"type", "integer"}}},
+                              {"subject", {{"type", "string"}}},
+                              {"site", {{"type", "string"}}},
+                              {"operator", {{"type", "string"}}},
+                              {"notes", {{"type", "string"}}},
+                              {"white_standard_id", nullable("integer")},
+                              {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}},
+                              {"created_at", {{"type", "string"}, {"format", "date-time"}}},
+                              {"updated_at", {{"type", "string"}, {"format", "date-time"}}},
+                              {"ended_at", nullable("string")}};
   json fit_list = {{"type", "object"}, {"properties", {{"fits", {{"type", "array"}, {"items", ref("FitResult")}}}}}};
   json fit_response = {{"oneOf", json::array({ref("FitResult"), fit_list})}};
   json detail_props = session_props;
   detail_props["measurements"] = {{"type", "array"}, {"items", ref("Measurement")}};
   detail_props["fits"] = {{"type", "array"}, {"items", ref("Fit")}};
   detail_props["rejected_readings"] = {{"type", "array"}, {"items", ref("RejectedReading")}};
-  const json site = {{"type", "object"},
-                     {"properties", {{"name", {{"type", "string"}}}, {"epidermis_mm", {{"type", "number"}}}, {"dermis_mm", {{"type", "number"}}}}}};
+  const json site = {
+      {"type", "object"},
+      {"properties",
+       {{"name", {{"type", "string"}}}, {"epidermis_mm", {{"type", "number"}}}, {"dermis_mm", {{"type", "number"}}}}}};
   const json site_list = {{"type", "object"}, {"properties", {{"sites", {{"type", "array"}, {"items", site}}}}}};
   return {
-      {"Error", {{"type", "object"}, {"required", {"error"}},
-                 {"properties", {{"error", {{"type", "object"}, {"required", {"code", "message"}},
-                                            {"properties", {{"code", {{"type", "string"}}}, {"message", {{"type", "string"}}}}}}}}}}},
-      {"Health", {{"type", "object"}, {"properties", {{"status", {{"type", "string"}}}, {"version", {{"type", "string"}}},
-                                                     {"database", {{"type", "object"}}}, {"model", {{"type", "object"}}},
-                                                     {"instrument", ref("Instrument")}}}}},
+      {"Error",
+       {{"type", "object"},
+        {"required", {"error"}},
+        {"properties",
+         {{"error",
+           {{"type", "object"},
+            {"required", {"code", "message"}},
+            {"properties", {{"code", {{"type", "string"}}}, {"message", {{"type", "string"}}}}}}}}}}},
+      {"Health",
+       {{"type", "object"},
+        {"properties",
+         {{"status", {{"type", "string"}}},
+          {"version", {{"type", "string"}}},
+          {"database", {{"type", "object"}}},
+          {"model", {{"type", "object"}}},
+          {"instrument", ref("Instrument")}}}}},
       {"SiteList", site_list},
       {"OpenApi", {{"type", "object"}}},
-      {"FitRequest", {{"type", "object"}, {"required", {"wavelength_nm"}}, {"additionalProperties", false},
-                      {"properties", {{"wavelength_nm", numbers()}, {"reflectance", numbers()},
-                                      {"spectra", {{"type", "object"}, {"additionalProperties", numbers()}}},
-                                      {"site", {{"type", "string"}, {"default", "forearm"}}}, {"name", {{"type", "string"}}},
-                                      {"lateral_diffusion", {{"type", "boolean"}, {"default", true}}}}}}},
+      {"FitRequest",
+       {{"type", "object"},
+        {"required", {"wavelength_nm"}},
+        {"additionalProperties", false},
+        {"properties",
+         {{"wavelength_nm", numbers()},
+          {"reflectance", numbers()},
+          {"spectra", {{"type", "object"}, {"additionalProperties", numbers()}}},
+          {"site", {{"type", "string"}, {"default", "forearm"}}},
+          {"name", {{"type", "string"}}},
+          {"lateral_diffusion", {{"type", "boolean"}, {"default", true}}}}}}},
       {"FitResult", {{"type", "object"}, {"properties", fit_fields}}},
       {"FitResponse", fit_response},
       {"Fit", {{"type", "object"}, {"properties", stored_fit}}},
-      {"RefitRequest", {{"type", "object"}, {"additionalProperties", false},
-                        {"properties", {{"site", {{"type", "string"}}}, {"lateral_diffusion", {{"type", "boolean"}}}}}}},
-      {"WhiteStandardCreate", {{"type", "object"}, {"required", {"name", "wavelength_nm", "reflectance"}}, {"additionalProperties", false},
-                               {"properties", {{"name", {{"type", "string"}}}, {"certificate", {{"type", "string"}}},
-                                               {"wavelength_nm", numbers()}, {"reflectance", numbers()}}}}},
-      {"WhiteStandard", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"name", {{"type", "string"}}},
-                                                             {"certificate", {{"type", "string"}}}, {"wavelength_nm", numbers()},
-                                                             {"reflectance", numbers()}, {"created_at", {{"type", "string"}}}}}}},
-      {"WhiteStandardList", {{"type", "object"}, {"properties", {{"white_standards", {{"type", "array"}, {"items", ref("WhiteStandard")}}}}}}},
-      {"SessionCreate", {{"type", "object"}, {"required", {"site", "subject"}}, {"additionalProperties", false},
-                         {"properties", {{"site", {{"type", "string"}}}, {"subject", {{"type", "string"}}}, {"operator", {{"type", "string"}}},
-                                         {"white_standard_id", {{"type", "integer"}}}, {"notes", {{"type", "string"}}}}}}},
-      {"SessionUpdate", {{"type", "object"}, {"additionalProperties", false},
-                         {"properties", {{"notes", {{"type", "string"}}}, {"close", {{"type", "boolean"}}},
-                                         {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}}}}}},
+      {"RefitRequest",
+       {{"type", "object"},
+        {"additionalProperties", false},
+        {"properties", {{"site", {{"type", "string"}}}, {"lateral_diffusion", {{"type", "boolean"}}}}}}},
+      {"WhiteStandardCreate",
+       {{"type", "object"},
+        {"required", {"name", "wavelength_nm", "reflectance"}},
+        {"additionalProperties", false},
+        {"properties",
+         {{"name", {{"type", "string"}}},
+          {"certificate", {{"type", "string"}}},
+          {"wavelength_nm", numbers()},
+          {"reflectance", numbers()}}}}},
+      {"WhiteStandard",
+       {{"type", "object"},
+        {"properties",
+         {{"id", {{"type", "integer"}}},
+          {"name", {{"type", "string"}}},
+          {"certificate", {{"type", "string"}}},
+          {"wavelength_nm", numbers()},
+          {"reflectance", numbers()},
+          {"created_at", {{"type", "string"}}}}}}},
+      {"WhiteStandardList",
+       {{"type", "object"},
+        {"properties", {{"white_standards", {{"type", "array"}, {"items", ref("WhiteStandard")}}}}}}},
+      {"SessionCreate",
+       {{"type", "object"},
+        {"required", {"site", "subject"}},
+        {"additionalProperties", false},
+        {"properties",
+         {{"site", {{"type", "string"}}},
+          {"subject", {{"type", "string"}}},
+          {"operator", {{"type", "string"}}},
+          {"white_standard_id", {{"type", "integer"}}},
+          {"notes", {{"type", "string"}}}}}}},
+      {"SessionUpdate",
+       {{"type", "object"},
+        {"additionalProperties", false},
+        {"properties",
+         {{"notes", {{"type", "string"}}},
+          {"close", {{"type", "boolean"}}},
+          {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}}}}}},
       {"Session", {{"type", "object"}, {"properties", session_props}}},
       {"SessionDetail", {{"type", "object"}, {"properties", detail_props}}},
-      {"SessionPage", {{"type", "object"}, {"properties", {{"sessions", {{"type", "array"}, {"items", ref("Session")}}},
-                                                           {"next_cursor", nullable("integer")}}}}},
+      {"SessionPage",
+       {{"type", "object"},
+        {"properties",
+         {{"sessions", {{"type", "array"}, {"items", ref("Session")}}}, {"next_cursor", nullable("integer")}}}}},
       {"Instrument", instrument_schema()},
       {"PortList", port_list_schema()},
-      {"MeasureRequest", {{"type", "object"}, {"required", {"kind"}}, {"additionalProperties", false},
-                          {"properties", {{"kind", {{"type", "string"}, {"enum", {"white", "sample"}}}},
-                                          {"count", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}, {"default", 1}}},
-                                          {"label", {{"type", "string"}}},
-                                          {"integration_ms", {{"type", "integer"}, {"minimum", 0}, {"maximum", 6000}, {"default", 0}}}}}}},
-      {"Job", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"job_id", {{"type", "integer"}}}, {"kind", {{"type", "string"}}},
-                                                   {"session_id", nullable("integer")},
-                                                   {"state", {{"type", "string"}, {"enum", names(store::job_state_names())}}},
-                                                   {"position", {{"type", json::array({"integer", "null"})}, {"minimum", 0},
-                                                                 {"description", "place in the queue: 1 is next, 0 is running; null once finished"}}},
-                                                   {"progress", ref("JobProgress")},
-                                                   {"error", {{"oneOf", {ref("JobError"), {{"type", "null"}}}},
-                                                              {"description", "why it failed or was cancelled; null otherwise"}}},
-                                                   {"request", {{"type", "object"}}},
-                                                   {"result", {{"type", "object"}}}, {"idempotency_key", nullable("string")},
-                                                   {"created_at", {{"type", "string"}}}, {"started_at", nullable("string")},
-                                                   {"finished_at", nullable("string")}}}}},
-      {"JobError", {{"type", "object"}, {"required", {"code", "message"}},
-                    {"properties", {{"code", {{"type", "string"}, {"enum", names(store::job_error_code_names())}}},
-                                    {"message", {{"type", "string"}}}}}}},
-      {"JobProgress", {{"type", "object"}, {"required", {"phase", "readings_done", "readings_total", "fraction"}},
-                       {"properties", {{"phase", {{"type", "string"}, {"enum", names(job_phase_names())}}},
-                                       {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
-                                       {"readings_total", {{"type", "integer"}, {"minimum", 1}}},
-                                       {"fraction", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}}}}}},
-      {"RejectedReading", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
-                                                               {"job_id", nullable("integer")},
-                                                               {"instrument_id", nullable("integer")}, {"attempt", {{"type", "integer"}}},
-                                                               {"quality", {{"type", "object"}}}, {"reason", {{"type", "string"}}},
-                                                               {"raw_reply_base64", {{"type", "string"}, {"contentEncoding", "base64"}}},
-                                                               {"measured_at", {{"type", "string"}}}, {"created_at", {{"type", "string"}}}}}}},
-      {"Measurement", {{"type", "object"}, {"properties", {{"id", {{"type", "integer"}}}, {"session_id", {{"type", "integer"}}},
-                                                           {"kind", {{"type", "string"}}}, {"label", {{"type", "string"}}},
-                                                           {"quality", {{"type", "object"}}}, {"units", {{"type", "string"}}},
-                                                           {"reading_count", {{"type", "integer"}}}, {"radiance", samples()},
-                                                           {"radiance_sd", samples()}, {"reflectance", samples()},
-                                                           {"warnings", {{"type", "array"}, {"items", {{"type", "string"}}}}},
-                                                           {"provenance", {{"type", "object"}}}, {"created_at", {{"type", "string"}}},
-                                                           {"fit_id", nullable("integer")},
-                                                           {"colour", {{"type", json::array({"object", "null"})},
-                                                                       {"description", "GET of one measurement only: xyz, lab and 8-bit srgb under D65 and A"}}}}}}},
+      {"MeasureRequest",
+       {{"type", "object"},
+        {"required", {"kind"}},
+        {"additionalProperties", false},
+        {"properties",
+         {{"kind", {{"type", "string"}, {"enum", {"white", "sample"}}}},
+          {"count", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}, {"default", 1}}},
+          {"label", {{"type", "string"}}},
+          {"integration_ms", {{"type", "integer"}, {"minimum", 0}, {"maximum", 6000}, {"default", 0}}}}}}},
+      {"Job",
+       {{"type", "object"},
+        {"properties",
+         {{"id", {{"type", "integer"}}},
+          {"job_id", {{"type", "integer"}}},
+          {"kind", {{"type", "string"}}},
+          {"session_id", nullable("integer")},
+          {"state", {{"type", "string"}, {"enum", names(store::job_state_names())}}},
+          {"position",
+           {{"type", json::array({"integer", "null"})},
+            {"minimum", 0},
+            {"description", "place in the queue: 1 is next, 0 is running; null once finished"}}},
+          {"progress", ref("JobProgress")},
+          {"error",
+           {{"oneOf", {ref("JobError"), {{"type", "null"}}}},
+            {"description", "why it failed or was cancelled; null otherwise"}}},
+          {"request", {{"type", "object"}}},
+          {"result", {{"type", "object"}}},
+          {"idempotency_key", nullable("string")},
+          {"created_at", {{"type", "string"}}},
+          {"started_at", nullable("string")},
+          {"finished_at", nullable("string")}}}}},
+      {"JobError",
+       {{"type", "object"},
+        {"required", {"code", "message"}},
+        {"properties",
+         {{"code", {{"type", "string"}, {"enum", names(store::job_error_code_names())}}},
+          {"message", {{"type", "string"}}}}}}},
+      {"JobProgress",
+       {{"type", "object"},
+        {"required", {"phase", "readings_done", "readings_total", "fraction"}},
+        {"properties",
+         {{"phase", {{"type", "string"}, {"enum", names(job_phase_names())}}},
+          {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
+          {"readings_total", {{"type", "integer"}, {"minimum", 1}}},
+          {"fraction", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}}}}}},
+      {"RejectedReading",
+       {{"type", "object"},
+        {"properties",
+         {{"id", {{"type", "integer"}}},
+          {"session_id", {{"type", "integer"}}},
+          {"job_id", nullable("integer")},
+          {"instrument_id", nullable("integer")},
+          {"attempt", {{"type", "integer"}}},
+          {"quality", {{"type", "object"}}},
+          {"reason", {{"type", "string"}}},
+          {"raw_reply_base64", {{"type", "string"}, {"contentEncoding", "base64"}}},
+          {"measured_at", {{"type", "string"}}},
+          {"created_at", {{"type", "string"}}}}}}},
+      {"Measurement",
+       {{"type", "object"},
+        {"properties",
+         {{"id", {{"type", "integer"}}},
+          {"session_id", {{"type", "integer"}}},
+          {"kind", {{"type", "string"}}},
+          {"label", {{"type", "string"}}},
+          {"quality", {{"type", "object"}}},
+          {"units", {{"type", "string"}}},
+          {"reading_count", {{"type", "integer"}}},
+          {"radiance", samples()},
+          {"radiance_sd", samples()},
+          {"reflectance", samples()},
+          {"warnings", {{"type", "array"}, {"items", {{"type", "string"}}}}},
+          {"provenance", {{"type", "object"}}},
+          {"created_at", {{"type", "string"}}},
+          {"fit_id", nullable("integer")},
+          {"colour",
+           {{"type", json::array({"object", "null"})},
+            {"description", "GET of one measurement only: xyz, lab and 8-bit srgb under D65 and A"}}}}}}},
   };
 }
 
@@ -173,23 +280,26 @@ json list_parameters() {
   auto q = [](const char* name, json schema, const char* description) {
     return json{{"name", name}, {"in", "query"}, {"required", false}, {"schema", schema}, {"description", description}};
   };
-  return json::array({q("site", {{"type", "string"}}, "body site"),
-                      q("state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}, "session state"),
-                      q("from", {{"type", "string"}, {"format", "date-time"}}, "created at or after (UTC)"),
-                      q("to", {{"type", "string"}, {"format", "date-time"}}, "created before (UTC)"),
-                      q("cursor", {{"type", "integer"}}, "next_cursor of the previous page"),
-                      q("limit", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}, {"default", 50}}, "page size")});
+  return json::array(
+      {q("site", {{"type", "string"}}, "body site"),
+       q("state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}, "session state"),
+       q("from", {{"type", "string"}, {"format", "date-time"}}, "created at or after (UTC)"),
+       q("to", {{"type", "string"}, {"format", "date-time"}}, "created before (UTC)"),
+       q("cursor", {{"type", "integer"}}, "next_cursor of the previous page"),
+       q("limit", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}, {"default", 50}}, "page size")});
 }
 
 json render_parameters() {
   auto q = [](const char* name, json schema, const char* description) {
     return json{{"name", name}, {"in", "query"}, {"required", false}, {"schema", schema}, {"description", description}};
   };
-  json params = json::array({q("illuminant", {{"type", "string"}, {"enum", {"D65", "A"}}, {"default", "D65"}}, "CIE illuminant"),
-                             q("size", {{"type", "string"}, {"pattern", "^[0-9]+x[0-9]+$"}, {"default", "256x256"}},
-                               "image size WxH, each side 1 to 1024")});
+  json params =
+      json::array({q("illuminant", {{"type", "string"}, {"enum", {"D65", "A"}}, {"default", "D65"}}, "CIE illuminant"),
+                   q("size", {{"type", "string"}, {"pattern", "^[0-9]+x[0-9]+$"}, {"default", "256x256"}},
+                     "image size WxH, each side 1 to 1024")});
   for (const char* pigment : {"melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
-    params.push_back(q(("scale_" + std::string(pigment)).c_str(), {{"type", "number"}, {"minimum", 0}, {"maximum", 100}, {"default", 1}},
+    params.push_back(q(("scale_" + std::string(pigment)).c_str(),
+                       {{"type", "number"}, {"minimum", 0}, {"maximum", 100}, {"default", 1}},
                        "multiplies the fit's weight of this pigment"));
   return params;
 }
@@ -205,12 +315,12 @@ json Router::openapi_document() {
   for (const RouteInfo& r : routes()) {
     json op = {{"summary", r.summary}, {"operationId", r.method + " " + r.path}};
     json content;
-    if (r.response_schema == "text/csv" || r.response_schema == "text/plain" || r.response_schema == "text/event-stream")
+    if (r.response_schema == "text/csv" || r.response_schema == "text/plain" ||
+        r.response_schema == "text/event-stream")
       content = {{r.response_schema, {{"schema", {{"type", "string"}}}}}};
     else if (r.response_schema == "image/png")
       content = {{r.response_schema, {{"schema", {{"type", "string"}, {"contentMediaType", "image/png"}}}}}};
-    else
-      content = {{"application/json", {{"schema", ref(r.response_schema)}}}};
+    else content = {{"application/json", {{"schema", ref(r.response_schema)}}}};
     op["responses"] = {{std::to_string(r.success_status), {{"description", "success"}, {"content", content}}},
                        {"4XX", error_reply("the request was refused")},
                        {"5XX", error_reply("the service could not answer")}};
@@ -219,7 +329,8 @@ json Router::openapi_document() {
                            {"content", {{"application/json", {{"schema", ref(r.request_schema)}}}}}};
     json params = json::array();
     if (r.path.find("{id}") != std::string::npos)
-      params.push_back({{"name", "id"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "integer"}, {"minimum", 1}}}});
+      params.push_back(
+          {{"name", "id"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "integer"}, {"minimum", 1}}}});
     if (r.method == "GET" && r.path == "/api/v1/sessions") params = list_parameters();
     if (r.path == "/api/v1/fits/{id}/render.png")
       for (const auto& p : render_parameters()) params.push_back(p);
@@ -230,11 +341,13 @@ json Router::openapi_document() {
     paths[r.path][method] = op;
   }
   return {{"openapi", "3.1.0"},
-          {"info", {{"title", "skinspecd"}, {"version", kVersion},
-                    {"description", "Stored skin spectra, sessions and fits of the two-layer skin model"}}},
+          {"info",
+           {{"title", "skinspecd"},
+            {"version", kVersion},
+            {"description", "Stored skin spectra, sessions and fits of the two-layer skin model"}}},
           {"paths", paths},
-          {"components", {{"schemas", schemas()},
-                          {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
+          {"components",
+           {{"schemas", schemas()}, {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
 }
 
 }  // namespace skinspec::api

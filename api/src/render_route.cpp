@@ -59,7 +59,8 @@ struct RenderQuery {
 double scale_value(const std::string& name, const std::string& text) {
   double v = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (ec != std::errc{} || end != text.data() + text.size() || !std::isfinite(v) || v < 0 || v > render::kMaxPigmentScale)
+  if (ec != std::errc{} || end != text.data() + text.size() || !std::isfinite(v) || v < 0 ||
+      v > render::kMaxPigmentScale)
     bad_parameter(name, fmt::format("must be a number from 0 to {}", render::kMaxPigmentScale));
   return v;
 }
@@ -73,9 +74,9 @@ std::pair<int, int> size_value(const std::string& text) {
 RenderQuery parse_query(const std::map<std::string, std::string>& query) {
   RenderQuery q;
   const std::pair<const char*, double*> scales[] = {{"scale_melanin", &q.scales.melanin},
-                                                     {"scale_oxyhemoglobin", &q.scales.oxyhemoglobin},
-                                                     {"scale_deoxyhemoglobin", &q.scales.deoxyhemoglobin},
-                                                     {"scale_bilirubin", &q.scales.bilirubin}};
+                                                    {"scale_oxyhemoglobin", &q.scales.oxyhemoglobin},
+                                                    {"scale_deoxyhemoglobin", &q.scales.deoxyhemoglobin},
+                                                    {"scale_bilirubin", &q.scales.bilirubin}};
   for (const auto& [name, text] : query) {
     const auto* scale = std::ranges::find(scales, name, [](const auto& s) { return std::string_view(s.first); });
     if (scale != std::end(scales)) *scale->second = scale_value(name, text);
@@ -91,8 +92,8 @@ RenderQuery parse_query(const std::map<std::string, std::string>& query) {
 // Everything the image depends on, in a fixed order and format; the fit's id stands for its
 // site and parameters because a stored fit never changes.
 std::string cache_key(store::Id fit_id, const RenderQuery& q) {
-  return fmt::format("{}|{}|{}x{}|{:.17g}|{:.17g}|{:.17g}|{:.17g}", fit_id, q.illuminant, q.width, q.height, q.scales.melanin,
-                     q.scales.oxyhemoglobin, q.scales.deoxyhemoglobin, q.scales.bilirubin);
+  return fmt::format("{}|{}|{}x{}|{:.17g}|{:.17g}|{:.17g}|{:.17g}", fit_id, q.illuminant, q.width, q.height,
+                     q.scales.melanin, q.scales.oxyhemoglobin, q.scales.deoxyhemoglobin, q.scales.bilirubin);
 }
 
 std::string render_png(const Fitter& fitter, const store::Fit& fit, const RenderQuery& q) {

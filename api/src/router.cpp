@@ -21,9 +21,9 @@
 
 namespace skinspec::api {
 
-using nlohmann::json;
 using detail::fail;
 using detail::fail_store;
+using nlohmann::json;
 
 // What a matched route's handler gets: the request, the ids from its path, its query.
 struct Call {
@@ -52,10 +52,12 @@ struct Router::Handlers {
     return Response{status, "application/json", detail::dump(body), {}};
   }
   static void no_query(const Call& call) {
-    if (!call.query.empty()) fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + call.query.begin()->first + "'");
+    if (!call.query.empty())
+      fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + call.query.begin()->first + "'");
   }
   static std::string checked_site(const RouterContext& c, const std::string& site) {
-    if (auto known = fitter_of(c).optics(kServiceModel).site(site); !known) fail(ErrorKind::unprocessable, "unknown_site", known.error());
+    if (auto known = fitter_of(c).optics(kServiceModel).site(site); !known)
+      fail(ErrorKind::unprocessable, "unknown_site", known.error());
     return site;
   }
 
@@ -66,7 +68,10 @@ struct Router::Handlers {
       db["path"] = c.store->path();
       db["schema_version"] = c.store->schema_version();
     }
-    return json_response({{"status", "ok"}, {"version", kVersion}, {"database", db}, {"model", {{"loaded", c.fitter != nullptr}}},
+    return json_response({{"status", "ok"},
+                          {"version", kVersion},
+                          {"database", db},
+                          {"model", {{"loaded", c.fitter != nullptr}}},
                           {"instrument", instrument_status(c)}});
   }
   static json instrument_status(const RouterContext& c) {
@@ -74,7 +79,8 @@ struct Router::Handlers {
     return c.acquisition->instrument_status();
   }
   static Acquisition& acquisition_of(const RouterContext& c) {
-    if (c.acquisition == nullptr) fail(ErrorKind::unavailable, "no_instrument", "skinspecd was started without --device");
+    if (c.acquisition == nullptr)
+      fail(ErrorKind::unavailable, "no_instrument", "skinspecd was started without --device");
     return *c.acquisition;
   }
 
@@ -105,7 +111,8 @@ struct Router::Handlers {
     std::string key;
     if (const auto it = call.request.headers.find("idempotency-key"); it != call.request.headers.end()) {
       key = it->second;
-      if (key.empty() || key.size() > 200) fail(ErrorKind::bad_request, "invalid_parameter", "'Idempotency-Key' must be 1 to 200 characters");
+      if (key.empty() || key.size() > 200)
+        fail(ErrorKind::bad_request, "invalid_parameter", "'Idempotency-Key' must be 1 to 200 characters");
     }
     auto created = acquisition_of(c).submit(call.ids[0], request, key);
     if (!created) throw detail::HandlerError{created.error()};
@@ -116,13 +123,17 @@ struct Router::Handlers {
   static std::optional<int> integer_field(const json& body, const char* key, int min, int max) {
     const auto it = body.find(key);
     if (it == body.end()) return std::nullopt;
-    if (!it->is_number_integer()) fail(ErrorKind::unprocessable, "wrong_type", std::string("'") + key + "' must be an integer");
+    if (!it->is_number_integer())
+      fail(ErrorKind::unprocessable, "wrong_type", std::string("'") + key + "' must be an integer");
     const auto v = it->get<std::int64_t>();
     if (v < min || v > max)
-      fail(ErrorKind::unprocessable, "out_of_range", std::string("'") + key + "' must be " + std::to_string(min) + " to " + std::to_string(max));
+      fail(ErrorKind::unprocessable, "out_of_range",
+           std::string("'") + key + "' must be " + std::to_string(min) + " to " + std::to_string(max));
     return static_cast<int>(v);
   }
-  static json job_view(const RouterContext& c, store::Id job_id) { return value(current_job_json(store_of(c), c.acquisition, job_id)); }
+  static json job_view(const RouterContext& c, store::Id job_id) {
+    return value(current_job_json(store_of(c), c.acquisition, job_id));
+  }
   // GET /api/v1/jobs/{id}
   static Response get_job(const RouterContext& c, const Call& call) {
     no_query(call);
@@ -159,7 +170,8 @@ struct Router::Handlers {
   static Spectrum make_spectrum(std::vector<double> wl, std::vector<double> values, const std::string& name) {
     if (wl.size() != values.size())
       fail(ErrorKind::unprocessable, "unequal_lengths",
-           "'" + name + "' has " + std::to_string(values.size()) + " values for " + std::to_string(wl.size()) + " wavelengths");
+           "'" + name + "' has " + std::to_string(values.size()) + " values for " + std::to_string(wl.size()) +
+               " wavelengths");
     auto spectrum = Spectrum::create(std::move(wl), std::move(values));
     if (!spectrum) fail(ErrorKind::unprocessable, "invalid_spectrum", name + ": " + spectrum.error());
     return std::move(*spectrum);
@@ -177,13 +189,16 @@ struct Router::Handlers {
     if (!body.contains("wavelength_nm")) fail(ErrorKind::unprocessable, "missing_field", "'wavelength_nm' is required");
     const auto wl = detail::number_array(body["wavelength_nm"], "wavelength_nm", 1, 100000, c.max_spectrum_samples);
     const bool single = body.contains("reflectance"), several = body.contains("spectra");
-    if (single == several) fail(ErrorKind::unprocessable, "missing_field", "give exactly one of 'reflectance' and 'spectra'");
+    if (single == several)
+      fail(ErrorKind::unprocessable, "missing_field", "give exactly one of 'reflectance' and 'spectra'");
     if (single) {
       const auto name = detail::optional_string(body, "name", 200).value_or("spectrum");
       auto values = detail::number_array(body["reflectance"], "reflectance", -10, 10, c.max_spectrum_samples);
       return json_response(fit_to_json(name, run_fit(c, make_spectrum(wl, std::move(values), "reflectance"), options)));
     }
-    if (body.contains("name")) fail(ErrorKind::unprocessable, "unknown_field", "'name' goes with 'reflectance'; 'spectra' are named by their keys");
+    if (body.contains("name"))
+      fail(ErrorKind::unprocessable, "unknown_field",
+           "'name' goes with 'reflectance'; 'spectra' are named by their keys");
     const json& spectra = body["spectra"];
     if (!spectra.is_object() || spectra.empty() || spectra.size() > 100)
       fail(ErrorKind::unprocessable, "wrong_type", "'spectra' must be an object of 1 to 100 named arrays");
@@ -205,8 +220,10 @@ struct Router::Handlers {
     s.name = detail::required_string(body, "name", 200);
     s.certificate = detail::optional_string(body, "certificate", 2000).value_or("");
     for (const char* key : {"wavelength_nm", "reflectance"})
-      if (!body.contains(key)) fail(ErrorKind::unprocessable, "missing_field", std::string("'") + key + "' is required");
-    s.reflectance.wavelength_nm = detail::number_array(body["wavelength_nm"], "wavelength_nm", 1, 100000, c.max_spectrum_samples);
+      if (!body.contains(key))
+        fail(ErrorKind::unprocessable, "missing_field", std::string("'") + key + "' is required");
+    s.reflectance.wavelength_nm =
+        detail::number_array(body["wavelength_nm"], "wavelength_nm", 1, 100000, c.max_spectrum_samples);
     s.reflectance.values = detail::number_array(body["reflectance"], "reflectance", 0, 2, c.max_spectrum_samples);
     make_spectrum(s.reflectance.wavelength_nm, s.reflectance.values, "reflectance");  // same checks as a fit's input
     store::Store& db = store_of(c);
@@ -240,7 +257,8 @@ struct Router::Handlers {
     if (s.white_standard_id) {
       if (auto ws = db.white_standard(*s.white_standard_id); !ws) {
         if (ws.error().kind == store::StoreError::Kind::not_found)
-          fail(ErrorKind::unprocessable, "unknown_white_standard", "no white standard " + std::to_string(*s.white_standard_id));
+          fail(ErrorKind::unprocessable, "unknown_white_standard",
+               "no white standard " + std::to_string(*s.white_standard_id));
         fail_store(ws.error());
       }
     }
@@ -258,7 +276,9 @@ struct Router::Handlers {
   }
   static store::Time parse_time_param(const std::string& text, const char* name) {
     auto t = detail::parse_time(text);
-    if (!t) fail(ErrorKind::bad_request, "invalid_parameter", std::string("'") + name + "' must be an RFC 3339 UTC time like 2026-01-02T03:04:05Z");
+    if (!t)
+      fail(ErrorKind::bad_request, "invalid_parameter",
+           std::string("'") + name + "' must be an RFC 3339 UTC time like 2026-01-02T03:04:05Z");
     return *t;
   }
   static Response list_sessions(const RouterContext& c, const Call& call) {
@@ -267,7 +287,8 @@ struct Router::Handlers {
       if (name == "site") filter.site = text;
       else if (name == "state") {
         filter.state = store::parse_session_state(text);
-        if (!filter.state) fail(ErrorKind::bad_request, "invalid_parameter", "'state' must be open, complete, interrupted or aborted");
+        if (!filter.state)
+          fail(ErrorKind::bad_request, "invalid_parameter", "'state' must be open, complete, interrupted or aborted");
       } else if (name == "from") filter.created_from = parse_time_param(text, "from");
       else if (name == "to") filter.created_before = parse_time_param(text, "to");
       else if (name == "cursor") filter.cursor = parse_id(text, "cursor");
@@ -280,14 +301,16 @@ struct Router::Handlers {
     const auto page = value(store_of(c).sessions(filter));
     json list = json::array();
     for (const auto& s : page.sessions) list.push_back(records::to_json(s));
-    return json_response({{"sessions", list}, {"next_cursor", page.next_cursor ? json(*page.next_cursor) : json(nullptr)}});
+    return json_response(
+        {{"sessions", list}, {"next_cursor", page.next_cursor ? json(*page.next_cursor) : json(nullptr)}});
   }
   static Response get_session(const RouterContext& c, const Call& call) {
     no_query(call);
     const auto detail_ = value(store_of(c).session_detail(call.ids[0]));
     json out = records::to_json(detail_.session);
     json measurements = json::array(), fits = json::array();
-    for (const auto& m : detail_.measurements) measurements.push_back(records::to_json(m, records::latest_fit_of(m.id, detail_.fits)));
+    for (const auto& m : detail_.measurements)
+      measurements.push_back(records::to_json(m, records::latest_fit_of(m.id, detail_.fits)));
     for (const auto& f : detail_.fits) fits.push_back(records::to_json(f));
     json rejected = json::array();
     for (const auto& r : detail_.rejected_readings) rejected.push_back(records::to_json(r));
@@ -303,23 +326,27 @@ struct Router::Handlers {
     update.notes = detail::optional_string(body, "notes", 20000);
     if (auto state = detail::optional_string(body, "state", 32)) {
       update.state = store::parse_session_state(*state);
-      if (!update.state) fail(ErrorKind::unprocessable, "invalid_value", "'state' must be open, complete, interrupted or aborted");
+      if (!update.state)
+        fail(ErrorKind::unprocessable, "invalid_value", "'state' must be open, complete, interrupted or aborted");
     }
     if (auto close = detail::optional_bool(body, "close"); close && *close) {
       if (update.state && *update.state != store::SessionState::complete)
         fail(ErrorKind::unprocessable, "invalid_value", "'close' and 'state' disagree");
       update.state = store::SessionState::complete;
     }
-    if (!update.notes && !update.state) fail(ErrorKind::unprocessable, "missing_field", "nothing to change: give 'notes', 'close' or 'state'");
+    if (!update.notes && !update.state)
+      fail(ErrorKind::unprocessable, "missing_field", "nothing to change: give 'notes', 'close' or 'state'");
     return json_response(records::to_json(value(store_of(c).update_session(call.ids[0], update))));
   }
   static Response export_csv(const RouterContext& c, const Call& call) {
     no_query(call);
     std::ostringstream out;
     records::write_csv_header(out);
-    if (auto done = records::export_session(store_of(c), call.ids[0], records::ExportFormat::csv, out); !done) fail_store(done.error());
+    if (auto done = records::export_session(store_of(c), call.ids[0], records::ExportFormat::csv, out); !done)
+      fail_store(done.error());
     Response r{200, "text/csv; charset=utf-8", out.str(), {}};
-    r.headers.emplace_back("Content-Disposition", "attachment; filename=\"session-" + std::to_string(call.ids[0]) + ".csv\"");
+    r.headers.emplace_back("Content-Disposition",
+                           "attachment; filename=\"session-" + std::to_string(call.ids[0]) + ".csv\"");
     return r;
   }
 
@@ -358,7 +385,8 @@ struct Router::Handlers {
     json list = json::array();
     for (const auto& name : fitter_of(c).optics(kServiceModel).site_names()) {
       const auto site = fitter_of(c).optics(kServiceModel).site(name);
-      if (site) list.push_back({{"name", site->name}, {"epidermis_mm", site->epidermis_mm}, {"dermis_mm", site->dermis_mm}});
+      if (site)
+        list.push_back({{"name", site->name}, {"epidermis_mm", site->epidermis_mm}, {"dermis_mm", site->dermis_mm}});
     }
     return json_response({{"sites", list}});
   }
@@ -371,14 +399,16 @@ struct Router::Handlers {
     detail::only_fields(body, {"site", "lateral_diffusion"});
     store::Store& db = store_of(c);
     const auto m = value(db.measurement(call.ids[0]));
-    if (m.reflectance.empty()) fail(ErrorKind::conflict, "no_reflectance", "measurement " + std::to_string(m.id) + " has no reflectance to fit");
+    if (m.reflectance.empty())
+      fail(ErrorKind::conflict, "no_reflectance", "measurement " + std::to_string(m.id) + " has no reflectance to fit");
     FitOptions options;
     options.model = kServiceModel;
     options.site = detail::optional_string(body, "site", 64).value_or("");
     if (options.site.empty()) options.site = value(db.session(m.session_id)).site;
     checked_site(c, options.site);
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
-    const auto result = run_fit(c, make_spectrum(m.reflectance.wavelength_nm, m.reflectance.values, "reflectance"), options);
+    const auto result =
+        run_fit(c, make_spectrum(m.reflectance.wavelength_nm, m.reflectance.values, "reflectance"), options);
     store::Fit f = records::to_store_fit(result, options, fitter_of(c).optics(kServiceModel).tables_digest());
     f.measurement_id = m.id;
     const store::Id id = value(db.add_fit(f));
@@ -419,26 +449,78 @@ const std::vector<Route>& route_table() {
         {{"GET", "/healthz", "Liveness, database state and version", false, "", "Health", 200}, &H::healthz, {}},
         {{"GET", "/openapi.json", "This OpenAPI document", false, "", "OpenApi", 200}, &H::openapi, {}},
         {{"GET", "/metrics", "Prometheus metrics", false, "", "text/plain", 200}, &H::metrics, {}},
-        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest", "FitResponse", 200, true}, &H::fit, {}},
-        {{"GET", "/api/v1/sites", "The body sites the model knows, with their layer thicknesses", false, "", "SiteList", 200}, &H::sites, {}},
-        {{"POST", "/api/v1/white-standards", "Store a white standard", true, "WhiteStandardCreate", "WhiteStandard", 201}, &H::create_white_standard, {}},
-        {{"GET", "/api/v1/white-standards", "List white standards", false, "", "WhiteStandardList", 200}, &H::list_white_standards, {}},
-        {{"GET", "/api/v1/white-standards/{id}", "One white standard", false, "", "WhiteStandard", 200}, &H::get_white_standard, {}},
+        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest",
+          "FitResponse", 200, true},
+         &H::fit,
+         {}},
+        {{"GET", "/api/v1/sites", "The body sites the model knows, with their layer thicknesses", false, "", "SiteList",
+          200},
+         &H::sites,
+         {}},
+        {{"POST", "/api/v1/white-standards", "Store a white standard", true, "WhiteStandardCreate", "WhiteStandard",
+          201},
+         &H::create_white_standard,
+         {}},
+        {{"GET", "/api/v1/white-standards", "List white standards", false, "", "WhiteStandardList", 200},
+         &H::list_white_standards,
+         {}},
+        {{"GET", "/api/v1/white-standards/{id}", "One white standard", false, "", "WhiteStandard", 200},
+         &H::get_white_standard,
+         {}},
         {{"POST", "/api/v1/sessions", "Open a session", true, "SessionCreate", "Session", 201}, &H::create_session, {}},
-        {{"GET", "/api/v1/sessions", "List sessions, newest first, with cursor pagination", false, "", "SessionPage", 200}, &H::list_sessions, {}},
-        {{"GET", "/api/v1/sessions/{id}", "One session with its measurements, fits and rejected readings", false, "", "SessionDetail", 200}, &H::get_session, {}},
-        {{"PATCH", "/api/v1/sessions/{id}", "Change a session's notes or close it", true, "SessionUpdate", "Session", 200}, &H::patch_session, {}},
-        {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", false, "", "text/csv", 200}, &H::export_csv, {}},
-        {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id", false, "", "Measurement", 200}, &H::get_measurement, {}},
-        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true, "RefitRequest", "Fit", 201, true}, &H::refit, {}},
-        {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200}, &H::get_fit, {}},
-        {{"GET", "/api/v1/instrument", "The instrument's state (connected, measuring, lost ...), port, last error and reconnection", false, "", "Instrument", 200}, &H::instrument, {}},
-        {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true, "MeasureRequest", "Job", 202}, &H::measure, {}},
-        {{"GET", "/api/v1/jobs/{id}", "One job: state, queue position, progress, error, the ids it produced", false, "", "Job", 200}, &H::get_job, {}},
+        {{"GET", "/api/v1/sessions", "List sessions, newest first, with cursor pagination", false, "", "SessionPage",
+          200},
+         &H::list_sessions,
+         {}},
+        {{"GET", "/api/v1/sessions/{id}", "One session with its measurements, fits and rejected readings", false, "",
+          "SessionDetail", 200},
+         &H::get_session,
+         {}},
+        {{"PATCH", "/api/v1/sessions/{id}", "Change a session's notes or close it", true, "SessionUpdate", "Session",
+          200},
+         &H::patch_session,
+         {}},
+        {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", false, "", "text/csv", 200},
+         &H::export_csv,
+         {}},
+        {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id",
+          false, "", "Measurement", 200},
+         &H::get_measurement,
+         {}},
+        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true,
+          "RefitRequest", "Fit", 201, true},
+         &H::refit,
+         {}},
+        {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200},
+         &H::get_fit,
+         {}},
+        {{"GET", "/api/v1/instrument",
+          "The instrument's state (connected, measuring, lost ...), port, last error and reconnection", false, "",
+          "Instrument", 200},
+         &H::instrument,
+         {}},
+        {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true,
+          "MeasureRequest", "Job", 202},
+         &H::measure,
+         {}},
+        {{"GET", "/api/v1/jobs/{id}", "One job: state, queue position, progress, error, the ids it produced", false, "",
+          "Job", 200},
+         &H::get_job,
+         {}},
         {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
-        {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", false, "", "text/event-stream", 200}, &H::job_events, {}},
-        {{"GET", "/api/v1/ports", "Serial ports and USB serial adapters present, with the --device URI of each", false, "", "PortList", 200}, &H::ports, {}},
-        {{"GET", "/api/v1/fits/{id}/render.png", "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200, true}, &H::render_fit, {}},
+        {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", false, "",
+          "text/event-stream", 200},
+         &H::job_events,
+         {}},
+        {{"GET", "/api/v1/ports", "Serial ports and USB serial adapters present, with the --device URI of each", false,
+          "", "PortList", 200},
+         &H::ports,
+         {}},
+        {{"GET", "/api/v1/fits/{id}/render.png",
+          "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200,
+          true},
+         &H::render_fit,
+         {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;
@@ -448,7 +530,8 @@ const std::vector<Route>& route_table() {
 
 bool segment_matches(const std::string& pattern, const std::string& segment, std::vector<store::Id>& ids) {
   if (pattern != "{id}") return pattern == segment;
-  if (segment.empty() || segment.size() > 18 || !std::all_of(segment.begin(), segment.end(), [](char ch) { return ch >= '0' && ch <= '9'; }))
+  if (segment.empty() || segment.size() > 18 ||
+      !std::all_of(segment.begin(), segment.end(), [](char ch) { return ch >= '0' && ch <= '9'; }))
     return false;
   const store::Id id = std::stoll(segment);
   if (id <= 0) return false;
@@ -458,13 +541,14 @@ bool segment_matches(const std::string& pattern, const std::string& segment, std
 
 // The route for `method` on a path's segments, with the ids taken from them; nullptr when there
 // is none, and then the methods the path has in `allow`.
-const Route* find_route(const std::string& method, const std::vector<std::string>& segments, std::vector<store::Id>& ids,
-                        std::string& allow) {
+const Route* find_route(const std::string& method, const std::vector<std::string>& segments,
+                        std::vector<store::Id>& ids, std::string& allow) {
   for (const auto& route : route_table()) {
     if (route.segments.size() != segments.size()) continue;
     std::vector<store::Id> route_ids;
     bool ok = true;
-    for (std::size_t i = 0; ok && i < segments.size(); ++i) ok = segment_matches(route.segments[i], segments[i], route_ids);
+    for (std::size_t i = 0; ok && i < segments.size(); ++i)
+      ok = segment_matches(route.segments[i], segments[i], route_ids);
     if (!ok) continue;
     if (route.info.method == method) {
       ids = std::move(route_ids);
@@ -511,7 +595,8 @@ bool is_json_content_type(const Request& request) {
   const auto it = request.headers.find("content-type");
   if (it == request.headers.end()) return false;
   std::string type = it->second.substr(0, it->second.find(';'));
-  std::transform(type.begin(), type.end(), type.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  std::transform(type.begin(), type.end(), type.begin(),
+                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
   while (!type.empty() && type.back() == ' ') type.pop_back();
   return type == "application/json";
 }
@@ -556,9 +641,11 @@ Response Router::handle(const Request& request) const {
     const std::string_view target = request.target;
     const auto qmark = target.find('?');
     const std::string_view raw_path = target.substr(0, qmark);
-    if (raw_path.empty() || raw_path.front() != '/') fail(ErrorKind::bad_request, "invalid_path", "the target must be an absolute path");
+    if (raw_path.empty() || raw_path.front() != '/')
+      fail(ErrorKind::bad_request, "invalid_path", "the target must be an absolute path");
     const auto path = detail::percent_decode(raw_path, false);
-    if (!path || !detail::valid_utf8(*path) || path->find('\0') != std::string::npos || path->find('\\') != std::string::npos)
+    if (!path || !detail::valid_utf8(*path) || path->find('\0') != std::string::npos ||
+        path->find('\\') != std::string::npos)
       fail(ErrorKind::bad_request, "invalid_path", "the path is not valid percent-encoded UTF-8");
     const auto segments = split_path(*path);
     for (const auto& s : segments)
@@ -574,16 +661,19 @@ Response Router::handle(const Request& request) const {
     const Route* matched = find_route(request.method, segments, ids, allow);
     if (matched == nullptr) {
       if (allow.empty()) fail(ErrorKind::not_found, "not_found", "no route for " + *path);
-      response = error_response({ErrorKind::method_not_allowed, "", request.method + " is not allowed here; allowed: " + allow});
+      response = error_response(
+          {ErrorKind::method_not_allowed, "", request.method + " is not allowed here; allowed: " + allow});
       response.headers.emplace_back("Allow", allow);
     } else {
       route_label = matched->info.method + " " + matched->info.path;
       check_access(context_.access, request, matched->info);
-      if (!matched->info.request_schema.empty() && !(request.body.empty() && matched->info.path == "/api/v1/measurements/{id}/fit") &&
+      if (!matched->info.request_schema.empty() &&
+          !(request.body.empty() && matched->info.path == "/api/v1/measurements/{id}/fit") &&
           !is_json_content_type(request))
         fail(ErrorKind::unsupported_media_type, "unsupported_media_type", "the body must be application/json");
       auto query = detail::parse_query(qmark == std::string_view::npos ? std::string_view{} : target.substr(qmark + 1));
-      if (!query) fail(ErrorKind::bad_request, "invalid_query", "the query string is malformed, repeats a name or is not UTF-8");
+      if (!query)
+        fail(ErrorKind::bad_request, "invalid_query", "the query string is malformed, repeats a name or is not UTF-8");
       response = matched->handler(context_, Call{request, std::move(ids), std::move(*query)});
     }
   } catch (const detail::HandlerError& e) {
@@ -594,7 +684,8 @@ Response Router::handle(const Request& request) const {
   }
   if (response.status >= 400) {
     const json body = json::parse(response.body, nullptr, false);
-    context_.metrics->record_error(body.is_object() && body.contains("error") ? body["error"].value("code", "unknown") : "unknown");
+    context_.metrics->record_error(body.is_object() && body.contains("error") ? body["error"].value("code", "unknown")
+                                                                              : "unknown");
   }
   context_.metrics->record_request(route_label, response.status, std::chrono::steady_clock::now() - started);
   return response;

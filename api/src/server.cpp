@@ -71,9 +71,12 @@ Server::State::State(const Router& r, ServerOptions o)
       limits{options.body_limit, options.header_limit},
       workers(static_cast<std::size_t>(std::max(1, options.worker_threads))),
       compute(options.compute_threads, options.compute_queue,
-              [&metrics = r.metrics()](std::size_t running, std::size_t waiting) { metrics.set_compute_load(running, waiting); }) {}
+              [&metrics = r.metrics()](std::size_t running, std::size_t waiting) {
+                metrics.set_compute_load(running, waiting);
+              }) {}
 
-Server::Server(const Router& router, ServerOptions options) : state_(std::make_shared<State>(router, std::move(options))) {}
+Server::Server(const Router& router, ServerOptions options)
+    : state_(std::make_shared<State>(router, std::move(options))) {}
 
 Server::~Server() {
   stop();

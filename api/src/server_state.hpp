@@ -31,7 +31,7 @@ struct Server::State {
   detail::EventPullers pullers;
   std::shared_ptr<detail::Listener> listener;  // from listen()
 
-  std::mutex mutex;  // what follows
+  std::mutex mutex;                                    // what follows
   std::optional<detail::ConnectionTable> connections;  // from listen(), with the affordable cap
   std::unordered_map<detail::ConnectionTable::Id, std::weak_ptr<detail::Session>> sessions;
   detail::ConnectionTable::Id last_id = 0;

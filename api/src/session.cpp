@@ -59,10 +59,11 @@ void Session::do_read() {
   stream_.expires_after(state_->options.read_timeout);
   if (buffer_.size() > 0) return read_header();  // a pipelined request is here already
   set_idle();
-  stream_.async_read_some(buffer_.prepare(kFirstRead), [self = shared_from_this()](beast::error_code ec, std::size_t n) {
-    self->buffer_.commit(n);
-    self->on_first_bytes(ec);
-  });
+  stream_.async_read_some(buffer_.prepare(kFirstRead),
+                          [self = shared_from_this()](beast::error_code ec, std::size_t n) {
+                            self->buffer_.commit(n);
+                            self->on_first_bytes(ec);
+                          });
 }
 
 void Session::on_first_bytes(const beast::error_code& ec) {
@@ -71,13 +72,15 @@ void Session::on_first_bytes(const beast::error_code& ec) {
 }
 
 void Session::read_header() {
-  http::async_read_header(stream_, buffer_, *parser_, [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_header(ec); });
+  http::async_read_header(stream_, buffer_, *parser_,
+                          [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_header(ec); });
 }
 
 void Session::on_header(const beast::error_code& ec) {
   if (ec) return on_read_failure(ec);
   if (auto refused = check_framing(parser_->get())) return send_error(*refused, parser_->get().version());
-  http::async_read(stream_, buffer_, *parser_, [self = shared_from_this()](beast::error_code read_ec, std::size_t) { self->on_read(read_ec); });
+  http::async_read(stream_, buffer_, *parser_,
+                   [self = shared_from_this()](beast::error_code read_ec, std::size_t) { self->on_read(read_ec); });
 }
 
 void Session::on_read(const beast::error_code& ec) {
@@ -96,10 +99,13 @@ void Session::answer(const std::shared_ptr<RequestMessage>& message) {
   message->body() = std::string();  // the router's copy is the one needed
   // The guard keeps the I/O threads running while the router answers, even once the listener
   // has stopped and nothing else is pending, so that the answer is still written.
-  auto work = [self = shared_from_this(), message, request, guard = asio::make_work_guard(stream_.get_executor())]() mutable {
+  auto work = [self = shared_from_this(), message, request,
+               guard = asio::make_work_guard(stream_.get_executor())]() mutable {
     auto response = std::make_shared<Response>(self->state_->router.handle(*request));
     auto executor = self->stream_.get_executor();
-    asio::post(executor, [self = std::move(self), message, response, guard = std::move(guard)] { self->respond(*message, *response); });
+    asio::post(executor, [self = std::move(self), message, response, guard = std::move(guard)] {
+      self->respond(*message, *response);
+    });
   };
   if (!Router::is_heavy(request->method, request->target)) return asio::post(state_->workers, std::move(work));
   if (!state_->compute.try_post(std::move(work))) refuse_busy(*message);
@@ -108,8 +114,8 @@ void Session::answer(const std::shared_ptr<RequestMessage>& message) {
 void Session::refuse_busy(const RequestMessage& message) {
   const auto& pool = state_->compute;
   Response busy = error_response({ErrorKind::unavailable, "compute_busy",
-                                  "every fit and render slot is taken (" + std::to_string(pool.threads()) + " running, " +
-                                      std::to_string(pool.queue()) + " waiting); retry later"});
+                                  "every fit and render slot is taken (" + std::to_string(pool.threads()) +
+                                      " running, " + std::to_string(pool.queue()) + " waiting); retry later"});
   busy.headers.emplace_back("Retry-After", std::to_string(kRetryAfterSeconds));
   state_->router.metrics().record_error("compute_busy");
   respond(message, busy);
@@ -149,15 +155,16 @@ void Session::start_events(const Response& response, unsigned version) {
   auto header = std::make_shared<Reply>(stream_header(response, version));
   auto serializer = std::make_shared<http::response_serializer<http::string_body>>(*header);
   stream_.expires_after(state_->options.write_timeout);
-  http::async_write_header(stream_, *serializer, [self = shared_from_this(), header, serializer](beast::error_code ec, std::size_t) {
-    self->stream_.expires_never();
-    if (ec) {
-      self->events_->hang_up();
-      return self->do_close();
-    }
-    self->watch_for_hang_up();
-    self->state_->pullers.start(self->events_, [self] { self->pull_events(); });
-  });
+  http::async_write_header(stream_, *serializer,
+                           [self = shared_from_this(), header, serializer](beast::error_code ec, std::size_t) {
+                             self->stream_.expires_never();
+                             if (ec) {
+                               self->events_->hang_up();
+                               return self->do_close();
+                             }
+                             self->watch_for_hang_up();
+                             self->state_->pullers.start(self->events_, [self] { self->pull_events(); });
+                           });
 }
 
 // On the puller's thread: until the source ends or the client is gone.
@@ -165,9 +172,10 @@ void Session::pull_events() {
   const auto keep_alive = state_->options.event_keep_alive;
   while (auto piece = events_->source().next(keep_alive)) {
     if (!events_->claim_write()) break;
-    asio::post(stream_.get_executor(), [self = shared_from_this(), piece = std::make_shared<std::string>(std::move(*piece))] {
-      self->write_chunk(piece);
-    });
+    asio::post(stream_.get_executor(),
+               [self = shared_from_this(), piece = std::make_shared<std::string>(std::move(*piece))] {
+                 self->write_chunk(piece);
+               });
   }
   const bool client_there = events_->claim_write();
   asio::post(stream_.get_executor(), [self = shared_from_this(), client_there] {
@@ -182,15 +190,17 @@ void Session::pull_events() {
 
 void Session::write_chunk(const std::shared_ptr<std::string>& piece) {
   stream_.expires_after(state_->options.write_timeout);
-  asio::async_write(stream_, http::make_chunk(asio::buffer(*piece)), [self = shared_from_this(), piece](beast::error_code ec, std::size_t) {
-    self->stream_.expires_never();
-    self->events_->written(!ec);
-  });
+  asio::async_write(stream_, http::make_chunk(asio::buffer(*piece)),
+                    [self = shared_from_this(), piece](beast::error_code ec, std::size_t) {
+                      self->stream_.expires_never();
+                      self->events_->written(!ec);
+                    });
 }
 
 // A client of a stream sends nothing more; the socket turning readable means it hung up.
 void Session::watch_for_hang_up() {
-  stream_.socket().async_wait(tcp::socket::wait_read, [self = shared_from_this()](beast::error_code) { self->events_->hang_up(); });
+  stream_.socket().async_wait(tcp::socket::wait_read,
+                              [self = shared_from_this()](beast::error_code) { self->events_->hang_up(); });
 }
 
 bool Session::set_busy() {

@@ -44,7 +44,9 @@ std::optional<E> value_in(std::span<const std::pair<E, std::string_view>> names,
 
 std::span<const std::pair<InstrumentState, std::string_view>> instrument_state_names() { return kInstrumentStates; }
 std::string_view to_string(InstrumentState state) { return name_in(instrument_state_names(), state); }
-std::optional<InstrumentState> parse_instrument_state(std::string_view text) { return value_in(instrument_state_names(), text); }
+std::optional<InstrumentState> parse_instrument_state(std::string_view text) {
+  return value_in(instrument_state_names(), text);
+}
 
 std::span<const std::pair<JobPhase, std::string_view>> job_phase_names() { return kJobPhases; }
 std::string_view to_string(JobPhase phase) { return name_in(job_phase_names(), phase); }

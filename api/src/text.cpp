@@ -13,11 +13,20 @@ bool valid_utf8(std::string_view text) {
     const auto c = static_cast<unsigned char>(text[i]);
     std::size_t len = 0;
     std::uint32_t cp = 0;
-    if (c < 0x80) { ++i; continue; }
-    if ((c & 0xE0) == 0xC0) { len = 2; cp = c & 0x1Fu; }
-    else if ((c & 0xF0) == 0xE0) { len = 3; cp = c & 0x0Fu; }
-    else if ((c & 0xF8) == 0xF0) { len = 4; cp = c & 0x07u; }
-    else return false;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    if ((c & 0xE0) == 0xC0) {
+      len = 2;
+      cp = c & 0x1Fu;
+    } else if ((c & 0xF0) == 0xE0) {
+      len = 3;
+      cp = c & 0x0Fu;
+    } else if ((c & 0xF8) == 0xF0) {
+      len = 4;
+      cp = c & 0x07u;
+    } else return false;
     if (i + len > text.size()) return false;
     for (std::size_t k = 1; k < len; ++k) {
       const auto cc = static_cast<unsigned char>(text[i + k]);
@@ -89,8 +98,8 @@ bool read_int(std::string_view text, std::size_t pos, std::size_t len, int& out)
 std::optional<store::Time> parse_time(std::string_view text) {
   int y = 0, mo = 0, d = 0, h = 0, mi = 0, s = 0;
   if (text.size() < 20 || !read_int(text, 0, 4, y) || text[4] != '-' || !read_int(text, 5, 2, mo) || text[7] != '-' ||
-      !read_int(text, 8, 2, d) || (text[10] != 'T' && text[10] != 't') || !read_int(text, 11, 2, h) || text[13] != ':' ||
-      !read_int(text, 14, 2, mi) || text[16] != ':' || !read_int(text, 17, 2, s))
+      !read_int(text, 8, 2, d) || (text[10] != 'T' && text[10] != 't') || !read_int(text, 11, 2, h) ||
+      text[13] != ':' || !read_int(text, 14, 2, mi) || text[16] != ':' || !read_int(text, 17, 2, s))
     return std::nullopt;
   std::size_t pos = 19;
   long micros = 0;

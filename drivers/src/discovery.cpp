@@ -24,9 +24,12 @@ std::string text(const char* maybe_null) { return maybe_null ? maybe_null : ""; 
 
 std::string kind_name(sp_transport transport) {
   switch (transport) {
-    case SP_TRANSPORT_NATIVE: return "native";
-    case SP_TRANSPORT_USB: return "usb";
-    case SP_TRANSPORT_BLUETOOTH: return "bluetooth";
+    case SP_TRANSPORT_NATIVE:
+      return "native";
+    case SP_TRANSPORT_USB:
+      return "usb";
+    case SP_TRANSPORT_BLUETOOTH:
+      return "bluetooth";
   }
   return "unknown";
 }
@@ -122,11 +125,13 @@ std::expected<std::string, std::string> find_usb_port(unsigned short vendor_id, 
   std::string wanted = usb_id(vendor_id, product_id);
   if (!serial_number.empty()) wanted += fmt::format(" with serial number '{}'", serial_number);
   if (matches.size() > 1)
-    return std::unexpected(fmt::format("{} USB serial adapters {} are connected ({}); add the serial number "
-                                       "(usb:VID:PID:SERIAL) or name the port (serial:PATH)",
-                                       matches.size(), wanted, adapter_list(matches)));
+    return std::unexpected(
+        fmt::format("{} USB serial adapters {} are connected ({}); add the serial number "
+                    "(usb:VID:PID:SERIAL) or name the port (serial:PATH)",
+                    matches.size(), wanted, adapter_list(matches)));
   if (adapters.empty())
-    return std::unexpected(fmt::format("no USB serial adapter {} is connected; no USB serial adapters are present", wanted));
+    return std::unexpected(
+        fmt::format("no USB serial adapter {} is connected; no USB serial adapters are present", wanted));
   return std::unexpected(
       fmt::format("no USB serial adapter {} is connected; present: {}", wanted, adapter_list(adapters)));
 }

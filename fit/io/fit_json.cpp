@@ -14,7 +14,8 @@ std::string_view param_name(ModelKind model, std::size_t i) { return model_spec(
 nlohmann::json determination_json(const FitResult& fit, const ParamDetermination& d) {
   nlohmann::json out = {{"determined", d.determined()}};
   if (!d.determined()) out["reason"] = to_string(d.status);
-  if (d.correlated_with >= 0) out["correlated_with"] = param_name(fit.model, static_cast<std::size_t>(d.correlated_with));
+  if (d.correlated_with >= 0)
+    out["correlated_with"] = param_name(fit.model, static_cast<std::size_t>(d.correlated_with));
   return out;
 }
 

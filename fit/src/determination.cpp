@@ -19,7 +19,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kCorrelationLimit = 0.9;
 
 // The standard error up to which an estimate counts as determined.
-double precision(double absolute, double relative, double value) { return std::max(absolute, relative * std::abs(value)); }
+double precision(double absolute, double relative, double value) {
+  return std::max(absolute, relative * std::abs(value));
+}
 
 bool on_bound(const ParamSpec& spec, double value, Pin pin) {
   if (pin != Pin::none) return true;
@@ -131,7 +133,8 @@ struct Judged {
 };
 
 // The most correlated other parameter of j among `candidates`, and the correlation's size.
-std::pair<int, double> most_correlated(const Eigen::MatrixXd& c, std::size_t j, const std::vector<std::size_t>& candidates) {
+std::pair<int, double> most_correlated(const Eigen::MatrixXd& c, std::size_t j,
+                                       const std::vector<std::size_t>& candidates) {
   std::pair<int, double> best{-1, 0.0};
   for (const std::size_t l : candidates) {
     if (l == j) continue;
@@ -158,7 +161,8 @@ DerivedQuantity derive(const Derivation& d, const Judged& judged) {
   for (const std::size_t a : d.inputs)
     for (const std::size_t b : d.inputs)
       if (status_of(a) != Determination::held && status_of(b) != Determination::held)
-        variance += d.gradient[a] * d.gradient[b] * judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+        variance += d.gradient[a] * d.gradient[b] *
+                    judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
   const double se = std::sqrt(variance);
   q.standard_error = se;
   if (!std::isfinite(d.value) || !std::isfinite(se) || se > d.range) {
@@ -173,7 +177,8 @@ DerivedQuantity derive(const Derivation& d, const Judged& judged) {
     if (std::ranges::find(d.inputs, l) == d.inputs.end()) others.push_back(l);
   q.status = Determination::imprecise;
   for (const std::size_t i : d.inputs)
-    if (status_of(i) != Determination::held && most_correlated(judged.covariance, i, others).second >= kCorrelationLimit)
+    if (status_of(i) != Determination::held &&
+        most_correlated(judged.covariance, i, others).second >= kCorrelationLimit)
       q.status = Determination::correlated;
   return q;
 }
@@ -196,7 +201,8 @@ FitUncertainty assess_uncertainty(ModelKind model, const Eigen::MatrixXd& jacobi
     if (!held[i] && on_bound(specs[i], params[i], pinned[i])) judged.determination[i].status = Determination::at_bound;
   }
   Eigen::MatrixXd j_free(jacobian.rows(), static_cast<Eigen::Index>(free.size()));
-  for (std::size_t f = 0; f < free.size(); ++f) j_free.col(static_cast<Eigen::Index>(f)) = jacobian.col(static_cast<Eigen::Index>(free[f]));
+  for (std::size_t f = 0; f < free.size(); ++f)
+    j_free.col(static_cast<Eigen::Index>(f)) = jacobian.col(static_cast<Eigen::Index>(free[f]));
   const Eigen::MatrixXd c_free = covariance(j_free, cost);
   judged.covariance = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n), kNaN);
   for (std::size_t a = 0; a < free.size(); ++a)
@@ -209,9 +215,10 @@ FitUncertainty assess_uncertainty(ModelKind model, const Eigen::MatrixXd& jacobi
   out.correlation.assign(n * n, kNaN);
   for (const std::size_t a : free)
     for (const std::size_t b : free)
-      out.correlation[a * n + b] = judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) /
-                                   std::sqrt(judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(a)) *
-                                             judged.covariance(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(b)));
+      out.correlation[a * n + b] =
+          judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) /
+          std::sqrt(judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(a)) *
+                    judged.covariance(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(b)));
   for (const std::size_t j : free) {
     auto& d = judged.determination[j];
     if (d.status == Determination::at_bound) continue;

@@ -11,12 +11,18 @@ namespace skinspec {
 
 std::string_view to_string(Determination d) {
   switch (d) {
-    case Determination::determined: return "determined";
-    case Determination::at_bound: return "at_bound";
-    case Determination::correlated: return "correlated";
-    case Determination::imprecise: return "imprecise";
-    case Determination::unconstrained: return "unconstrained";
-    case Determination::held: return "held";
+    case Determination::determined:
+      return "determined";
+    case Determination::at_bound:
+      return "at_bound";
+    case Determination::correlated:
+      return "correlated";
+    case Determination::imprecise:
+      return "imprecise";
+    case Determination::unconstrained:
+      return "unconstrained";
+    case Determination::held:
+      return "held";
   }
   return "unknown";
 }
@@ -63,7 +69,8 @@ std::expected<std::pair<std::vector<bool>, Params>, std::string> held_parameters
       return std::unexpected(fmt::format("model {} has no parameter {} to hold", to_string(options.model), index));
     const ParamSpec& spec = specs[index];
     if (!(value >= spec.lower && value <= spec.upper))
-      return std::unexpected(fmt::format("{} can only be held within {}..{}, not at {}", spec.name, spec.lower, spec.upper, value));
+      return std::unexpected(
+          fmt::format("{} can only be held within {}..{}, not at {}", spec.name, spec.lower, spec.upper, value));
     held[index] = true;
     values[index] = value;
   }
@@ -73,9 +80,10 @@ std::expected<std::pair<std::vector<bool>, Params>, std::string> held_parameters
 std::string coverage_note(const FitResult& r) {
   const double first = r.wavelength_nm.front(), last = r.wavelength_nm.back();
   if (first <= SkinOptics::kFirstNm + 5 && last >= SkinOptics::kLastNm - 5) return {};
-  return fmt::format("fitted over {}-{} nm of the model's {}-{} nm; what the spectrum leaves out widens the "
-                     "standard errors",
-                     first, last, SkinOptics::kFirstNm, SkinOptics::kLastNm);
+  return fmt::format(
+      "fitted over {}-{} nm of the model's {}-{} nm; what the spectrum leaves out widens the "
+      "standard errors",
+      first, last, SkinOptics::kFirstNm, SkinOptics::kLastNm);
 }
 
 }  // namespace
@@ -123,8 +131,8 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   const SkinModel model(skin, *site, result.wavelength_nm, options.lateral_diffusion);
   std::vector<double> sqrt_weights(samples->weights.size());
   std::ranges::transform(samples->weights, sqrt_weights.begin(), [](double w) { return std::sqrt(w); });
-  const detail::Problem problem{model, result.measured, samples->weights, sqrt_weights, std::move(held->first),
-                                std::move(held->second)};
+  const detail::Problem problem{model,        result.measured,        samples->weights,
+                                sqrt_weights, std::move(held->first), std::move(held->second)};
 
   const detail::Solution best = detail::solve(problem);
   result.params = best.params;

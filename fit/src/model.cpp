@@ -14,8 +14,9 @@ SkinModel::SkinModel(const SkinOptics& optics, const Site& site, std::span<const
   const LayerOptics o = optics.optics().resampled(grid_nm);
   at_.resize(grid_.size());
   for (std::size_t i = 0; i < grid_.size(); ++i)
-    at_[i] = {o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i],
-              std::log(grid_[i] / kScatteringPivotNm)};
+    at_[i] = {o.Ke[i],  o.Se[i], o.Kd[i],
+              o.Sd[i],  o.Km[i], o.Kh[i],
+              o.Kdh[i], o.Kb[i], std::log(grid_[i] / kScatteringPivotNm)};
 }
 
 std::vector<double> SkinModel::reflectance(const Params& p) const {

@@ -39,7 +39,8 @@ constexpr ParamSpec kExtendedParams[] = {
 };
 
 // The constants both models tune: scattering and thickness scales, the lateral-diffusion radius.
-constexpr ConstantSpec kEpidermisScatteringScale{"epidermis_scattering_scale", 0.33, 3.0, 1, ConstantScale::logarithmic};
+constexpr ConstantSpec kEpidermisScatteringScale{"epidermis_scattering_scale", 0.33, 3.0, 1,
+                                                 ConstantScale::logarithmic};
 constexpr ConstantSpec kEpidermisThicknessScale{"epidermis_thickness_scale", 0.5, 2.0, 1, ConstantScale::logarithmic};
 // Also stands in for a hypodermis that is not quite white.
 constexpr ConstantSpec kDermisThicknessScale{"dermis_thickness_scale", 0.5, 5.0, 1, ConstantScale::logarithmic};

@@ -37,8 +37,7 @@ struct Loaded {
   std::uint64_t hash = 0xcbf29ce484222325ULL;
   const DataReader& read;
 
-  std::expected<Table, InputError> table(std::string_view path,
-                                         std::initializer_list<std::string_view> columns) {
+  std::expected<Table, InputError> table(std::string_view path, std::initializer_list<std::string_view> columns) {
     auto bytes = read(path);
     if (!bytes) return std::unexpected(InputError{std::string(path), 0, 0, bytes.error()});
     hash = fnv1a(fnv1a(hash, path), *bytes);
@@ -52,8 +51,8 @@ std::expected<std::vector<double>, InputError> on_grid(const Table& t, std::stri
                                                        std::span<const double> grid) {
   const auto w = t.column("wavelength_nm");
   if (w.empty() || w.front() > grid.front() || w.back() < grid.back())
-    return std::unexpected(InputError{t.source(), 0, 0,
-        fmt::format("must span {}-{} nm (wavelength_nm column)", grid.front(), grid.back())});
+    return std::unexpected(InputError{
+        t.source(), 0, 0, fmt::format("must span {}-{} nm (wavelength_nm column)", grid.front(), grid.back())});
   const auto values = t.column(name);
   std::vector<double> out(grid.size());
   for (std::size_t i = 0; i < grid.size(); ++i) out[i] = interpolate(w, values, grid[i]);
@@ -169,14 +168,13 @@ std::expected<ModelConstants, InputError> parse_constants(const Table& t, ModelK
 }
 
 double* constant_field(ModelConstants& c, std::string_view name) {
-  const std::pair<std::string_view, double*> named[] = {
-      {"epidermis_scattering_scale", &c.epidermis_scattering_scale},
-      {"dermis_scattering_scale", &c.dermis_scattering_scale},
-      {"epidermis_thickness_scale", &c.epidermis_thickness_scale},
-      {"dermis_thickness_scale", &c.dermis_thickness_scale},
-      {"lateral_radius_mm", &c.lateral_radius_mm},
-      {"vessel_radius_um", &c.vessel_radius_um},
-      {"melanin_exponent", &c.melanin_exponent}};
+  const std::pair<std::string_view, double*> named[] = {{"epidermis_scattering_scale", &c.epidermis_scattering_scale},
+                                                        {"dermis_scattering_scale", &c.dermis_scattering_scale},
+                                                        {"epidermis_thickness_scale", &c.epidermis_thickness_scale},
+                                                        {"dermis_thickness_scale", &c.dermis_thickness_scale},
+                                                        {"lateral_radius_mm", &c.lateral_radius_mm},
+                                                        {"vessel_radius_um", &c.vessel_radius_um},
+                                                        {"melanin_exponent", &c.melanin_exponent}};
   for (const auto& [field_name, field] : named)
     if (field_name == name) return field;
   constexpr std::string_view kBaseline = "baseline_absorption_";
@@ -204,7 +202,8 @@ std::vector<double> constant_values(ModelKind model, const ModelConstants& const
 ModelConstants constants_from_values(ModelKind model, std::span<const double> values) {
   ModelConstants constants;
   const auto specs = model_spec(model).constants;
-  for (std::size_t i = 0; i < specs.size() && i < values.size(); ++i) *constant_field(constants, specs[i].name) = values[i];
+  for (std::size_t i = 0; i < specs.size() && i < values.size(); ++i)
+    *constant_field(constants, specs[i].name) = values[i];
   return constants;
 }
 
@@ -224,8 +223,8 @@ LayerOptics LayerOptics::resampled(std::span<const double> grid_nm) const {
     for (std::size_t i = 0; i < grid_nm.size(); ++i) r[i] = interpolate(wavelength_nm, values, grid_nm[i]);
     return r;
   };
-  for (auto member : {&LayerOptics::Ke, &LayerOptics::Se, &LayerOptics::Kd, &LayerOptics::Sd,
-                      &LayerOptics::Km, &LayerOptics::Kh, &LayerOptics::Kdh, &LayerOptics::Kb})
+  for (auto member : {&LayerOptics::Ke, &LayerOptics::Se, &LayerOptics::Kd, &LayerOptics::Sd, &LayerOptics::Km,
+                      &LayerOptics::Kh, &LayerOptics::Kdh, &LayerOptics::Kb})
     out.*member = resample(this->*member);
   return out;
 }
@@ -262,8 +261,7 @@ std::vector<std::string> SkinOptics::site_names() const {
 std::expected<Site, std::string> SkinOptics::site(std::string_view name) const {
   const auto it = std::ranges::find(sites_, name, &Site::name);
   if (it == sites_.end())
-    return std::unexpected(fmt::format("unknown site {}; known sites: {}", quote(name),
-                                       fmt::join(site_names(), ", ")));
+    return std::unexpected(fmt::format("unknown site {}; known sites: {}", quote(name), fmt::join(site_names(), ", ")));
   return Site{it->name, it->epidermis_mm * constants_.epidermis_thickness_scale,
               it->dermis_mm * constants_.dermis_thickness_scale};
 }

@@ -154,7 +154,8 @@ class Engine {
     StopOutsideBounds(const Engine& engine, const Solution& s) : engine_(engine), s_(s) {}
     ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
       for (std::size_t i = 0; i < N; ++i)
-        if (!engine_.fixed(s_, i) && (s_.params[i] < engine_.bounds_.lower[i] || s_.params[i] > engine_.bounds_.upper[i]))
+        if (!engine_.fixed(s_, i) &&
+            (s_.params[i] < engine_.bounds_.lower[i] || s_.params[i] > engine_.bounds_.upper[i]))
           return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
       return ceres::SOLVER_CONTINUE;
     }

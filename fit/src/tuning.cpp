@@ -53,7 +53,8 @@ class SearchSpace {
   ModelConstants constants(const Vector& x) const {
     const auto specs = model_spec(model_).constants;
     auto values = constant_values(model_, start_);
-    for (std::size_t k = 0; k < searched_.size(); ++k) values[searched_[k]] = from_coordinate(specs[searched_[k]], x[k]);
+    for (std::size_t k = 0; k < searched_.size(); ++k)
+      values[searched_[k]] = from_coordinate(specs[searched_[k]], x[k]);
     return constants_from_values(model_, values);
   }
 
@@ -185,7 +186,8 @@ std::expected<TuningResult, std::string> tune_constants(const Fitter& start, con
     return std::accumulate(rmse.begin(), rmse.end(), 0.0) / static_cast<double>(rmse.size());
   };
   TuningResult result;
-  const auto [best, value] = nelder_mead(mean_rmse, space.start_point(), 0.3, options.max_evaluations, result.evaluations);
+  const auto [best, value] =
+      nelder_mead(mean_rmse, space.start_point(), 0.3, options.max_evaluations, result.evaluations);
   result.constants = space.constants(best);
   result.mean_rmse = value;
   return result;

@@ -95,14 +95,14 @@ void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, c
     for (const auto& [w, v] : *column) grid[w] = true;
 
   std::string prefix = fmt::format("{},{},{},{},{},{},{},{},{},{},{},", s.id, csv_field(s.subject), csv_field(s.site),
-                                   to_string(s.state), m.id, to_string(m.kind), csv_field(m.label),
-                                   m.simulated ? 1 : 0, m.quality_code, m.reading_count, json_time(m.started_at));
+                                   to_string(s.state), m.id, to_string(m.kind), csv_field(m.label), m.simulated ? 1 : 0,
+                                   m.quality_code, m.reading_count, json_time(m.started_at));
   if (fit) {
     prefix += fmt::format("{},", fit->id);
     for (const double p : fit->params) prefix += number(p) + ",";
-    prefix += fmt::format("{},{},{},{},{},{},", number(fit->rmse), number(fit->max_abs_error),
-                          number(fit->delta_e00_d65), fit->converged ? 1 : 0, csv_field(fit->model_version),
-                          csv_field(fit->tables_digest));
+    prefix +=
+        fmt::format("{},{},{},{},{},{},", number(fit->rmse), number(fit->max_abs_error), number(fit->delta_e00_d65),
+                    fit->converged ? 1 : 0, csv_field(fit->model_version), csv_field(fit->tables_digest));
   } else {
     prefix += std::string(12, ',');
   }

@@ -35,7 +35,9 @@ std::string model_version() { return "skinspec " + std::string(kVersion); }
 
 store::Fit to_store_fit(const FitResult& result, const FitOptions& options, const std::string& tables_digest) {
   store::Fit f;
-  each_shared_value(f, result, [](auto& stored, const auto& fitted) { stored = static_cast<std::decay_t<decltype(stored)>>(fitted); });
+  each_shared_value(f, result, [](auto& stored, const auto& fitted) {
+    stored = static_cast<std::decay_t<decltype(stored)>>(fitted);
+  });
   // The store keeps the paper model's five parameters; the service fits with it alone.
   std::copy_n(result.params.begin(), std::min(result.params.size(), f.params.size()), f.params.begin());
   std::copy_n(result.standard_error.begin(), std::min(result.standard_error.size(), f.standard_error.size()),
@@ -48,7 +50,8 @@ store::Fit to_store_fit(const FitResult& result, const FitOptions& options, cons
 
 FitResult to_fit_result(const store::Fit& fit) {
   FitResult r;
-  each_shared_value(fit, r, [](const auto& stored, auto& fitted) { fitted = static_cast<std::decay_t<decltype(fitted)>>(stored); });
+  each_shared_value(
+      fit, r, [](const auto& stored, auto& fitted) { fitted = static_cast<std::decay_t<decltype(fitted)>>(stored); });
   r.model = ModelKind::paper;
   r.params.assign(fit.params.begin(), fit.params.end());
   r.standard_error.assign(fit.standard_error.begin(), fit.standard_error.end());

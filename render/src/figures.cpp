@@ -4,9 +4,9 @@
 
 namespace skinspec::render {
 
-std::expected<Image, std::string> render_skin(const SkinOptics& optics, const Colorimetry& colorimetry, const Skin& skin,
-                                              const PigmentScales& scales, const Spectrum& illuminant, const Scene& scene,
-                                              const RenderSettings& settings) {
+std::expected<Image, std::string> render_skin(const SkinOptics& optics, const Colorimetry& colorimetry,
+                                              const Skin& skin, const PigmentScales& scales, const Spectrum& illuminant,
+                                              const Scene& scene, const RenderSettings& settings) {
   if (optics.model() != skin.model)
     return std::unexpected(fmt::format("a skin of the {} model cannot be rendered with the {} model's optics",
                                        to_string(skin.model), to_string(optics.model())));
@@ -49,7 +49,8 @@ std::vector<Cell> melanin_against_haemoglobin() {
 }  // namespace
 
 std::expected<std::vector<Figure>, std::string> paper_figures(const SkinOptics& optics, const Colorimetry& colorimetry,
-                                                              const Skin& skin, const Scene& scene, const RenderSettings& cell) {
+                                                              const Skin& skin, const Scene& scene,
+                                                              const RenderSettings& cell) {
   const std::string site = skin.site.name;
   struct Plan {
     std::string file_name, title;
@@ -57,11 +58,16 @@ std::expected<std::vector<Figure>, std::string> paper_figures(const SkinOptics& 
     int columns;
   };
   const std::vector<Plan> plans = {
-      {"figure4_illuminants.png", "FIGURE 4: " + site + " UNDER CIE D65 AND A",
-       {{"CIE D65", "D65", {}}, {"CIE A", "A", {}}}, 2},
-      {"figure5_melanin_haemoglobin.png", "FIGURE 5: MELANIN AGAINST HAEMOGLOBIN, D65", melanin_against_haemoglobin(), 3},
-      {"figure6_bilirubin.png", "FIGURE 6: BILIRUBIN, D65",
-       {{"BILIRUBIN X1", "D65", {}}, {"BILIRUBIN X5", "D65", {1, 1, 1, 5}}, {"BILIRUBIN X10", "D65", {1, 1, 1, 10}}}, 3},
+      {"figure4_illuminants.png",
+       "FIGURE 4: " + site + " UNDER CIE D65 AND A",
+       {{"CIE D65", "D65", {}}, {"CIE A", "A", {}}},
+       2},
+      {"figure5_melanin_haemoglobin.png", "FIGURE 5: MELANIN AGAINST HAEMOGLOBIN, D65", melanin_against_haemoglobin(),
+       3},
+      {"figure6_bilirubin.png",
+       "FIGURE 6: BILIRUBIN, D65",
+       {{"BILIRUBIN X1", "D65", {}}, {"BILIRUBIN X5", "D65", {1, 1, 1, 5}}, {"BILIRUBIN X10", "D65", {1, 1, 1, 10}}},
+       3},
   };
   std::vector<Figure> figures;
   for (const Plan& plan : plans) {

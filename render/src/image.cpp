@@ -5,12 +5,14 @@
 namespace skinspec::render {
 
 Image::Image(int width, int height, Rgb fill)
-    : width_(width), height_(height),
+    : width_(width),
+      height_(height),
       pixels_(static_cast<std::size_t>(std::max(width, 0)) * static_cast<std::size_t>(std::max(height, 0)), fill) {}
 
 void Image::paste(const Image& other, int x, int y) {
   for (int row = std::max(0, -y); row < other.height() && y + row < height_; ++row)
-    for (int col = std::max(0, -x); col < other.width() && x + col < width_; ++col) at(x + col, y + row) = other.at(col, row);
+    for (int col = std::max(0, -x); col < other.width() && x + col < width_; ++col)
+      at(x + col, y + row) = other.at(col, row);
 }
 
 Image contact_sheet(std::string_view title, const std::vector<LabelledImage>& cells, int columns) {

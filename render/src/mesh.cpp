@@ -42,7 +42,8 @@ Mesh with_vertex_normals(Mesh mesh) {
 
 std::expected<Mesh, InputError> parse_mesh(std::string_view bytes, std::string_view source) {
   std::string extension(source.substr(std::min(source.size(), source.rfind('.'))));
-  std::ranges::transform(extension, extension.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::ranges::transform(extension, extension.begin(),
+                         [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (extension == ".obj") return parse_obj(bytes, source);
   if (extension == ".ply") return parse_ply(bytes, source);
   return std::unexpected(InputError{std::string(source), 0, 0, "not a mesh file: the name must end in .obj or .ply"});

@@ -45,8 +45,9 @@ std::expected<Mesh, InputError> checked_mesh(Mesh mesh, std::string_view source)
   for (const auto& t : mesh.triangles)
     for (const auto v : t)
       if (v >= mesh.positions.size())
-        return std::unexpected(InputError{std::string(source), 0, 0, "a face names vertex " + std::to_string(v) +
-                                                                         " of only " + std::to_string(mesh.positions.size())});
+        return std::unexpected(InputError{
+            std::string(source), 0, 0,
+            "a face names vertex " + std::to_string(v) + " of only " + std::to_string(mesh.positions.size())});
   mesh = with_vertex_normals(std::move(mesh));
   if (mesh.triangles.empty())
     return std::unexpected(InputError{std::string(source), 0, 0, "the mesh has no triangle of non-zero area"});

@@ -50,7 +50,8 @@ struct ObjReader {
       if (!v) return v.error();
       corners.push_back(*v);
     }
-    for (std::size_t i = 1; i + 1 < corners.size(); ++i) mesh.triangles.push_back({corners[0], corners[i], corners[i + 1]});
+    for (std::size_t i = 1; i + 1 < corners.size(); ++i)
+      mesh.triangles.push_back({corners[0], corners[i], corners[i + 1]});
     return std::nullopt;
   }
 };

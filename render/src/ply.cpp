@@ -20,9 +20,9 @@ enum class Type { i8, u8, i16, u16, i32, u32, f32, f64 };
 
 std::optional<Type> type_named(std::string_view name) {
   static constexpr std::pair<std::string_view, Type> kNames[] = {
-      {"char", Type::i8},   {"int8", Type::i8},     {"uchar", Type::u8},  {"uint8", Type::u8},
+      {"char", Type::i8},   {"int8", Type::i8},     {"uchar", Type::u8},   {"uint8", Type::u8},
       {"short", Type::i16}, {"int16", Type::i16},   {"ushort", Type::u16}, {"uint16", Type::u16},
-      {"int", Type::i32},   {"int32", Type::i32},   {"uint", Type::u32},  {"uint32", Type::u32},
+      {"int", Type::i32},   {"int32", Type::i32},   {"uint", Type::u32},   {"uint32", Type::u32},
       {"float", Type::f32}, {"float32", Type::f32}, {"double", Type::f64}, {"float64", Type::f64}};
   for (const auto& [n, t] : kNames)
     if (n == name) return t;
@@ -55,8 +55,10 @@ std::optional<InputError> header_line(Header& header, const std::vector<std::str
   if (w[0] == "comment" || w[0] == "obj_info") return std::nullopt;
   if (w[0] == "format") {
     if (w.size() != 3) return error_at(source, line, "format needs a kind and a version");
-    if (w[1] == "binary_big_endian") return error_at(source, line, "binary big-endian PLY is not supported; use ASCII or little-endian");
-    if (w[1] != "ascii" && w[1] != "binary_little_endian") return error_at(source, line, "unknown format " + quote(w[1]));
+    if (w[1] == "binary_big_endian")
+      return error_at(source, line, "binary big-endian PLY is not supported; use ASCII or little-endian");
+    if (w[1] != "ascii" && w[1] != "binary_little_endian")
+      return error_at(source, line, "unknown format " + quote(w[1]));
     header.binary = w[1] == "binary_little_endian";
     return std::nullopt;
   }
@@ -121,14 +123,22 @@ class BinaryBody {
   }
   std::expected<double, InputError> value(Type type) {
     switch (type) {
-      case Type::i8: return read<std::int8_t>();
-      case Type::u8: return read<std::uint8_t>();
-      case Type::i16: return read<std::int16_t>();
-      case Type::u16: return read<std::uint16_t>();
-      case Type::i32: return read<std::int32_t>();
-      case Type::u32: return read<std::uint32_t>();
-      case Type::f32: return read<float>();
-      case Type::f64: return read<double>();
+      case Type::i8:
+        return read<std::int8_t>();
+      case Type::u8:
+        return read<std::uint8_t>();
+      case Type::i16:
+        return read<std::int16_t>();
+      case Type::u16:
+        return read<std::uint16_t>();
+      case Type::i32:
+        return read<std::int32_t>();
+      case Type::u32:
+        return read<std::uint32_t>();
+      case Type::f32:
+        return read<float>();
+      case Type::f64:
+        return read<double>();
     }
     return std::unexpected(error("unknown property type"));
   }
@@ -141,7 +151,8 @@ class BinaryBody {
   template <typename T>
   std::expected<double, InputError> read() {
     static_assert(std::endian::native == std::endian::little, "binary PLY is read on little-endian machines only");
-    if (bytes_.size() - offset_ < sizeof(T)) return std::unexpected(error("the binary body ends before every element declared in the header"));
+    if (bytes_.size() - offset_ < sizeof(T))
+      return std::unexpected(error("the binary body ends before every element declared in the header"));
     T v;
     std::memcpy(&v, bytes_.data() + offset_, sizeof(T));
     offset_ += sizeof(T);
@@ -157,7 +168,8 @@ class BinaryBody {
 
 // A list property's entries as vertex indices, each naming one of `vertex_count` vertices.
 template <typename Body>
-std::expected<std::vector<std::uint32_t>, InputError> read_index_list(Body& body, const Property& property, std::size_t vertex_count) {
+std::expected<std::vector<std::uint32_t>, InputError> read_index_list(Body& body, const Property& property,
+                                                                      std::size_t vertex_count) {
   const auto n = body.value(*property.list_count);
   if (!n) return std::unexpected(n.error());
   if (*n < 0 || *n > 1e6) return std::unexpected(body.error("a list of " + std::to_string(*n) + " entries"));
@@ -188,7 +200,8 @@ std::optional<InputError> read_item(Body& body, const Element& element, Mesh& me
       if (!corners) return corners.error();
       if (!is_face_indices(element, property)) continue;
       if (corners->size() < 3) return body.error("a face needs at least three vertices");
-      for (std::size_t i = 1; i + 1 < corners->size(); ++i) mesh.triangles.push_back({(*corners)[0], (*corners)[i], (*corners)[i + 1]});
+      for (std::size_t i = 1; i + 1 < corners->size(); ++i)
+        mesh.triangles.push_back({(*corners)[0], (*corners)[i], (*corners)[i + 1]});
       continue;
     }
     const auto v = body.value(property.type);
@@ -212,14 +225,17 @@ std::expected<Mesh, InputError> read_body(Body body, const Header& header, std::
 
 // The header's own promises: x, y, z on vertices, an index list on faces, vertices first, and
 // no more items than the body has bytes (so a corrupt count cannot demand gigabytes).
-std::optional<InputError> check_header(const Header& header, std::size_t body_bytes, std::size_t line, std::string_view source) {
+std::optional<InputError> check_header(const Header& header, std::size_t body_bytes, std::size_t line,
+                                       std::string_view source) {
   bool seen_vertex = false;
   for (const Element& e : header.elements) {
-    if (e.count > body_bytes) return error_at(source, line, "element " + e.name + " declares more items than the file has bytes");
+    if (e.count > body_bytes)
+      return error_at(source, line, "element " + e.name + " declares more items than the file has bytes");
     const auto has = [&](std::string_view name) {
       return std::ranges::any_of(e.properties, [&](const Property& p) { return p.name == name; });
     };
-    if (e.name == "vertex" && !(has("x") && has("y") && has("z"))) return error_at(source, line, "vertices need x, y and z properties");
+    if (e.name == "vertex" && !(has("x") && has("y") && has("z")))
+      return error_at(source, line, "vertices need x, y and z properties");
     if (e.name == "face" && !(has("vertex_indices") || has("vertex_index")))
       return error_at(source, line, "faces need a vertex_indices list");
     if (e.name == "face" && !seen_vertex) return error_at(source, line, "faces come before the vertices");
@@ -233,7 +249,8 @@ std::optional<InputError> check_header(const Header& header, std::size_t body_by
 std::expected<Mesh, InputError> parse_ply(std::string_view bytes, std::string_view source) {
   detail::LineReader lines(bytes);
   const auto magic = lines.next();
-  if (!magic || *magic != "ply") return std::unexpected(error_at(source, 1, "not a PLY file: the first line must be 'ply'"));
+  if (!magic || *magic != "ply")
+    return std::unexpected(error_at(source, 1, "not a PLY file: the first line must be 'ply'"));
   Header header;
   bool ended = false, has_format = false;
   while (const auto line = lines.next()) {
@@ -246,7 +263,8 @@ std::expected<Mesh, InputError> parse_ply(std::string_view bytes, std::string_vi
     has_format = has_format || w[0] == "format";
     if (auto failed = header_line(header, w, lines.line(), source)) return std::unexpected(*failed);
   }
-  if (!ended || !has_format) return std::unexpected(error_at(source, lines.line(), "the header has no format line or no end_header"));
+  if (!ended || !has_format)
+    return std::unexpected(error_at(source, lines.line(), "the header has no format line or no end_header"));
   if (auto failed = check_header(header, lines.rest().size(), lines.line(), source)) return std::unexpected(*failed);
   if (header.binary) return read_body(BinaryBody(lines.rest(), source), header, source);
   return read_body(AsciiBody(lines, source), header, source);

@@ -42,7 +42,10 @@ class CameraRays {
 class Tracer {
  public:
   Tracer(const Scene& scene, const SpectralColours& colours, const RenderSettings& settings)
-      : scene_(scene), bvh_(scene.mesh), colours_(colours), settings_(settings),
+      : scene_(scene),
+        bvh_(scene.mesh),
+        colours_(colours),
+        settings_(settings),
         epsilon_(1e-5 * std::max(1.0, bounds_of(scene.mesh).radius())) {}
 
   // XYZ seen along a camera ray, or nothing when it leaves the scene.
@@ -116,7 +119,8 @@ Rgb shade_pixel(const Tracer& tracer, const CameraRays& rays, const RenderSettin
     for (int sx = 0; sx < n; ++sx) {
       const auto xyz = tracer.trace(rays.through(x + (sx + 0.5) / n, y + (sy + 0.5) / n));
       const auto rgb = xyz ? xyz_to_linear_srgb(*xyz)
-                           : std::array<double, 3>{static_cast<double>(settings.background.r), static_cast<double>(settings.background.g),
+                           : std::array<double, 3>{static_cast<double>(settings.background.r),
+                                                   static_cast<double>(settings.background.g),
                                                    static_cast<double>(settings.background.b)};
       r += rgb[0];
       g += rgb[1];
@@ -128,18 +132,23 @@ Rgb shade_pixel(const Tracer& tracer, const CameraRays& rays, const RenderSettin
 
 std::expected<void, std::string> check_settings(const Scene& scene, const RenderSettings& settings) {
   if (settings.width < 1 || settings.height < 1 || settings.width > kMaxImageSide || settings.height > kMaxImageSide)
-    return std::unexpected(fmt::format("image size {}x{} is outside 1x1..{}x{}", settings.width, settings.height, kMaxImageSide, kMaxImageSide));
+    return std::unexpected(fmt::format("image size {}x{} is outside 1x1..{}x{}", settings.width, settings.height,
+                                       kMaxImageSide, kMaxImageSide));
   if (settings.samples_per_side < 1 || settings.samples_per_side > kMaxSamplesPerSide)
     return std::unexpected(fmt::format("samples per side must be 1..{}", kMaxSamplesPerSide));
-  if (!(settings.exposure > 0 && std::isfinite(settings.exposure))) return std::unexpected(std::string("exposure must be positive"));
+  if (!(settings.exposure > 0 && std::isfinite(settings.exposure)))
+    return std::unexpected(std::string("exposure must be positive"));
   const Camera& c = scene.camera;
   const Vec3 view = c.target - c.position;
-  if (!(length(cross(view, c.up)) > 0 && std::isfinite(length(view)) && c.vertical_fov_degrees > 0 && c.vertical_fov_degrees < 180))
-    return std::unexpected(std::string("the camera needs a view direction not parallel to its up and a field of 0-180 degrees"));
+  if (!(length(cross(view, c.up)) > 0 && std::isfinite(length(view)) && c.vertical_fov_degrees > 0 &&
+        c.vertical_fov_degrees < 180))
+    return std::unexpected(
+        std::string("the camera needs a view direction not parallel to its up and a field of 0-180 degrees"));
   for (const Light& l : scene.lights)
     if (!(std::isfinite(l.intensity) && l.intensity >= 0 && std::isfinite(length(l.vector)) &&
           (l.kind == Light::Kind::point || length(l.vector) > 0)))
-      return std::unexpected(std::string("a light needs a finite non-negative intensity and a finite, non-zero direction"));
+      return std::unexpected(
+          std::string("a light needs a finite non-negative intensity and a finite, non-zero direction"));
   return check_surface(settings.surface);
 }
 
@@ -156,15 +165,18 @@ std::optional<std::pair<int, int>> parse_image_size(std::string_view text, int m
 }
 
 std::expected<void, std::string> check_surface(const SurfaceParams& s) {
-  if (!(s.alpha >= 0 && std::isfinite(s.alpha))) return std::unexpected(fmt::format("alpha must be >= 0, not {}", s.alpha));
+  if (!(s.alpha >= 0 && std::isfinite(s.alpha)))
+    return std::unexpected(fmt::format("alpha must be >= 0, not {}", s.alpha));
   if (!(s.beta >= 0 && std::isfinite(s.beta))) return std::unexpected(fmt::format("beta must be >= 0, not {}", s.beta));
   if (!(s.roughness > 0 && s.roughness <= std::numbers::pi / 2))
     return std::unexpected(fmt::format("roughness must be in (0, pi/2] radians, not {}", s.roughness));
-  if (!(s.index > 1 && s.index <= 5)) return std::unexpected(fmt::format("refractive index must be in (1, 5], not {}", s.index));
+  if (!(s.index > 1 && s.index <= 5))
+    return std::unexpected(fmt::format("refractive index must be in (1, 5], not {}", s.index));
   return {};
 }
 
-std::expected<Image, std::string> render(const Scene& scene, const SpectralColours& colours, const RenderSettings& settings) {
+std::expected<Image, std::string> render(const Scene& scene, const SpectralColours& colours,
+                                         const RenderSettings& settings) {
   if (auto ok = check_settings(scene, settings); !ok) return std::unexpected(ok.error());
   Image image(settings.width, settings.height);
   const Tracer tracer(scene, colours, settings);
@@ -173,7 +185,8 @@ std::expected<Image, std::string> render(const Scene& scene, const SpectralColou
   parallel_for(static_cast<std::size_t>(tiles_x * tiles_y), settings.threads, [&](std::size_t tile) {
     const int x0 = static_cast<int>(tile) % tiles_x * kTile, y0 = static_cast<int>(tile) / tiles_x * kTile;
     for (int y = y0; y < std::min(y0 + kTile, settings.height); ++y)
-      for (int x = x0; x < std::min(x0 + kTile, settings.width); ++x) image.at(x, y) = shade_pixel(tracer, rays, settings, x, y);
+      for (int x = x0; x < std::min(x0 + kTile, settings.width); ++x)
+        image.at(x, y) = shade_pixel(tracer, rays, settings, x, y);
   });
   return image;
 }

@@ -74,7 +74,8 @@ Mesh procedural_hand() {
   constexpr int kSegments = 32;
   const Vec3 palm_centre{0, 0, 0};
   Mesh hand = squashed(capsule({0, -2.0, 0}, 4.0, {0, 2.0, 0}, 4.2, kSegments), palm_centre, {1.0, 1.0, 0.38});
-  hand.append(squashed(capsule({0, -5.0, -0.3}, 2.6, {0, -12.0, -0.3}, 2.9, kSegments), {0, -8, -0.3}, {1.15, 1.0, 0.7}));
+  hand.append(
+      squashed(capsule({0, -5.0, -0.3}, 2.6, {0, -12.0, -0.3}, 2.9, kSegments), {0, -8, -0.3}, {1.15, 1.0, 0.7}));
   // Fingers: base x, base y, spread (radians from vertical), phalanx lengths, base radius.
   struct Finger {
     double x, y, spread;
@@ -91,7 +92,8 @@ Mesh procedural_hand() {
     double bend = 0.1;
     for (const double l : f.lengths) {
       const Vec3& last = joints.back();
-      joints.push_back(last + Vec3{std::sin(f.spread) * l, std::cos(f.spread) * std::cos(bend) * l, -std::sin(bend) * l});
+      joints.push_back(last +
+                       Vec3{std::sin(f.spread) * l, std::cos(f.spread) * std::cos(bend) * l, -std::sin(bend) * l});
       bend += 0.15;
     }
     hand.append(limb(joints, f.radius, f.radius * 0.82, kSegments));
@@ -113,7 +115,8 @@ Scene framed_scene(Mesh mesh, double aspect) {
   const double reach = std::max(b.radius(), 1e-6);
   scene.lights.push_back({Light::Kind::directional, Vec3{-0.75, 0.45, 0.5}, 0.9});
   const double fill_distance = 3 * reach;
-  scene.lights.push_back({Light::Kind::point, centre + Vec3{0.8, -0.2, 0.6} * fill_distance, 0.3 * fill_distance * fill_distance});
+  scene.lights.push_back(
+      {Light::Kind::point, centre + Vec3{0.8, -0.2, 0.6} * fill_distance, 0.3 * fill_distance * fill_distance});
   return scene;
 }
 

@@ -19,15 +19,16 @@ std::expected<void, std::string> check_scale(std::string_view pigment, double fa
 std::expected<Params, std::string> scaled_params(ModelKind model, const Params& params, const PigmentScales& scales) {
   const auto specs = model_spec(model).params;
   if (params.size() != specs.size())
-    return std::unexpected(fmt::format("{} parameters for the {} model, which has {}", params.size(), to_string(model), specs.size()));
+    return std::unexpected(
+        fmt::format("{} parameters for the {} model, which has {}", params.size(), to_string(model), specs.size()));
   for (std::size_t p = 0; p < specs.size(); ++p)
     if (!(params[p] >= specs[p].domain_lower && params[p] <= specs[p].domain_upper))
-      return std::unexpected(
-          fmt::format("{} = {} is outside {}..{}", specs[p].name, params[p], specs[p].domain_lower, specs[p].domain_upper));
+      return std::unexpected(fmt::format("{} = {} is outside {}..{}", specs[p].name, params[p], specs[p].domain_lower,
+                                         specs[p].domain_upper));
   const std::pair<std::string_view, double> factors[] = {{"melanin", scales.melanin},
-                                                          {"oxyhemoglobin", scales.oxyhemoglobin},
-                                                          {"deoxyhemoglobin", scales.deoxyhemoglobin},
-                                                          {"bilirubin", scales.bilirubin}};
+                                                         {"oxyhemoglobin", scales.oxyhemoglobin},
+                                                         {"deoxyhemoglobin", scales.deoxyhemoglobin},
+                                                         {"bilirubin", scales.bilirubin}};
   for (const auto& [pigment, factor] : factors)
     if (auto ok = check_scale(pigment, factor); !ok) return std::unexpected(ok.error());
   Params out = params;
@@ -51,7 +52,8 @@ Spectrum skin_reflectance_spectrum(const SkinOptics& optics, const Site& site, c
   return *Spectrum::create(grid, model.reflectance(params));
 }
 
-SpectralColours spectral_colours(const Colorimetry& colorimetry, const Spectrum& reflectance, const Spectrum& illuminant) {
+SpectralColours spectral_colours(const Colorimetry& colorimetry, const Spectrum& reflectance,
+                                 const Spectrum& illuminant) {
   const ColourWeighting weighting = colorimetry.weighting(illuminant);
   return {Colorimetry::xyz(reflectance, weighting), weighting.white};
 }

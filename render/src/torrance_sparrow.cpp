@@ -27,8 +27,8 @@ Shading torrance_sparrow(const Vec3& n, const Vec3& to_light, const Vec3& to_vie
   const double cos_phi = std::clamp(dot(n, q), -1.0, 1.0);
   const double cos_q = std::clamp(dot(to_light, q), 1e-9, 1.0);
   const double d = facet_distribution(std::acos(cos_phi), surface.roughness);
-  const double specular = surface.beta * d * fresnel(cos_q, surface.index) *
-                          geometric_attenuation(cos_phi, cos_r, cos_i, cos_q) / cos_r;
+  const double specular =
+      surface.beta * d * fresnel(cos_q, surface.index) * geometric_attenuation(cos_phi, cos_r, cos_i, cos_q) / cos_r;
   return {surface.alpha * cos_i, specular};
 }
 

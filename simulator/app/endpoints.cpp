@@ -130,7 +130,8 @@ std::expected<Pty, std::string> Pty::open() {
   ::cfsetispeed(&settings, B9600);
   ::cfsetospeed(&settings, B9600);
   settings.c_cflag |= CLOCAL | CREAD;
-  if (::tcsetattr(pty.fd(), TCSANOW, &settings) != 0) return std::unexpected(system_error("pseudo-terminal: tcsetattr"));
+  if (::tcsetattr(pty.fd(), TCSANOW, &settings) != 0)
+    return std::unexpected(system_error("pseudo-terminal: tcsetattr"));
   const int flags = ::fcntl(pty.fd(), F_GETFL);
   if (flags < 0 || ::fcntl(pty.fd(), F_SETFL, flags | O_NONBLOCK) != 0)
     return std::unexpected(system_error("pseudo-terminal: fcntl"));

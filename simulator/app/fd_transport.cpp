@@ -103,17 +103,22 @@ std::expected<void, TransportError> FdTransport::write(std::string_view bytes, d
       return fail(Kind::io, fmt::format("{}: write: {}", label_, std::strerror(errno)));
     }
     switch (wait_for(POLLOUT, deadline)) {
-      case Wait::ready: break;
-      case Wait::interrupted: return fail(Kind::interrupted, label_ + ": interrupted");
+      case Wait::ready:
+        break;
+      case Wait::interrupted:
+        return fail(Kind::interrupted, label_ + ": interrupted");
       case Wait::timeout:
-        return fail(Kind::timeout, fmt::format("{}: wrote {} of {} bytes before the deadline", label_, sent, bytes.size()));
-      case Wait::failed: return fail(Kind::io, fmt::format("{}: poll: {}", label_, std::strerror(errno)));
+        return fail(Kind::timeout,
+                    fmt::format("{}: wrote {} of {} bytes before the deadline", label_, sent, bytes.size()));
+      case Wait::failed:
+        return fail(Kind::io, fmt::format("{}: poll: {}", label_, std::strerror(errno)));
     }
   }
   return {};
 }
 
-std::expected<std::size_t, TransportError> FdTransport::read(char* buffer, std::size_t size, drivers::Deadline deadline) {
+std::expected<std::size_t, TransportError> FdTransport::read(char* buffer, std::size_t size,
+                                                             drivers::Deadline deadline) {
   if (!open_) return fail(Kind::closed, label_ + ": not open");
   if (size == 0) return 0;
   for (;;) {
@@ -127,10 +132,14 @@ std::expected<std::size_t, TransportError> FdTransport::read(char* buffer, std::
       return fail(Kind::io, fmt::format("{}: read: {}", label_, std::strerror(errno)));
     }
     switch (wait_for(POLLIN, deadline)) {
-      case Wait::ready: break;
-      case Wait::interrupted: return fail(Kind::interrupted, label_ + ": interrupted");
-      case Wait::timeout: return fail(Kind::timeout, label_ + ": nothing received before the deadline");
-      case Wait::failed: return fail(Kind::io, fmt::format("{}: poll: {}", label_, std::strerror(errno)));
+      case Wait::ready:
+        break;
+      case Wait::interrupted:
+        return fail(Kind::interrupted, label_ + ": interrupted");
+      case Wait::timeout:
+        return fail(Kind::timeout, label_ + ": nothing received before the deadline");
+      case Wait::failed:
+        return fail(Kind::io, fmt::format("{}: poll: {}", label_, std::strerror(errno)));
     }
   }
 }

@@ -84,8 +84,8 @@ std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
       ->type_name("HOST:PORT");
   app.add_flag("--pty", options.pty, "serve on a new pseudo-terminal too (or only, without --listen); prints its path");
 
-  auto* replay =
-      app.add_option("--replay", config.replay_file, "replay a recording (docs/recording-format.md)")->type_name("FILE");
+  auto* replay = app.add_option("--replay", config.replay_file, "replay a recording (docs/recording-format.md)")
+                     ->type_name("FILE");
   app.add_option("--replay-order", raw.replay_order, "match commands to the recording in-order or by-command")
       ->type_name("ORDER")
       ->check(CLI::IsMember({"in-order", "by-command"}))
@@ -105,10 +105,10 @@ std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
                                     "the lamp: D65, A, or a spectra CSV file of relative power (its first column)")
                          ->type_name("D65|A|FILE")
                          ->capture_default_str();
-  auto* white_luminance = app.add_option("--white-luminance", config.white_luminance,
-                                         "cd/m2 of a perfect white diffuser under the lamp")
-                              ->type_name("CD/M2")
-                              ->capture_default_str();
+  auto* white_luminance =
+      app.add_option("--white-luminance", config.white_luminance, "cd/m2 of a perfect white diffuser under the lamp")
+          ->type_name("CD/M2")
+          ->capture_default_str();
   app.add_option("--flicker", config.flicker_hz, "Hz the F command reports; 0: steady light")
       ->type_name("HZ")
       ->check(CLI::NonNegativeNumber)

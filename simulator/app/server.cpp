@@ -19,12 +19,12 @@ namespace {
 using namespace std::chrono_literals;
 using SteadyClock = std::chrono::steady_clock;
 
-constexpr auto kRefusedLinger = 1s;       // how long a refused client may take to read the message
+constexpr auto kRefusedLinger = 1s;  // how long a refused client may take to read the message
 // A client that connects while another is served is refused only if that session is still on
 // after this long: a program that connects right after the previous one closed (a script
 // measuring twice) must not be refused because the server had not noticed the close yet.
 constexpr auto kBusyGrace = 250ms;
-constexpr int kIdlePtyLookMs = 50;        // how often to look at a pseudo-terminal nobody has open
+constexpr int kIdlePtyLookMs = 50;  // how often to look at a pseudo-terminal nobody has open
 
 // What poll() reports for `fd` right now.
 short ready_now(int fd) {
@@ -63,14 +63,13 @@ void Server::run() {
     if (pty_ && !session_) {
       const short pty_state = ready_now(pty_->fd());
       if (pty_state & POLLIN) {
-        start_session(std::make_unique<FdTransport>(pty_->fd(), "pty " + pty_->path(), FdTransport::Ownership::borrowed),
-                      "pty " + pty_->path(), true);
+        start_session(
+            std::make_unique<FdTransport>(pty_->fd(), "pty " + pty_->path(), FdTransport::Ownership::borrowed),
+            "pty " + pty_->path(), true);
         continue;
       }
-      if (pty_state & (POLLHUP | POLLERR))
-        at_most(timeout, kIdlePtyLookMs);
-      else
-        watch_pty = true;
+      if (pty_state & (POLLHUP | POLLERR)) at_most(timeout, kIdlePtyLookMs);
+      else watch_pty = true;
     }
 
     // While a session is on, a new client is left waiting in the listen queue for a moment.
@@ -95,12 +94,9 @@ void Server::run() {
     if (stopping) break;
     if (fds[1].revents != 0) finish_session();
     if (watch_listener && fds[listener_at].revents != 0) {
-      if (session_)
-        client_waiting_since_ = SteadyClock::now();
-      else
-        accept_clients();
-    } else if (client_waiting_since_ &&
-               (!session_ || SteadyClock::now() >= *client_waiting_since_ + kBusyGrace)) {
+      if (session_) client_waiting_since_ = SteadyClock::now();
+      else accept_clients();
+    } else if (client_waiting_since_ && (!session_ || SteadyClock::now() >= *client_waiting_since_ + kBusyGrace)) {
       client_waiting_since_.reset();
       accept_clients();  // served if the session has ended, else told it is busy
     }

@@ -98,13 +98,19 @@ std::expected<void, std::string> read_value(Fault& fault, std::string_view name,
       return {};
     }
     case FaultKind::truncate:
-    case FaultKind::disconnect: return integer_in(0, 1000000, false);
+    case FaultKind::disconnect:
+      return integer_in(0, 1000000, false);
     case FaultKind::garbage:
-    case FaultKind::bitflip: return integer_in(1, 100000, false);
-    case FaultKind::drop_line: return integer_in(1, 100000, false);
-    case FaultKind::line_count: return integer_in(0, 10000, true);
-    case FaultKind::quality: return integer_in(0, 99, true);
-    case FaultKind::stale: return integer_in(0, 99, false);
+    case FaultKind::bitflip:
+      return integer_in(1, 100000, false);
+    case FaultKind::drop_line:
+      return integer_in(1, 100000, false);
+    case FaultKind::line_count:
+      return integer_in(0, 10000, true);
+    case FaultKind::quality:
+      return integer_in(0, 99, true);
+    case FaultKind::stale:
+      return integer_in(0, 99, false);
     case FaultKind::exponent:
       if (!value) return {};
       if (*value != "e" && *value != "E")
@@ -155,9 +161,12 @@ std::string_view to_string(FaultKind kind) {
 std::string Fault::to_string() const {
   const std::string_view name = simulator::to_string(kind);
   switch (kind) {
-    case FaultKind::exponent: return fmt::format("{}={}", name, exponent);
-    case FaultKind::header: return fmt::format("{}={}", name, header == HeaderVariant::h1_bare_cr ? "h1" : "h2");
-    default: break;
+    case FaultKind::exponent:
+      return fmt::format("{}={}", name, exponent);
+    case FaultKind::header:
+      return fmt::format("{}={}", name, header == HeaderVariant::h1_bare_cr ? "h1" : "h2");
+    default:
+      break;
   }
   if (amount < 0) return std::string(name);
   return fmt::format("{}={}", name, amount);
@@ -196,18 +205,17 @@ std::string FaultSpec::to_string() const {
 
 std::expected<FaultSpec, std::string> parse_fault_spec(std::string_view text) {
   const std::string_view spec = trim(text);
-  const auto fail = [&](const std::string& why) {
-    return std::unexpected(fmt::format("fault '{}': {}", spec, why));
-  };
+  const auto fail = [&](const std::string& why) { return std::unexpected(fmt::format("fault '{}': {}", spec, why)); };
   const auto colon = spec.find(':');
   if (colon == std::string_view::npos)
     return fail("expected COMMAND:FAULT[=VALUE][@N], for example d5:truncate or m0:no-answer@2");
   FaultSpec result;
   result.command = lower(trim(spec.substr(0, colon)));
   if (!valid_command(result.command))
-    return fail(fmt::format("'{}' is not a PR-650 command: use *, a letter (b s f m d e) or a letter with its code "
-                            "(m0, d5, d110)",
-                            result.command));
+    return fail(
+        fmt::format("'{}' is not a PR-650 command: use *, a letter (b s f m d e) or a letter with its code "
+                    "(m0, d5, d110)",
+                    result.command));
   std::string_view rest = spec.substr(colon + 1);
   if (const auto at = rest.rfind('@'); at != std::string_view::npos) {
     std::string_view occurrence = trim(rest.substr(at + 1));
@@ -262,8 +270,7 @@ std::vector<Fault> FaultPlan::next(std::string_view key) {
                                  FaultKind::bitflip, FaultKind::drop_line})
       choices.push_back(make_fault(kind));
     if (!key.empty() && key.front() == 'm')
-      for (const int code : {7, 8, 10, 18, 19})
-        choices.push_back(make_fault(FaultKind::quality, code));
+      for (const int code : {7, 8, 10, 18, 19}) choices.push_back(make_fault(FaultKind::quality, code));
     faults.push_back(choices[std::uniform_int_distribution<std::size_t>(0, choices.size() - 1)(rng_)]);
   }
   return faults;

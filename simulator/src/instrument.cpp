@@ -112,7 +112,9 @@ struct Buffer {
 class Instrument final : public Responder {
  public:
   Instrument(Synthesis synthesis, const MeterOptions& options)
-      : observer_(std::move(synthesis.observer)), scenes_(std::move(synthesis.scenes)), options_(options),
+      : observer_(std::move(synthesis.observer)),
+        scenes_(std::move(synthesis.scenes)),
+        options_(options),
         rng_(options.seed) {
     if (scenes_.empty()) scenes_.push_back({"darkness", std::vector<double>(pp::kSpectralPoints, 0.0), 0});
     power_cycle();
@@ -184,7 +186,8 @@ Outcome Instrument::respond(const Command& command, std::vector<Fault>& faults) 
         return {reply, {"echo on"}, {}};
       }
       break;
-    default: break;
+    default:
+      break;
   }
   return {std::nullopt, {}, {fmt::format("unknown command '{}': no answer", command.text)}};
 }
@@ -212,8 +215,8 @@ Outcome Instrument::measure(int report_code, std::vector<Fault>& faults) {
   const double peak = std::ranges::max(scene.radiance);
   double integration = setup_.integration_ms;
   if (integration == 0)
-    integration = peak > 0 ? std::clamp(sensor.adaptive_target * sensor.full_scale / peak,
-                                        double{kMinIntegrationMs}, double{kMaxIntegrationMs})
+    integration = peak > 0 ? std::clamp(sensor.adaptive_target * sensor.full_scale / peak, double{kMinIntegrationMs},
+                                        double{kMaxIntegrationMs})
                            : kMaxIntegrationMs;
   const double level = peak * integration / sensor.full_scale;
 
@@ -272,9 +275,12 @@ Outcome Instrument::measure(int report_code, std::vector<Fault>& faults) {
 // Report `code` of the buffer, or nothing for a code the meter does not know.
 std::optional<std::string> Instrument::report(int code) const {
   switch (code) {
-    case 110: return pp::format_serial_number_reply(options_.serial_number);
-    case 120: return pp::format_spectral_configuration_reply({pp::kSpectralPoints, 8.0, 380, 780, 4});
-    case 201: return pp::format_setup_reply(setup_status_);
+    case 110:
+      return pp::format_serial_number_reply(options_.serial_number);
+    case 120:
+      return pp::format_spectral_configuration_reply({pp::kSpectralPoints, 8.0, 380, 780, 4});
+    case 201:
+      return pp::format_setup_reply(setup_status_);
     case 5: {
       pp::SpectralReport report;
       report.quality = buffer_.quality;
@@ -285,22 +291,37 @@ std::optional<std::string> Instrument::report(int code) const {
       report.integrated = sum * pp::kStepNm;
       return pp::format_spectral_reply(report, options_.style);
     }
-    case 1: case 2: case 3: case 4: case 6: {
+    case 1:
+    case 2:
+    case 3:
+    case 4:
+    case 6: {
       const Photometry p = photometry(buffer_.values, observer_);
       const double unit = buffer_.si_units ? 1.0 : 1.0 / kCandelaPerFootlambert;
       pp::ColorimetricReport report;
       report.report = code;
       report.quality = buffer_.quality;
       switch (code) {
-        case 1: report.values = {p.Y * unit, p.x, p.y}; break;
-        case 2: report.values = {p.X * unit, p.Y * unit, p.Z * unit}; break;
-        case 3: report.values = {p.Y * unit, p.u, p.v}; break;
-        case 4: report.values = {p.Y * unit, p.cct, p.duv}; break;
-        default: report.values = {p.Y * unit, p.x, p.y, p.u, p.v}; break;
+        case 1:
+          report.values = {p.Y * unit, p.x, p.y};
+          break;
+        case 2:
+          report.values = {p.X * unit, p.Y * unit, p.Z * unit};
+          break;
+        case 3:
+          report.values = {p.Y * unit, p.u, p.v};
+          break;
+        case 4:
+          report.values = {p.Y * unit, p.cct, p.duv};
+          break;
+        default:
+          report.values = {p.Y * unit, p.x, p.y, p.u, p.v};
+          break;
       }
       return pp::format_colorimetric_reply(report, options_.style);
     }
-    default: return std::nullopt;
+    default:
+      return std::nullopt;
   }
 }
 

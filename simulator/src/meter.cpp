@@ -24,8 +24,8 @@ using ServeEnd = SimulatedMeter::ServeEnd;
 
 namespace {
 
-constexpr auto kPoll = 20ms;                 // how often serve() looks at `stop`
-constexpr std::size_t kMaxLine = 256;        // longer lines overflow the meter's input buffer
+constexpr auto kPoll = 20ms;           // how often serve() looks at `stop`
+constexpr std::size_t kMaxLine = 256;  // longer lines overflow the meter's input buffer
 constexpr double kDefaultLateMs = 1000;
 constexpr auto kWriteTimeout = 5s;
 
@@ -79,18 +79,24 @@ std::size_t cut_point(const Fault& fault, std::size_t size) {
 
 std::string_view to_string(Mode mode) {
   switch (mode) {
-    case Mode::boot: return "boot";
-    case Mode::remote: return "remote";
-    case Mode::local: return "local";
+    case Mode::boot:
+      return "boot";
+    case Mode::remote:
+      return "remote";
+    case Mode::local:
+      return "local";
   }
   return "unknown";
 }
 
 std::string_view to_string(ServeEnd end) {
   switch (end) {
-    case ServeEnd::stopped: return "stopped";
-    case ServeEnd::closed: return "closed";
-    case ServeEnd::disconnected: return "disconnected";
+    case ServeEnd::stopped:
+      return "stopped";
+    case ServeEnd::closed:
+      return "closed";
+    case ServeEnd::disconnected:
+      return "disconnected";
   }
   return "unknown";
 }
@@ -185,11 +191,21 @@ Outgoing SimulatedMeter::Impl::outgoing(detail::Reply reply, const std::vector<F
   std::optional<std::size_t> cut;
   for (const Fault& f : faults) {
     switch (f.kind) {
-      case FaultKind::quality: bytes = detail::with_quality(std::move(bytes), static_cast<int>(f.amount)); break;
-      case FaultKind::stale: log(fmt::format("fault {} acts on measurements only", f.to_string())); break;
-      case FaultKind::exponent: bytes = detail::with_exponent(std::move(bytes), f.exponent); break;
-      case FaultKind::header: bytes = detail::with_header(std::move(bytes), f.header); break;
-      case FaultKind::line_count: bytes = detail::with_line_count(std::move(bytes), static_cast<int>(f.amount)); break;
+      case FaultKind::quality:
+        bytes = detail::with_quality(std::move(bytes), static_cast<int>(f.amount));
+        break;
+      case FaultKind::stale:
+        log(fmt::format("fault {} acts on measurements only", f.to_string()));
+        break;
+      case FaultKind::exponent:
+        bytes = detail::with_exponent(std::move(bytes), f.exponent);
+        break;
+      case FaultKind::header:
+        bytes = detail::with_header(std::move(bytes), f.header);
+        break;
+      case FaultKind::line_count:
+        bytes = detail::with_line_count(std::move(bytes), static_cast<int>(f.amount));
+        break;
       case FaultKind::drop_line:
         bytes = detail::without_line(std::move(bytes), static_cast<int>(std::max(0.0, f.amount)), rng);
         break;
@@ -199,11 +215,14 @@ Outgoing SimulatedMeter::Impl::outgoing(detail::Reply reply, const std::vector<F
       case FaultKind::bitflip:
         bytes = detail::with_bitflips(std::move(bytes), f.amount < 0 ? 1 : static_cast<int>(f.amount), rng);
         break;
-      case FaultKind::late: out.delay_ms += f.amount < 0 ? kDefaultLateMs : f.amount; break;
+      case FaultKind::late:
+        out.delay_ms += f.amount < 0 ? kDefaultLateMs : f.amount;
+        break;
       case FaultKind::truncate:
       case FaultKind::disconnect:
       case FaultKind::no_answer:
-      case FaultKind::reboot: break;
+      case FaultKind::reboot:
+        break;
     }
   }
   for (const Fault& f : faults) {
@@ -223,9 +242,12 @@ std::optional<ServeEnd> SimulatedMeter::Impl::transmit(drivers::Transport& link,
                                                        const Outgoing& out) {
   if (!wait(out.delay_ms, stop)) return ServeEnd::stopped;
   switch (send(link, stop, out.bytes, out.interval_ms)) {
-    case Sent::ok: break;
-    case Sent::stopped: return ServeEnd::stopped;
-    case Sent::failed: return ServeEnd::closed;
+    case Sent::ok:
+      break;
+    case Sent::stopped:
+      return ServeEnd::stopped;
+    case Sent::failed:
+      return ServeEnd::closed;
   }
   if (out.disconnect) {
     log(fmt::format("disconnect after {} bytes", out.bytes.size()));

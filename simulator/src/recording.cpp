@@ -80,7 +80,7 @@ std::expected<double, std::string> time_field(const Json& object, const char* ke
 }
 
 std::expected<RecordingHeader, std::string> parse_header(const Json& object, const Located& at) {
-  static const std::vector<std::string> kKeys = {"format", "version", "captured", "by", "description",
+  static const std::vector<std::string> kKeys = {"format",        "version",        "captured", "by",  "description",
                                                  "boot_window_s", "header_variant", "exp_char", "echo"};
   const auto format = object.find("format");
   if (format == object.end() || !format->is_string() || format->get<std::string>() != kRecordingFormat)
@@ -89,8 +89,7 @@ std::expected<RecordingHeader, std::string> parse_header(const Json& object, con
   for (const auto& [key, value] : object.items())
     if (std::ranges::find(kKeys, key) == kKeys.end()) return at(fmt::format("unknown header field \"{}\"", key));
   const auto version = object.find("version");
-  if (version == object.end() || !version->is_number_integer())
-    return at("the header has no integer \"version\"");
+  if (version == object.end() || !version->is_number_integer()) return at("the header has no integer \"version\"");
   if (version->get<int>() != kRecordingVersion)
     return at(fmt::format("version {} is not one this reader knows (it reads version {})", version->get<int>(),
                           kRecordingVersion));

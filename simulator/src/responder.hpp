@@ -32,9 +32,9 @@ struct Reply {
 };
 
 struct Outcome {
-  std::optional<Reply> reply;          // none: the meter says nothing
-  std::vector<std::string> notes;      // for the log
-  std::vector<std::string> problems;   // also kept by the meter (replay mismatches, unknown commands)
+  std::optional<Reply> reply;         // none: the meter says nothing
+  std::vector<std::string> notes;     // for the log
+  std::vector<std::string> problems;  // also kept by the meter (replay mismatches, unknown commands)
 };
 
 class Responder {

@@ -64,9 +64,10 @@ std::expected<Recording, std::string> record(const Session& session, const Obser
   std::thread server([&, link = device.get()] { meter.serve(*link, stop); });
 
   RecordingHeader header;
-  header.captured = fmt::format("synthesized {:%Y-%m-%d}: the skinspec simulator at time scale {}, recorded through "
-                                "RecordingTransport (times scaled back to real time)",
-                                fmt::gmtime(std::time(nullptr)), kTimeScale);
+  header.captured = fmt::format(
+      "synthesized {:%Y-%m-%d}: the skinspec simulator at time scale {}, recorded through "
+      "RecordingTransport (times scaled back to real time)",
+      fmt::gmtime(std::time(nullptr)), kTimeScale);
   header.by = "make_recordings (skinspec simulator tools): the Pr650 driver's connect, identify and measure";
   header.description = session.description;
   header.boot_window_s = 5;

@@ -43,16 +43,24 @@ std::optional<std::pair<std::string, std::string_view>> literal(std::string_view
     }
     const char e = text[++i];
     switch (e) {
-      case 'r': bytes += '\r'; break;
-      case 'n': bytes += '\n'; break;
-      case 't': bytes += '\t'; break;
+      case 'r':
+        bytes += '\r';
+        break;
+      case 'n':
+        bytes += '\n';
+        break;
+      case 't':
+        bytes += '\t';
+        break;
       case 'x':
         if (i + 2 < text.size()) {
           bytes += static_cast<char>(std::stoi(std::string(text.substr(i + 1, 2)), nullptr, 16));
           i += 2;
         }
         break;
-      default: bytes += e; break;
+      default:
+        bytes += e;
+        break;
     }
   }
   return std::nullopt;
@@ -124,9 +132,9 @@ std::string data_lines(std::string_view d5) {
 
 std::expected<Recording, std::string> read_block(const Block& block, std::string_view source, const std::string& a_d5) {
   Recording recording;
-  recording.header.captured = fmt::format(
-      "synthesized: transcript {} of {} (section 6); no recording of a real PR-650 exchange is public", block.letter,
-      source);
+  recording.header.captured =
+      fmt::format("synthesized: transcript {} of {} (section 6); no recording of a real PR-650 exchange is public",
+                  block.letter, source);
   recording.header.by = "make_recordings (skinspec simulator tools), from the reference's TX/RX lines";
   recording.header.description =
       fmt::format("Transcript {}{}", block.letter, block.title.empty() ? "" : " " + block.title);

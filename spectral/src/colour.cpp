@@ -27,13 +27,12 @@ std::expected<Spectrum, InputError> column_spectrum(const Table& table, std::str
     if (!table.has_column(name)) return table_error(table, fmt::format("missing column '{}'", name));
   const auto wavelengths = table.column("wavelength_nm");
   const auto values = table.column(column);
-  auto spectrum = Spectrum::create({wavelengths.begin(), wavelengths.end()},
-                                   {values.begin(), values.end()});
+  auto spectrum = Spectrum::create({wavelengths.begin(), wavelengths.end()}, {values.begin(), values.end()});
   if (!spectrum) return table_error(table, fmt::format("column '{}': {}", column, spectrum.error()));
   if (!spectrum->covers(kObserverFirstNm, kObserverLastNm))
-    return table_error(table, fmt::format("column '{}' covers {}-{} nm, not the observer's {}-{} nm",
-                                          column, spectrum->first_nm(), spectrum->last_nm(),
-                                          kObserverFirstNm, kObserverLastNm));
+    return table_error(
+        table, fmt::format("column '{}' covers {}-{} nm, not the observer's {}-{} nm", column, spectrum->first_nm(),
+                           spectrum->last_nm(), kObserverFirstNm, kObserverLastNm));
   return std::move(*spectrum);
 }
 
@@ -101,8 +100,7 @@ double clip_unit(double v) {
 
 }  // namespace
 
-std::expected<Colorimetry, InputError> Colorimetry::from_tables(const Table& cmf,
-                                                                const Table& illuminants) {
+std::expected<Colorimetry, InputError> Colorimetry::from_tables(const Table& cmf, const Table& illuminants) {
   auto xbar = column_spectrum(cmf, "xbar");
   if (!xbar) return std::unexpected(xbar.error());
   auto ybar = column_spectrum(cmf, "ybar");
@@ -113,8 +111,7 @@ std::expected<Colorimetry, InputError> Colorimetry::from_tables(const Table& cmf
   if (!d65) return std::unexpected(d65.error());
   auto a = column_spectrum(illuminants, "A");
   if (!a) return std::unexpected(a.error());
-  return Colorimetry(std::move(*xbar), std::move(*ybar), std::move(*zbar), std::move(*d65),
-                     std::move(*a));
+  return Colorimetry(std::move(*xbar), std::move(*ybar), std::move(*zbar), std::move(*d65), std::move(*a));
 }
 
 std::expected<Spectrum, std::string> Colorimetry::illuminant(std::string_view name) const {
@@ -192,8 +189,7 @@ double delta_e2000(const Lab& reference, const Lab& sample) {
   const double chroma_product = c1 * c2;
   const double delta_l = sample.l - reference.l;
   const double delta_c = c2 - c1;
-  const double delta_h =
-      2 * std::sqrt(chroma_product) * std::sin(radians(hue_difference(h1, h2, chroma_product)) / 2);
+  const double delta_h = 2 * std::sqrt(chroma_product) * std::sin(radians(hue_difference(h1, h2, chroma_product)) / 2);
 
   const double l_bar = (reference.l + sample.l) / 2;
   const double c_bar = (c1 + c2) / 2;
@@ -216,8 +212,7 @@ double delta_e2000(const Lab& reference, const Lab& sample) {
 }
 
 std::array<double, 3> xyz_to_linear_srgb(const Xyz& xyz) {
-  return {3.2406 * xyz.x - 1.5372 * xyz.y - 0.4986 * xyz.z,
-          -0.9689 * xyz.x + 1.8758 * xyz.y + 0.0415 * xyz.z,
+  return {3.2406 * xyz.x - 1.5372 * xyz.y - 0.4986 * xyz.z, -0.9689 * xyz.x + 1.8758 * xyz.y + 0.0415 * xyz.z,
           0.0557 * xyz.x - 0.2040 * xyz.y + 1.0570 * xyz.z};
 }
 
@@ -235,8 +230,7 @@ double srgb_decode(double encoded) {
 
 std::array<int, 3> srgb_8bit(const std::array<double, 3>& linear) {
   std::array<int, 3> codes{};
-  for (std::size_t i = 0; i < codes.size(); ++i)
-    codes[i] = static_cast<int>(std::lround(255 * srgb_encode(linear[i])));
+  for (std::size_t i = 0; i < codes.size(); ++i) codes[i] = static_cast<int>(std::lround(255 * srgb_encode(linear[i])));
   return codes;
 }
 

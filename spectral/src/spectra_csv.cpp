@@ -33,8 +33,7 @@ using Outcome = std::expected<void, InputError>;
 // Defects in a line are found while that line is read, so their location is still at hand.
 class SpectraParser {
  public:
-  SpectraParser(std::string_view source, const SpectraLimits& limits)
-      : source_(source), limits_(limits) {}
+  SpectraParser(std::string_view source, const SpectraLimits& limits) : source_(source), limits_(limits) {}
 
   std::expected<std::vector<NamedSpectrum>, InputError> parse(std::string_view bytes) {
     const auto content = without_byte_order_mark(bytes);
@@ -78,8 +77,7 @@ class SpectraParser {
                               first_name, kWavelengthColumn));
     if (first_name != kWavelengthColumn)
       return fail(line_no, first.column,
-                  fmt::format("the first column is named {}; it must be '{}'", quote(first_name),
-                              kWavelengthColumn));
+                  fmt::format("the first column is named {}; it must be '{}'", quote(first_name), kWavelengthColumn));
     if (cells.size() < 2)
       return fail(line_no, 0,
                   fmt::format("the header names no spectrum: '{}' must be followed by at least "
@@ -88,12 +86,11 @@ class SpectraParser {
     std::vector<std::string> names;
     for (const auto& cell : cells) {
       std::string name(text::trim(cell.text));
-      if (name.empty())
-        return fail(line_no, cell.column, fmt::format("column {} has an empty name", names.size() + 1));
+      if (name.empty()) return fail(line_no, cell.column, fmt::format("column {} has an empty name", names.size() + 1));
       if (const auto earlier = std::ranges::find(names, name); earlier != names.end())
-        return fail(line_no, cell.column,
-                    fmt::format("duplicated column name {} (also column {})", quote(name),
-                                earlier - names.begin() + 1));
+        return fail(
+            line_no, cell.column,
+            fmt::format("duplicated column name {} (also column {})", quote(name), earlier - names.begin() + 1));
       names.push_back(std::move(name));
     }
     names_ = std::move(names);
@@ -122,51 +119,48 @@ class SpectraParser {
                   fmt::format("{} cells where the header has {}", cells.size(), names_.size()));
     if (cells.size() < names_.size())
       return fail(line_no, 0,
-                  fmt::format("{} cells where the header has {}; the first without a value is {}",
-                              cells.size(), names_.size(), quote(names_[cells.size()])));
+                  fmt::format("{} cells where the header has {}; the first without a value is {}", cells.size(),
+                              names_.size(), quote(names_[cells.size()])));
     return {};
   }
 
   std::expected<double, InputError> read_number(const text::Cell& cell, const std::string& column_name,
                                                 std::size_t line_no) const {
     const auto value = text::parse_number(cell.text);
-    if (!value)
-      return fail(line_no, cell.column, fmt::format("{} in column {}", value.error(), quote(column_name)));
+    if (!value) return fail(line_no, cell.column, fmt::format("{} in column {}", value.error(), quote(column_name)));
     return *value;
   }
 
-  Outcome check_wavelength_increases(double wavelength, const text::Cell& cell,
-                                     std::size_t line_no) const {
+  Outcome check_wavelength_increases(double wavelength, const text::Cell& cell, std::size_t line_no) const {
     if (row_count() == 0) return {};
     const double previous = columns_.front().back();
     if (wavelength > previous) return {};
     const auto* relation = wavelength == previous ? "repeats" : "is below";
     return fail(line_no, cell.column,
-                fmt::format("wavelength {} nm {} {} nm on line {}; wavelengths must strictly increase",
-                            wavelength, relation, previous, last_content_line_));
+                fmt::format("wavelength {} nm {} {} nm on line {}; wavelengths must strictly increase", wavelength,
+                            relation, previous, last_content_line_));
   }
 
   Outcome check_within_limits(double value, const text::Cell& cell, const std::string& column_name,
                               std::size_t line_no) const {
     if (value >= limits_.min_value && value <= limits_.max_value) return {};
     return fail(line_no, cell.column,
-                fmt::format("value {} in column {} is outside the allowed range [{}, {}]", value,
-                            quote(column_name), limits_.min_value, limits_.max_value));
+                fmt::format("value {} in column {} is outside the allowed range [{}, {}]", value, quote(column_name),
+                            limits_.min_value, limits_.max_value));
   }
 
   // Points at the header, or at the single row, so the reader sees where the data stops.
   Outcome check_row_count() const {
     if (row_count() >= 2) return {};
     return fail(last_content_line_, 0,
-                fmt::format("{} data row{} below the header; a spectrum needs at least two",
-                            row_count(), row_count() == 1 ? "" : "s"));
+                fmt::format("{} data row{} below the header; a spectrum needs at least two", row_count(),
+                            row_count() == 1 ? "" : "s"));
   }
 
   // Concerns the whole grid rather than one line, hence line 0.
   Outcome check_coverage() const {
     const auto& wavelengths = columns_.front();
-    if (wavelengths.front() <= limits_.must_cover_from_nm && wavelengths.back() >= limits_.must_cover_to_nm)
-      return {};
+    if (wavelengths.front() <= limits_.must_cover_from_nm && wavelengths.back() >= limits_.must_cover_to_nm) return {};
     return fail(0, 0,
                 fmt::format("the wavelengths cover {}-{} nm but {}-{} nm is needed", wavelengths.front(),
                             wavelengths.back(), limits_.must_cover_from_nm, limits_.must_cover_to_nm));
@@ -193,8 +187,8 @@ class SpectraParser {
 
 }  // namespace
 
-std::expected<std::vector<NamedSpectrum>, InputError> parse_spectra_csv(
-    std::string_view bytes, std::string_view source, const SpectraLimits& limits) {
+std::expected<std::vector<NamedSpectrum>, InputError> parse_spectra_csv(std::string_view bytes, std::string_view source,
+                                                                        const SpectraLimits& limits) {
   return SpectraParser(source, limits).parse(bytes);
 }
 

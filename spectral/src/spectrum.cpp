@@ -6,18 +6,16 @@
 
 namespace skinspec {
 
-std::expected<Spectrum, std::string> Spectrum::create(std::vector<double> wavelength_nm,
-                                                      std::vector<double> values) {
+std::expected<Spectrum, std::string> Spectrum::create(std::vector<double> wavelength_nm, std::vector<double> values) {
   if (wavelength_nm.size() != values.size())
-    return std::unexpected(fmt::format("{} wavelengths but {} values", wavelength_nm.size(),
-                                       values.size()));
+    return std::unexpected(fmt::format("{} wavelengths but {} values", wavelength_nm.size(), values.size()));
   if (values.size() < 2) return std::unexpected(std::string("a spectrum needs at least two samples"));
   for (std::size_t i = 0; i < values.size(); ++i) {
     if (!std::isfinite(wavelength_nm[i]) || !std::isfinite(values[i]))
       return std::unexpected(fmt::format("sample {} is not a finite number", i));
     if (i > 0 && !(wavelength_nm[i] > wavelength_nm[i - 1]))
-      return std::unexpected(fmt::format("wavelength {} nm does not increase after {} nm",
-                                         wavelength_nm[i], wavelength_nm[i - 1]));
+      return std::unexpected(
+          fmt::format("wavelength {} nm does not increase after {} nm", wavelength_nm[i], wavelength_nm[i - 1]));
   }
   return Spectrum(std::move(wavelength_nm), std::move(values));
 }
@@ -43,9 +41,7 @@ double interpolate(std::span<const double> xs, std::span<const double> ys, doubl
   return ys[i - 1] + t * (ys[i] - ys[i - 1]);
 }
 
-double Spectrum::at(double wavelength_nm) const {
-  return interpolate(wavelength_nm_, values_, wavelength_nm);
-}
+double Spectrum::at(double wavelength_nm) const { return interpolate(wavelength_nm_, values_, wavelength_nm); }
 
 Spectrum Spectrum::resampled(std::span<const double> grid_nm) const {
   // One sweep along both grids when the target is ordered (the usual case), instead of a
@@ -55,8 +51,14 @@ Spectrum Spectrum::resampled(std::span<const double> grid_nm) const {
   for (std::size_t i = 0; i < grid_nm.size(); ++i) {
     const double w = grid_nm[i];
     if (i > 0 && w < grid_nm[i - 1]) upper = 1;
-    if (w <= first_nm()) { values[i] = values_.front(); continue; }
-    if (w >= last_nm()) { values[i] = values_.back(); continue; }
+    if (w <= first_nm()) {
+      values[i] = values_.front();
+      continue;
+    }
+    if (w >= last_nm()) {
+      values[i] = values_.back();
+      continue;
+    }
     while (wavelength_nm_[upper] < w) ++upper;
     const double t = (w - wavelength_nm_[upper - 1]) / (wavelength_nm_[upper] - wavelength_nm_[upper - 1]);
     values[i] = values_[upper - 1] + t * (values_[upper] - values_[upper - 1]);

@@ -22,9 +22,7 @@ std::string Table::meta(std::string_view key) const {
   return it == meta_.end() ? std::string() : it->second;
 }
 
-bool Table::has_column(std::string_view name) const {
-  return std::ranges::find(columns_, name) != columns_.end();
-}
+bool Table::has_column(std::string_view name) const { return std::ranges::find(columns_, name) != columns_.end(); }
 
 std::span<const double> Table::column(std::string_view name) const {
   const auto it = std::ranges::find(columns_, name);
@@ -57,8 +55,7 @@ std::expected<Table, InputError> parse_table(std::string_view bytes, std::string
       if (have_header) return fail(line_no, 1, "metadata line after the header row");
       const auto colon = line.find(':');
       if (colon == std::string_view::npos) return fail(line_no, 1, "metadata line without 'key: value'");
-      table.meta_[std::string(text::trim(line.substr(1, colon - 1)))] =
-          std::string(text::trim(line.substr(colon + 1)));
+      table.meta_[std::string(text::trim(line.substr(1, colon - 1)))] = std::string(text::trim(line.substr(colon + 1)));
       continue;
     }
     const auto cells = text::split_csv(line);
@@ -74,8 +71,7 @@ std::expected<Table, InputError> parse_table(std::string_view bytes, std::string
       continue;
     }
     if (cells.size() != table.columns_.size())
-      return fail(line_no, 0, fmt::format("{} cells where the header has {}", cells.size(),
-                                          table.columns_.size()));
+      return fail(line_no, 0, fmt::format("{} cells where the header has {}", cells.size(), table.columns_.size()));
     const bool keyed = table.columns_.front() != "wavelength_nm";
     if (keyed) {
       const std::string key(text::trim(cells.front().text));

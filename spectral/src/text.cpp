@@ -61,10 +61,8 @@ std::expected<double, std::string> parse_number(std::string_view cell) {
   const char* first = text.data();
   if (*first == '+') ++first;  // from_chars refuses a leading '+', spreadsheets write one
   const auto [end, ec] = std::from_chars(first, text.data() + text.size(), value);
-  if (ec == std::errc::result_out_of_range)
-    return std::unexpected(quote(text) + " is out of range");
-  if (ec != std::errc() || end != text.data() + text.size())
-    return std::unexpected(quote(text) + " is not a number");
+  if (ec == std::errc::result_out_of_range) return std::unexpected(quote(text) + " is out of range");
+  if (ec != std::errc() || end != text.data() + text.size()) return std::unexpected(quote(text) + " is not a number");
   if (!std::isfinite(value)) return std::unexpected(quote(text) + " is not a finite number");
   return value;
 }

@@ -81,11 +81,15 @@ bool acts_on_terminal(char32_t c) {
 
 std::string escaped(char32_t c) {
   switch (c) {
-    case U'\t': return "\\t";
-    case U'\r': return "\\r";
-    case U'\n': return "\\n";
-    default: return c < 0x80 ? fmt::format("\\x{:02x}", static_cast<unsigned>(c))
-                             : fmt::format("\\u{:04x}", static_cast<unsigned>(c));
+    case U'\t':
+      return "\\t";
+    case U'\r':
+      return "\\r";
+    case U'\n':
+      return "\\n";
+    default:
+      return c < 0x80 ? fmt::format("\\x{:02x}", static_cast<unsigned>(c))
+                      : fmt::format("\\u{:04x}", static_cast<unsigned>(c));
   }
 }
 

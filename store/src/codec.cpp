@@ -43,8 +43,8 @@ std::string encode_spectrum(const SpectralSamples& spectrum) {
 
 SpectralSamples decode_spectrum(std::string_view bytes, std::string_view what) {
   if (bytes.size() % kPairBytes != 0)
-    fail(StoreError::Kind::corrupt, fmt::format("{}: {} bytes is not a whole number of (wavelength, value) pairs",
-                                                what, bytes.size()));
+    fail(StoreError::Kind::corrupt,
+         fmt::format("{}: {} bytes is not a whole number of (wavelength, value) pairs", what, bytes.size()));
   SpectralSamples spectrum;
   const std::size_t n = bytes.size() / kPairBytes;
   spectrum.wavelength_nm.resize(n);

@@ -13,20 +13,28 @@ void fail(StoreError::Kind kind, std::string message, int sqlite_code) {
 StoreError::Kind kind_of_sqlite_code(int extended_code) {
   using Kind = StoreError::Kind;
   switch (extended_code & 0xff) {
-    case SQLITE_FULL: return Kind::full;
-    case SQLITE_READONLY: return Kind::read_only;
+    case SQLITE_FULL:
+      return Kind::full;
+    case SQLITE_READONLY:
+      return Kind::read_only;
     case SQLITE_CORRUPT:
-    case SQLITE_NOTADB: return Kind::corrupt;
+    case SQLITE_NOTADB:
+      return Kind::corrupt;
     case SQLITE_BUSY:
-    case SQLITE_LOCKED: return Kind::busy;
+    case SQLITE_LOCKED:
+      return Kind::busy;
     case SQLITE_IOERR:
     case SQLITE_CANTOPEN:
-    case SQLITE_PERM: return Kind::io;
-    case SQLITE_CONSTRAINT: return Kind::conflict;
+    case SQLITE_PERM:
+      return Kind::io;
+    case SQLITE_CONSTRAINT:
+      return Kind::conflict;
     case SQLITE_TOOBIG:
     case SQLITE_RANGE:
-    case SQLITE_MISMATCH: return Kind::invalid_argument;
-    default: return Kind::internal;
+    case SQLITE_MISMATCH:
+      return Kind::invalid_argument;
+    default:
+      return Kind::internal;
   }
 }
 
@@ -118,8 +126,8 @@ Statement Connection::prepare(std::string_view sql) {
   auto found = cache_.find(sql);
   if (found != cache_.end()) return Statement(*this, found->second);
   sqlite3_stmt* stmt = nullptr;
-  const int rc = sqlite3_prepare_v3(db_, sql.data(), static_cast<int>(sql.size()), SQLITE_PREPARE_PERSISTENT, &stmt,
-                                    nullptr);
+  const int rc =
+      sqlite3_prepare_v3(db_, sql.data(), static_cast<int>(sql.size()), SQLITE_PREPARE_PERSISTENT, &stmt, nullptr);
   if (rc != SQLITE_OK) fail(rc);
   cache_.emplace(std::string(sql), stmt);
   return Statement(*this, stmt);

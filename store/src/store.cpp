@@ -89,8 +89,8 @@ bool FileIdentity::operator==(const FileIdentity& other) const {
   const auto same_time = [](const timespec& a, const timespec& b) {
     return a.tv_sec == b.tv_sec && a.tv_nsec == b.tv_nsec;
   };
-  return device == other.device && inode == other.inode && size == other.size &&
-         same_time(modified, other.modified) && same_time(changed, other.changed);
+  return device == other.device && inode == other.inode && size == other.size && same_time(modified, other.modified) &&
+         same_time(changed, other.changed);
 }
 
 }  // namespace detail
@@ -237,11 +237,10 @@ RecoveryReport recover(Connection& writer, RecoveryPolicy policy, Time now) {
   RecoveryReport report;
   Transaction transaction(writer, Transaction::Kind::write);
   {
-    auto running = writer.prepare(
-        policy == RecoveryPolicy::all_open_sessions
-            ? "SELECT id FROM sessions WHERE state = 'open' ORDER BY id"
-            : "SELECT DISTINCT s.id FROM sessions s JOIN jobs j ON j.session_id = s.id "
-              "WHERE s.state = 'open' AND j.state IN ('queued', 'running') ORDER BY s.id");
+    auto running = writer.prepare(policy == RecoveryPolicy::all_open_sessions
+                                      ? "SELECT id FROM sessions WHERE state = 'open' ORDER BY id"
+                                      : "SELECT DISTINCT s.id FROM sessions s JOIN jobs j ON j.session_id = s.id "
+                                        "WHERE s.state = 'open' AND j.state IN ('queued', 'running') ORDER BY s.id");
     while (running.step()) report.interrupted_sessions.push_back(running.integer(0));
   }
   {

@@ -120,8 +120,8 @@ struct Store::Impl {
   template <typename F>
   auto write(std::string_view what, F&& body) -> Result<std::invoke_result_t<F, detail::Connection&>> {
     if (!writer) {
-      return std::unexpected(StoreError{StoreError::Kind::read_only,
-                                        std::string(what) + ": the database was opened read-only", 0});
+      return std::unexpected(
+          StoreError{StoreError::Kind::read_only, std::string(what) + ": the database was opened read-only", 0});
     }
     std::lock_guard lock(writer_mutex);
     return detail::guarded(what, [&] {

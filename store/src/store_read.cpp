@@ -79,8 +79,8 @@ Result<Session> Store::session(Id id) const {
 
 Result<SessionDetail> Store::session_detail(Id id) const {
   return impl_->read(fmt::format("reading session {}", id), [&](Connection& c) {
-    static const std::string measurements = fmt::format(
-        "SELECT {} FROM measurements WHERE session_id = ?1 ORDER BY id", detail::kMeasurementColumns);
+    static const std::string measurements =
+        fmt::format("SELECT {} FROM measurements WHERE session_id = ?1 ORDER BY id", detail::kMeasurementColumns);
     static const std::string fits = fmt::format(
         "SELECT {} FROM fits WHERE measurement_id IN (SELECT id FROM measurements WHERE session_id = ?1) "
         "ORDER BY id",
@@ -132,9 +132,9 @@ Result<Measurement> Store::measurement(Id id) const {
 Result<std::optional<Measurement>> Store::latest_measurement(Id session_id, MeasurementKind kind) const {
   return impl_->read("reading the latest measurement", [&](Connection& c) {
     session_in(c, session_id);
-    static const std::string sql = fmt::format(
-        "SELECT {} FROM measurements WHERE session_id = ?1 AND kind = ?2 ORDER BY id DESC LIMIT 1",
-        detail::kMeasurementColumns);
+    static const std::string sql =
+        fmt::format("SELECT {} FROM measurements WHERE session_id = ?1 AND kind = ?2 ORDER BY id DESC LIMIT 1",
+                    detail::kMeasurementColumns);
     auto row = c.prepare(sql);
     row.bind(session_id, to_string(kind));
     return row.step() ? std::optional<Measurement>(detail::read_measurement(row)) : std::nullopt;

@@ -39,8 +39,8 @@ void check_fit(const Fit& f) {
     if (!std::isfinite(f.params[i])) invalid(fmt::format("parameter {} is not finite", kFitParamNames[i]));
   }
   if (f.measured.size() != f.wavelength_nm.size() || f.fitted.size() != f.wavelength_nm.size()) {
-    invalid(fmt::format("fit: {} wavelengths, {} measured, {} fitted values", f.wavelength_nm.size(),
-                        f.measured.size(), f.fitted.size()));
+    invalid(fmt::format("fit: {} wavelengths, {} measured, {} fitted values", f.wavelength_nm.size(), f.measured.size(),
+                        f.fitted.size()));
   }
   detail::check_spectrum({f.wavelength_nm, f.measured}, "fit", true);
   detail::check_json_object(f.options, "fit options");
@@ -104,26 +104,33 @@ Id insert_measurement(Connection& c, const Measurement& m, Time now) {
 bool session_transition_allowed(SessionState from, SessionState to) {
   if (from == to) return true;
   switch (from) {
-    case SessionState::open: return true;
-    case SessionState::interrupted: return true;
+    case SessionState::open:
+      return true;
+    case SessionState::interrupted:
+      return true;
     case SessionState::complete:
-    case SessionState::aborted: return false;
+    case SessionState::aborted:
+      return false;
   }
   return false;
 }
 
 bool job_transition_allowed(JobState from, JobState to) {
   switch (from) {
-    case JobState::queued: return to == JobState::running || to == JobState::failed || to == JobState::cancelled;
-    case JobState::running: return to == JobState::succeeded || to == JobState::failed || to == JobState::cancelled;
-    default: return false;
+    case JobState::queued:
+      return to == JobState::running || to == JobState::failed || to == JobState::cancelled;
+    case JobState::running:
+      return to == JobState::succeeded || to == JobState::failed || to == JobState::cancelled;
+    default:
+      return false;
   }
 }
 
 void check_job_update(const JobUpdate& update) {
   if (update.result) detail::check_json_object(*update.result, "the job's result");
   const bool ended_badly = update.state == JobState::failed || update.state == JobState::cancelled;
-  if (ended_badly && !update.error) invalid(fmt::format("a job that becomes {} needs its error", to_string(update.state)));
+  if (ended_badly && !update.error)
+    invalid(fmt::format("a job that becomes {} needs its error", to_string(update.state)));
   if (!ended_badly && update.error) invalid(fmt::format("a job that becomes {} has no error", to_string(update.state)));
   if (update.error) detail::check_not_empty(update.error->message, "the job error's message");
 }
@@ -157,7 +164,8 @@ Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
 
 // A measurement and its fit, inside the caller's transaction, after the checks every
 // measurement passes.
-RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement& m, const std::optional<Fit>& fit, Time now) {
+RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
+                                               Time now) {
   check_measurement(m);
   if (fit) check_fit(*fit);
   const auto state = session_state_of(c, m.session_id);
@@ -240,12 +248,11 @@ Result<Session> Store::update_session(Id id, const SessionUpdate& update) {
     const auto now = detail::to_micros(impl_->now());
     if (update.state && *update.state != current) {
       if (!session_transition_allowed(current, *update.state)) {
-        fail(Kind::conflict, fmt::format("a session that is {} cannot become {}", to_string(current),
-                                         to_string(*update.state)));
+        fail(Kind::conflict,
+             fmt::format("a session that is {} cannot become {}", to_string(current), to_string(*update.state)));
       }
-      const std::optional<std::int64_t> ended = *update.state == SessionState::open
-                                                    ? std::nullopt
-                                                    : std::optional<std::int64_t>(now);
+      const std::optional<std::int64_t> ended =
+          *update.state == SessionState::open ? std::nullopt : std::optional<std::int64_t>(now);
       c.prepare("UPDATE sessions SET state = ?2, updated_at = ?3, ended_at = ?4 WHERE id = ?1")
           .bind(id, to_string(*update.state), now, ended)
           .run();
@@ -271,12 +278,12 @@ Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, cons
 Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measurement& m, const std::optional<Fit>& fit,
                                                      const std::string& result) {
   return impl_->write(fmt::format("completing job {}", job_id), [&](Connection& c) {
-    if (m.job_id && *m.job_id != job_id) invalid(fmt::format("the measurement is of job {}, not {}", *m.job_id, job_id));
+    if (m.job_id && *m.job_id != job_id)
+      invalid(fmt::format("the measurement is of job {}, not {}", *m.job_id, job_id));
     const auto job = job_in(c, job_id);
     if (job.state != JobState::running)
       fail(Kind::conflict, fmt::format("job {} is {}, not running", job_id, to_string(job.state)));
-    if (job.session_id != m.session_id)
-      invalid(fmt::format("job {} is not of session {}", job_id, m.session_id));
+    if (job.session_id != m.session_id) invalid(fmt::format("job {} is not of session {}", job_id, m.session_id));
     Measurement of_job = m;
     of_job.job_id = job_id;
     const auto now = impl_->now();
@@ -304,8 +311,8 @@ Result<Id> Store::record_rejected_reading(const RejectedReading& r) {
     c.prepare(
          "INSERT INTO rejected_readings (session_id, job_id, instrument_id, attempt, quality_code, quality, reason, "
          "raw_reply, measured_at, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)")
-        .bind(r.session_id, r.job_id, r.instrument_id, r.attempt, r.quality_code, r.quality, r.reason, Blob{r.raw_reply},
-              detail::to_micros(r.measured_at), detail::to_micros(impl_->now()))
+        .bind(r.session_id, r.job_id, r.instrument_id, r.attempt, r.quality_code, r.quality, r.reason,
+              Blob{r.raw_reply}, detail::to_micros(r.measured_at), detail::to_micros(impl_->now()))
         .run();
     return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
   });
@@ -316,7 +323,8 @@ Result<CreatedJob> Store::create_job(const Job& job) {
     detail::check_not_empty(job.kind, "the job's kind");
     detail::check_json_object(job.request, "the job's request");
     detail::check_json_object(job.result, "the job's result");
-    static const std::string by_key = fmt::format("SELECT {} FROM jobs WHERE idempotency_key = ?1", detail::kJobColumns);
+    static const std::string by_key =
+        fmt::format("SELECT {} FROM jobs WHERE idempotency_key = ?1", detail::kJobColumns);
     if (!job.idempotency_key.empty()) {
       auto existing = c.prepare(by_key);
       existing.bind(job.idempotency_key);
@@ -328,15 +336,15 @@ Result<CreatedJob> Store::create_job(const Job& job) {
     c.prepare(
          "INSERT INTO jobs (kind, request, requested_by, session_id, idempotency_key, state, error, result, "
          "created_at) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', NULL, ?6, ?7)")
-        .bind(job.kind, job.request, job.requested_by, job.session_id, key, job.result,
-              detail::to_micros(impl_->now()))
+        .bind(job.kind, job.request, job.requested_by, job.session_id, key, job.result, detail::to_micros(impl_->now()))
         .run();
     return CreatedJob{job_in(c, static_cast<Id>(sqlite3_last_insert_rowid(c.handle()))), true};
   });
 }
 
 Result<Job> Store::update_job(Id id, const JobUpdate& update) {
-  return impl_->write(fmt::format("updating job {}", id), [&](Connection& c) { return change_job(c, id, update, impl_->now()); });
+  return impl_->write(fmt::format("updating job {}", id),
+                      [&](Connection& c) { return change_job(c, id, update, impl_->now()); });
 }
 
 }  // namespace skinspec::store

@@ -80,9 +80,7 @@ std::string_view to_string(JobState state) { return name_of(kJobStates, state); 
 std::string_view to_string(JobErrorCode code) { return name_of(kJobErrorCodes, code); }
 
 std::optional<SessionState> parse_session_state(std::string_view text) { return lookup(kSessionStates, text); }
-std::optional<MeasurementKind> parse_measurement_kind(std::string_view text) {
-  return lookup(kMeasurementKinds, text);
-}
+std::optional<MeasurementKind> parse_measurement_kind(std::string_view text) { return lookup(kMeasurementKinds, text); }
 std::optional<JobState> parse_job_state(std::string_view text) { return lookup(kJobStates, text); }
 std::optional<JobErrorCode> parse_job_error_code(std::string_view text) { return lookup(kJobErrorCodes, text); }
 

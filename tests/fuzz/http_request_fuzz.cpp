@@ -58,7 +58,8 @@ struct Service {
 
   Service() {
     const bool shm = std::filesystem::is_directory("/dev/shm") && ::access("/dev/shm", W_OK) == 0;
-    std::string pattern = (shm ? std::string("/dev/shm") : std::filesystem::temp_directory_path().string()) + "/skinspec-http-fuzz-XXXXXX";
+    std::string pattern = (shm ? std::string("/dev/shm") : std::filesystem::temp_directory_path().string()) +
+                          "/skinspec-http-fuzz-XXXXXX";
     require(::mkdtemp(pattern.data()) != nullptr, "a scratch directory");
     dir = pattern;
     auto opened = skinspec::store::Store::open((dir / "fuzz.db").string());
@@ -93,7 +94,8 @@ void check_error_body(const api::Response& response) {
   const json body = json::parse(response.body, nullptr, false);
   require(body.is_object() && body.contains("error") && body["error"].is_object(), "an error has the error object");
   const json& error = body["error"];
-  require(error.contains("code") && error["code"].is_string() && !error["code"].get<std::string>().empty(), "an error has a code");
+  require(error.contains("code") && error["code"].is_string() && !error["code"].get<std::string>().empty(),
+          "an error has a code");
   require(error.contains("message") && error["message"].is_string(), "an error has a message");
 }
 

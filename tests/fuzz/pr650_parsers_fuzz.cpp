@@ -47,8 +47,7 @@ void check_spectral(std::string_view bytes) {
   for (std::size_t i = 0; i < report->values.size(); ++i) {
     require(report->wavelength_nm[i] == pr650::kFirstNm + pr650::kStepNm * static_cast<double>(i),
             "wavelengths on the native grid");
-    require(i == 0 || report->wavelength_nm[i] > report->wavelength_nm[i - 1],
-            "wavelengths increase");
+    require(i == 0 || report->wavelength_nm[i] > report->wavelength_nm[i - 1], "wavelengths increase");
     require(finite_non_negative(report->values[i]), "values finite and non-negative");
   }
   require(finite_non_negative(report->integrated), "integrated value finite and non-negative");
@@ -58,8 +57,8 @@ void check_spectral(std::string_view bytes) {
 
   const auto again = pr650::parse_spectral(pr650::format_spectral_reply(*report));
   require(again.has_value(), "a printed report reads back");
-  require(again->values == report->values && again->quality == report->quality &&
-              again->units == report->units && again->integrated == report->integrated,
+  require(again->values == report->values && again->quality == report->quality && again->units == report->units &&
+              again->integrated == report->integrated,
           "a printed report reads back the same");
 }
 
@@ -112,10 +111,8 @@ void check_line_replies(std::string_view bytes) {
   }
   if (const auto configuration = pr650::parse_spectral_configuration(bytes)) {
     require(configuration->points >= 0, "point count non-negative");
-    require(finite_non_negative(configuration->bandwidth_nm) &&
-                finite_non_negative(configuration->first_nm) &&
-                finite_non_negative(configuration->last_nm) &&
-                finite_non_negative(configuration->step_nm),
+    require(finite_non_negative(configuration->bandwidth_nm) && finite_non_negative(configuration->first_nm) &&
+                finite_non_negative(configuration->last_nm) && finite_non_negative(configuration->step_nm),
             "configuration numbers finite and non-negative");
   } else {
     check_error(configuration.error(), bytes);
@@ -126,8 +123,8 @@ void check_echo(std::string_view bytes) {
   for (const std::string_view command : {"d5\n", "b3\r", "s01,,,,,0,01,1\n", "d110\n", ""}) {
     const std::string_view stripped = pr650::strip_echo(bytes, command);
     require(stripped.size() <= bytes.size(), "strip_echo only removes");
-    require(stripped.empty() || (stripped.data() >= bytes.data() &&
-                                 stripped.data() + stripped.size() <= bytes.data() + bytes.size()),
+    require(stripped.empty() ||
+                (stripped.data() >= bytes.data() && stripped.data() + stripped.size() <= bytes.data() + bytes.size()),
             "strip_echo returns part of the reply");
     pr650::reply_complete(pr650::ReplyShape::line, stripped);
     pr650::reply_complete(pr650::ReplyShape::spectral, stripped);

@@ -116,8 +116,8 @@ void check_printable(std::string_view bytes) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
   check_spectra(bytes, {});
-  check_spectra(bytes, {.min_value = -1e300, .max_value = 1e300, .must_cover_from_nm = 1e300,
-                        .must_cover_to_nm = -1e300});
+  check_spectra(bytes,
+                {.min_value = -1e300, .max_value = 1e300, .must_cover_from_nm = 1e300, .must_cover_to_nm = -1e300});
   check_table(bytes);
   check_printable(bytes);
   return 0;

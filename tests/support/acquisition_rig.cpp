@@ -44,7 +44,8 @@ AcquisitionRig::~AcquisitionRig() {
 }
 
 std::string AcquisitionRig::logs() const {
-  return "skinspecd:\n" + (daemon ? daemon->err() : std::string()) + "\nskinspec-sim:\n" + (sim ? sim->err() : std::string());
+  return "skinspecd:\n" + (daemon ? daemon->err() : std::string()) + "\nskinspec-sim:\n" +
+         (sim ? sim->err() : std::string());
 }
 
 void AcquisitionRig::start_sim(const std::string& listen) {
@@ -61,8 +62,8 @@ void AcquisitionRig::start_sim(const std::string& listen) {
 }
 
 void AcquisitionRig::start_daemon(const std::vector<std::string>& extra_args) {
-  std::vector<std::string> args = {"--listen", "127.0.0.1:0", "--db", db_path(), "--device",
-                                   "tcp:127.0.0.1:" + std::to_string(sim_port)};
+  std::vector<std::string> args = {"--listen", "127.0.0.1:0", "--db",
+                                   db_path(),  "--device",    "tcp:127.0.0.1:" + std::to_string(sim_port)};
   add_default(args, options_.daemon_args, "--log-level", "debug");
   args.insert(args.end(), options_.daemon_args.begin(), options_.daemon_args.end());
   args.insert(args.end(), extra_args.begin(), extra_args.end());
@@ -91,7 +92,8 @@ long long new_session(unsigned short port, const std::string& subject) {
 }
 
 json submit(unsigned short port, long long session, const json& body, const Headers& headers) {
-  const auto r = http_request(port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", body.dump(), headers);
+  const auto r =
+      http_request(port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", body.dump(), headers);
   if (r.status != 202 && r.status != 200) return json{{"status", r.status}, {"body", r.body}};
   return r.json();
 }

@@ -22,7 +22,7 @@ struct RigOptions {
   // Added to the simulator's: time scale 0 (unless given here), a power-on window that never closes, a flat 0.99
   // white standard measured first, then the forearm example's subjects.
   std::vector<std::string> sim_args;
-  bool default_scenes = true;  // false: sim_args name the readings' source
+  bool default_scenes = true;            // false: sim_args name the readings' source
   std::vector<std::string> daemon_args;  // added to the daemon's (log level debug unless given)
 };
 

@@ -30,8 +30,7 @@ Table table(const std::string& relative) {
 
 const Colorimetry& colorimetry() {
   static const Colorimetry instance = [] {
-    auto c = Colorimetry::from_tables(table("colour/cie1931_2deg_cmf.csv"),
-                                      table("colour/cie_illuminants.csv"));
+    auto c = Colorimetry::from_tables(table("colour/cie1931_2deg_cmf.csv"), table("colour/cie_illuminants.csv"));
     if (!c) die(c.error().what());
     return *c;
   }();

@@ -25,7 +25,8 @@ void copy_headers(const http::response_header<>& from, HttpReply& to) {
   to.status = static_cast<int>(from.result_int());
   for (const auto& field : from) {
     std::string name(field.name_string());
-    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    std::transform(name.begin(), name.end(), name.begin(),
+                   [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
     to.headers[name] = std::string(field.value());
   }
 }
@@ -69,7 +70,8 @@ HttpReply HttpConnection::request(const std::string& method, const std::string& 
   for (const auto& [name, value] : headers) {
     req.set(name, value);
     std::string lower = name;
-    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    std::transform(lower.begin(), lower.end(), lower.begin(),
+                   [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
     has_type = has_type || lower == "content-type";
   }
   if (!body.empty() && !has_type) req.set(http::field::content_type, "application/json");
@@ -94,14 +96,14 @@ HttpReply HttpConnection::request(const std::string& method, const std::string& 
   return reply;
 }
 
-HttpReply http_request(unsigned short port, const std::string& method, const std::string& target, const std::string& body,
-                       const std::vector<std::pair<std::string, std::string>>& headers) {
+HttpReply http_request(unsigned short port, const std::string& method, const std::string& target,
+                       const std::string& body, const std::vector<std::pair<std::string, std::string>>& headers) {
   HttpConnection connection(port);
   return connection.request(method, target, body, headers);
 }
 
-HttpReply follow_events(unsigned short port, const std::string& target, const std::function<bool(const std::string&)>& on_event,
-                        std::chrono::milliseconds timeout) {
+HttpReply follow_events(unsigned short port, const std::string& target,
+                        const std::function<bool(const std::string&)>& on_event, std::chrono::milliseconds timeout) {
   HttpReply reply;
   asio::io_context ioc;
   beast::tcp_stream stream(ioc);
@@ -156,7 +158,8 @@ std::string raw_exchange(unsigned short port, const std::string& bytes, std::chr
   return raw_exchange_from("127.0.0.1", port, bytes, timeout).bytes;
 }
 
-RawExchange raw_exchange_from(const std::string& source, unsigned short port, const std::string& bytes, std::chrono::milliseconds timeout) {
+RawExchange raw_exchange_from(const std::string& source, unsigned short port, const std::string& bytes,
+                              std::chrono::milliseconds timeout) {
   RawExchange out;
   asio::io_context ioc;
   beast::tcp_stream stream(ioc);
@@ -190,7 +193,8 @@ std::vector<HttpReply> parse_responses(const std::string& bytes, const std::vect
     const std::size_t used = parser.put(asio::buffer(bytes.data() + offset, bytes.size() - offset), ec);
     if (ec || !parser.is_done()) {
       HttpReply broken;
-      broken.error = "unparsable response at byte " + std::to_string(offset) + (ec ? ": " + ec.message() : ": incomplete");
+      broken.error =
+          "unparsable response at byte " + std::to_string(offset) + (ec ? ": " + ec.message() : ": incomplete");
       replies.push_back(std::move(broken));
       break;
     }

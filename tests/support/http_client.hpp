@@ -14,7 +14,7 @@
 namespace skinspec::testing {
 
 struct HttpReply {
-  int status = 0;  // 0: no reply (connection failed or closed)
+  int status = 0;                              // 0: no reply (connection failed or closed)
   std::map<std::string, std::string> headers;  // names in lower case
   std::string body;
   std::string error;  // why there was no reply
@@ -29,7 +29,8 @@ struct HttpReply {
 // One request on its own connection. A non-empty body is sent as application/json unless
 // `headers` names a content-type.
 HttpReply http_request(unsigned short port, const std::string& method, const std::string& target,
-                       const std::string& body = "", const std::vector<std::pair<std::string, std::string>>& headers = {});
+                       const std::string& body = "",
+                       const std::vector<std::pair<std::string, std::string>>& headers = {});
 
 // A kept-alive connection for several requests.
 class HttpConnection {
@@ -51,8 +52,8 @@ class HttpConnection {
 // returning false hangs up. Returns the reply's status and headers, with `error` set when the
 // stream did not end normally (a hang-up by `on_event` is normal). A reply other than 200 has
 // its body.
-HttpReply follow_events(unsigned short port, const std::string& target, const std::function<bool(const std::string&)>& on_event,
-                        std::chrono::milliseconds timeout);
+HttpReply follow_events(unsigned short port, const std::string& target,
+                        const std::function<bool(const std::string&)>& on_event, std::chrono::milliseconds timeout);
 
 // Writes `bytes` as they are and reads until the server closes the connection or `timeout`
 // passes; everything the server sent.

@@ -10,8 +10,8 @@ namespace skinspec::testing {
 
 struct DecodedPng {
   int width = 0, height = 0;
-  int bits = 0;                       // per channel, as stored in the file
-  std::vector<unsigned char> rgb;     // 8-bit sRGB codes, row by row, 3 per pixel
+  int bits = 0;                    // per channel, as stored in the file
+  std::vector<unsigned char> rgb;  // 8-bit sRGB codes, row by row, 3 per pixel
 
   std::array<int, 3> pixel(int x, int y) const {
     const auto i = 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x));

@@ -101,10 +101,8 @@ class SpawnSetup {
  public:
   SpawnSetup(const Pipe* input, const Pipe& output, const Pipe& error) {
     posix_spawn_file_actions_init(&actions_);
-    if (input)
-      posix_spawn_file_actions_adddup2(&actions_, input->read.get(), STDIN_FILENO);
-    else
-      posix_spawn_file_actions_addopen(&actions_, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+    if (input) posix_spawn_file_actions_adddup2(&actions_, input->read.get(), STDIN_FILENO);
+    else posix_spawn_file_actions_addopen(&actions_, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
     posix_spawn_file_actions_adddup2(&actions_, output.write.get(), STDOUT_FILENO);
     posix_spawn_file_actions_adddup2(&actions_, error.write.get(), STDERR_FILENO);
 
@@ -136,10 +134,8 @@ class SpawnSetup {
 void drain(Fd& fd, std::string& sink) {
   char buffer[65536];
   const ssize_t n = ::read(fd.get(), buffer, sizeof buffer);
-  if (n > 0)
-    sink.append(buffer, static_cast<std::size_t>(n));
-  else if (n == 0 || (errno != EINTR && errno != EAGAIN))
-    fd.close();
+  if (n > 0) sink.append(buffer, static_cast<std::size_t>(n));
+  else if (n == 0 || (errno != EINTR && errno != EAGAIN)) fd.close();
 }
 
 // Writes as much of `bytes` from `offset` as the pipe takes; closes `fd` when all is written
@@ -147,10 +143,8 @@ void drain(Fd& fd, std::string& sink) {
 void feed(Fd& fd, const std::string& bytes, std::size_t& offset) {
   if (offset < bytes.size()) {
     const ssize_t n = ::write(fd.get(), bytes.data() + offset, bytes.size() - offset);
-    if (n > 0)
-      offset += static_cast<std::size_t>(n);
-    else if (n < 0 && errno != EINTR && errno != EAGAIN)
-      offset = bytes.size();
+    if (n > 0) offset += static_cast<std::size_t>(n);
+    else if (n < 0 && errno != EINTR && errno != EAGAIN) offset = bytes.size();
   }
   if (offset >= bytes.size()) fd.close();
 }
@@ -162,8 +156,8 @@ int milliseconds_until(Clock::time_point deadline) {
 
 // Moves bytes between the pipes and the result until the child closes its output or the
 // deadline passes. Returns false on the deadline.
-bool exchange_until(Clock::time_point deadline, Fd& input, const std::string& input_bytes, Fd& output,
-                    Fd& error, ProcessResult& result) {
+bool exchange_until(Clock::time_point deadline, Fd& input, const std::string& input_bytes, Fd& output, Fd& error,
+                    ProcessResult& result) {
   std::size_t written = 0;
   if (input.is_open()) feed(input, input_bytes, written);
   while (output.is_open() || error.is_open()) {
@@ -197,15 +191,17 @@ void reap(pid_t pid, Clock::time_point deadline, ProcessResult& result) {
 
 std::string clipped(const std::string& text) {
   constexpr std::size_t kLimit = 4000;
-  return text.size() <= kLimit ? text : text.substr(0, kLimit) + "\n[... " + std::to_string(text.size() - kLimit) + " more bytes]";
+  return text.size() <= kLimit
+             ? text
+             : text.substr(0, kLimit) + "\n[... " + std::to_string(text.size() - kLimit) + " more bytes]";
 }
 
 }  // namespace
 
 std::string ProcessResult::describe() const {
-  std::string how = timed_out       ? "timed out and was killed"
-                    : signal != 0   ? "was killed by signal " + std::to_string(signal)
-                                    : "exited with status " + std::to_string(exit_status);
+  std::string how = timed_out     ? "timed out and was killed"
+                    : signal != 0 ? "was killed by signal " + std::to_string(signal)
+                                  : "exited with status " + std::to_string(exit_status);
   return "the child " + how + "\n--- stdout ---\n" + clipped(out) + "\n--- stderr ---\n" + clipped(err);
 }
 

@@ -21,8 +21,7 @@ double skin_reflectance(const Layer& epidermis, const Layer& dermis, double Rs) 
 double eq1(const Coefficients& c, double epidermis_mm, double dermis_mm, const Weights& w) {
   const double K_et = c.Ke + w.melanin * c.Km;
   const double K_dt = c.Kd + w.oxyhemoglobin * c.Kh + w.deoxyhemoglobin * c.Kdh + w.bilirubin * c.Kb;
-  return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, c.Sd, dermis_mm),
-                          w.surface_reflectance);
+  return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, c.Sd, dermis_mm), w.surface_reflectance);
 }
 
 double extended(const Coefficients& c, double wavelength_nm, double epidermis_mm, double dermis_mm,
@@ -34,7 +33,8 @@ double extended(const Coefficients& c, double wavelength_nm, double epidermis_mm
   const double packaging = vessel_radius_mm > 0 ? (1 - std::exp(-x)) / x : 1.0;
   const double K_et = c.Ke + p.melanin * c.Km;
   const double K_dt = c.Kd + packaging * (oxy * c.Kh + deoxy * c.Kdh) + p.bilirubin * c.Kb;
-  const double mu_s_reduced_per_mm = p.dermis_scattering * std::pow(wavelength_nm / 620, -p.dermis_scattering_power) / 10;
+  const double mu_s_reduced_per_mm =
+      p.dermis_scattering * std::pow(wavelength_nm / 620, -p.dermis_scattering_power) / 10;
   const double S_d = 0.75 * mu_s_reduced_per_mm;
   return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, S_d, dermis_mm), p.surface_reflectance);
 }

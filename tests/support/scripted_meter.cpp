@@ -38,7 +38,8 @@ bool ScriptedMeter::read_command(std::string& command) {
       command = pending_.substr(0, end);
       pending_.erase(0, end + 1);
       if (command.empty()) continue;
-      std::ranges::transform(command, command.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      std::ranges::transform(command, command.begin(),
+                             [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
       return true;
     }
     auto n = end_->read(buffer, sizeof buffer, drivers::deadline_in(100ms));
@@ -63,7 +64,8 @@ void ScriptedMeter::run() {
         continue;
       }
       if (command != script_[index].command && mismatch_.empty())
-        mismatch_ = "step " + std::to_string(index) + ": expected '" + script_[index].command + "', got '" + command + "'";
+        mismatch_ =
+            "step " + std::to_string(index) + ": expected '" + script_[index].command + "', got '" + command + "'";
     }
     const MeterStep& step = script_[index];
     for (auto waited = 0ms; waited < step.delay && !stopping_; waited += 5ms) std::this_thread::sleep_for(5ms);

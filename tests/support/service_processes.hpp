@@ -26,15 +26,20 @@ inline unsigned short port_after_colon(const std::string& line) {
 // (or at `time_scale`), its power-on window never closing; `listen` is HOST:PORT (port 0: any
 // free one), `extra` more options (faults).
 inline ListeningProcess start_simulator(const ScratchDirectory& dir, const std::string& listen,
-                                        const std::vector<std::string>& extra = {}, const std::string& time_scale = "0") {
+                                        const std::vector<std::string>& extra = {},
+                                        const std::string& time_scale = "0") {
   const std::string white = dir.file("sim-white.csv");
   std::ofstream(white) << "wavelength_nm,white\n380,0.99\n780,0.99\n";
-  std::vector<std::string> args{"--listen", listen, "--time-scale", time_scale, "--boot-window", "inf", "--white", white,
+  std::vector<std::string> args{"--listen",      listen,
+                                "--time-scale",  time_scale,
+                                "--boot-window", "inf",
+                                "--white",       white,
                                 "--reflectance", std::string(SKINSPEC_TEST_DATA_DIR) + "/examples/forearm.csv"};
   args.insert(args.end(), extra.begin(), extra.end());
   ListeningProcess sim;
   sim.process = std::make_unique<BackgroundProcess>(std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspec-sim", args);
-  if (auto line = sim.process->wait_for_stdout_line("listening on ", std::chrono::seconds(20))) sim.port = port_after_colon(*line);
+  if (auto line = sim.process->wait_for_stdout_line("listening on ", std::chrono::seconds(20)))
+    sim.port = port_after_colon(*line);
   return sim;
 }
 
@@ -44,7 +49,8 @@ inline ListeningProcess start_daemon(const ScratchDirectory& dir, const std::vec
   all.insert(all.end(), args.begin(), args.end());
   ListeningProcess daemon;
   daemon.process = std::make_unique<BackgroundProcess>(std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspecd", all);
-  if (auto line = daemon.process->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", std::chrono::seconds(30)))
+  if (auto line =
+          daemon.process->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", std::chrono::seconds(30)))
     daemon.port = port_after_colon(*line);
   return daemon;
 }

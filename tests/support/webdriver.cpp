@@ -47,9 +47,7 @@ std::string base64_decode(const std::string& text) {
 
 }  // namespace
 
-bool Browser::available() {
-  return std::filesystem::exists(kChromium) && std::filesystem::exists(kChromeDriver);
-}
+bool Browser::available() { return std::filesystem::exists(kChromium) && std::filesystem::exists(kChromeDriver); }
 
 Browser::Browser(const std::string& profile_dir, int width, int height) {
   driver_ = std::make_unique<BackgroundProcess>(kChromeDriver, std::vector<std::string>{"--port=0"});
@@ -61,12 +59,21 @@ Browser::Browser(const std::string& profile_dir, int width, int height) {
   port_ = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(' ') + 1)));
   // Headless, no sandbox (tests may run as root), and no background connections: the machine
   // has no network beyond loopback.
-  const json args = {"--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                     "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                     "--disable-dev-shm-usage", "--user-data-dir=" + profile_dir,
+  const json args = {"--headless",
+                     "--no-sandbox",
+                     "--disable-gpu",
+                     "--disable-quic",
+                     "--no-first-run",
+                     "--disable-background-networking",
+                     "--disable-component-update",
+                     "--disable-sync",
+                     "--disable-dev-shm-usage",
+                     "--user-data-dir=" + profile_dir,
                      "--window-size=" + std::to_string(width) + "," + std::to_string(height)};
-  const json caps = {{"capabilities", {{"alwaysMatch", {{"browserName", "chrome"},
-                                                        {"goog:chromeOptions", {{"binary", kChromium}, {"args", args}}}}}}}};
+  const json caps = {
+      {"capabilities",
+       {{"alwaysMatch",
+         {{"browserName", "chrome"}, {"goog:chromeOptions", {{"binary", kChromium}, {"args", args}}}}}}}};
   const json reply = command("POST", "/session", caps);
   if (reply.is_object() && reply.contains("sessionId")) session_ = reply["sessionId"].get<std::string>();
 }
@@ -84,7 +91,8 @@ json Browser::command(const std::string& method, const std::string& path, const 
   const auto r = http_request(port_, method, path, body.is_null() ? std::string() : body.dump());
   const json reply = r.json();
   if (r.status != 200 || !reply.is_object()) {
-    ADD_FAILURE() << "WebDriver " << method << " " << path << " -> " << r.status << " " << r.error << " " << r.body.substr(0, 600);
+    ADD_FAILURE() << "WebDriver " << method << " " << path << " -> " << r.status << " " << r.error << " "
+                  << r.body.substr(0, 600);
     return nullptr;
   }
   return reply.value("value", json(nullptr));

@@ -31,7 +31,9 @@ class MonitorThread {
     if (thread_.joinable() && thread_.get_id() == std::this_thread::get_id()) thread_.detach();
   }
   template <typename Body>
-  void start(Body body) { thread_ = std::thread(std::move(body)); }
+  void start(Body body) {
+    thread_ = std::thread(std::move(body));
+  }
   void join() {
     if (thread_.joinable() && thread_.get_id() != std::this_thread::get_id()) thread_.join();
   }
@@ -48,8 +50,9 @@ std::map<std::string, UsbDeviceEvent> usb_serial_adapters() {
   for (const auto& port : list_ports()) {
     if (port.kind != "usb" || !port.vendor_id || !port.product_id) continue;
     UsbDeviceEvent device{UsbDeviceEvent::Kind::attached, *port.vendor_id, *port.product_id, port.serial_number};
-    adapters.emplace(fmt::format("{} {:04x}:{:04x} {}", port.path, device.vendor_id, device.product_id, device.serial_number),
-                     device);
+    adapters.emplace(
+        fmt::format("{} {:04x}:{:04x} {}", port.path, device.vendor_id, device.product_id, device.serial_number),
+        device);
   }
   return adapters;
 }
@@ -162,8 +165,8 @@ class LibusbMonitor final : public HotplugMonitor {
   // libusb forbids blocking device I/O inside its callback, so the event is only queued
   // there, and the serial number read afterwards.
   static int LIBUSB_CALL on_event(libusb_context*, libusb_device* device, libusb_hotplug_event event, void* self) {
-    const auto kind = event == LIBUSB_HOTPLUG_EVENT_DEVICE_ARRIVED ? UsbDeviceEvent::Kind::attached
-                                                                    : UsbDeviceEvent::Kind::detached;
+    const auto kind =
+        event == LIBUSB_HOTPLUG_EVENT_DEVICE_ARRIVED ? UsbDeviceEvent::Kind::attached : UsbDeviceEvent::Kind::detached;
     static_cast<LibusbMonitor*>(self)->pending_.push_back({libusb_ref_device(device), kind});
     return 0;  // stay registered
   }

@@ -14,13 +14,20 @@ using namespace std::chrono_literals;
 
 std::string_view to_string(InstrumentError::Kind kind) {
   switch (kind) {
-    case InstrumentError::Kind::no_contact: return "no_contact";
-    case InstrumentError::Kind::lost: return "lost";
-    case InstrumentError::Kind::protocol: return "protocol";
-    case InstrumentError::Kind::bad_reading: return "bad_reading";
-    case InstrumentError::Kind::rejected: return "rejected";
-    case InstrumentError::Kind::cancelled: return "cancelled";
-    case InstrumentError::Kind::transport: return "transport";
+    case InstrumentError::Kind::no_contact:
+      return "no_contact";
+    case InstrumentError::Kind::lost:
+      return "lost";
+    case InstrumentError::Kind::protocol:
+      return "protocol";
+    case InstrumentError::Kind::bad_reading:
+      return "bad_reading";
+    case InstrumentError::Kind::rejected:
+      return "rejected";
+    case InstrumentError::Kind::cancelled:
+      return "cancelled";
+    case InstrumentError::Kind::transport:
+      return "transport";
   }
   return "unknown";
 }
@@ -43,21 +50,29 @@ std::string printable(std::string_view command) {
 
 std::string spectral_units(int code) {
   switch (code) {
-    case 0: return "W/(sr m2 nm)";
-    case 1: return "W/(m2 nm)";
-    default: return "uncalibrated";
+    case 0:
+      return "W/(sr m2 nm)";
+    case 1:
+      return "W/(m2 nm)";
+    default:
+      return "uncalibrated";
   }
 }
 
 std::string photometric_units(int code, bool si) {
   switch (code) {
-    case 0: return si ? "cd/m2" : "fL";
-    case 1: return si ? "lx" : "fc";
-    default: return "uncalibrated";
+    case 0:
+      return si ? "cd/m2" : "fL";
+    case 1:
+      return si ? "lx" : "fc";
+    default:
+      return "uncalibrated";
   }
 }
 
-std::string seconds(std::chrono::milliseconds t) { return fmt::format("{:.3g} s", static_cast<double>(t.count()) / 1000); }
+std::string seconds(std::chrono::milliseconds t) {
+  return fmt::format("{:.3g} s", static_cast<double>(t.count()) / 1000);
+}
 
 // A report's values and its bytes as received, kept for the record.
 template <typename T>
@@ -106,14 +121,20 @@ InstrumentError Pr650::link_error(const TransportError& error, const std::string
   if (error.kind == K::interrupted || cancelled_) return {InstrumentError::Kind::cancelled, "cancelled", -1, {}};
   if (error.kind == K::timeout && !connected_)
     return {InstrumentError::Kind::no_contact,
-            fmt::format("no answer from a PR-650 on {} to '{}'", transport_->describe(), printable(command)), -1, {}};
+            fmt::format("no answer from a PR-650 on {} to '{}'", transport_->describe(), printable(command)),
+            -1,
+            {}};
   if (error.kind == K::timeout)
     return {InstrumentError::Kind::lost,
             fmt::format("the PR-650 on {} did not take '{}' in time; is it still on and connected?",
-                        transport_->describe(), printable(command)), -1, {}};
-  return {InstrumentError::Kind::lost,
-          fmt::format("lost the PR-650 on {} during '{}': {}", transport_->describe(), printable(command), error.message),
-          -1, {}};
+                        transport_->describe(), printable(command)),
+            -1,
+            {}};
+  return {
+      InstrumentError::Kind::lost,
+      fmt::format("lost the PR-650 on {} during '{}': {}", transport_->describe(), printable(command), error.message),
+      -1,
+      {}};
 }
 
 // One command and the wait for its reply, by the rule's two deadlines: the first byte of the
@@ -157,11 +178,14 @@ InstrumentError Pr650::unanswered(const std::string& command, const Reply& reply
             reply.bytes};
   if (!connected_)
     return {InstrumentError::Kind::no_contact,
-            fmt::format("no answer from a PR-650 on {} to '{}'", transport_->describe(), printable(command)), -1, {}};
+            fmt::format("no answer from a PR-650 on {} to '{}'", transport_->describe(), printable(command)),
+            -1,
+            {}};
   return {InstrumentError::Kind::lost,
           fmt::format("the PR-650 on {} did not answer '{}' within {}; is it still on and connected?",
                       transport_->describe(), printable(command), seconds(rule.first_byte)),
-          -1, {}};
+          -1,
+          {}};
 }
 
 // After asking again for a reply that was missing or cut short, the first request may have
@@ -177,7 +201,8 @@ void Pr650::settle(const pp::ExchangeRule& rule) {
 // A command whose reply `parse` turns into a value or an error, with the rule's second try:
 // a reply that is lost, cut short, garbled or refused is asked for once more, waiting longer.
 template <typename Parse>
-auto Pr650::ask(const std::string& command, const pp::ExchangeRule& rule, Parse parse) -> decltype(parse(std::string())) {
+auto Pr650::ask(const std::string& command, const pp::ExchangeRule& rule, Parse parse)
+    -> decltype(parse(std::string())) {
   InstrumentError failure{InstrumentError::Kind::protocol, "", -1, {}};
   bool maybe_late = false;  // a reply that did not come may still come, after the second request
   const int tries = rule.on_lost == pp::LostReply::ask_again ? 2 : 1;
@@ -208,7 +233,8 @@ std::expected<void, InstrumentError> Pr650::connect() {
   transport_->clear_interrupt();
   if (!transport_->is_open())
     if (auto opened = transport_->open(); !opened)
-      return fail(InstrumentError::Kind::transport, fmt::format("cannot open {}: {}", transport_->describe(), opened.error().message));
+      return fail(InstrumentError::Kind::transport,
+                  fmt::format("cannot open {}: {}", transport_->describe(), opened.error().message));
   // Drop and raise DTR/RTS, then let the meter settle, as its makers' software does.
   (void)transport_->set_modem_lines(false, false);
   std::this_thread::sleep_for(std::min<std::chrono::milliseconds>(options_.modem_settle, 100ms));
@@ -267,9 +293,9 @@ std::expected<void, InstrumentError> Pr650::send_setup(const pp::Setup& setup) {
                         auto code = pp::parse_setup_reply(reply);
                         if (!code) return std::unexpected(garbled("setup reply", code.error(), reply));
                         if (*code != 0)
-                          return std::unexpected(InstrumentError{InstrumentError::Kind::rejected,
-                                                                 "the PR-650 refused the setup: " + pp::setup_reply_message(*code),
-                                                                 -1, reply});
+                          return std::unexpected(InstrumentError{
+                              InstrumentError::Kind::rejected,
+                              "the PR-650 refused the setup: " + pp::setup_reply_message(*code), -1, reply});
                         return {};
                       });
   if (!accepted) return std::unexpected(accepted.error());
@@ -320,7 +346,7 @@ std::expected<void, InstrumentError> Pr650::drain_pending_measurement() {
 // the command never arrived, and a report would then show the previous measurement as if it
 // were new: so the meter measures once more, and the reading says so.
 std::expected<void, InstrumentError> Pr650::start_measurement(const MeasureOptions& options, int integration_ms,
-                                                             Reading& reading) {
+                                                              Reading& reading) {
   const std::string command = pp::format_measure(0, options_.style);
   const pp::ExchangeRule m0 = rule({pp::CommandKind::measure, 0, integration_ms, options.averages});
   for (int attempt = 1;; ++attempt) {
@@ -336,9 +362,10 @@ std::expected<void, InstrumentError> Pr650::start_measurement(const MeasureOptio
       silent.message += " (measured twice)";
       return std::unexpected(silent);
     }
-    reading.warnings.push_back(fmt::format("remeasured: the PR-650 did not answer 'm0' within {}; it was told to "
-                                           "measure again, and this reading is of that measurement",
-                                           seconds(m0.first_byte)));
+    reading.warnings.push_back(
+        fmt::format("remeasured: the PR-650 did not answer 'm0' within {}; it was told to "
+                    "measure again, and this reading is of that measurement",
+                    seconds(m0.first_byte)));
     ++reading.attempts;
   }
   reading.finished = std::chrono::system_clock::now();
@@ -348,12 +375,13 @@ std::expected<void, InstrumentError> Pr650::start_measurement(const MeasureOptio
 // Reports 1 and 2 of the measurement just made: luminance and x, y; X, Y, Z.
 std::expected<void, InstrumentError> Pr650::read_colorimetry(const MeasureOptions& options, Reading& reading) {
   for (const int report : {1, 2}) {
-    auto parsed = ask(pp::format_report(report, options_.style), rule({pp::CommandKind::report, report}),
-                      [report](const std::string& reply) -> std::expected<Parsed<pp::ColorimetricReport>, InstrumentError> {
-                        auto values = pp::parse_colorimetric(report, reply);
-                        if (!values) return std::unexpected(garbled(fmt::format("report {}", report), values.error(), reply));
-                        return Parsed<pp::ColorimetricReport>{std::move(*values), reply};
-                      });
+    auto parsed =
+        ask(pp::format_report(report, options_.style), rule({pp::CommandKind::report, report}),
+            [report](const std::string& reply) -> std::expected<Parsed<pp::ColorimetricReport>, InstrumentError> {
+              auto values = pp::parse_colorimetric(report, reply);
+              if (!values) return std::unexpected(garbled(fmt::format("report {}", report), values.error(), reply));
+              return Parsed<pp::ColorimetricReport>{std::move(*values), reply};
+            });
     if (!parsed) return std::unexpected(parsed.error());
     const auto& values = parsed->value.values;
     reading.raw_reply += parsed->raw;
@@ -381,7 +409,8 @@ std::expected<Reading, InstrumentError> Pr650::measure_once(const MeasureOptions
   if (auto sent = send_setup(setup); !sent) return std::unexpected(sent.error());
 
   Reading reading;
-  if (auto measured = start_measurement(options, integration_ms, reading); !measured) return std::unexpected(measured.error());
+  if (auto measured = start_measurement(options, integration_ms, reading); !measured)
+    return std::unexpected(measured.error());
 
   // The meter keeps the last measurement, so a damaged report can simply be asked for again.
   auto spectrum = ask(pp::format_report(5, options_.style), rule({pp::CommandKind::report, 5}),
@@ -419,8 +448,10 @@ std::expected<Reading, InstrumentError> Pr650::measure(const MeasureOptions& opt
   std::lock_guard lock(call_mutex_);
   cancelled_ = false;
   transport_->clear_interrupt();
-  if (options.integration_ms != 0 && (options.integration_ms < kMinIntegrationMs || options.integration_ms > kMaxIntegrationMs))
-    return fail(InstrumentError::Kind::rejected, fmt::format("integration time {} ms is outside 10-6000 ms", options.integration_ms));
+  if (options.integration_ms != 0 &&
+      (options.integration_ms < kMinIntegrationMs || options.integration_ms > kMaxIntegrationMs))
+    return fail(InstrumentError::Kind::rejected,
+                fmt::format("integration time {} ms is outside 10-6000 ms", options.integration_ms));
   if (options.averages < 1 || options.averages > 99)
     return fail(InstrumentError::Kind::rejected, fmt::format("{} averages is outside 1-99", options.averages));
   if (!connected_) return fail(InstrumentError::Kind::lost, "not connected to the PR-650");
@@ -439,7 +470,8 @@ std::expected<Reading, InstrumentError> Pr650::measure(const MeasureOptions& opt
     const int q = error.quality_code;
     if (pp::is_sync_failure(q) && current.sync != MeasureOptions::Sync::off) {
       current.sync = MeasureOptions::Sync::off;  // the light cannot be locked to: measure unsynced
-    } else if (pp::is_low_light(q) && options.adjust_integration && integration > 0 && integration < kMaxIntegrationMs) {
+    } else if (pp::is_low_light(q) && options.adjust_integration && integration > 0 &&
+               integration < kMaxIntegrationMs) {
       integration = std::min(2 * integration, kMaxIntegrationMs);
     } else if (pp::is_overload(q) && options.adjust_integration && integration > kMinIntegrationMs) {
       integration = std::max(integration / 2, kMinIntegrationMs);

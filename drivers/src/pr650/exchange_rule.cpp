@@ -41,8 +41,10 @@ milliseconds measurement_time(int integration_ms, int averages, const ReplyTimin
 
 ExchangeRule exchange_rule(const Command& command, const ReplyTiming& timing) {
   switch (command.kind) {
-    case CommandKind::contact: return streaming(ReplyShape::line, timing.contact, LostReply::give_up, timing);
-    case CommandKind::setup: return streaming(ReplyShape::line, timing.reply, LostReply::ask_again, timing);
+    case CommandKind::contact:
+      return streaming(ReplyShape::line, timing.contact, LostReply::give_up, timing);
+    case CommandKind::setup:
+      return streaming(ReplyShape::line, timing.reply, LostReply::ask_again, timing);
     // F measures the light's flicker (about a second) before it answers; asking again measures
     // it again, which changes nothing but the frequency a later setup may sync to.
     case CommandKind::flicker:

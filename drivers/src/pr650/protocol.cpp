@@ -66,9 +66,12 @@ std::string format_frequency(double hz) {
 
 std::string format_sync(const Setup& setup) {
   switch (setup.sync) {
-    case Setup::Sync::none: return "";
-    case Setup::Sync::last_measured: return "1";
-    case Setup::Sync::frequency: return format_frequency(setup.sync_hz);
+    case Setup::Sync::none:
+      return "";
+    case Setup::Sync::last_measured:
+      return "1";
+    case Setup::Sync::frequency:
+      return format_frequency(setup.sync_hz);
   }
   return "";
 }
@@ -79,8 +82,7 @@ bool equal_ignoring_case(char a, char b) {
 
 // Whether `text` starts with `prefix`, ignoring case (the meter may echo in either case).
 bool starts_with_ignoring_case(std::string_view text, std::string_view prefix) {
-  return text.size() >= prefix.size() &&
-         std::equal(prefix.begin(), prefix.end(), text.begin(), equal_ignoring_case);
+  return text.size() >= prefix.size() && std::equal(prefix.begin(), prefix.end(), text.begin(), equal_ignoring_case);
 }
 
 std::string_view drop_leading_prompts(std::string_view text) {
@@ -102,7 +104,8 @@ std::size_t end_of_ended_lines(std::string_view received, int enough) {
   for (std::size_t i = 0; i < received.size(); ++i) {
     const char c = received[i];
     if (detail::is_line_end(c)) {
-      if (has_content && ++ended >= enough) return i + (c == '\r' && i + 1 < received.size() && received[i + 1] == '\n' ? 2 : 1);
+      if (has_content && ++ended >= enough)
+        return i + (c == '\r' && i + 1 < received.size() && received[i + 1] == '\n' ? 2 : 1);
       has_content = false;
     } else if (!detail::is_prompt_or_blank(c)) {
       has_content = true;
@@ -138,9 +141,8 @@ std::string format_setup(const Setup& setup, const CommandStyle& style) {
     return code ? fmt::format("{:02}", *code) : std::string();
   };
   const std::string fields = fmt::format(
-      "{:02},{},{},{},{},{},{:02},{}", setup.primary_accessory, accessory(setup.addons[0]),
-      accessory(setup.addons[1]), accessory(setup.addons[2]), format_sync(setup),
-      setup.integration_ms, setup.averages, setup.si_units ? 1 : 0);
+      "{:02},{},{},{},{},{},{:02},{}", setup.primary_accessory, accessory(setup.addons[0]), accessory(setup.addons[1]),
+      accessory(setup.addons[2]), format_sync(setup), setup.integration_ms, setup.averages, setup.si_units ? 1 : 0);
   return make_command('s', fields, style);
 }
 
@@ -156,29 +158,35 @@ std::string format_report(int report, const CommandStyle& style) {
 
 std::string setup_reply_message(int code) {
   switch (code) {
-    case 0: return "setup accepted";
-    case 1: return "field 1 (primary accessory) is invalid";
-    case 2: return "field 2 (add-on accessory 1) is invalid";
-    case 3: return "field 3 (add-on accessory 2) is invalid";
-    case 4: return "field 4 (add-on accessory 3) is invalid";
-    case 5: return "field 5 (sync frequency) is invalid";
-    case 6: return "field 6 (integration time) is invalid";
-    case 7: return "field 7 (measurements to average) is invalid";
-    case 8: return "field 8 (units) is invalid";
+    case 0:
+      return "setup accepted";
+    case 1:
+      return "field 1 (primary accessory) is invalid";
+    case 2:
+      return "field 2 (add-on accessory 1) is invalid";
+    case 3:
+      return "field 3 (add-on accessory 2) is invalid";
+    case 4:
+      return "field 4 (add-on accessory 3) is invalid";
+    case 5:
+      return "field 5 (sync frequency) is invalid";
+    case 6:
+      return "field 6 (integration time) is invalid";
+    case 7:
+      return "field 7 (measurements to average) is invalid";
+    case 8:
+      return "field 8 (units) is invalid";
     case 50:
       return "no primary accessory given, more than one given, or field 1 is not a primary "
              "accessory";
-    default: return fmt::format("unknown setup reply code {:02}", code);
+    default:
+      return fmt::format("unknown setup reply code {:02}", code);
   }
 }
 
-ReplyShape reply_shape_of_measure(int report) {
-  return report == 5 ? ReplyShape::spectral : ReplyShape::line;
-}
+ReplyShape reply_shape_of_measure(int report) { return report == 5 ? ReplyShape::spectral : ReplyShape::line; }
 
-ReplyShape reply_shape_of_report(int report) {
-  return report == 5 ? ReplyShape::spectral : ReplyShape::line;
-}
+ReplyShape reply_shape_of_report(int report) { return report == 5 ? ReplyShape::spectral : ReplyShape::line; }
 
 std::size_t reply_size(ReplyShape shape, std::string_view received) {
   // A spectral report is its header (one line with a bare CR inside, or two lines: either

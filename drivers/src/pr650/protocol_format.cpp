@@ -69,22 +69,18 @@ std::string format_spectral_reply(const SpectralReport& report, const ReplyStyle
   out.reserve(out.size() + report.values.size() * 17);
   for (std::size_t i = 0; i < report.values.size(); ++i) {
     // Without wavelengths of its own the report is on the native grid.
-    const double nm = i < report.wavelength_nm.size() ? report.wavelength_nm[i]
-                                                      : kFirstNm + kStepNm * static_cast<double>(i);
-    out += fmt::format("{:04}.,{}{}", std::lround(nm),
-                       format_value(report.values[i], style.exponent), kLineEnd);
+    const double nm =
+        i < report.wavelength_nm.size() ? report.wavelength_nm[i] : kFirstNm + kStepNm * static_cast<double>(i);
+    out += fmt::format("{:04}.,{}{}", std::lround(nm), format_value(report.values[i], style.exponent), kLineEnd);
   }
   return out;
 }
 
-std::string format_serial_number_reply(std::string_view serial) {
-  return fmt::format("{}{}", serial, kLineEnd);
-}
+std::string format_serial_number_reply(std::string_view serial) { return fmt::format("{}{}", serial, kLineEnd); }
 
 std::string format_spectral_configuration_reply(const SpectralConfiguration& configuration) {
-  return fmt::format("{:04},{:05.1f},{:04.0f}.,{:04.0f}.,{:03.0f}.{}", configuration.points,
-                     configuration.bandwidth_nm, configuration.first_nm, configuration.last_nm,
-                     configuration.step_nm, kLineEnd);
+  return fmt::format("{:04},{:05.1f},{:04.0f}.,{:04.0f}.,{:03.0f}.{}", configuration.points, configuration.bandwidth_nm,
+                     configuration.first_nm, configuration.last_nm, configuration.step_nm, kLineEnd);
 }
 
 }  // namespace skinspec::drivers::pr650

@@ -41,8 +41,7 @@ std::expected<Line, ProtocolError> first_line(std::string_view reply, LineSplitt
 std::optional<ProtocolError> check_tail(LineSplitter& lines) {
   while (auto line = lines.next()) {
     if (!detail::is_prompt_or_blank(line->text)) {
-      return detail::make_error(Kind::surplus, line->number,
-                                "unexpected bytes after the reply: " + quoted(line->text));
+      return detail::make_error(Kind::surplus, line->number, "unexpected bytes after the reply: " + quoted(line->text));
     }
   }
   return std::nullopt;
@@ -74,15 +73,21 @@ bool all_digits(std::string_view text) {
 
 Match match_field(FieldKind kind, std::string_view text) {
   switch (kind) {
-    case FieldKind::quality: return detail::match_template(text, "dd");
-    case FieldKind::units: return detail::match_template(text, "d");
-    case FieldKind::value: return detail::match_template(text, detail::kValueTemplate);
-    case FieldKind::chromaticity: return detail::match_chromaticity(text);
+    case FieldKind::quality:
+      return detail::match_template(text, "dd");
+    case FieldKind::units:
+      return detail::match_template(text, "d");
+    case FieldKind::value:
+      return detail::match_template(text, detail::kValueTemplate);
+    case FieldKind::chromaticity:
+      return detail::match_chromaticity(text);
     case FieldKind::integer:
       if (!all_digits(text) || text.size() > 9) return Match::mismatch;
       return text.empty() ? Match::prefix : Match::full;
-    case FieldKind::number: return detail::match_decimal(text, false);
-    case FieldKind::signed_number: return detail::match_decimal(text, true);
+    case FieldKind::number:
+      return detail::match_decimal(text, false);
+    case FieldKind::signed_number:
+      return detail::match_decimal(text, true);
   }
   return Match::mismatch;
 }
@@ -99,18 +104,16 @@ std::vector<std::string_view> split_fields(std::string_view text) {
 
 // Checks one field. A field that could still be completed is cut short when nothing follows
 // it on the line; in the middle of a line a short field is a wrong one.
-std::optional<ProtocolError> check_field(const FieldSpec& spec, std::string_view text,
-                                         std::size_t index, bool last, const Line& line) {
+std::optional<ProtocolError> check_field(const FieldSpec& spec, std::string_view text, std::size_t index, bool last,
+                                         const Line& line) {
   const Match match = match_field(spec.kind, text);
   if (match == Match::prefix && last) {
-    return detail::make_error(
-        Kind::truncated, line.number,
-        fmt::format("field {} ({}) is cut short: {}", index + 1, spec.name, quoted(text)));
+    return detail::make_error(Kind::truncated, line.number,
+                              fmt::format("field {} ({}) is cut short: {}", index + 1, spec.name, quoted(text)));
   }
   if (match != Match::full) {
-    return detail::make_error(
-        Kind::garbled, line.number,
-        fmt::format("field {} is not a {}: {}", index + 1, spec.name, quoted(text)));
+    return detail::make_error(Kind::garbled, line.number,
+                              fmt::format("field {} is not a {}: {}", index + 1, spec.name, quoted(text)));
   }
   return std::nullopt;
 }
@@ -124,34 +127,28 @@ std::optional<double> field_number(FieldKind kind, std::string_view text) {
 }
 
 // The numbers of a line made of exactly the fields in `specs`.
-std::expected<std::vector<double>, ProtocolError> parse_fields(const Line& line,
-                                                               std::span<const FieldSpec> specs) {
+std::expected<std::vector<double>, ProtocolError> parse_fields(const Line& line, std::span<const FieldSpec> specs) {
   const auto fields = split_fields(line.text);
   std::vector<double> numbers;
   numbers.reserve(specs.size());
   for (std::size_t i = 0; i < specs.size(); ++i) {
     if (i >= fields.size()) {
-      return fail(
-          Kind::truncated, line.number,
-          fmt::format("{} of {} fields: {}", fields.size(), specs.size(), quoted(line.text)));
+      return fail(Kind::truncated, line.number,
+                  fmt::format("{} of {} fields: {}", fields.size(), specs.size(), quoted(line.text)));
     }
     const bool last = i + 1 == fields.size();
-    if (auto error = check_field(specs[i], fields[i], i, last, line))
-      return std::unexpected(*error);
+    if (auto error = check_field(specs[i], fields[i], i, last, line)) return std::unexpected(*error);
     const auto number = field_number(specs[i].kind, fields[i]);
     if (!number) {
-      return fail(Kind::garbled, line.number,
-                  fmt::format("field {} is out of range: {}", i + 1, quoted(fields[i])));
+      return fail(Kind::garbled, line.number, fmt::format("field {} is out of range: {}", i + 1, quoted(fields[i])));
     }
     if (specs[i].kind == FieldKind::units && *number > 2) {
-      return fail(Kind::garbled, line.number,
-                  fmt::format("units code {} is not 0, 1 or 2", quoted(fields[i])));
+      return fail(Kind::garbled, line.number, fmt::format("units code {} is not 0, 1 or 2", quoted(fields[i])));
     }
     numbers.push_back(*number);
   }
   if (fields.size() > specs.size()) {
-    return fail(Kind::surplus, line.number,
-                fmt::format("more than {} fields: {}", specs.size(), quoted(line.text)));
+    return fail(Kind::surplus, line.number, fmt::format("more than {} fields: {}", specs.size(), quoted(line.text)));
   }
   return numbers;
 }
@@ -168,19 +165,23 @@ constexpr std::array kReport1{kQuality, kUnits, kValue, kChromaticity, kChromati
 constexpr std::array kReport2{kQuality, kUnits, kValue, kValue, kValue};
 // CCT and deviation widths are unknown, so any decimal layout is accepted there.
 constexpr std::array kReport4{kQuality, kUnits, kValue, kNumber, kSignedNumber};
-constexpr std::array kReport6{kQuality,      kUnits,        kValue,       kChromaticity,
-                              kChromaticity, kChromaticity, kChromaticity};
+constexpr std::array kReport6{kQuality, kUnits, kValue, kChromaticity, kChromaticity, kChromaticity, kChromaticity};
 constexpr std::array kSpectralStatus{kQuality, kUnits};
 constexpr std::array kConfiguration{kInteger, kNumber, kNumber, kNumber, kNumber};
 
 std::span<const FieldSpec> colorimetric_layout(int report) {
   switch (report) {
     case 1:
-    case 3: return kReport1;  // Y,x,y and Y,u',v' share a layout
-    case 2: return kReport2;
-    case 4: return kReport4;
-    case 6: return kReport6;
-    default: return {};
+    case 3:
+      return kReport1;  // Y,x,y and Y,u',v' share a layout
+    case 2:
+      return kReport2;
+    case 4:
+      return kReport4;
+    case 6:
+      return kReport6;
+    default:
+      return {};
   }
 }
 
@@ -193,7 +194,8 @@ struct DataPoint {
 
 std::expected<DataPoint, ProtocolError> parse_data_line(const Line& line) {
   switch (detail::match_template(line.text, detail::kDataLineTemplate)) {
-    case Match::full: break;
+    case Match::full:
+      break;
     case Match::prefix:
       return fail(Kind::truncated, line.number, "data line cut short: " + quoted(line.text));
     case Match::mismatch:
@@ -201,8 +203,7 @@ std::expected<DataPoint, ProtocolError> parse_data_line(const Line& line) {
                   "expected a data line such as \"0380.,5.882E-05\", got " + quoted(line.text));
   }
   if (!line.terminated) return fail(Kind::truncated, line.number, "data line has no line end");
-  return DataPoint{detail::digits_value(line.text.substr(0, 4)),
-                   detail::to_double(line.text.substr(6)).value_or(0)};
+  return DataPoint{detail::digits_value(line.text.substr(0, 4)), detail::to_double(line.text.substr(6)).value_or(0)};
 }
 
 constexpr int grid_nm(int index) { return static_cast<int>(kFirstNm + kStepNm * index); }
@@ -225,14 +226,12 @@ std::optional<int> count_if_ending_at_last(LineSplitter rest, int lines_so_far) 
   return count;
 }
 
-std::optional<ProtocolError> off_grid_error(const Line& line, int index, int found_nm,
-                                            const LineSplitter& rest) {
+std::optional<ProtocolError> off_grid_error(const Line& line, int index, int found_nm, const LineSplitter& rest) {
   const int expected_nm = grid_nm(index);
   if (auto count = count_if_ending_at_last(rest, index + 1)) {
-    return detail::make_error(
-        Kind::wrong_count, line.number,
-        fmt::format("{} data lines where {} are expected ({} nm where {} nm should be)", *count,
-                    kSpectralPoints, found_nm, expected_nm));
+    return detail::make_error(Kind::wrong_count, line.number,
+                              fmt::format("{} data lines where {} are expected ({} nm where {} nm should be)", *count,
+                                          kSpectralPoints, found_nm, expected_nm));
   }
   return detail::make_error(Kind::wrong_wavelength, line.number,
                             fmt::format("{} nm where {} nm should be", found_nm, expected_nm));
@@ -252,14 +251,12 @@ std::optional<ProtocolError> parse_spectral_header(std::string_view reply, LineS
 
   const auto integrated = lines.next_non_empty();
   if (!integrated) {
-    return detail::make_error(Kind::truncated, lines.lines_read() + 1,
-                              "the reply ends before the integrated value");
+    return detail::make_error(Kind::truncated, lines.lines_read() + 1, "the reply ends before the integrated value");
   }
   const auto value = parse_fields(*integrated, std::span(&kValue, 1));
   if (!value) return value.error();
   if (!integrated->terminated) {
-    return detail::make_error(Kind::truncated, integrated->number,
-                              "the integrated value has no line end");
+    return detail::make_error(Kind::truncated, integrated->number, "the integrated value has no line end");
   }
   report.integrated = (*value)[0];
   return std::nullopt;
@@ -271,14 +268,12 @@ std::optional<ProtocolError> parse_spectral_data(LineSplitter& lines, SpectralRe
   for (int i = 0; i < kSpectralPoints; ++i) {
     const auto line = lines.next_non_empty();
     if (!line) {
-      return detail::make_error(
-          Kind::truncated, lines.lines_read() + 1,
-          fmt::format("the reply ends after {} of {} data lines", i, kSpectralPoints));
+      return detail::make_error(Kind::truncated, lines.lines_read() + 1,
+                                fmt::format("the reply ends after {} of {} data lines", i, kSpectralPoints));
     }
     const auto point = parse_data_line(*line);
     if (!point) return point.error();
-    if (point->wavelength_nm != grid_nm(i))
-      return off_grid_error(*line, i, point->wavelength_nm, lines);
+    if (point->wavelength_nm != grid_nm(i)) return off_grid_error(*line, i, point->wavelength_nm, lines);
     report.wavelength_nm.push_back(point->wavelength_nm);
     report.values.push_back(point->value);
   }
@@ -308,8 +303,7 @@ std::expected<int, ProtocolError> parse_status(std::string_view reply) {
   // "000", "00" and "0" are all in use. Unlike other replies a missing line end is accepted:
   // a status cut short still reads the same.
   if (line->text.size() > 3 || !all_digits(line->text)) {
-    return fail(Kind::garbled, line->number,
-                "expected a status such as \"000\", got " + quoted(line->text));
+    return fail(Kind::garbled, line->number, "expected a status such as \"000\", got " + quoted(line->text));
   }
   if (auto error = check_tail(lines)) return std::unexpected(*error);
   return detail::digits_value(line->text);
@@ -320,8 +314,7 @@ std::expected<int, ProtocolError> parse_setup_reply(std::string_view reply) {
   const auto line = first_line(reply, lines);
   if (!line) return std::unexpected(line.error());
   if (line->text.size() > 2 || !all_digits(line->text)) {
-    return fail(Kind::garbled, line->number,
-                "expected a setup reply such as \"00\", got " + quoted(line->text));
+    return fail(Kind::garbled, line->number, "expected a setup reply such as \"00\", got " + quoted(line->text));
   }
   if (auto error = check_end(*line, lines)) return std::unexpected(*error);
   return detail::digits_value(line->text);
@@ -344,8 +337,7 @@ std::expected<FlickerReply, ProtocolError> parse_flicker(std::string_view reply)
   return result;
 }
 
-std::expected<ColorimetricReport, ProtocolError> parse_colorimetric(int report,
-                                                                    std::string_view reply) {
+std::expected<ColorimetricReport, ProtocolError> parse_colorimetric(int report, std::string_view reply) {
   const auto layout = colorimetric_layout(report);
   if (layout.empty()) {
     return fail(Kind::garbled, 0, fmt::format("report {} is not a colorimetric report", report));
@@ -380,15 +372,13 @@ std::expected<std::string, ProtocolError> parse_serial_number(std::string_view r
   if (!line) return std::unexpected(line.error());
   for (const char c : line->text) {
     if (c < 0x20 || c > 0x7e) {
-      return fail(Kind::garbled, line->number,
-                  "the serial number holds a non-printable byte: " + quoted(line->text));
+      return fail(Kind::garbled, line->number, "the serial number holds a non-printable byte: " + quoted(line->text));
     }
   }
   std::string_view serial = line->text.substr(0, kSerialLength);
   const std::string_view after = line->text.substr(serial.size());
   if (after.find_first_not_of(' ') != std::string_view::npos) {
-    return fail(Kind::surplus, line->number,
-                "more than 8 characters in the serial number: " + quoted(line->text));
+    return fail(Kind::surplus, line->number, "more than 8 characters in the serial number: " + quoted(line->text));
   }
   while (!serial.empty() && serial.back() == ' ') serial.remove_suffix(1);
   if (serial.empty()) return fail(Kind::garbled, line->number, "the serial number is empty");
@@ -396,8 +386,7 @@ std::expected<std::string, ProtocolError> parse_serial_number(std::string_view r
   return std::string(serial);
 }
 
-std::expected<SpectralConfiguration, ProtocolError> parse_spectral_configuration(
-    std::string_view reply) {
+std::expected<SpectralConfiguration, ProtocolError> parse_spectral_configuration(std::string_view reply) {
   LineSplitter lines(reply);
   const auto line = first_line(reply, lines);
   if (!line) return std::unexpected(line.error());

@@ -15,10 +15,14 @@ bool is_digit(char c) { return c >= '0' && c <= '9'; }
 
 bool fits_template_char(char c, char pattern) {
   switch (pattern) {
-    case 'd': return is_digit(c);
-    case 'x': return c == 'E' || c == 'e';
-    case 's': return c == '+' || c == '-';
-    default: return c == pattern;
+    case 'd':
+      return is_digit(c);
+    case 'x':
+      return c == 'E' || c == 'e';
+    case 's':
+      return c == '+' || c == '-';
+    default:
+      return c == pattern;
   }
 }
 

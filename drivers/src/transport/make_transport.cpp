@@ -10,8 +10,10 @@ namespace skinspec::drivers {
 
 std::expected<std::unique_ptr<Transport>, std::string> make_transport(const ConnectionUri& uri) {
   switch (uri.scheme) {
-    case ConnectionUri::Scheme::serial: return detail::make_serial_transport(uri.path, uri, uri.to_string());
-    case ConnectionUri::Scheme::tcp: return detail::make_tcp_transport(uri);
+    case ConnectionUri::Scheme::serial:
+      return detail::make_serial_transport(uri.path, uri, uri.to_string());
+    case ConnectionUri::Scheme::tcp:
+      return detail::make_tcp_transport(uri);
     case ConnectionUri::Scheme::usb: {
       auto path = find_usb_port(uri.vendor_id, uri.product_id, uri.usb_serial);
       if (!path) return std::unexpected(path.error());

@@ -60,10 +60,14 @@ std::pair<int, std::string> last_os_error() {
 
 std::string_view library_error_text(sp_return code) {
   switch (code) {
-    case SP_ERR_ARG: return "invalid argument";
-    case SP_ERR_MEM: return "out of memory";
-    case SP_ERR_SUPP: return "not supported by this port";
-    default: return "failed";
+    case SP_ERR_ARG:
+      return "invalid argument";
+    case SP_ERR_MEM:
+      return "out of memory";
+    case SP_ERR_SUPP:
+      return "not supported by this port";
+    default:
+      return "failed";
   }
 }
 
@@ -99,9 +103,12 @@ std::optional<unsigned> next_slice(Deadline deadline) {
 
 sp_flowcontrol flow_control(ConnectionUri::Flow flow) {
   switch (flow) {
-    case ConnectionUri::Flow::none: return SP_FLOWCONTROL_NONE;
-    case ConnectionUri::Flow::rtscts: return SP_FLOWCONTROL_RTSCTS;
-    case ConnectionUri::Flow::xonxoff: return SP_FLOWCONTROL_XONXOFF;
+    case ConnectionUri::Flow::none:
+      return SP_FLOWCONTROL_NONE;
+    case ConnectionUri::Flow::rtscts:
+      return SP_FLOWCONTROL_RTSCTS;
+    case ConnectionUri::Flow::xonxoff:
+      return SP_FLOWCONTROL_XONXOFF;
   }
   return SP_FLOWCONTROL_NONE;
 }
@@ -118,7 +125,8 @@ class SerialTransport final : public Transport {
     if (const auto code = sp_get_port_by_name(path_.c_str(), &raw); code != SP_OK) {
       if (!std::filesystem::exists(path_)) return fail(Kind::not_found, fmt::format("{}: no such device", label_));
       // libserialport refuses what it does not take for a serial port, pseudo-terminals included.
-      if (code == SP_ERR_ARG) return fail(Kind::io, fmt::format("{}: not a serial port libserialport can open", label_));
+      if (code == SP_ERR_ARG)
+        return fail(Kind::io, fmt::format("{}: not a serial port libserialport can open", label_));
       return std::unexpected(open_error(code, label_));
     }
     // Free the port structure on every path; sp_close() on a port that failed to open is harmless.
@@ -160,7 +168,8 @@ class SerialTransport final : public Transport {
       if (written == bytes.size()) return {};
       const auto slice = next_slice(deadline);
       if (!slice)
-        return fail(Kind::timeout, fmt::format("{}: wrote {} of {} bytes before the deadline", label_, written, bytes.size()));
+        return fail(Kind::timeout,
+                    fmt::format("{}: wrote {} of {} bytes before the deadline", label_, written, bytes.size()));
       if (const auto code = sp_wait(tx_events_.get(), *slice); code != SP_OK)
         return std::unexpected(io_error(code, label_ + ": wait to write"));
     }

@@ -66,9 +66,8 @@ class TcpTransport final : public Transport {
     if (!endpoints) return std::unexpected(endpoints.error());
     const Completion connected = await(
         [&](auto handler) {
-          asio::async_connect(socket_, *endpoints, [handler](const error_code& error, const tcp::endpoint&) mutable {
-            handler(error, 0);
-          });
+          asio::async_connect(socket_, *endpoints,
+                              [handler](const error_code& error, const tcp::endpoint&) mutable { handler(error, 0); });
         },
         deadline);
     if (connected.error) {
@@ -106,9 +105,8 @@ class TcpTransport final : public Transport {
   std::expected<void, TransportError> write(std::string_view bytes, Deadline deadline) override {
     if (!socket_.is_open()) return not_open();
     if (interrupted_) return interrupted();
-    const Completion written =
-        await([&](auto handler) { asio::async_write(socket_, asio::buffer(bytes.data(), bytes.size()), handler); },
-              deadline);
+    const Completion written = await(
+        [&](auto handler) { asio::async_write(socket_, asio::buffer(bytes.data(), bytes.size()), handler); }, deadline);
     if (!written.error) return {};
     if (written.timed_out && !interrupted_)
       return fail(Kind::timeout,
@@ -187,11 +185,12 @@ class TcpTransport final : public Transport {
     std::vector<tcp::endpoint> endpoints;
     const Completion resolved = await(
         [&](auto handler) {
-          resolver_.async_resolve(host_, std::to_string(port_),
-                                  [&endpoints, handler](const error_code& e, const tcp::resolver::results_type& results) mutable {
-                                    for (const auto& entry : results) endpoints.push_back(entry.endpoint());
-                                    handler(e, 0);
-                                  });
+          resolver_.async_resolve(
+              host_, std::to_string(port_),
+              [&endpoints, handler](const error_code& e, const tcp::resolver::results_type& results) mutable {
+                for (const auto& entry : results) endpoints.push_back(entry.endpoint());
+                handler(e, 0);
+              });
         },
         deadline);
     if (resolved.error) return failure(resolved, "resolve");
@@ -201,8 +200,10 @@ class TcpTransport final : public Transport {
   std::unexpected<TransportError> failure(const Completion& completion, std::string_view action) const {
     const error_code& error = completion.error;
     if (interrupted_ && error == asio::error::operation_aborted) return interrupted();
-    if (completion.timed_out) return fail(Kind::timeout, fmt::format("{}: {} did not finish before the deadline", label_, action));
-    if (peer_gone(error)) return fail(Kind::closed, fmt::format("{}: the peer closed the connection ({})", label_, error.message()));
+    if (completion.timed_out)
+      return fail(Kind::timeout, fmt::format("{}: {} did not finish before the deadline", label_, action));
+    if (peer_gone(error))
+      return fail(Kind::closed, fmt::format("{}: the peer closed the connection ({})", label_, error.message()));
     if (nothing_there(error)) return fail(Kind::not_found, fmt::format("{}: {}: {}", label_, action, error.message()));
     return fail(Kind::io, fmt::format("{}: {}: {}", label_, action, error.message()));
   }

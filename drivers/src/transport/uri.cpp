@@ -16,11 +16,16 @@ namespace skinspec::drivers {
 
 std::string_view to_string(TransportError::Kind kind) {
   switch (kind) {
-    case TransportError::Kind::timeout: return "timeout";
-    case TransportError::Kind::interrupted: return "interrupted";
-    case TransportError::Kind::closed: return "closed";
-    case TransportError::Kind::io: return "io";
-    case TransportError::Kind::not_found: return "not_found";
+    case TransportError::Kind::timeout:
+      return "timeout";
+    case TransportError::Kind::interrupted:
+      return "interrupted";
+    case TransportError::Kind::closed:
+      return "closed";
+    case TransportError::Kind::io:
+      return "io";
+    case TransportError::Kind::not_found:
+      return "not_found";
   }
   return "unknown";
 }
@@ -38,7 +43,8 @@ std::unexpected<std::string> bad(std::string_view text, std::string_view detail)
 
 std::string lower(std::string_view text) {
   std::string out(text);
-  std::transform(out.begin(), out.end(), out.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(out.begin(), out.end(), out.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return out;
 }
 
@@ -145,7 +151,8 @@ std::expected<void, std::string> parse_tcp(ConnectionUri& uri, std::string_view 
   const auto host = rest.substr(0, colon);
   if (host.empty()) return std::unexpected("no host; expected tcp:HOST:PORT");
   if (host.find(':') != std::string_view::npos)
-    return std::unexpected(fmt::format("host '{}' has colons; put an IPv6 address in brackets, as tcp:[::1]:4001", host));
+    return std::unexpected(
+        fmt::format("host '{}' has colons; put an IPv6 address in brackets, as tcp:[::1]:4001", host));
   uri.host = std::string(host);
   return parse_port(uri, rest.substr(colon + 1));
 }
@@ -153,10 +160,12 @@ std::expected<void, std::string> parse_tcp(ConnectionUri& uri, std::string_view 
 // VID:PID[:SERIAL]; the serial number is everything after the second colon.
 std::expected<void, std::string> parse_usb(ConnectionUri& uri, std::string_view rest) {
   const auto first = rest.find(':');
-  if (first == std::string_view::npos) return std::unexpected("expected usb:VID:PID[:SERIAL] with hex ids, as usb:067b:2303");
+  if (first == std::string_view::npos)
+    return std::unexpected("expected usb:VID:PID[:SERIAL] with hex ids, as usb:067b:2303");
   const auto second = rest.find(':', first + 1);
   const auto vid_text = rest.substr(0, first);
-  const auto pid_text = rest.substr(first + 1, second == std::string_view::npos ? std::string_view::npos : second - first - 1);
+  const auto pid_text =
+      rest.substr(first + 1, second == std::string_view::npos ? std::string_view::npos : second - first - 1);
   const auto vid = parse_usb_id(vid_text), pid = parse_usb_id(pid_text);
   if (!vid) return std::unexpected(fmt::format("vendor id '{}' is not 1 to 4 hex digits", vid_text));
   if (!pid) return std::unexpected(fmt::format("product id '{}' is not 1 to 4 hex digits", pid_text));
@@ -179,9 +188,12 @@ std::optional<ConnectionUri::Scheme> parse_scheme(std::string_view name) {
 
 std::expected<void, std::string> parse_location(ConnectionUri& uri, std::string_view rest) {
   switch (uri.scheme) {
-    case ConnectionUri::Scheme::serial: return parse_serial(uri, rest);
-    case ConnectionUri::Scheme::tcp: return parse_tcp(uri, rest);
-    case ConnectionUri::Scheme::usb: return parse_usb(uri, rest);
+    case ConnectionUri::Scheme::serial:
+      return parse_serial(uri, rest);
+    case ConnectionUri::Scheme::tcp:
+      return parse_tcp(uri, rest);
+    case ConnectionUri::Scheme::usb:
+      return parse_usb(uri, rest);
   }
   return {};
 }
@@ -204,10 +216,10 @@ Parsed parse_connection_uri(std::string_view text) {
   if (std::any_of(text.begin(), text.end(), [](unsigned char c) { return std::isspace(c) || std::iscntrl(c); }))
     return bad(text, "contains spaces or control characters");
   const auto colon = text.find(':');
-  if (colon == std::string_view::npos) return bad(text, "no scheme; expected serial:PATH, tcp:HOST:PORT or usb:VID:PID");
+  if (colon == std::string_view::npos)
+    return bad(text, "no scheme; expected serial:PATH, tcp:HOST:PORT or usb:VID:PID");
   const auto scheme = parse_scheme(text.substr(0, colon));
-  if (!scheme)
-    return bad(text, fmt::format("unknown scheme '{}'; expected serial, tcp or usb", text.substr(0, colon)));
+  if (!scheme) return bad(text, fmt::format("unknown scheme '{}'; expected serial, tcp or usb", text.substr(0, colon)));
 
   ConnectionUri uri;
   uri.scheme = *scheme;
@@ -221,7 +233,8 @@ Parsed parse_connection_uri(std::string_view text) {
 
 std::string ConnectionUri::to_string() const {
   switch (scheme) {
-    case Scheme::serial: return fmt::format("serial:{}{}", path, query_string(*this));
+    case Scheme::serial:
+      return fmt::format("serial:{}{}", path, query_string(*this));
     case Scheme::tcp: {
       const bool ipv6 = host.find(':') != std::string::npos;
       return fmt::format("tcp:{}:{}{}", ipv6 ? "[" + host + "]" : host, port, query_string(*this));

@@ -22,9 +22,9 @@ namespace skinspec::api {
 
 struct MeasureRequest {
   store::MeasurementKind kind = store::MeasurementKind::sample;
-  int count = 1;            // readings averaged into one measurement (1-100)
+  int count = 1;  // readings averaged into one measurement (1-100)
   std::string label;
-  int integration_ms = 0;   // 0: adaptive
+  int integration_ms = 0;  // 0: adaptive
 };
 
 // What the instrument is doing (GET /api/v1/instrument's "state").

@@ -30,8 +30,8 @@ class Acquisition;
 class RenderCache;
 
 struct Request {
-  std::string method;  // "GET", "POST", ...
-  std::string target;  // path and query, as sent: "/api/v1/sessions?site=forearm"
+  std::string method;                          // "GET", "POST", ...
+  std::string target;                          // path and query, as sent: "/api/v1/sessions?site=forearm"
   std::map<std::string, std::string> headers;  // names in lower case
   std::string body;
 };
@@ -54,7 +54,7 @@ struct Response {
   std::string content_type = "application/json";
   std::string body;
   std::vector<std::pair<std::string, std::string>> headers;  // extra headers (Allow, Location)
-  std::shared_ptr<EventSource> events = nullptr;  // when set, the body: sent in chunks after the header
+  std::shared_ptr<EventSource> events = nullptr;             // when set, the body: sent in chunks after the header
 };
 
 // Bearer tokens; when `required`, every route but /healthz needs one, and mutating routes need
@@ -66,10 +66,10 @@ struct AccessPolicy {
 };
 
 struct RouterContext {
-  store::Store* store = nullptr;       // null: data routes answer 503
-  const Fitter* fitter = nullptr;      // null: fitting routes answer 503
-  Acquisition* acquisition = nullptr;  // null: no instrument; measurement routes answer 503
-  std::shared_ptr<Metrics> metrics;    // created when null
+  store::Store* store = nullptr;              // null: data routes answer 503
+  const Fitter* fitter = nullptr;             // null: fitting routes answer 503
+  Acquisition* acquisition = nullptr;         // null: no instrument; measurement routes answer 503
+  std::shared_ptr<Metrics> metrics;           // created when null
   std::shared_ptr<RenderCache> render_cache;  // images of GET /api/v1/fits/{id}/render.png; created when null
   AccessPolicy access;
   std::size_t max_spectrum_samples = 10000;

@@ -15,9 +15,9 @@
 namespace skinspec::drivers {
 
 struct PortInfo {
-  std::string path;          // /dev/ttyUSB0
-  std::string description;   // libserialport's description
-  std::string kind;          // "usb", "native", "bluetooth", "unknown"
+  std::string path;         // /dev/ttyUSB0
+  std::string description;  // libserialport's description
+  std::string kind;         // "usb", "native", "bluetooth", "unknown"
   std::optional<unsigned short> vendor_id, product_id;
   std::string serial_number, manufacturer, product;
 };

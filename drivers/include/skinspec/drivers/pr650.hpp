@@ -26,12 +26,12 @@ struct InstrumentError {
     bad_reading,  // the meter measured but its quality code makes the reading unusable
     rejected,     // the meter refused a setup
     cancelled,
-    transport,    // the port or host could not be opened
+    transport,  // the port or host could not be opened
   };
   Kind kind;
   std::string message;
-  int quality_code = -1;     // for bad_reading
-  std::string raw_reply;     // the meter's bytes, when there were any (for the record)
+  int quality_code = -1;  // for bad_reading
+  std::string raw_reply;  // the meter's bytes, when there were any (for the record)
 };
 
 std::string_view to_string(InstrumentError::Kind kind);
@@ -42,10 +42,10 @@ struct Identity {
 };
 
 struct DriverOptions {
-  pr650::CommandStyle style;                              // terminator from the URI
+  pr650::CommandStyle style;  // terminator from the URI
   int contact_attempts = 5;
-  std::chrono::milliseconds modem_settle{500};            // after raising DTR/RTS
-  pr650::ReplyTiming timing;                              // how long each reply may take
+  std::chrono::milliseconds modem_settle{500};  // after raising DTR/RTS
+  pr650::ReplyTiming timing;                    // how long each reply may take
 };
 
 // The options for a connection: the URI's terminator, and for a serial port its line rate. A
@@ -53,31 +53,31 @@ struct DriverOptions {
 DriverOptions driver_options_for(const ConnectionUri& uri);
 
 struct MeasureOptions {
-  int integration_ms = 0;  // 10-6000, or 0 = adaptive
-  int averages = 1;        // 1-99
+  int integration_ms = 0;                               // 10-6000, or 0 = adaptive
+  int averages = 1;                                     // 1-99
   enum class Sync { off, automatic } sync = Sync::off;  // automatic: measure the flicker first
-  bool adjust_integration = false;  // double on low light, halve on overload (fixed time only)
+  bool adjust_integration = false;                      // double on low light, halve on overload (fixed time only)
   bool si_units = true;
 };
 
 struct Reading {
   int quality_code = 0;
-  std::string quality;               // the code's message
-  int units_code = 0;                // D5 units: 0 radiance, 1 irradiance, 2 uncalibrated
-  std::string units;                 // "W/(sr m2 nm)" ...
-  std::string luminance_units;       // "cd/m2" or "fL" ...
-  int integration_ms = 0;            // as asked (0 = adaptive)
+  std::string quality;          // the code's message
+  int units_code = 0;           // D5 units: 0 radiance, 1 irradiance, 2 uncalibrated
+  std::string units;            // "W/(sr m2 nm)" ...
+  std::string luminance_units;  // "cd/m2" or "fL" ...
+  int integration_ms = 0;       // as asked (0 = adaptive)
   int averages = 1;
-  std::string sync;                  // "off" or "last measured frequency (60.02 Hz)"
-  std::vector<double> wavelength_nm; // native grid, 380-780 by 4
-  std::vector<double> radiance;      // per nm, as the meter prints it
+  std::string sync;                   // "off" or "last measured frequency (60.02 Hz)"
+  std::vector<double> wavelength_nm;  // native grid, 380-780 by 4
+  std::vector<double> radiance;       // per nm, as the meter prints it
   double integrated = 0;
   double luminance = 0, x = 0, y = 0;  // from report 1
   std::array<double, 3> xyz{};         // from report 2
   std::string serial_number;
   std::chrono::system_clock::time_point started, finished;
-  std::string raw_reply;             // the D5, D1 and D2 replies as received
-  int attempts = 1;                  // measurements made for this reading
+  std::string raw_reply;  // the D5, D1 and D2 replies as received
+  int attempts = 1;       // measurements made for this reading
   // What whoever keeps the reading should know about how it was taken, each starting with a
   // code: "remeasured:" when a measurement never answered and was made again.
   std::vector<std::string> warnings;
@@ -124,10 +124,13 @@ class Pr650 {
   auto ask(const std::string& command, const pr650::ExchangeRule& rule, Parse parse) -> decltype(parse(std::string()));
   void settle(const pr650::ExchangeRule& rule);
   InstrumentError unanswered(const std::string& command, const Reply& reply, const pr650::ExchangeRule& rule) const;
-  pr650::ExchangeRule rule(const pr650::Command& command) const { return pr650::exchange_rule(command, options_.timing); }
+  pr650::ExchangeRule rule(const pr650::Command& command) const {
+    return pr650::exchange_rule(command, options_.timing);
+  }
   std::expected<void, InstrumentError> send_setup(const pr650::Setup& setup);
   std::expected<pr650::Setup::Sync, InstrumentError> choose_sync(const MeasureOptions& options, double& hz);
-  std::expected<void, InstrumentError> start_measurement(const MeasureOptions& options, int integration_ms, Reading& reading);
+  std::expected<void, InstrumentError> start_measurement(const MeasureOptions& options, int integration_ms,
+                                                         Reading& reading);
   std::expected<Reading, InstrumentError> measure_once(const MeasureOptions& options, int integration_ms);
   std::expected<void, InstrumentError> read_colorimetry(const MeasureOptions& options, Reading& reading);
   std::expected<void, InstrumentError> drain_pending_measurement();
@@ -140,7 +143,7 @@ class Pr650 {
   std::atomic<std::uint64_t> replies_{0};
   bool measurement_pending_ = false;  // an M command whose reply never came (cancelled)
   std::string serial_number_;
-  std::mutex call_mutex_;             // one call on the wire at a time
+  std::mutex call_mutex_;  // one call on the wire at a time
 };
 
 }  // namespace skinspec::drivers

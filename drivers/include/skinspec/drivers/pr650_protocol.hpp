@@ -38,29 +38,29 @@ struct CommandStyle {
 
 // The 8 fields of the S command.
 struct Setup {
-  int primary_accessory = 1;                      // 1-12; 1 = MS-75 objective
-  std::array<std::optional<int>, 3> addons{};     // 2-12 or absent
+  int primary_accessory = 1;                   // 1-12; 1 = MS-75 objective
+  std::array<std::optional<int>, 3> addons{};  // 2-12 or absent
   enum class Sync { none, last_measured, frequency } sync = Sync::none;
-  double sync_hz = 0;                             // 40-250 Hz with Sync::frequency
-  int integration_ms = 0;                         // 10-6000, or 0 = adaptive
-  int averages = 1;                               // 1-99
-  bool si_units = true;                           // cd/m2 and lux rather than fL and fc
+  double sync_hz = 0;      // 40-250 Hz with Sync::frequency
+  int integration_ms = 0;  // 10-6000, or 0 = adaptive
+  int averages = 1;        // 1-99
+  bool si_units = true;    // cd/m2 and lux rather than fL and fc
 };
 
-std::string format_backlight(int level, const CommandStyle& style = {});   // B0-B3
+std::string format_backlight(int level, const CommandStyle& style = {});       // B0-B3
 std::string format_setup(const Setup& setup, const CommandStyle& style = {});  // S...
-std::string format_flicker(const CommandStyle& style = {});                // F
-std::string format_measure(int report, const CommandStyle& style = {});    // M0-M6
-std::string format_report(int report, const CommandStyle& style = {});     // D1-D6, D110, D120, D201
+std::string format_flicker(const CommandStyle& style = {});                    // F
+std::string format_measure(int report, const CommandStyle& style = {});        // M0-M6
+std::string format_report(int report, const CommandStyle& style = {});         // D1-D6, D110, D120, D201
 
 // ---- Replies ------------------------------------------------------------------------------
 
 struct ProtocolError {
   enum class Kind {
-    truncated,   // the reply stopped before it was complete
-    garbled,     // bytes that cannot be what the meter sends
-    surplus,     // more than the reply should hold
-    wrong_count, // a spectral report without exactly 101 data lines
+    truncated,         // the reply stopped before it was complete
+    garbled,           // bytes that cannot be what the meter sends
+    surplus,           // more than the reply should hold
+    wrong_count,       // a spectral report without exactly 101 data lines
     wrong_wavelength,  // a data line for an unexpected wavelength
   };
   Kind kind;
@@ -107,10 +107,10 @@ enum class HeaderVariant { h1_bare_cr, h2_two_lines };
 
 struct SpectralReport {
   int quality = 0;
-  int units = 0;                     // 0 radiance W/(sr m2 nm), 1 irradiance, 2 uncalibrated
-  double integrated = 0;             // the header's integrated value
-  std::vector<double> wavelength_nm; // 380, 384, ..., 780
-  std::vector<double> values;        // per nm, as the meter prints them
+  int units = 0;                      // 0 radiance W/(sr m2 nm), 1 irradiance, 2 uncalibrated
+  double integrated = 0;              // the header's integrated value
+  std::vector<double> wavelength_nm;  // 380, 384, ..., 780
+  std::vector<double> values;         // per nm, as the meter prints them
 };
 std::expected<SpectralReport, ProtocolError> parse_spectral(std::string_view reply);
 
@@ -132,9 +132,9 @@ struct ReplyStyle {
 
 // "d.dddEsdd": the 9-character field of every value (non-negative values only, as the meter).
 std::string format_value(double value, char exponent = 'E');
-std::string format_status_reply(int status);                   // "000\r\n"
-std::string format_setup_reply(int code);                      // "00\r\n"
-std::string format_flicker_reply(const FlickerReply& reply);   // "00,60.02\r\n"
+std::string format_status_reply(int status);                  // "000\r\n"
+std::string format_setup_reply(int code);                     // "00\r\n"
+std::string format_flicker_reply(const FlickerReply& reply);  // "00,60.02\r\n"
 std::string format_colorimetric_reply(const ColorimetricReport& report, const ReplyStyle& style = {});
 std::string format_spectral_reply(const SpectralReport& report, const ReplyStyle& style = {});
 std::string format_serial_number_reply(std::string_view serial);

@@ -67,14 +67,14 @@ class Transport {
 struct ConnectionUri {
   enum class Scheme { serial, tcp, usb };
   Scheme scheme = Scheme::serial;
-  std::string path;           // serial: device path
-  std::string host;           // tcp
-  unsigned short port = 0;    // tcp
+  std::string path;                              // serial: device path
+  std::string host;                              // tcp
+  unsigned short port = 0;                       // tcp
   unsigned short vendor_id = 0, product_id = 0;  // usb
-  std::string usb_serial;     // usb, optional
+  std::string usb_serial;                        // usb, optional
   unsigned baud = 9600;
   enum class Flow { none, rtscts, xonxoff } flow = Flow::none;
-  char terminator = '\n';     // what commands end with: LF (default) or CR
+  char terminator = '\n';  // what commands end with: LF (default) or CR
 
   std::string to_string() const;
 };

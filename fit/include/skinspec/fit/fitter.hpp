@@ -71,7 +71,7 @@ struct FitResult {
   std::vector<double> correlation;
   DerivedQuantity oxygen_saturation;      // oxy / (oxy + deoxy)
   DerivedQuantity blood_volume_fraction;  // of the dermis
-  double rmse = 0;           // unweighted, over the fitted samples
+  double rmse = 0;                        // unweighted, over the fitted samples
   double max_abs_error = 0;
   double delta_e00_d65 = 0;  // measured against fitted, D65, 2 degree observer
   int iterations = 0;

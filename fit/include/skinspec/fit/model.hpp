@@ -54,7 +54,7 @@ T lateral_loss(const T& dermis_K, const S& dermis_S, double radius_mm) {
   using std::exp;
   using std::sqrt;
   if (radius_mm <= 0) return T(0.0);
-  const T mu_a = dermis_K / 2.0;                  // K = 2 mu_a
+  const T mu_a = dermis_K / 2.0;                // K = 2 mu_a
   const S mu_s_reduced = dermis_S * 4.0 / 3.0;  // S = 3/4 mu_s'
   const T mu_eff = sqrt(3.0 * mu_a * (mu_a + mu_s_reduced));
   const T x = radius_mm * mu_eff;
@@ -90,8 +90,7 @@ T layered_reflectance(const T& rs, const T& epidermis_K, double epidermis_S, con
   const auto epidermis = kubelka_layer(epidermis_K, epidermis_S, site.epidermis_mm);
   const auto dermis = kubelka_layer(dermis_K, dermis_S, site.dermis_mm);
   const T dermis_total = dermis.r + dermis.t * dermis.t / (1.0 - dermis.r);  // Rdt, hypodermis R = 1
-  const T through_dermis =
-      epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
+  const T through_dermis = epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
   const T kept = 1.0 - lateral_loss(dermis_K, dermis_S, lateral_radius_mm);
   return (1.0 - rs) * (epidermis.r + kept * through_dermis) + rs;
 }
@@ -126,8 +125,7 @@ T extended_reflectance(const OpticsAt& o, const Geometry& g, const T* p) {
 class SkinModel {
  public:
   // lateral_diffusion false ignores the constants' lateral radius.
-  SkinModel(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm,
-            bool lateral_diffusion);
+  SkinModel(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm, bool lateral_diffusion);
 
   std::span<const double> grid() const { return grid_; }
   std::size_t size() const { return at_.size(); }
@@ -139,7 +137,8 @@ class SkinModel {
   // p holds param_count() values in the order of the model's ParamSpec table.
   template <typename T>
   T reflectance_at(std::size_t i, const T* p) const {
-    return kind_ == ModelKind::paper ? paper_reflectance(at_[i], geometry_, p) : extended_reflectance(at_[i], geometry_, p);
+    return kind_ == ModelKind::paper ? paper_reflectance(at_[i], geometry_, p)
+                                     : extended_reflectance(at_[i], geometry_, p);
   }
   // Requires p.size() == param_count().
   std::vector<double> reflectance(const Params& p) const;

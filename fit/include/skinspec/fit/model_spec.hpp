@@ -46,8 +46,8 @@ inline constexpr int kExtendedParamCount = 7;
 struct ParamSpec {
   std::string_view name;
   std::string_view unit;
-  double lower, upper;  // the fit's bounds: the range the parameter can plausibly take
-  double initial;       // the default: where a held parameter stays, and `skinspec model`'s value
+  double lower, upper;                // the fit's bounds: the range the parameter can plausibly take
+  double initial;                     // the default: where a held parameter stays, and `skinspec model`'s value
   double domain_lower, domain_upper;  // where the equations hold: what `model` and `render` accept
   // The largest standard error at which the parameter counts as determined:
   // max(precision_absolute, precision_relative * |value|) (docs/model.md, "What the spectrum

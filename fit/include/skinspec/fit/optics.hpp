@@ -20,9 +20,9 @@ namespace skinspec {
 // of weight 1.0 of that pigment: the reference concentrations of docs/model.md.
 struct LayerOptics {
   std::vector<double> wavelength_nm;
-  std::vector<double> Ke, Se;            // epidermis baseline absorption, epidermis scattering
-  std::vector<double> Kd, Sd;            // dermis baseline absorption, dermis scattering
-  std::vector<double> Km, Kh, Kdh, Kb;   // melanin, oxy-, deoxy-haemoglobin, bilirubin
+  std::vector<double> Ke, Se;           // epidermis baseline absorption, epidermis scattering
+  std::vector<double> Kd, Sd;           // dermis baseline absorption, dermis scattering
+  std::vector<double> Km, Kh, Kdh, Kb;  // melanin, oxy-, deoxy-haemoglobin, bilirubin
 
   // The same constants linearly interpolated onto another grid inside this one's range.
   LayerOptics resampled(std::span<const double> grid_nm) const;

@@ -17,7 +17,8 @@ void write_csv_header(std::ostream& out);
 // One session: CSV rows (one per wavelength of each measurement and each of its fits) without
 // the header, or one JSON object on one line (the session, its white standard, instruments,
 // measurements with their spectra and fits). not_found for an unknown session.
-store::Result<void> export_session(const store::Store& store, store::Id session_id, ExportFormat format, std::ostream& out);
+store::Result<void> export_session(const store::Store& store, store::Id session_id, ExportFormat format,
+                                   std::ostream& out);
 
 // Every session, oldest first: the CSV header and all rows, or one JSON line per session.
 store::Result<void> export_all(const store::Store& store, ExportFormat format, std::ostream& out);

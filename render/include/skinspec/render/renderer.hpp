@@ -45,7 +45,7 @@ struct RenderSettings {
   double exposure = 1;
   int samples_per_side = 1;  // supersampling: n x n rays per pixel
   bool shadows = true;
-  unsigned threads = 0;      // 0: one per core
+  unsigned threads = 0;                  // 0: one per core
   Rgb background{0.02f, 0.02f, 0.025f};  // linear sRGB
 };
 
@@ -54,7 +54,8 @@ inline constexpr int kMaxSamplesPerSide = 8;
 
 // An error for sizes outside 1..kMaxImageSide, bad surface parameters, or lights that are not
 // finite; otherwise the image in linear sRGB (values may exceed 1 in highlights).
-std::expected<Image, std::string> render(const Scene& scene, const SpectralColours& colours, const RenderSettings& settings);
+std::expected<Image, std::string> render(const Scene& scene, const SpectralColours& colours,
+                                         const RenderSettings& settings);
 
 // "WxH" (such as "512x512") with each side 1..max_side; nothing for anything else.
 std::optional<std::pair<int, int>> parse_image_size(std::string_view text, int max_side = kMaxImageSide);

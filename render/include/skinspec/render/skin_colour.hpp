@@ -38,6 +38,7 @@ struct SpectralColours {
   Xyz body;      // XYZ of R(lambda) E(lambda)
   Xyz specular;  // XYZ of E(lambda): the illuminant's white
 };
-SpectralColours spectral_colours(const Colorimetry& colorimetry, const Spectrum& reflectance, const Spectrum& illuminant);
+SpectralColours spectral_colours(const Colorimetry& colorimetry, const Spectrum& reflectance,
+                                 const Spectrum& illuminant);
 
 }  // namespace skinspec::render

@@ -43,7 +43,7 @@ struct Fault {
   FaultKind kind = FaultKind::no_answer;
   // The value, or negative when none was given (then the default above applies).
   double amount = -1;
-  char exponent = 'e';                                          // for exponent
+  char exponent = 'e';                                                                 // for exponent
   drivers::pr650::HeaderVariant header = drivers::pr650::HeaderVariant::h2_two_lines;  // for header
 
   // "truncate=100", "exponent=e", "no-answer": the FAULT[=VALUE] part of a spec.
@@ -56,8 +56,8 @@ std::expected<Fault, std::string> parse_fault(std::string_view text);
 struct FaultSpec {
   std::string command = "*";  // lower case: "*", "m", "d5", ...
   Fault fault;
-  int at = 0;                 // 0: every matching command; N: the Nth only
-  bool onwards = false;       // with at: the Nth and every later one
+  int at = 0;            // 0: every matching command; N: the Nth only
+  bool onwards = false;  // with at: the Nth and every later one
 
   bool matches(std::string_view command_key) const;
   std::string to_string() const;

@@ -40,14 +40,14 @@ struct SensorModel {
 };
 
 struct MeterOptions {
-  double boot_window_s = 5;      // real seconds, not scaled
-  double time_scale = 1;         // multiplies measurement times, reply delays and byte pacing
+  double boot_window_s = 5;  // real seconds, not scaled
+  double time_scale = 1;     // multiplies measurement times, reply delays and byte pacing
   std::string serial_number = "60912345";
   drivers::pr650::ReplyStyle style;  // header H1 or H2, exponent 'E' or 'e'
-  double noise = 0;              // relative standard deviation of each spectral value (per average)
-  std::uint64_t seed = 1;        // noise and the bytes of garbage and bit-flip faults
-  bool stale_on_low_light = true;   // on quality 10 and 18 the data lines stay those of before
-  bool m0_reports_quality = false;  // M0 prints "0qq" rather than always "000"
+  double noise = 0;                  // relative standard deviation of each spectral value (per average)
+  std::uint64_t seed = 1;            // noise and the bytes of garbage and bit-flip faults
+  bool stale_on_low_light = true;    // on quality 10 and 18 the data lines stay those of before
+  bool m0_reports_quality = false;   // M0 prints "0qq" rather than always "000"
   SensorModel sensor;
   FaultPlan faults;
   // Replay: match each command with the next recorded one (in_order), or with the first unused

@@ -38,12 +38,12 @@ struct RecordingHeader {
 };
 
 struct Exchange {
-  std::string tx;            // what the host sent; empty: the meter spoke unprompted
-  std::string rx;            // what the meter sent back; empty: no answer
-  double delay_ms = 0;       // from the end of tx to the first byte of rx
+  std::string tx;                                 // what the host sent; empty: the meter spoke unprompted
+  std::string rx;                                 // what the meter sent back; empty: no answer
+  double delay_ms = 0;                            // from the end of tx to the first byte of rx
   double byte_interval_ms = kLineByteIntervalMs;  // between the bytes of rx
-  std::vector<Fault> faults; // applied when replayed
-  std::string note;          // free text
+  std::vector<Fault> faults;                      // applied when replayed
+  std::string note;                               // free text
 };
 
 struct Recording {

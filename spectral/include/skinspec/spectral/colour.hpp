@@ -52,8 +52,11 @@ class Colorimetry {
  private:
   Spectrum xbar_, ybar_, zbar_, d65_, a_;
   Colorimetry(Spectrum xbar, Spectrum ybar, Spectrum zbar, Spectrum d65, Spectrum a)
-      : xbar_(std::move(xbar)), ybar_(std::move(ybar)), zbar_(std::move(zbar)),
-        d65_(std::move(d65)), a_(std::move(a)) {}
+      : xbar_(std::move(xbar)),
+        ybar_(std::move(ybar)),
+        zbar_(std::move(zbar)),
+        d65_(std::move(d65)),
+        a_(std::move(a)) {}
 };
 
 Lab xyz_to_lab(const Xyz& xyz, const Xyz& white);

@@ -1,7 +1,8 @@
 #pragma once
 // The spectra file format read by `skinspec fit` and `skinspec colour`: CSV with a header whose
 // first column is `wavelength_nm`, then one column per spectrum (its name), one row per
-// wavelength. Blank lines and lines starting with '#' (comments) are ignored. Every defect is reported with line and column.
+// wavelength. Blank lines and lines starting with '#' (comments) are ignored. Every defect is reported with line and
+// column.
 
 #include <expected>
 #include <string>
@@ -19,8 +20,8 @@ struct NamedSpectrum {
 };
 
 struct SpectraLimits {
-  double min_value = 0.0;     // reflectance below this is refused
-  double max_value = 1.5;     // and above this
+  double min_value = 0.0;  // reflectance below this is refused
+  double max_value = 1.5;  // and above this
   double must_cover_from_nm = 400.0;
   double must_cover_to_nm = 700.0;
 };
@@ -31,7 +32,7 @@ struct SpectraLimits {
 // non-numeric, NaN or infinite cells, wavelengths that do not strictly increase, fewer than
 // two rows, a grid that does not cover [must_cover_from_nm, must_cover_to_nm], values outside
 // [min_value, max_value].
-std::expected<std::vector<NamedSpectrum>, InputError> parse_spectra_csv(
-    std::string_view bytes, std::string_view source, const SpectraLimits& limits = {});
+std::expected<std::vector<NamedSpectrum>, InputError> parse_spectra_csv(std::string_view bytes, std::string_view source,
+                                                                        const SpectraLimits& limits = {});
 
 }  // namespace skinspec

@@ -13,8 +13,7 @@ class Spectrum {
  public:
   // Fails when the sizes differ, there are fewer than two samples, a value is not finite,
   // or the wavelengths are not strictly increasing.
-  static std::expected<Spectrum, std::string> create(std::vector<double> wavelength_nm,
-                                                     std::vector<double> values);
+  static std::expected<Spectrum, std::string> create(std::vector<double> wavelength_nm, std::vector<double> values);
 
   // A uniform grid first, first + step, ... up to and including last (within step/1000).
   static std::vector<double> uniform_grid(double first_nm, double last_nm, double step_nm);
@@ -24,9 +23,7 @@ class Spectrum {
   std::size_t size() const { return values_.size(); }
   double first_nm() const { return wavelength_nm_.front(); }
   double last_nm() const { return wavelength_nm_.back(); }
-  bool covers(double from_nm, double to_nm) const {
-    return first_nm() <= from_nm && last_nm() >= to_nm;
-  }
+  bool covers(double from_nm, double to_nm) const { return first_nm() <= from_nm && last_nm() >= to_nm; }
 
   // Linear interpolation; outside the grid the nearest end value is held (CIE 15's
   // recommendation for extending a spectrum that stops short of the integration range).

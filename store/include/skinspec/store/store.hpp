@@ -68,8 +68,8 @@ struct SessionPage {
 
 struct SessionDetail {
   Session session;
-  std::vector<Measurement> measurements;  // in the order stored
-  std::vector<Fit> fits;                  // of those measurements, in the order stored
+  std::vector<Measurement> measurements;           // in the order stored
+  std::vector<Fit> fits;                           // of those measurements, in the order stored
   std::vector<RejectedReading> rejected_readings;  // in the order stored
 };
 
@@ -144,8 +144,8 @@ class Store {
   // fit when given, and the job `succeeded` with `result` (a JSON object, to which the store
   // adds "measurement_id" and "fit_id"), in one transaction: all of it or nothing. So a
   // stored measurement's job has always succeeded and names it, whenever the writer dies.
-  Result<CompletedJob> complete_measurement_job(Id job_id, const Measurement& measurement, const std::optional<Fit>& fit,
-                                                const std::string& result);
+  Result<CompletedJob> complete_measurement_job(Id job_id, const Measurement& measurement,
+                                                const std::optional<Fit>& fit, const std::string& result);
   Result<Measurement> measurement(Id id) const;
   // The session's most recently stored measurement of `kind`, if any (the session must exist).
   Result<std::optional<Measurement>> latest_measurement(Id session_id, MeasurementKind kind) const;

@@ -58,7 +58,7 @@ struct SpectralSamples {
 
 struct Instrument {
   Id id = 0;
-  std::string model;                   // "PR-650"
+  std::string model;  // "PR-650"
   std::string serial_number;
   std::string spectral_configuration;  // free text or JSON: grid, bandwidth, firmware
   std::string connection;              // the URI it was last reached by
@@ -103,17 +103,17 @@ struct Measurement {
   std::optional<Id> job_id{};                // the job that produced it
   bool simulated = false;
   int quality_code = 0;
-  std::string quality;                     // the meter's text for the code
-  std::string units;                       // of the radiance, "W/(sr m2 nm)"
-  std::string settings = "{}";             // a JSON object: integration, averages, sync, ...
-  int reading_count = 1;                   // readings averaged into `radiance`
-  SpectralSamples radiance;                // on the instrument's native grid
-  SpectralSamples radiance_sd;             // standard deviation over the readings; empty for one
-  SpectralSamples reflectance;             // derived; empty for whites and darks
+  std::string quality;          // the meter's text for the code
+  std::string units;            // of the radiance, "W/(sr m2 nm)"
+  std::string settings = "{}";  // a JSON object: integration, averages, sync, ...
+  int reading_count = 1;        // readings averaged into `radiance`
+  SpectralSamples radiance;     // on the instrument's native grid
+  SpectralSamples radiance_sd;  // standard deviation over the readings; empty for one
+  SpectralSamples reflectance;  // derived; empty for whites and darks
   std::vector<std::string> warnings;
-  std::string raw_reply;                   // the meter's reply bytes, as received
-  Time started_at{}, finished_at{};        // of the reading(s), from the caller
-  Time created_at{};                       // when it was stored
+  std::string raw_reply;             // the meter's reply bytes, as received
+  Time started_at{}, finished_at{};  // of the reading(s), from the caller
+  Time created_at{};                 // when it was stored
 };
 
 // A reading the meter returned with a quality code that made it unusable: kept with its raw
@@ -123,13 +123,13 @@ struct RejectedReading {
   Id session_id = 0;
   std::optional<Id> job_id{};
   std::optional<Id> instrument_id{};
-  int attempt = 1;             // the job's reading attempt it was (1-based)
+  int attempt = 1;  // the job's reading attempt it was (1-based)
   int quality_code = 0;
-  std::string quality;         // the meter's text for the code
-  std::string reason;          // why it was rejected, as the job reports it
-  std::string raw_reply;       // the meter's reply bytes, as received
-  Time measured_at{};          // from the caller
-  Time created_at{};           // when it was stored
+  std::string quality;    // the meter's text for the code
+  std::string reason;     // why it was rejected, as the job reports it
+  std::string raw_reply;  // the meter's reply bytes, as received
+  Time measured_at{};     // from the caller
+  Time created_at{};      // when it was stored
 };
 
 // The fit's five parameters, in this order.
@@ -192,14 +192,14 @@ struct JobError {
 
 struct Job {
   Id id = 0;
-  std::string kind;             // "measure", "refit", ...
-  std::string request = "{}";   // a JSON object: what was asked
-  std::string requested_by;     // who asked (a token name, a user)
+  std::string kind;            // "measure", "refit", ...
+  std::string request = "{}";  // a JSON object: what was asked
+  std::string requested_by;    // who asked (a token name, a user)
   std::optional<Id> session_id{};
   std::string idempotency_key;  // empty = none; otherwise unique among jobs
   JobState state = JobState::queued;
   std::optional<JobError> error{};  // why it failed or was cancelled; none in any other state
-  std::string result = "{}";    // a JSON object: the ids it produced
+  std::string result = "{}";        // a JSON object: the ids it produced
   Time created_at{};
   std::optional<Time> started_at{}, finished_at{};
 };
