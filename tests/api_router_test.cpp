@@ -8,6 +8,7 @@
 
 #include "fit_json.hpp"
 #include "fitter_loader.hpp"
+#include "skinspec/records/fit_record.hpp"
 #include "skinspec/api/render_cache.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/spectral/colour.hpp"
@@ -169,7 +170,9 @@ TEST_F(ApiRouterTest, FitReturnsTheFieldsOfTheCommandLine) {
   const auto r =
       call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", refl}, {"site", "forearm"}}.dump());
   ASSERT_EQ(r.status, 200) << r.body;
-  auto direct = shared_fitter().fit(*Spectrum::create(wl, refl), FitOptions{.model = kServiceModel});
+  FitOptions options;
+  options.model = records::kStoredModel;
+  auto direct = shared_fitter().fit(*Spectrum::create(wl, refl), options);
   ASSERT_TRUE(direct);
   EXPECT_EQ(body(r), json::parse(fit_to_json("spectrum", *direct).dump()));
 
@@ -296,7 +299,7 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   ASSERT_EQ(stored.status, 200);
   auto direct = shared_fitter().fit(
       *Spectrum::create(grid(), skin_like(grid())),
-      FitOptions{.model = kServiceModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}});
+      FitOptions{.model = records::kStoredModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}});
   ASSERT_TRUE(direct);
   const json cli = json::parse(fit_to_json("x", *direct).dump());
   // The store keeps the values, not the judgement of what the spectrum determined.
@@ -590,7 +593,7 @@ TEST_F(ApiRouterTest, SitesAndTheColourOfAMeasurementUnderTwoLights) {
   const json sites = body(call("GET", "/api/v1/sites"))["sites"];
   std::vector<std::string> names;
   for (const auto& s : sites) names.push_back(s["name"]);
-  EXPECT_EQ(names, shared_fitter().optics(kServiceModel).site_names());
+  EXPECT_EQ(names, shared_fitter().optics(records::kStoredModel).site_names());
   EXPECT_GT(sites[0]["dermis_mm"].get<double>(), sites[0]["epidermis_mm"].get<double>());
 
   ASSERT_EQ(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}}.dump()).status, 201);

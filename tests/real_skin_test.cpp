@@ -114,7 +114,9 @@ void expect_bounds_marked(const FitResult& fit, std::size_t index) {
   const double value = fit.params[index];
   const bool on_bound = std::abs(value - spec.lower) < 1e-9 || std::abs(value - spec.upper) < 1e-9;
   EXPECT_TRUE(value >= spec.lower && value <= spec.upper) << spec.name << " " << value;
-  if (on_bound) EXPECT_EQ(fit.determination[index].status, Determination::at_bound) << spec.name << " " << value;
+  if (on_bound) {
+    EXPECT_EQ(fit.determination[index].status, Determination::at_bound) << spec.name << " " << value;
+  }
 }
 
 TEST(RealSkin, ExtendedCrossValidatedReportsOnlyPlausibleOrMarkedValues) {
@@ -128,7 +130,9 @@ TEST(RealSkin, ExtendedCrossValidatedReportsOnlyPlausibleOrMarkedValues) {
       EXPECT_LT(saturation, 0.95);
     }
     const double rs = fit.params[kSurfaceReflectance];
-    if (rs <= 0.02 + 1e-9 || rs >= 0.08 - 1e-9) EXPECT_FALSE(fit.determination[kSurfaceReflectance].determined());
+    if (rs <= 0.02 + 1e-9 || rs >= 0.08 - 1e-9) {
+      EXPECT_FALSE(fit.determination[kSurfaceReflectance].determined());
+    }
   }
   RecordProperty("oxygen_saturations_determined", static_cast<int>(saturations_determined));
 }
@@ -181,8 +185,9 @@ TEST_P(ExampleForearms, GivePlausibleValuesAndNoPigmentAtZeroUnlessMarked) {
     const auto specs = model_spec(GetParam()).params;
     for (std::size_t i = 0; i < specs.size(); ++i) {
       if (GetParam() == ModelKind::extended) expect_bounds_marked(*fit, i);
-      if (specs[i].absorber && fit->params[i] == 0)
+      if (specs[i].absorber && fit->params[i] == 0) {
         EXPECT_EQ(fit->determination[i].status, Determination::at_bound) << specs[i].name;
+      }
     }
     if (GetParam() != ModelKind::extended) continue;
     EXPECT_TRUE(fit->determination[kMelanin].determined());

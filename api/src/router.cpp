@@ -56,7 +56,7 @@ struct Router::Handlers {
       fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + call.query.begin()->first + "'");
   }
   static std::string checked_site(const RouterContext& c, const std::string& site) {
-    if (auto known = fitter_of(c).optics(kServiceModel).site(site); !known)
+    if (auto known = fitter_of(c).optics(records::kStoredModel).site(site); !known)
       fail(ErrorKind::unprocessable, "unknown_site", known.error());
     return site;
   }
@@ -182,7 +182,7 @@ struct Router::Handlers {
     const json body = detail::parse_object(call.request.body);
     detail::only_fields(body, {"wavelength_nm", "reflectance", "spectra", "site", "name", "lateral_diffusion"});
     FitOptions options;
-    options.model = kServiceModel;
+    options.model = records::kStoredModel;
     options.site = detail::optional_string(body, "site", 64).value_or("forearm");
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
     checked_site(c, options.site);
@@ -383,8 +383,8 @@ struct Router::Handlers {
   static Response sites(const RouterContext& c, const Call& call) {
     no_query(call);
     json list = json::array();
-    for (const auto& name : fitter_of(c).optics(kServiceModel).site_names()) {
-      const auto site = fitter_of(c).optics(kServiceModel).site(name);
+    for (const auto& name : fitter_of(c).optics(records::kStoredModel).site_names()) {
+      const auto site = fitter_of(c).optics(records::kStoredModel).site(name);
       if (site)
         list.push_back({{"name", site->name}, {"epidermis_mm", site->epidermis_mm}, {"dermis_mm", site->dermis_mm}});
     }
@@ -402,14 +402,14 @@ struct Router::Handlers {
     if (m.reflectance.empty())
       fail(ErrorKind::conflict, "no_reflectance", "measurement " + std::to_string(m.id) + " has no reflectance to fit");
     FitOptions options;
-    options.model = kServiceModel;
+    options.model = records::kStoredModel;
     options.site = detail::optional_string(body, "site", 64).value_or("");
     if (options.site.empty()) options.site = value(db.session(m.session_id)).site;
     checked_site(c, options.site);
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
     const auto result =
         run_fit(c, make_spectrum(m.reflectance.wavelength_nm, m.reflectance.values, "reflectance"), options);
-    store::Fit f = records::to_store_fit(result, options, fitter_of(c).optics(kServiceModel).tables_digest());
+    store::Fit f = records::to_store_fit(result, options, fitter_of(c).optics(records::kStoredModel).tables_digest());
     f.measurement_id = m.id;
     const store::Id id = value(db.add_fit(f));
     Response r = json_response(records::to_json(value(db.fit(id))), 201);

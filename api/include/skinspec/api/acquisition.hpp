@@ -78,9 +78,6 @@ class Acquisition {
   virtual void wake_waiters() const = 0;
 };
 
-// The model the service fits with: the store keeps the paper's five parameters of a fit.
-inline constexpr ModelKind kServiceModel = ModelKind::paper;
-
 // A time as every answer of the API shows it: RFC 3339, UTC, with microseconds.
 std::string api_time(store::Time time);
 

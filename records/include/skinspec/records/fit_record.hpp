@@ -10,6 +10,9 @@
 
 namespace skinspec::records {
 
+// The model whose parameters a stored fit keeps (the paper's five): the one the service fits.
+inline constexpr ModelKind kStoredModel = ModelKind::paper;
+
 // The software a stored fit names as its model_version: "skinspec <version>".
 std::string model_version();
 
