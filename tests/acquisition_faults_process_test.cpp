@@ -79,9 +79,7 @@ TEST_P(FaultTest, TheJobEndsAsItMustAndTheNextOneSucceeds) {
     EXPECT_FALSE(job["result"]["fit_id"].is_null()) << job;
   } else {
     ASSERT_EQ(job["state"], "failed") << job << rig.logs();
-    EXPECT_TRUE((job["error"]["code"].get<std::string>() + ": " + job["error"]["message"].get<std::string>())
-                    .starts_with(c.error))
-        << job["error"];
+    EXPECT_TRUE(job_error_text(job).starts_with(c.error)) << job["error"];
     EXPECT_EQ(detail["measurements"].size(), 1u) << detail;  // only the white
     EXPECT_EQ(sqlite_integer(rig.db_path(), "SELECT count(*) FROM fits"), 0);
   }

@@ -7,10 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <random>
+#include <string_view>
 #include <thread>
 
 #include "support/acquisition_rig.hpp"
@@ -27,6 +29,7 @@ struct Tally {
   int killed_while_running = 0;  // a job had started and not ended when the daemon died
   int killed_while_queued = 0;   // jobs waited, none ran
   int succeeded = 0, interrupted = 0;
+  int killed_after_a_job_ended = 0;  // cycles whose kill followed the end of their first job
 };
 
 // The jobs of one cycle after the restart: each ended, and as the kill left it.
@@ -67,6 +70,20 @@ bool meter_connected(unsigned short port) {
   return false;
 }
 
+// Until the job's state is none of `states` (it may have gone past the next), or 30 s have passed.
+void wait_while(unsigned short port, long long job, std::initializer_list<std::string_view> states) {
+  const auto until = std::chrono::steady_clock::now() + 30s;
+  while (std::chrono::steady_clock::now() < until) {
+    const std::string state = get_json(port, "/api/v1/jobs/" + std::to_string(job)).value("state", "");
+    if (std::ranges::find(states, state) == states.end()) return;
+    std::this_thread::sleep_for(200us);
+  }
+}
+
+// Where a cycle's kill lands. A random delay alone would not do on every build: under the
+// sanitizers a job takes longer than the longest delay, and on a loaded machine jobs start late.
+enum class Aim { anywhere, a_job_at_work, after_the_first_job };
+
 // One rig's cycles: jobs submitted, the daemon killed after a seeded random delay, checked,
 // started again.
 void run_cycles(const std::string& work_dir, unsigned seed, int cycles, Tally& tally) {
@@ -81,6 +98,7 @@ void run_cycles(const std::string& work_dir, unsigned seed, int cycles, Tally& t
   std::uniform_int_distribution<int> jobs_per_cycle(1, 4);
   // A sample job takes a few milliseconds here: kills land before, inside and after jobs.
   std::uniform_int_distribution<int> delay_us(0, 30'000);
+  std::uniform_int_distribution<int> aim(0, 2);  // an Aim
   for (int cycle = 0; cycle < cycles; ++cycle) {
     SCOPED_TRACE("seed " + std::to_string(seed) + ", cycle " + std::to_string(cycle));
     ASSERT_TRUE(meter_connected(rig.port)) << rig.logs();
@@ -90,7 +108,21 @@ void run_cycles(const std::string& work_dir, unsigned seed, int cycles, Tally& t
       ASSERT_TRUE(accepted.contains("job_id")) << accepted << rig.logs();
       jobs.push_back(accepted["job_id"].get<long long>());
     }
-    std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random)));
+    const auto aimed = static_cast<Aim>(aim(random));
+    switch (aimed) {
+      case Aim::a_job_at_work:
+        wait_while(rig.port, jobs.front(), {"queued"});
+        std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random) / 10));
+        break;
+      case Aim::after_the_first_job:
+        wait_while(rig.port, jobs.front(), {"queued", "running"});
+        ++tally.killed_after_a_job_ended;
+        std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random) / 10));
+        break;
+      case Aim::anywhere:
+        std::this_thread::sleep_for(std::chrono::microseconds(delay_us(random)));
+        break;
+    }
     rig.daemon->send_signal(SIGKILL);
     ASSERT_EQ(rig.daemon->wait(10s).signal, SIGKILL);
 
@@ -107,6 +139,9 @@ void run_cycles(const std::string& work_dir, unsigned seed, int cycles, Tally& t
     EXPECT_EQ(jobs_and_rows_disagreement(rig.db_path()), "");
     EXPECT_EQ(sqlite_integer(rig.db_path(), "SELECT count(*) FROM jobs WHERE state IN ('queued', 'running')"), 0);
     expect_ended_as_the_kill_left_them(rig.port, jobs, tally);
+    if (aimed == Aim::after_the_first_job) {
+      EXPECT_EQ(get_json(rig.port, "/api/v1/jobs/" + std::to_string(jobs.front()))["state"], "succeeded");
+    }
     if (::testing::Test::HasFatalFailure()) return;
     // Recovery interrupts a session whose jobs were cut short; the operator carries on with it.
     if (get_json(rig.port, session_path)["state"] == "interrupted") {
@@ -140,6 +175,7 @@ TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
     total.killed_while_queued += t.killed_while_queued;
     total.succeeded += t.succeeded;
     total.interrupted += t.interrupted;
+    total.killed_after_a_job_ended += t.killed_after_a_job_ended;
   }
   const auto seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::printf("%d kills in %.1f s: %d while a job ran, %d while jobs only waited; %d jobs succeeded, %d interrupted\n",
@@ -147,7 +183,7 @@ TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
               total.interrupted);
   // The kills must have hit jobs at work, and jobs must have finished between them.
   EXPECT_GE(total.killed_while_running, kRigs * kCyclesPerRig / 4);
-  EXPECT_GE(total.succeeded, kRigs * kCyclesPerRig / 2);
+  EXPECT_GE(total.killed_after_a_job_ended, kRigs * kCyclesPerRig / 6);
 }
 
 }  // namespace

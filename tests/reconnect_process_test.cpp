@@ -204,8 +204,7 @@ TEST_F(ReconnectTest, AJobWhileTheMeterStaysSilentFailsClearlyAfterConnectingAga
   const auto run = second_white_job(dir_, {"--fault", "s:reboot@2"});
   ASSERT_EQ(run.job["state"], "failed") << run.job;
   ASSERT_TRUE(run.job["error"].is_object()) << run.job;
-  const std::string error =
-      run.job["error"]["code"].get<std::string>() + ": " + run.job["error"]["message"].get<std::string>();
+  const std::string error = job_error_text(run.job);
   EXPECT_TRUE(error.starts_with("no_contact: ")) << error;
   EXPECT_NE(error.find("did not answer 's01"), std::string::npos) << error;
   EXPECT_NE(error.find("connecting again failed: no answer from a PR-650"), std::string::npos) << error;

@@ -72,7 +72,6 @@ struct Service {
     context.store = &*store;
     context.fitter = &*fitter;
     context.access = {true, kReadToken, kOperatorToken};
-    context.version = "fuzz";
     router = std::make_unique<api::Router>(context);
   }
   ~Service() {

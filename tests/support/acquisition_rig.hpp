@@ -85,11 +85,5 @@ nlohmann::json submit(unsigned short port, long long session, const nlohmann::js
 nlohmann::json wait_for_job(unsigned short port, const nlohmann::json& accepted,
                             std::chrono::milliseconds limit = std::chrono::seconds(60));
 nlohmann::json get_json(unsigned short port, const std::string& target);
-// A finished job's error as "code: message" ("" when it has none), for prefix checks.
-inline std::string job_error_text(const nlohmann::json& job) {
-  const auto it = job.find("error");
-  if (it == job.end() || !it->is_object()) return "";
-  return it->value("code", "") + ": " + it->value("message", "");
-}
 
 }  // namespace skinspec::testing

@@ -73,4 +73,11 @@ RawExchange raw_exchange_from(const std::string& source, unsigned short port, co
 // whatever its Content-Length. A last entry with `error` set when the rest does not parse.
 std::vector<HttpReply> parse_responses(const std::string& bytes, const std::vector<bool>& heads = {});
 
+// A finished job's error as "code: message" ("" when it has none), for prefix checks.
+inline std::string job_error_text(const nlohmann::json& job) {
+  const auto it = job.find("error");
+  if (it == job.end() || !it->is_object()) return "";
+  return it->value("code", "") + ": " + it->value("message", "");
+}
+
 }  // namespace skinspec::testing
