@@ -195,7 +195,7 @@ TEST_F(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
   const auto f = value_of(store.fit(*ids.fit_id));
   EXPECT_EQ(check_sample_fit(f, 5), "");
   EXPECT_EQ(f.measurement_id, ids.measurement_id);
-  EXPECT_TRUE(std::isinf(f.standard_error[4]));
+  EXPECT_TRUE(std::isinf(f.params[4].standard_error));
   EXPECT_EQ(f.site, "forearm");
   EXPECT_EQ(f.solver_summary, sample_fit(5).solver_summary);
   EXPECT_EQ(f.options, sample_fit(5).options);
@@ -206,9 +206,10 @@ TEST_F(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
   auto refit = sample_fit(5);
   refit.measurement_id = ids.measurement_id;
   refit.options = R"({"site":"forearm","lateral_diffusion":false})";
-  refit.standard_error[0] = std::numeric_limits<double>::quiet_NaN();
+  refit.params[0].standard_error = std::numeric_limits<double>::quiet_NaN();
   const Id refit_id = value_of(store.add_fit(refit));
-  EXPECT_TRUE(std::isnan(value_of(store.fit(refit_id)).standard_error[0]));
+  // Any standard error that is not finite is one the fit could not bound.
+  EXPECT_TRUE(std::isinf(value_of(store.fit(refit_id)).params[0].standard_error));
   EXPECT_EQ(value_of(store.fits_of_measurement(ids.measurement_id)).size(), 2u);
 
   EXPECT_EQ(value_of(store.latest_measurement(session, MeasurementKind::white))->id, white_ids.measurement_id);
@@ -278,7 +279,7 @@ TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
   auto store = open();
   const Id session = value_of(store.create_session(sample_session(1)));
   auto bad_fit = sample_fit(1);
-  bad_fit.params[1] = std::numeric_limits<double>::quiet_NaN();
+  bad_fit.params[1].value = std::numeric_limits<double>::quiet_NaN();
   const auto refused = store.record_measurement(sample_measurement(session, 1), bad_fit);
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().kind, Kind::invalid_argument);
@@ -478,7 +479,7 @@ TEST_F(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
   value_of(store.update_job(job_id, {.state = JobState::running}));
 
   auto bad_fit = sample_fit(1);
-  bad_fit.params[1] = std::nan("");
+  bad_fit.params[1].value = std::nan("");
   EXPECT_EQ(store.complete_measurement_job(job_id, m, bad_fit, "{}").error().kind, Kind::invalid_argument);
   EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "[]").error().kind, Kind::invalid_argument);
   EXPECT_EQ(

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace skinspec {
 
@@ -49,6 +50,110 @@ nlohmann::json params_to_json(ModelKind model, const Params& params) {
   return out;
 }
 
+nlohmann::json assessment_to_json(const FitResult& fit) {
+  nlohmann::json out = nlohmann::json::object();
+  if (fit.determination.size() == fit.params.size() && !fit.params.empty()) {
+    nlohmann::json determination = nlohmann::json::object();
+    for (std::size_t i = 0; i < fit.params.size(); ++i)
+      determination[std::string(param_name(fit.model, i))] = determination_json(fit, fit.determination[i]);
+    out["determination"] = std::move(determination);
+    out["derived"] = {{"oxygen_saturation", derived_json(fit.oxygen_saturation)},
+                      {"blood_volume_fraction", derived_json(fit.blood_volume_fraction)}};
+  }
+  if (fit.correlation.size() == fit.params.size() * fit.params.size() && !fit.params.empty())
+    out["correlation"] = correlation_json(fit);
+  if (!fit.coverage_note.empty()) out["note"] = fit.coverage_note;
+  return out;
+}
+
+namespace {
+
+double number_or_nan(const nlohmann::json& v) {
+  return v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::optional<ParamDetermination> determination_from_json(ModelKind model, const nlohmann::json& j) {
+  if (!j.is_object() || !j.contains("determined") || !j["determined"].is_boolean()) return std::nullopt;
+  ParamDetermination d;
+  if (j["determined"].get<bool>()) return d;
+  if (!j.contains("reason") || !j["reason"].is_string()) return std::nullopt;
+  const auto status = parse_determination(j["reason"].get<std::string>());
+  if (!status) return std::nullopt;
+  d.status = *status;
+  if (j.contains("correlated_with")) {
+    const auto other = j["correlated_with"].is_string() ? param_index(model, j["correlated_with"].get<std::string>())
+                                                        : std::nullopt;
+    if (!other) return std::nullopt;
+    d.correlated_with = static_cast<int>(*other);
+  }
+  return d;
+}
+
+std::optional<DerivedQuantity> derived_from_json(const nlohmann::json& j) {
+  if (!j.is_object() || !j.contains("value") || !j.contains("determined") || !j["determined"].is_boolean())
+    return std::nullopt;
+  DerivedQuantity q;
+  q.value = number_or_nan(j["value"]);
+  q.standard_error = j.contains("stderr") && j["stderr"].is_number() ? j["stderr"].get<double>()
+                                                                    : std::numeric_limits<double>::infinity();
+  if (!j["determined"].get<bool>()) {
+    const auto status = j.contains("reason") && j["reason"].is_string()
+                            ? parse_determination(j["reason"].get<std::string>())
+                            : std::nullopt;
+    if (!status) return std::nullopt;
+    q.status = *status;
+  }
+  return q;
+}
+
+bool determinations_from_json(const nlohmann::json& j, FitResult& fit) {
+  const auto specs = model_spec(fit.model).params;
+  if (!j.is_object() || j.size() != fit.params.size() || specs.size() != fit.params.size()) return false;
+  for (const auto& spec : specs) {
+    const auto name = std::string(spec.name);
+    const auto d = j.contains(name) ? determination_from_json(fit.model, j[name]) : std::nullopt;
+    if (!d) return false;
+    fit.determination.push_back(*d);
+  }
+  return true;
+}
+
+bool correlation_from_json(const nlohmann::json& j, FitResult& fit) {
+  const std::size_t n = fit.params.size();
+  if (!j.is_object() || !j.contains("matrix") || !j["matrix"].is_array() || j["matrix"].size() != n) return false;
+  for (const auto& row : j["matrix"]) {
+    if (!row.is_array() || row.size() != n) return false;
+    for (const auto& v : row) fit.correlation.push_back(number_or_nan(v));
+  }
+  return true;
+}
+
+}  // namespace
+
+bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit) {
+  if (!assessment.is_object()) return false;
+  if (assessment.contains("determination") && !determinations_from_json(assessment["determination"], fit))
+    return false;
+  if (assessment.contains("derived")) {
+    const auto& derived = assessment["derived"];
+    const auto saturation = derived.is_object() && derived.contains("oxygen_saturation")
+                                ? derived_from_json(derived["oxygen_saturation"])
+                                : std::nullopt;
+    const auto blood = derived.is_object() && derived.contains("blood_volume_fraction")
+                           ? derived_from_json(derived["blood_volume_fraction"])
+                           : std::nullopt;
+    if (!saturation || !blood) return false;
+    fit.oxygen_saturation = *saturation;
+    fit.blood_volume_fraction = *blood;
+  }
+  if (assessment.contains("correlation") && !correlation_from_json(assessment["correlation"], fit)) return false;
+  if (assessment.contains("note")) {
+    if (!assessment["note"].is_string()) return false;
+    fit.coverage_note = assessment["note"].get<std::string>();
+  }
+  return true;
+}
+
 nlohmann::json fit_to_json(std::string_view name, const FitResult& fit) {
   const bool judged = fit.determination.size() == fit.params.size();
   Params shown_error = fit.standard_error;
@@ -70,17 +175,7 @@ nlohmann::json fit_to_json(std::string_view name, const FitResult& fit) {
       {"measured", fit.measured},
       {"fitted", fit.fitted},
   };
-  if (judged) {
-    nlohmann::json determination = nlohmann::json::object();
-    for (std::size_t i = 0; i < fit.params.size(); ++i)
-      determination[std::string(param_name(fit.model, i))] = determination_json(fit, fit.determination[i]);
-    out["determination"] = std::move(determination);
-    out["derived"] = {{"oxygen_saturation", derived_json(fit.oxygen_saturation)},
-                      {"blood_volume_fraction", derived_json(fit.blood_volume_fraction)}};
-  }
-  if (fit.correlation.size() == fit.params.size() * fit.params.size() && !fit.params.empty())
-    out["correlation"] = correlation_json(fit);
-  if (!fit.coverage_note.empty()) out["note"] = fit.coverage_note;
+  out.update(assessment_to_json(fit));
   return out;
 }
 

@@ -17,6 +17,15 @@ namespace skinspec {
 // determination says why.
 nlohmann::json fit_to_json(std::string_view name, const FitResult& fit);
 
+// What the spectrum determined, as fit_to_json gives it: {determination, derived, correlation,
+// note}, each only when the fit has it. The stored form of a fit's judgement.
+nlohmann::json assessment_to_json(const FitResult& fit);
+
+// Reads assessment_to_json's object back into `fit` (whose model and params are set): its
+// determination, derived quantities, correlation and note. A field that is absent stays
+// empty (a fit stored before fits were judged); false when a field is malformed.
+bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit);
+
 // {name: value} in the model's parameter order; non-finite values are null.
 nlohmann::json params_to_json(ModelKind model, const Params& params);
 

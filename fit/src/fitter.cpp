@@ -27,6 +27,13 @@ std::string_view to_string(Determination d) {
   return "unknown";
 }
 
+std::optional<Determination> parse_determination(std::string_view name) {
+  for (const auto d : {Determination::determined, Determination::at_bound, Determination::correlated,
+                       Determination::imprecise, Determination::unconstrained, Determination::held})
+    if (to_string(d) == name) return d;
+  return std::nullopt;
+}
+
 namespace {
 
 // The measured samples inside the model's range, with their weights.

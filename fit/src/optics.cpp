@@ -252,6 +252,15 @@ SkinOptics SkinOptics::with_constants(const ModelConstants& constants) const {
   return copy;
 }
 
+std::string SkinOptics::constants_digest() const {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  const auto specs = model_spec(model_).constants;
+  const auto values = constant_values(model_, constants_);
+  for (std::size_t i = 0; i < specs.size() && i < values.size(); ++i)
+    hash = fnv1a(hash, fmt::format("{}={:.17g};", specs[i].name, values[i]));
+  return fmt::format("{:016x}", hash);
+}
+
 std::vector<std::string> SkinOptics::site_names() const {
   std::vector<std::string> names;
   for (const auto& s : sites_) names.push_back(s.name);

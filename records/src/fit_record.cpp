@@ -1,16 +1,16 @@
 #include "skinspec/records/fit_record.hpp"
 
-#include <algorithm>
+#include <fmt/format.h>
+
 #include <nlohmann/json.hpp>
 #include <type_traits>
 
+#include "fit_json.hpp"
 #include "skinspec/version.hpp"
 
 namespace skinspec::records {
 
 namespace {
-
-static_assert(store::kFitParamCount == kPaperParamCount, "the store keeps the paper model's parameters");
 
 // The values a stored fit and a fit result share, listed once for both directions:
 // `assign(stored, fitted)` copies one of them whichever way the caller wants.
@@ -33,28 +33,46 @@ void each_shared_value(StoredFit& f, Result& r, Assign assign) {
 
 std::string model_version() { return "skinspec " + std::string(kVersion); }
 
-store::Fit to_store_fit(const FitResult& result, const FitOptions& options, const std::string& tables_digest) {
+store::Fit to_store_fit(const FitResult& result, const FitOptions& options, const SkinOptics& optics) {
   store::Fit f;
   each_shared_value(f, result, [](auto& stored, const auto& fitted) {
     stored = static_cast<std::decay_t<decltype(stored)>>(fitted);
   });
-  // The store keeps the paper model's five parameters; the service fits with it alone.
-  std::copy_n(result.params.begin(), std::min(result.params.size(), f.params.size()), f.params.begin());
-  std::copy_n(result.standard_error.begin(), std::min(result.standard_error.size(), f.standard_error.size()),
-              f.standard_error.begin());
+  f.model = std::string(to_string(result.model));
+  const auto specs = model_spec(result.model).params;
+  for (std::size_t i = 0; i < result.params.size() && i < specs.size(); ++i)
+    f.params.push_back({std::string(specs[i].name), result.params[i], result.standard_error[i]});
+  f.assessment = assessment_to_json(result).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   f.options = nlohmann::json{{"site", options.site}, {"lateral_diffusion", options.lateral_diffusion}}.dump();
   f.model_version = model_version();
-  f.tables_digest = tables_digest;
+  f.tables_digest = optics.tables_digest();
+  f.constants_digest = optics.constants_digest();
   return f;
 }
 
-FitResult to_fit_result(const store::Fit& fit) {
+std::expected<FitResult, std::string> to_fit_result(const store::Fit& fit) {
+  const auto model = parse_model_kind(fit.model);
+  if (!model)
+    return std::unexpected(fmt::format("fit {} is of model '{}', which this version does not know (it knows {})",
+                                       fit.id, fit.model, model_names()));
+  const auto specs = model_spec(*model).params;
+  if (fit.params.size() != specs.size())
+    return std::unexpected(fmt::format("fit {} has {} parameters; the {} model has {}", fit.id, fit.params.size(),
+                                       fit.model, specs.size()));
   FitResult r;
   each_shared_value(
       fit, r, [](const auto& stored, auto& fitted) { fitted = static_cast<std::decay_t<decltype(fitted)>>(stored); });
-  r.model = ModelKind::paper;
-  r.params.assign(fit.params.begin(), fit.params.end());
-  r.standard_error.assign(fit.standard_error.begin(), fit.standard_error.end());
+  r.model = *model;
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    if (fit.params[i].name != specs[i].name)
+      return std::unexpected(fmt::format("fit {}: parameter {} is '{}' where the {} model has '{}'", fit.id, i + 1,
+                                         fit.params[i].name, fit.model, specs[i].name));
+    r.params.push_back(fit.params[i].value);
+    r.standard_error.push_back(fit.params[i].standard_error);
+  }
+  const auto assessment = nlohmann::json::parse(fit.assessment, nullptr, false);
+  if (assessment.is_discarded() || !assessment_from_json(assessment, r))
+    return std::unexpected(fmt::format("fit {}: its assessment is not one this version reads", fit.id));
   return r;
 }
 

@@ -5,6 +5,7 @@
 // colorimetric judgement of the fit.
 
 #include <expected>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -42,6 +43,7 @@ enum class Determination {
   held,           // not fitted: held at a value given in FitOptions
 };
 std::string_view to_string(Determination d);
+std::optional<Determination> parse_determination(std::string_view name);
 
 struct ParamDetermination {
   Determination status = Determination::determined;

@@ -93,6 +93,9 @@ class SkinOptics {
   // A hex digest of every table byte that went into the model, its constants included, for
   // provenance.
   const std::string& tables_digest() const { return digest_; }
+  // A hex digest of the tuned constants alone (their names and values as applied): two fits
+  // with the same constants digest used the same constants whatever else changed.
+  std::string constants_digest() const;
 
   // The same tables under other constants (used while tuning them).
   SkinOptics with_constants(const ModelConstants& constants) const;
