@@ -50,7 +50,7 @@ std::vector<CLI::Option*> add_param_options(CLI::App& app, ParamArgs& args) {
       seen.push_back(spec.name);
       const std::string name(spec.name);
       std::string flags = option_name(spec.name);
-      if (spec.name == "surface_reflectance") flags = "--surface," + flags;
+      if (spec.name == "surface_reflectance") flags += ",--surface";
       const ParamSpec* s = any_spec(spec.name);
       auto* option = app.add_option_function<double>(
           flags, [&args, name](double value) { args.given[name] = value; }, fmt::format("{} ({})", name, s->unit));

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "common.hpp"
+#include "fit_text.hpp"
 #include "model_options.hpp"
 #include "session_client.hpp"
 
@@ -46,17 +47,14 @@ void run_new(const ServerArgs& server, const NewArgs& args) {
 
 // A fit's parameter as a table shows it: "n.d." where the spectrum did not determine it.
 std::string param_cell(const json& fit, const std::string& name) {
+  if (not_determined(fit, name)) return "n.d.";
   const auto& v = fit["params"][name];
-  const auto& d = fit.contains("determination") ? fit["determination"][name] : json();
-  if (d.is_object() && !d.value("determined", true)) return "n.d.";
   return v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("-");
 }
 
 // The session's fits of one model, one column per parameter of that model.
 void print_fits(const json& fits, const std::string& model) {
-  std::vector<std::string> names;
-  if (const auto kind = parse_model_kind(model))
-    for (const auto& spec : model_spec(*kind).params) names.emplace_back(spec.name);
+  const auto names = param_names({{"model", model}});
   std::string header = fmt::format("\nfits, model {}\n{:>6} {:>11}", model, "fit", "measurement");
   for (const auto& name : names) header += fmt::format(" {:>{}}", name, std::max<std::size_t>(9, name.size()));
   std::cout << header << fmt::format(" {:>8} {:>7}\n", "rmse", "dE2000");
