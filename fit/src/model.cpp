@@ -19,7 +19,7 @@ SkinModel::SkinModel(const SkinOptics& optics, const Site& site, std::span<const
               o.Kdh[i], o.Kb[i], std::log(grid_[i] / kScatteringPivotNm)};
 }
 
-std::vector<double> SkinModel::reflectance(const Params& p) const {
+[[gnu::flatten]] std::vector<double> SkinModel::reflectance(const Params& p) const {
   std::vector<double> r(size());
   for (std::size_t i = 0; i < size(); ++i) r[i] = reflectance_at(i, p.data());
   return r;

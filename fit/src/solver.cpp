@@ -17,8 +17,10 @@ struct SpectrumResidual {
   const std::vector<double>& measured;
   const std::vector<double>& sqrt_weights;
 
+  // Flattened: the model's Jet arithmetic is small enough to inline entirely, and left to the
+  // inliner's budget it is not (about half the cost of a fit went to calls into Eigen's loops).
   template <typename T>
-  bool operator()(const T* p, T* residuals) const {
+  [[gnu::flatten]] bool operator()(const T* p, T* residuals) const {
     for (std::size_t i = 0; i < model.size(); ++i)
       residuals[i] = sqrt_weights[i] * (model.reflectance_at(i, p) - measured[i]);
     return true;
@@ -28,7 +30,7 @@ struct SpectrumResidual {
 template <int N>
 using ResidualCost = ceres::AutoDiffCostFunction<SpectrumResidual, ceres::DYNAMIC, N>;
 
-double weighted_sum_of_squares(const Problem& problem, const Params& p, std::size_t stride) {
+[[gnu::flatten]] double weighted_sum_of_squares(const Problem& problem, const Params& p, std::size_t stride) {
   double sum = 0;
   for (std::size_t i = 0; i < problem.model.size(); i += stride) {
     const double r = problem.model.reflectance_at(i, p.data()) - problem.measured[i];
@@ -251,6 +253,14 @@ class Engine {
 // in a second, worse basin with haemoglobin at zero, which no start near it leaves.
 constexpr double kRestartAbsorber = 3;
 
+// The absorbers whose zero prompts that restart: every one of the paper's; the extended model's
+// haemoglobin alone, since its bilirubin at zero (common in real skin) is no such basin and a
+// restart for it would double the cost of most fits for nothing.
+bool restarts_at_zero(ModelKind kind, std::size_t i) {
+  if (kind == ModelKind::paper) return model_spec(kind).params[i].absorber;
+  return i == static_cast<std::size_t>(kTotalHemoglobin);
+}
+
 template <int N>
 Solution solve_with(const Problem& problem) {
   const Engine<N> engine(problem);
@@ -264,7 +274,7 @@ Solution solve_with(const Problem& problem) {
   bool restart = false;
   Params reseeded = best.params;
   for (std::size_t i = 0; i < N; ++i)
-    if (params[i].absorber && !problem.held[i] && reseeded[i] == params[i].lower) {
+    if (restarts_at_zero(problem.model.kind(), i) && !problem.held[i] && reseeded[i] == params[i].lower) {
       reseeded[i] = kRestartAbsorber;
       restart = true;
     }
