@@ -7,28 +7,11 @@
 #include <cmath>
 #include <limits>
 
+#include "spectrum_cost.hpp"
+
 namespace skinspec::detail {
 
 namespace {
-
-// Weighted residuals sqrt(w_i) (model_i - measured_i), differentiated by Ceres.
-struct SpectrumResidual {
-  const SkinModel& model;
-  const std::vector<double>& measured;
-  const std::vector<double>& sqrt_weights;
-
-  // Flattened: the model's Jet arithmetic is small enough to inline entirely, and left to the
-  // inliner's budget it is not (about half the cost of a fit went to calls into Eigen's loops).
-  template <typename T>
-  [[gnu::flatten]] bool operator()(const T* p, T* residuals) const {
-    for (std::size_t i = 0; i < model.size(); ++i)
-      residuals[i] = sqrt_weights[i] * (model.reflectance_at(i, p) - measured[i]);
-    return true;
-  }
-};
-
-template <int N>
-using ResidualCost = ceres::AutoDiffCostFunction<SpectrumResidual, ceres::DYNAMIC, N>;
 
 [[gnu::flatten]] double weighted_sum_of_squares(const Problem& problem, const Params& p, std::size_t stride) {
   double sum = 0;
@@ -142,10 +125,7 @@ class Engine {
   }
 
  private:
-  ResidualCost<N> cost() const {
-    return ResidualCost<N>(new SpectrumResidual{problem_.model, problem_.measured, problem_.sqrt_weights},
-                           static_cast<int>(problem_.model.size()));
-  }
+  SpectrumCost cost() const { return SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights); }
 
   bool fixed(const Solution& s, std::size_t i) const { return problem_.held[i] || s.pinned[i] != Pin::none; }
 
@@ -176,8 +156,7 @@ class Engine {
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
-    auto* cost = new ResidualCost<N>(new SpectrumResidual{problem_.model, problem_.measured, problem_.sqrt_weights},
-                                     static_cast<int>(problem_.model.size()));
+    auto* cost = new SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights);
     double* p = s.params.data();
     problem.AddResidualBlock(cost, nullptr, p);
     for (int i = 0; i < N; ++i) {

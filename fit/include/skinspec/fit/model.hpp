@@ -130,6 +130,9 @@ class SkinModel {
   std::span<const double> grid() const { return grid_; }
   std::size_t size() const { return at_.size(); }
   const Site& site() const { return geometry_.site; }
+  const Geometry& geometry() const { return geometry_; }
+  // The constants at sample i.
+  const OpticsAt& optics_at(std::size_t i) const { return at_[i]; }
 
   ModelKind kind() const { return kind_; }
   std::size_t param_count() const { return model_spec(kind_).params.size(); }
@@ -140,6 +143,9 @@ class SkinModel {
     return kind_ == ModelKind::paper ? paper_reflectance(at_[i], geometry_, p)
                                      : extended_reflectance(at_[i], geometry_, p);
   }
+  // The reflectance at sample i and, when `gradient` is not null, its derivative with respect
+  // to each of the param_count() parameters, exactly (model_gradient.cpp).
+  double reflectance_and_gradient(std::size_t i, const double* p, double* gradient) const;
   // Requires p.size() == param_count().
   std::vector<double> reflectance(const Params& p) const;
 

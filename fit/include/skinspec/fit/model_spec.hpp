@@ -42,6 +42,8 @@ enum ExtendedParam : int {
   kDermisScatteringPower = 6,
 };
 inline constexpr int kExtendedParamCount = 7;
+// The most parameters any model has.
+inline constexpr std::size_t kMaxParamCount = 7;
 
 struct ParamSpec {
   std::string_view name;
