@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <expected>
@@ -591,6 +592,41 @@ TEST(ExtendedModel, AutomaticDerivativesMatchNumericOnes) {
           << results.maximum_relative_error << "\n"
           << results.error_log;
     }
+  }
+}
+
+// The fit's Jacobian comes from reflectance_and_gradient, which differentiates through the
+// layers' inputs; it must equal automatic differentiation of reflectance_at by every parameter.
+template <int N>
+void expect_model_gradient_is_automatic(const SkinModel& model, const std::vector<Params>& points) {
+  ceres::AutoDiffCostFunction<ModelResidual, ceres::DYNAMIC, N> cost(
+      new ModelResidual{model, std::vector<double>(model.size(), 0.0)}, static_cast<int>(model.size()));
+  for (const Params& p : points) {
+    std::vector<double> residuals(model.size()), automatic(model.size() * N);
+    const double* parameters[] = {p.data()};
+    double* jacobians[] = {automatic.data()};
+    ASSERT_TRUE(cost.Evaluate(parameters, residuals.data(), jacobians));
+    std::array<double, kMaxParamCount> gradient{};
+    for (std::size_t i = 0; i < model.size(); ++i) {
+      EXPECT_NEAR(model.reflectance_and_gradient(i, p.data(), gradient.data()), residuals[i], 1e-15);
+      for (std::size_t j = 0; j < N; ++j) {
+        const double expected = automatic[i * N + j];
+        EXPECT_NEAR(gradient[j], expected, 1e-10 * std::abs(expected) + 1e-15)
+            << model_spec(model.kind()).params[j].name << " at " << model.grid()[i] << " nm, melanin " << p[kMelanin];
+      }
+    }
+  }
+}
+
+TEST(ModelGradientThroughLayers, EqualsAutomaticDifferentiationByEveryParameter) {
+  for (const bool lateral : {false, true}) {
+    const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 4);
+    const SkinOptics& extended = shipped_optics(ModelKind::extended);
+    expect_model_gradient_is_automatic<kExtendedParamCount>(SkinModel(extended, *extended.site("cheek"), grid, lateral),
+                                                            kExtendedSkins);
+    const SkinOptics& paper = shipped_optics(ModelKind::paper);
+    expect_model_gradient_is_automatic<kPaperParamCount>(SkinModel(paper, *paper.site("forearm"), grid, lateral),
+                                                         kCheckPoints);
   }
 }
 

@@ -1,9 +1,9 @@
 // SkinModel::reflectance_and_gradient: the derivatives taken through what the parameters act
 // on rather than through every parameter. The layers see only the epidermis's absorption, the
-// dermis's absorption and the dermis's scattering, so the layered equations carry three
+// dermis's absorption and the dermis's scattering, so the layered equations carry at most three
 // derivatives, not one per parameter, and the chain rule to the parameters is a few products:
-// about a third of the work of differentiating by parameter, with the same derivatives to
-// rounding (tests/model_test.cpp checks them against differences).
+// a fraction of the work of differentiating by parameter, with the same derivatives to
+// rounding (tests/model_test.cpp checks them against automatic differentiation).
 
 #include <ceres/jet.h>
 
@@ -14,17 +14,35 @@ namespace skinspec {
 namespace {
 
 // Derivatives with respect to the epidermis's absorption, the dermis's absorption and the
-// dermis's scattering, in that order.
+// dermis's scattering, in that order. Each layer carries only its own: the epidermis one, the
+// dermis two, and they meet in three where the layers combine.
 using LayerJet = ceres::Jet<double, 3>;
 enum LayerInput { kEpidermisK, kDermisK, kDermisS };
+using EpidermisJet = ceres::Jet<double, 1>;
+using DermisJet = ceres::Jet<double, 2>;
 
-LayerJet input(double value, LayerInput which) { return LayerJet(value, which); }
+LayerJet from_epidermis(const EpidermisJet& x) {
+  LayerJet out(x.a);
+  out.v[kEpidermisK] = x.v[0];
+  return out;
+}
+
+LayerJet from_dermis(const DermisJet& x) {
+  LayerJet out(x.a);
+  out.v[kDermisK] = x.v[0];
+  out.v[kDermisS] = x.v[1];
+  return out;
+}
 
 // The reflectance under the surface, R = (1 - rs) X + rs, and X's three derivatives.
 [[gnu::flatten]] LayerJet under_surface(const Geometry& g, double epidermis_S, double epidermis_K, double dermis_K,
                                         double dermis_S) {
-  return layered_reflectance(LayerJet(0.0), input(epidermis_K, kEpidermisK), epidermis_S, input(dermis_K, kDermisK),
-                             input(dermis_S, kDermisS), g.site, g.lateral_radius_mm);
+  const auto epidermis = kubelka_layer(EpidermisJet(epidermis_K, 0), epidermis_S, g.site.epidermis_mm);
+  const DermisJet K(dermis_K, 0), S(dermis_S, 1);
+  const DermisJet dermis_total = dermis_over_white(kubelka_layer(K, S, g.site.dermis_mm));
+  const DermisJet kept = 1.0 - lateral_loss(K, S, g.lateral_radius_mm);
+  return combined_reflectance(LayerJet(0.0), {from_epidermis(epidermis.r), from_epidermis(epidermis.t)},
+                              from_dermis(dermis_total), from_dermis(kept));
 }
 
 double paper(const SkinModel& model, std::size_t i, const double* p, double* gradient) {

@@ -82,17 +82,29 @@ T vessel_packaging(const T& blood_mu_a_per_mm, double vessel_radius_mm) {
   return -expm1(-x) / x;
 }
 
+// The dermis over a white hypodermis (reflectance 1): its total reflectance Rdt.
+template <typename T>
+T dermis_over_white(const ReflectanceTransmittance<T>& dermis) {
+  return dermis.r + dermis.t * dermis.t / (1.0 - dermis.r);
+}
+
+// Eq. 1's layers combined: surface reflection rs, then the epidermis over the dermis
+// (`dermis_total`), of which the share `kept` of what it remits reaches the instrument.
+template <typename T>
+T combined_reflectance(const T& rs, const ReflectanceTransmittance<T>& epidermis, const T& dermis_total, const T& kept) {
+  const T through_dermis = epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
+  return (1.0 - rs) * (epidermis.r + kept * through_dermis) + rs;
+}
+
 // Eq. 1's layers: surface reflection rs, then the epidermis over the dermis over a white
-// hypodermis (reflectance 1), less what lateral diffusion carries out of the measured spot.
+// hypodermis, less what lateral diffusion carries out of the measured spot.
 template <typename T, typename S>
 T layered_reflectance(const T& rs, const T& epidermis_K, double epidermis_S, const T& dermis_K, const S& dermis_S,
                       const Site& site, double lateral_radius_mm) {
   const auto epidermis = kubelka_layer(epidermis_K, epidermis_S, site.epidermis_mm);
   const auto dermis = kubelka_layer(dermis_K, dermis_S, site.dermis_mm);
-  const T dermis_total = dermis.r + dermis.t * dermis.t / (1.0 - dermis.r);  // Rdt, hypodermis R = 1
-  const T through_dermis = epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
   const T kept = 1.0 - lateral_loss(dermis_K, dermis_S, lateral_radius_mm);
-  return (1.0 - rs) * (epidermis.r + kept * through_dermis) + rs;
+  return combined_reflectance(rs, epidermis, dermis_over_white(dermis), kept);
 }
 
 // Eq. 1 as the paper writes it: p holds Rs and the four pigment weights (Param order).
