@@ -147,7 +147,8 @@ class Engine {
     const Solution& s_;
   };
 
-  // One Levenberg-Marquardt solve in the solver's box, fixed parameters held. Bounds are kept
+  // One Levenberg-Marquardt solve in the solver's box (the cost refuses what lies outside it),
+  // fixed parameters held. Bounds are kept
   // by the active-set loop rather than by Ceres's projection, whose trust region shrinks step
   // after step while a parameter creeps along an active bound: tens of iterations instead of a
   // handful.
@@ -156,13 +157,10 @@ class Engine {
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
-    auto* cost = new SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights);
+    auto* cost = new SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights,
+                                  Box{bounds_.solver_lower, bounds_.solver_upper});
     double* p = s.params.data();
     problem.AddResidualBlock(cost, nullptr, p);
-    for (int i = 0; i < N; ++i) {
-      problem.SetParameterLowerBound(p, i, bounds_.solver_lower[static_cast<std::size_t>(i)]);
-      problem.SetParameterUpperBound(p, i, bounds_.solver_upper[static_cast<std::size_t>(i)]);
-    }
     std::vector<int> constant;
     for (int i = 0; i < N; ++i)
       if (fixed(s, static_cast<std::size_t>(i))) constant.push_back(i);
