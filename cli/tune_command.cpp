@@ -98,12 +98,15 @@ void write_text(const std::string& path, const std::string& text) {
 
 // The options that chose a set of constants, as `skinspec tune` takes them.
 std::string tune_command_line(const TuneArgs& args) {
-  std::string line = fmt::format("skinspec tune {}", std::filesystem::path(args.file).filename().string());
-  if (args.model != ModelKind::paper) line += fmt::format(" --model {}", to_string(args.model));
+  std::string line = fmt::format("skinspec tune {} --model {}", std::filesystem::path(args.file).filename().string(),
+                                 to_string(args.model));
+  if (args.from_textbook) line += " --from-textbook";
   for (const auto& fix : args.fixes) line += " --fix " + fix;
   for (const auto& held : args.held_constants) line += " --hold-constant " + held;
-  return line + fmt::format(" --site {} --holdout-every {} --max-evaluations {}", args.site, args.holdout_every,
-                            args.max_evaluations);
+  line += fmt::format(" --site {} --holdout-every {} --max-evaluations {}", args.site, args.holdout_every,
+                      args.max_evaluations);
+  if (args.cross_validate > 0) line += fmt::format(" --cross-validate {}", args.cross_validate);
+  return line;
 }
 
 std::string constants_csv(const TuneArgs& args, const ModelConstants& c, const std::string& chosen_on) {

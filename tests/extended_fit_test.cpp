@@ -194,8 +194,8 @@ TEST(ExtendedRecovery, DeterminedMeansWithinItsPrecisionAndNotDeterminedSaysWhy)
 }
 
 // ---------------------------------------------------------------------------------------------
-// A dermis hidden by melanin: the darkest of the example forearms with four times its melanin
-// (the seed paper's figure 5 shows blood vanishing under melanin x 4).
+// A dermis hidden by melanin: the default skin with melanin 72, four times that of a dark
+// forearm (the seed paper's figure 5 shows blood vanishing under melanin x 4).
 
 Params hidden_dermis() {
   Params p = default_params(kExtended);

@@ -25,7 +25,7 @@ constexpr ParamSpec kExtendedParams[] = {
     {"surface_reflectance", "fraction", 0.02, 0.08, 0.04, 0, 1, 0.005, 0,
      "Fresnel reflectance: 0.020 at normal incidence on n = 1.33 to 0.077 for diffuse light on n = 1.4"},
     {"melanin", "x 1 % melanosomes in the epidermis", 0, 100, 5, 0, 1e4, 0.25, 0.25,
-     "melanosome fractions 1.3-43 % (Jacques 1998), in an epidermis thinned by its tuned scale", true},
+     "melanosome fractions 1.3-43 % (Jacques 1998), in an epidermis of the site's thickness times its tuned scale", true},
     {"total_hemoglobin", "x 0.2 % blood (150 g/L haemoglobin) in the dermis", 0, 50, 4, 0, 1e4, 0.25, 0.25,
      "dermal blood 0.05-1.2 % (Jacques 2013 Table 3; Fredriksson 2008), room for the tuned dermis", true},
     {"oxygen_saturation", "fraction", 0.4, 0.95, 0.75, 0, 1, 0.1, 0,
@@ -33,9 +33,11 @@ constexpr ParamSpec kExtendedParams[] = {
     {"bilirubin", "x 0.005 g/L in the dermis", 0, 40, 1, 0, 1e4, 0.5, 0.25,
      "up to 0.2 g/L (20 mg/dL), severe jaundice; 0.005 g/L the BioSpec default", true},
     {"dermis_scattering", "reduced scattering at 620 nm, cm-1", 5, 100, 30, 0.1, 1000, 1, 0.25,
-     "skin mu_s' 30-60 cm-1 at 500 nm (Jacques 2013 Table 1), widened for the tuned layer thickness"},
+     "skin mu_s' 30-60 cm-1 at 500 nm (Jacques 2013 Table 1), 23-45 cm-1 at 620 nm for b = 1.3, widened for the "
+     "tuned layer thickness"},
     {"dermis_scattering_power", "exponent b of mu_s' ~ (lambda/620 nm)^-b", 0.2, 4.0, 1.292, 0, 6, 0.25, 0,
-     "between large scatterers (0) and the Rayleigh limit (4); skin 0.7-2.5 (Jacques 2013 Table 1)"},
+     "between large scatterers (0) and the Rayleigh limit (4); skin 0.7-2.5 (Jacques 2013 Table 1); the default "
+     "1.292 is a mid-range starting value, not a measurement"},
 };
 
 // The constants both models tune: scattering and thickness scales, the lateral-diffusion radius.
