@@ -205,6 +205,10 @@ TEST_F(ExportTest, CsvHasOneRowPerWavelengthOfEachMeasurementAndFit) {
     EXPECT_EQ(row[column("tables_digest")], "3f2a9c0d");
     const int n = row[column("fit_id")] == "1" ? 1 : 2;
     EXPECT_EQ(std::stod(row[column("melanin")]), testing::sample_fit(n).params[1].value);
+    // The paper model's fit leaves the other model's columns empty.
+    EXPECT_EQ(row[column("model")], "paper");
+    EXPECT_EQ(row[column("total_hemoglobin")], "");
+    EXPECT_EQ(row[column("constants_digest")], "77aa01be");
     EXPECT_EQ(std::stod(row[column("fitted")]), testing::sample_fit(n).fitted[5]);
     ++checked;
   }
