@@ -26,7 +26,8 @@ void BM_RenderHand512(benchmark::State& state) {
   settings.threads = 2;
   settings.samples_per_side = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    auto image = render::render_skin(fitter->optics(ModelKind::paper), fitter->colorimetry(), skin, {}, d65, scene, settings);
+    auto image =
+        render::render_skin(fitter->optics(ModelKind::paper), fitter->colorimetry(), skin, {}, d65, scene, settings);
     benchmark::DoNotOptimize(image);
   }
   state.counters["triangles"] = static_cast<double>(scene.mesh.triangles.size());

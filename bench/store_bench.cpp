@@ -72,8 +72,8 @@ Fit fit() {
   Fit f;
   f.site = "forearm";
   f.model = "extended";
-  f.params = {{"surface_reflectance", 0.05, 0.002}, {"melanin", 7, 0.2},       {"total_hemoglobin", 10, 0.8},
-              {"oxygen_saturation", 0.7, 0.05},     {"bilirubin", 1, 0.3},     {"dermis_scattering", 40, 3},
+  f.params = {{"surface_reflectance", 0.05, 0.002}, {"melanin", 7, 0.2},   {"total_hemoglobin", 10, 0.8},
+              {"oxygen_saturation", 0.7, 0.05},     {"bilirubin", 1, 0.3}, {"dermis_scattering", 40, 3},
               {"dermis_scattering_power", 1.5, 0.2}};
   f.solver_summary = "CONVERGENCE";
   f.model_version = "skinspec 0.1.0";

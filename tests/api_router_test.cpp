@@ -614,17 +614,19 @@ TEST_F(ApiRouterTest, TheSessionsModelFitsItsMeasurements) {
   EXPECT_NE(body(extended)["constants_digest"], body(paper)["constants_digest"]);
 
   expect_error(call("POST", url, json{{"model", "textbook"}}.dump()), 422, "unknown_model");
-  expect_error(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}, {"model", 3}}.dump()),
-               422, "wrong_type");
+  expect_error(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}, {"model", 3}}.dump()), 422,
+               "wrong_type");
   const auto defaulted = body(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "T"}}.dump()));
   EXPECT_EQ(defaulted["model"], to_string(kDefaultModel));
 
   const auto wl = grid();
-  const auto fitted = call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", skin_like(wl)}, {"model", "paper"}}.dump());
+  const auto fitted = call("POST", "/api/v1/fit",
+                           json{{"wavelength_nm", wl}, {"reflectance", skin_like(wl)}, {"model", "paper"}}.dump());
   ASSERT_EQ(fitted.status, 200) << fitted.body;
   EXPECT_EQ(body(fitted)["model"], "paper");
-  expect_error(call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", skin_like(wl)}, {"model", ""}}.dump()),
-               422, "unknown_model");
+  expect_error(
+      call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", skin_like(wl)}, {"model", ""}}.dump()),
+      422, "unknown_model");
 }
 
 TEST_F(ApiRouterTest, SitesAndTheColourOfAMeasurementUnderTwoLights) {

@@ -15,7 +15,6 @@ namespace {
 using nlohmann::json;
 using namespace std::chrono_literals;
 
-
 class SessionCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -78,8 +77,10 @@ TEST_F(SessionCliTest, NewMeasureShowAndListASession) {
     const auto end = sample.out.find('\n', line);
     if (!fit["determination"][name]["determined"].get<bool>()) {
       // Never a number for what the spectrum did not determine: "n.d." and the reason.
-      EXPECT_EQ(sample.out.substr(line, end - line).find("n.d. (" + fit["determination"][name]["reason"].get<std::string>()),
-                sample.out.substr(line, end - line).find("n.d.")) << sample.out;
+      EXPECT_EQ(
+          sample.out.substr(line, end - line).find("n.d. (" + fit["determination"][name]["reason"].get<std::string>()),
+          sample.out.substr(line, end - line).find("n.d."))
+          << sample.out;
       EXPECT_FALSE(printed_value(sample.out, name)) << name;
       continue;
     }

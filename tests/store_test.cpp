@@ -297,9 +297,8 @@ TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
   EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad_options).error().kind, Kind::invalid_argument);
   // A fit names its model and at least one parameter, each named; its judgement is a JSON object.
   for (const auto& spoil : std::vector<std::function<void(Fit&)>>{
-           [](Fit& f) { f.model.clear(); }, [](Fit& f) { f.params.clear(); },
-           [](Fit& f) { f.params[2].name.clear(); }, [](Fit& f) { f.assessment = "[]"; },
-           [](Fit& f) { f.assessment = "{\"note\":"; }}) {
+           [](Fit& f) { f.model.clear(); }, [](Fit& f) { f.params.clear(); }, [](Fit& f) { f.params[2].name.clear(); },
+           [](Fit& f) { f.assessment = "[]"; }, [](Fit& f) { f.assessment = "{\"note\":"; }}) {
     auto bad = sample_fit(1);
     spoil(bad);
     EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad).error().kind, Kind::invalid_argument);

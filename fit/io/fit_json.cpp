@@ -81,8 +81,8 @@ std::optional<ParamDetermination> determination_from_json(ModelKind model, const
   if (!status) return std::nullopt;
   d.status = *status;
   if (j.contains("correlated_with")) {
-    const auto other = j["correlated_with"].is_string() ? param_index(model, j["correlated_with"].get<std::string>())
-                                                        : std::nullopt;
+    const auto other =
+        j["correlated_with"].is_string() ? param_index(model, j["correlated_with"].get<std::string>()) : std::nullopt;
     if (!other) return std::nullopt;
     d.correlated_with = static_cast<int>(*other);
   }
@@ -95,7 +95,7 @@ std::optional<DerivedQuantity> derived_from_json(const nlohmann::json& j) {
   DerivedQuantity q;
   q.value = number_or_nan(j["value"]);
   q.standard_error = j.contains("stderr") && j["stderr"].is_number() ? j["stderr"].get<double>()
-                                                                    : std::numeric_limits<double>::infinity();
+                                                                     : std::numeric_limits<double>::infinity();
   if (!j["determined"].get<bool>()) {
     const auto status = j.contains("reason") && j["reason"].is_string()
                             ? parse_determination(j["reason"].get<std::string>())
@@ -132,8 +132,7 @@ bool correlation_from_json(const nlohmann::json& j, FitResult& fit) {
 
 bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit) {
   if (!assessment.is_object()) return false;
-  if (assessment.contains("determination") && !determinations_from_json(assessment["determination"], fit))
-    return false;
+  if (assessment.contains("determination") && !determinations_from_json(assessment["determination"], fit)) return false;
   if (assessment.contains("derived")) {
     const auto& derived = assessment["derived"];
     const auto saturation = derived.is_object() && derived.contains("oxygen_saturation")

@@ -90,8 +90,6 @@ double extended(const SkinModel& model, std::size_t i, const double* p, double* 
 
 }  // namespace
 
-
-
 double SkinModel::reflectance_and_gradient(std::size_t i, const double* p, double* gradient) const {
   return kind_ == ModelKind::paper ? paper(*this, i, p, gradient) : extended(*this, i, p, gradient);
 }

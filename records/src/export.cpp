@@ -134,10 +134,10 @@ void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, c
   if (fit) {
     prefix += fmt::format("{},{},", fit->id, csv_field(fit->model));
     for (const auto& name : parameter_columns()) prefix += value_of(*fit, name) + ",";
-    prefix += fmt::format("{},{},{},{},{},{},{},{},", csv_field(not_determined(*fit)), number(fit->rmse),
-                          number(fit->max_abs_error), number(fit->delta_e00_d65), fit->converged ? 1 : 0,
-                          csv_field(fit->model_version), csv_field(fit->tables_digest),
-                          csv_field(fit->constants_digest));
+    prefix +=
+        fmt::format("{},{},{},{},{},{},{},{},", csv_field(not_determined(*fit)), number(fit->rmse),
+                    number(fit->max_abs_error), number(fit->delta_e00_d65), fit->converged ? 1 : 0,
+                    csv_field(fit->model_version), csv_field(fit->tables_digest), csv_field(fit->constants_digest));
   } else {
     prefix += std::string(parameter_columns().size() + 10, ',');
   }

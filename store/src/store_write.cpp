@@ -71,10 +71,9 @@ Id insert_fit(Connection& c, const Fit& f, Id measurement_id, Time now) {
        "iterations, converged, solver_summary, options, model_version, tables_digest, constants_digest, measured, "
        "fitted, samples_ignored, created_at) "
        "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)")
-      .bind(measurement_id, f.site, f.model, detail::encode_fit_params(f.params), f.assessment, f.rmse,
-            f.max_abs_error, f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options, f.model_version,
-            f.tables_digest, f.constants_digest, Blob{measured}, Blob{fitted}, f.samples_ignored,
-            detail::to_micros(now))
+      .bind(measurement_id, f.site, f.model, detail::encode_fit_params(f.params), f.assessment, f.rmse, f.max_abs_error,
+            f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options, f.model_version, f.tables_digest,
+            f.constants_digest, Blob{measured}, Blob{fitted}, f.samples_ignored, detail::to_micros(now))
       .run();
   return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
 }

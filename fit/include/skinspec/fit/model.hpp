@@ -91,7 +91,8 @@ T dermis_over_white(const ReflectanceTransmittance<T>& dermis) {
 // Eq. 1's layers combined: surface reflection rs, then the epidermis over the dermis
 // (`dermis_total`), of which the share `kept` of what it remits reaches the instrument.
 template <typename T>
-T combined_reflectance(const T& rs, const ReflectanceTransmittance<T>& epidermis, const T& dermis_total, const T& kept) {
+T combined_reflectance(const T& rs, const ReflectanceTransmittance<T>& epidermis, const T& dermis_total,
+                       const T& kept) {
   const T through_dermis = epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
   return (1.0 - rs) * (epidermis.r + kept * through_dermis) + rs;
 }

@@ -152,9 +152,9 @@ struct Fit {
   int iterations = 0;
   bool converged = false;
   std::string solver_summary;
-  std::string options = "{}";  // a JSON object: the fit options used
-  std::string model_version;   // the program and version that fitted
-  std::string tables_digest;   // digest of every table behind the model, its constants included
+  std::string options = "{}";    // a JSON object: the fit options used
+  std::string model_version;     // the program and version that fitted
+  std::string tables_digest;     // digest of every table behind the model, its constants included
   std::string constants_digest;  // digest of the model's tuned constants alone (empty before schema 5)
   // The samples that were fitted, equal lengths.
   std::vector<double> wavelength_nm, measured, fitted;
