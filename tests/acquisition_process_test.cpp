@@ -120,10 +120,11 @@ TEST_F(AcquisitionTest, WhiteThenSampleStoresTheSourceReflectanceAndItsFit) {
       p, "POST", "/api/v1/fit",
       json{{"wavelength_nm", m["reflectance"]["wavelength_nm"]}, {"reflectance", stored}, {"site", "forearm"}}.dump());
   ASSERT_EQ(direct.status, 200) << direct.body;
-  ASSERT_EQ(fit["params"].size(), direct.json()["params"].size());
-  for (const auto& [name, value] : direct.json()["params"].items())
+  const json direct_fit = direct.json();
+  ASSERT_EQ(fit["params"].size(), direct_fit["params"].size());
+  for (const auto& [name, value] : direct_fit["params"].items())
     EXPECT_NEAR(fit["params"][name].get<double>(), value.get<double>(), 1e-9) << name;
-  EXPECT_EQ(fit["determination"], direct.json()["determination"]);
+  EXPECT_EQ(fit["determination"], direct_fit["determination"]);
 }
 
 // One reading with a bad quality code is stored apart with its raw reply and measured again.
