@@ -37,6 +37,7 @@ struct Scratch {
     Session s;
     s.subject = "S-1";
     s.site = "forearm";
+    s.model = "extended";
     session = *store->create_session(s);
   }
   ~Scratch() {
@@ -70,8 +71,10 @@ Measurement measurement(Id session, int n) {
 Fit fit() {
   Fit f;
   f.site = "forearm";
-  f.params = {0.1, 7, 3, 3, 1};
-  f.standard_error = {0.01, 0.2, 0.4, 0.3, 0.3};
+  f.model = "extended";
+  f.params = {{"surface_reflectance", 0.05, 0.002}, {"melanin", 7, 0.2},   {"total_hemoglobin", 10, 0.8},
+              {"oxygen_saturation", 0.7, 0.05},     {"bilirubin", 1, 0.3}, {"dermis_scattering", 40, 3},
+              {"dermis_scattering_power", 1.5, 0.2}};
   f.solver_summary = "CONVERGENCE";
   f.model_version = "skinspec 0.1.0";
   f.tables_digest = "0123456789abcdef";

@@ -22,8 +22,8 @@ std::string read_input(const std::string& path) {
   return *bytes;
 }
 
-std::vector<NamedSpectrum> read_spectra(const std::string& path) {
-  auto spectra = parse_spectra_csv(read_input(path), input_name(path));
+std::vector<NamedSpectrum> read_spectra(const std::string& path, const SpectraLimits& limits) {
+  auto spectra = parse_spectra_csv(read_input(path), input_name(path), limits);
   if (!spectra) throw Failure{kBadInput, spectra.error().what()};
   return std::move(*spectra);
 }

@@ -27,7 +27,7 @@ struct Failure {
 std::string read_input(const std::string& path);
 // "<stdin>" for "-", else the path itself: the name errors are reported under.
 std::string input_name(const std::string& path);
-std::vector<NamedSpectrum> read_spectra(const std::string& path);
+std::vector<NamedSpectrum> read_spectra(const std::string& path, const SpectraLimits& limits = {});
 
 // D65, A, or a spectra CSV file whose first column is the illuminant's relative power.
 Spectrum illuminant_from(const std::string& name);

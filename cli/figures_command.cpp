@@ -33,7 +33,7 @@ void run_figures(const FiguresArgs& args) {
   cell.samples_per_side = 2;
   const auto& f = fitter();
   const auto scene = render::builtin_scene(render::SceneKind::hand, static_cast<double>(width) / height);
-  const auto figures = render::paper_figures(f.optics(), f.colorimetry(), skin, scene, cell);
+  const auto figures = render::paper_figures(f.optics(skin.model), f.colorimetry(), skin, scene, cell);
   if (!figures) throw Failure{kBadInput, figures.error()};
   for (const auto& figure : *figures) {
     const auto png = render::encode_png(figure.image, args.bits);

@@ -6,6 +6,7 @@
 
 #include "common.hpp"
 #include "fit_json.hpp"
+#include "model_options.hpp"
 #include "skinspec/spectral/parallel.hpp"
 
 namespace skinspec::cli {
@@ -14,26 +15,35 @@ namespace {
 
 struct FitArgs {
   std::string file;
+  ModelKind model = kDefaultModel;
   std::string site = "forearm";
   bool no_lateral_diffusion = false;
+  std::vector<std::string> fixes;
   std::string format = "json";
 };
 
-// "4.2 ± 0.3", or "4.2 ± ?" where the spectrum cannot determine the parameter.
-std::string with_error(double value, double error) {
-  return std::isfinite(error) ? fmt::format("{:.4g} ± {:.2g}", value, error) : fmt::format("{:.4g} ± ?", value);
+// "4.2 ± 0.3"; "1.3 held" for a parameter held at a value; "n.d." where the spectrum does not
+// determine it.
+std::string with_error(double value, double error, const ParamDetermination& d) {
+  if (d.status == Determination::held) return fmt::format("{:.4g} held", value);
+  if (!d.determined()) return "n.d.";
+  return fmt::format("{:.4g} ± {:.2g}", value, error);
 }
 
-// A human-readable table: one row per spectrum.
-void print_table(const std::vector<NamedSpectrum>& spectra,
+// A human-readable table: one row per spectrum, a column per parameter of the model.
+void print_table(ModelKind model, const std::vector<NamedSpectrum>& spectra,
                  const std::vector<std::expected<FitResult, std::string>>& results) {
-  std::cout << fmt::format("{:<14} {:<16} {:<16} {:<16} {:<16} {:<16} {:>7} {:>6} {}\n", "spectrum", "surface_refl",
-                           "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin", "rmse", "dE00", "converged");
+  const auto params = model_spec(model).params;
+  std::cout << fmt::format("{:<14} ", "spectrum");
+  for (const ParamSpec& p : params)
+    std::cout << fmt::format("{:<{}} ", p.name, std::max<std::size_t>(16, p.name.size()));
+  std::cout << fmt::format("{:>7} {:>6} {}\n", "rmse", "dE00", "converged");
   for (std::size_t i = 0; i < results.size(); ++i) {
     const FitResult& r = *results[i];
     std::cout << fmt::format("{:<14} ", printable(spectra[i].name));
-    for (std::size_t p = 0; p < kParamCount; ++p)
-      std::cout << fmt::format("{:<16} ", with_error(r.params[p], r.standard_error[p]));
+    for (std::size_t p = 0; p < params.size(); ++p)
+      std::cout << fmt::format("{:<{}} ", with_error(r.params[p], r.standard_error[p], r.determination[p]),
+                               std::max<std::size_t>(16, params[p].name.size()));
     std::cout << fmt::format("{:>7.4f} {:>6.2f} {}\n", r.rmse, r.delta_e00_d65, r.converged ? "yes" : "no");
   }
 }
@@ -47,9 +57,16 @@ std::vector<std::expected<FitResult, std::string>> fit_all(const std::vector<Nam
 }
 
 void run_fit(const FitArgs& args) {
-  const auto spectra = read_spectra(args.file);
-  FitOptions options{.site = args.site, .lateral_diffusion = !args.no_lateral_diffusion, .weights = {}};
-  if (auto site = fitter().optics().site(args.site); !site) throw Failure{kBadInput, site.error()};
+  SpectraLimits limits;
+  limits.must_cover_from_nm = kMinCoverFromNm;
+  limits.must_cover_to_nm = kMinCoverToNm;
+  const auto spectra = read_spectra(args.file, limits);
+  FitOptions options{.model = args.model,
+                     .site = args.site,
+                     .lateral_diffusion = !args.no_lateral_diffusion,
+                     .weights = {},
+                     .held = held_for(args.model, args.fixes)};
+  if (auto site = fitter().optics(args.model).site(args.site); !site) throw Failure{kBadInput, site.error()};
   const auto results = fit_all(spectra, options);
   // Refuse the whole file before printing anything, so a failure never leaves partial output.
   for (std::size_t i = 0; i < results.size(); ++i)
@@ -57,7 +74,7 @@ void run_fit(const FitArgs& args) {
       throw Failure{kBadInput,
                     input_name(args.file) + ": column " + quote(spectra[i].name) + ": " + results[i].error()};
   if (args.format == "table") {
-    print_table(spectra, results);
+    print_table(args.model, spectra, results);
   } else {
     for (std::size_t i = 0; i < results.size(); ++i)
       std::cout << fit_to_json(spectra[i].name, *results[i]).dump() << '\n';
@@ -67,19 +84,23 @@ void run_fit(const FitArgs& args) {
   if (ignored > 0)
     std::cerr << "skinspec: " << input_name(args.file) << ": " << ignored
               << " samples outside the model's 380-780 nm were not fitted\n";
+  if (!results.empty() && !results.front()->coverage_note.empty())
+    std::cerr << "skinspec: " << input_name(args.file) << ": " << results.front()->coverage_note << '\n';
 }
 
 }  // namespace
 
 void add_fit_command(CLI::App& app) {
   auto args = std::make_shared<FitArgs>();
-  auto* fit = app.add_subcommand("fit", "fit the five-parameter skin model to reflectance spectra");
+  auto* fit = app.add_subcommand("fit", "fit a skin model to reflectance spectra");
   fit->add_option("FILE", args->file,
                   "CSV: wavelength_nm, then one reflectance column (0..1) per spectrum; - reads stdin")
       ->required();
+  add_model_option(*fit, args->model);
   add_site_option(*fit, args->site);
   fit->add_flag("--no-lateral-diffusion", args->no_lateral_diffusion,
                 "leave out the correction for light lost outside the measured spot");
+  add_fix_option(*fit, args->fixes);
   fit->add_option("--format", args->format, "json: one JSON object per spectrum per line; table: a summary for people")
       ->check(CLI::IsMember({"json", "table"}))
       ->capture_default_str();

@@ -5,14 +5,16 @@
 #include <iostream>
 
 #include "common.hpp"
+#include "model_options.hpp"
 
 namespace skinspec::cli {
 
 namespace {
 
 struct ModelArgs {
+  ModelKind model = kDefaultModel;
   std::string site = "forearm";
-  Params params{0.03, 1, 1, 0.3, 1};
+  ParamArgs params;
   bool no_lateral_diffusion = false;
   std::string grid = "380:780:1";
 };
@@ -30,10 +32,12 @@ std::vector<double> parse_grid(const std::string& text) {
 
 void run_model(const ModelArgs& args) {
   const auto grid = parse_grid(args.grid);
-  const auto site = fitter().optics().site(args.site);
+  const Params params = params_for(args.model, args.params);
+  const SkinOptics& optics = fitter().optics(args.model);
+  const auto site = optics.site(args.site);
   if (!site) throw Failure{kBadInput, site.error()};
-  const SkinModel model(fitter().optics(), *site, grid, !args.no_lateral_diffusion);
-  const auto reflectance = model.reflectance(args.params);
+  const SkinModel model(optics, *site, grid, !args.no_lateral_diffusion);
+  const auto reflectance = model.reflectance(params);
   std::cout << "wavelength_nm,reflectance\n";
   for (std::size_t i = 0; i < grid.size(); ++i) std::cout << fmt::format("{},{:.10g}\n", grid[i], reflectance[i]);
 }
@@ -42,18 +46,11 @@ void run_model(const ModelArgs& args) {
 
 void add_model_command(CLI::App& app) {
   auto args = std::make_shared<ModelArgs>();
-  auto* model = app.add_subcommand("model", "print the model's reflectance for given parameters");
+  auto* model =
+      app.add_subcommand("model", "print the model's reflectance for given parameters (defaults: docs/model.md)");
+  add_model_option(*model, args->model);
   add_site_option(*model, args->site);
-  auto& p = args->params;
-  model->add_option("--surface-reflectance", p[kSurfaceReflectance], "surface (regular) reflectance Rs")
-      ->check(finite_range(0.0, 1.0))
-      ->capture_default_str();
-  for (int i = kMelanin; i < kParamCount; ++i) {
-    const std::string name(kParamNames[static_cast<std::size_t>(i)]);
-    model->add_option("--" + name, p[static_cast<std::size_t>(i)], name + " weight (1.0 = reference concentration)")
-        ->check(finite_range(0.0, 1e4))
-        ->capture_default_str();
-  }
+  add_param_options(*model, args->params);
   model->add_flag("--no-lateral-diffusion", args->no_lateral_diffusion,
                   "leave out the correction for light lost outside the measured spot");
   model->add_option("--grid", args->grid, "wavelength grid FIRST:LAST:STEP in nm")->capture_default_str();

@@ -4,17 +4,24 @@
 #include <nlohmann/json.hpp>
 
 #include "common.hpp"
+#include "model_options.hpp"
 
 namespace skinspec::cli {
 
 void add_optics_command(CLI::App& app) {
   auto site_name = std::make_shared<std::string>("forearm");
-  auto* optics = app.add_subcommand("optics", "print the layer and pigment K and S (per mm) and thicknesses");
+  auto model = std::make_shared<ModelKind>(kDefaultModel);
+  auto* optics =
+      app.add_subcommand("optics",
+                         "print the layer and pigment K and S (per mm) and thicknesses; the extended model's dermis "
+                         "scattering is a fitted parameter, and Sd here is the tabulated one it replaces");
+  add_model_option(*optics, *model);
   add_site_option(*optics, *site_name);
-  optics->callback([site_name] {
-    const auto site = fitter().optics().site(*site_name);
+  optics->callback([site_name, model] {
+    const SkinOptics& skin = fitter().optics(*model);
+    const auto site = skin.site(*site_name);
     if (!site) throw Failure{kBadInput, site.error()};
-    const auto& o = fitter().optics().optics();
+    const auto& o = skin.optics();
     const nlohmann::json out = {
         {"site", site->name},
         {"epidermis_thickness_mm", site->epidermis_mm},
@@ -28,8 +35,9 @@ void add_optics_command(CLI::App& app) {
         {"Kh", o.Kh},
         {"Kdh", o.Kdh},
         {"Kb", o.Kb},
-        {"lateral_radius_mm", fitter().optics().constants().lateral_radius_mm},
-        {"tables_digest", fitter().optics().tables_digest()},
+        {"model", to_string(*model)},
+        {"lateral_radius_mm", skin.constants().lateral_radius_mm},
+        {"tables_digest", skin.tables_digest()},
     };
     std::cout << out.dump() << '\n';
   });

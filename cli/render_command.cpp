@@ -43,7 +43,8 @@ void run_render(const RenderArgs& args) {
   settings.surface = args.surface;
   settings.samples_per_side = args.samples;
   const auto& f = fitter();
-  const auto image = render::render_skin(f.optics(), f.colorimetry(), skin, args.scales, illuminant, scene, settings);
+  const auto image =
+      render::render_skin(f.optics(skin.model), f.colorimetry(), skin, args.scales, illuminant, scene, settings);
   if (!image) throw Failure{kBadInput, image.error()};
   const auto png = render::encode_png(*image, args.bits);
   if (!png) throw Failure{kFailure, png.error()};

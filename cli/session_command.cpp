@@ -3,9 +3,12 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <iostream>
 
 #include "common.hpp"
+#include "fit_text.hpp"
+#include "model_options.hpp"
 #include "session_client.hpp"
 
 namespace skinspec::cli {
@@ -22,11 +25,12 @@ std::string text_or(const json& value, const std::string& fallback = "-") {
 
 struct NewArgs {
   std::string site, subject = "anonymous", operator_name, notes;
+  ModelKind model = kDefaultModel;
   long long white_standard = 0;
 };
 
 void run_new(const ServerArgs& server, const NewArgs& args) {
-  json body = {{"site", args.site}, {"subject", args.subject}};
+  json body = {{"site", args.site}, {"subject", args.subject}, {"model", to_string(args.model)}};
   if (!args.operator_name.empty()) body["operator"] = args.operator_name;
   if (!args.notes.empty()) body["notes"] = args.notes;
   if (args.white_standard > 0) body["white_standard_id"] = args.white_standard;
@@ -36,14 +40,37 @@ void run_new(const ServerArgs& server, const NewArgs& args) {
     std::cout << session.dump() << '\n';
     return;
   }
-  std::cout << fmt::format("session {} opened: site {}, subject {}\n", session["id"].get<long long>(),
-                           text_or(session["site"]), text_or(session["subject"]));
+  std::cout << fmt::format("session {} opened: site {}, subject {}, model {}\n", session["id"].get<long long>(),
+                           text_or(session["site"]), text_or(session["subject"]), text_or(session["model"]));
   std::cout << fmt::format("url: {}/api/v1/sessions/{}\n", client.server().text, session["id"].get<long long>());
 }
 
+// A fit's parameter as a table shows it: "n.d." where the spectrum did not determine it.
+std::string param_cell(const json& fit, const std::string& name) {
+  if (not_determined(fit, name)) return "n.d.";
+  const auto& v = fit["params"][name];
+  return v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("-");
+}
+
+// The session's fits of one model, one column per parameter of that model.
+void print_fits(const json& fits, const std::string& model) {
+  const auto names = param_names({{"model", model}});
+  std::string header = fmt::format("\nfits, model {}\n{:>6} {:>11}", model, "fit", "measurement");
+  for (const auto& name : names) header += fmt::format(" {:>{}}", name, std::max<std::size_t>(9, name.size()));
+  std::cout << header << fmt::format(" {:>8} {:>7}\n", "rmse", "dE2000");
+  for (const auto& f : fits) {
+    if (text_or(f["model"]) != model) continue;
+    std::string row = fmt::format("{:>6} {:>11}", f["id"].get<long long>(), f["measurement_id"].get<long long>());
+    for (const auto& name : names)
+      row += fmt::format(" {:>{}}", param_cell(f, name), std::max<std::size_t>(9, name.size()));
+    std::cout << row << fmt::format(" {:>8.4f} {:>7.2f}\n", f.value("rmse", 0.0), f.value("delta_e00_d65", 0.0));
+  }
+}
+
 void print_session_detail(const json& s) {
-  std::cout << fmt::format("session {}  {}  site {}  subject {}  operator {}\n", s["id"].get<long long>(),
-                           text_or(s["state"]), text_or(s["site"]), text_or(s["subject"]), text_or(s["operator"]));
+  std::cout << fmt::format("session {}  {}  site {}  subject {}  operator {}  model {}\n", s["id"].get<long long>(),
+                           text_or(s["state"]), text_or(s["site"]), text_or(s["subject"]), text_or(s["operator"]),
+                           text_or(s["model"]));
   std::cout << fmt::format("created {}  white standard {}\n", text_or(s["created_at"]),
                            text_or(s["white_standard_id"], "default (flat 0.99)"));
   if (const auto notes = text_or(s["notes"], ""); !notes.empty()) std::cout << "notes: " << notes << '\n';
@@ -53,18 +80,10 @@ void print_session_detail(const json& s) {
     std::cout << fmt::format("{:>6} {:<7} {:<16} {:>8} {:>6}  {}\n", m["id"].get<long long>(), text_or(m["kind"]),
                              text_or(m["label"], ""), text_or(m["reading_count"]), text_or(m["fit_id"]),
                              text_or(m["created_at"]));
-  if (s["fits"].empty()) return;
-  std::cout << fmt::format("\n{:>6} {:>11} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>7}\n", "fit", "measurement",
-                           "surface", "melanin", "oxy_hb", "deoxy_hb", "bilirubin", "rmse", "dE2000");
-  const auto param = [](const json& fit, const char* name) {
-    const auto& v = fit["params"][name];
-    return v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("-");
-  };
+  std::vector<std::string> models;
   for (const auto& f : s["fits"])
-    std::cout << fmt::format("{:>6} {:>11} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8.4f} {:>7.2f}\n", f["id"].get<long long>(),
-                             f["measurement_id"].get<long long>(), param(f, "surface_reflectance"), param(f, "melanin"),
-                             param(f, "oxyhemoglobin"), param(f, "deoxyhemoglobin"), param(f, "bilirubin"),
-                             f.value("rmse", 0.0), f.value("delta_e00_d65", 0.0));
+    if (const auto m = text_or(f["model"]); std::ranges::find(models, m) == models.end()) models.push_back(m);
+  for (const auto& model : models) print_fits(s["fits"], model);
 }
 
 void run_show(const ServerArgs& server, long long id) {
@@ -128,6 +147,7 @@ void add_session_command(CLI::App& app) {
       ->add_option("--white-standard", new_args->white_standard, "id of a stored white standard (default: a flat 0.99)")
       ->check(CLI::PositiveNumber);
   create->add_option("--notes", new_args->notes, "free text")->check(utf8_text());
+  add_model_option(*create, new_args->model);
   add_server_options(*create, *server);
   create->callback([server, new_args] { run_new(*server, *new_args); });
 

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "common.hpp"
+#include "fit_text.hpp"
 #include "session_client.hpp"
 
 namespace skinspec::cli {
@@ -94,11 +95,16 @@ std::string id_text(const json& value) {
 }
 
 void print_fit(const json& fit) {
-  for (const char* name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"}) {
+  std::cout << fmt::format("  model {}\n", fit.value("model", "-"));
+  for (const auto& name : param_names(fit)) {
     const json& value = fit["params"][name];
     const json& error = fit["stderr"][name];
+    if (const auto reason = not_determined(fit, name)) {
+      std::cout << fmt::format("  {:<24} {:>12} ({})\n", name, "n.d.", *reason);
+      continue;
+    }
     if (!value.is_number()) continue;
-    std::cout << fmt::format("  {:<20} {:>12.6g}", name, value.get<double>());
+    std::cout << fmt::format("  {:<24} {:>12.6g}", name, value.get<double>());
     if (error.is_number()) std::cout << fmt::format(" ± {:.6g}", error.get<double>());
     std::cout << '\n';
   }

@@ -34,14 +34,20 @@ render::Skin skin_from_fit_json(const std::string& path) {
   if (!json.contains("site") || !json["site"].is_string()) throw fail("no \"site\" text");
   if (!json.contains("params") || !json["params"].is_object()) throw fail("no \"params\" object");
   render::Skin skin;
-  const auto site = fitter().optics().site(json["site"].get<std::string>());
+  skin.model = ModelKind::paper;
+  if (json.contains("model")) {
+    const auto model = json["model"].is_string() ? parse_model_kind(json["model"].get<std::string>()) : std::nullopt;
+    if (!model) throw fail("\"model\" must be one of " + model_names());
+    skin.model = *model;
+  }
+  const auto site = fitter().optics(skin.model).site(json["site"].get<std::string>());
   if (!site) throw fail(site.error());
   skin.site = *site;
-  for (int p = 0; p < kParamCount; ++p) {
-    const std::string key(kParamNames[static_cast<std::size_t>(p)]);
+  for (const ParamSpec& spec : model_spec(skin.model).params) {
+    const std::string key(spec.name);
     const auto& value = json["params"].contains(key) ? json["params"][key] : nlohmann::json();
     if (!value.is_number()) throw fail("params." + key + " is missing or not a number");
-    skin.params[static_cast<std::size_t>(p)] = value.get<double>();
+    skin.params.push_back(value.get<double>());
   }
   return skin;
 }
@@ -51,19 +57,8 @@ render::Skin skin_from_fit_json(const std::string& path) {
 void add_skin_options(CLI::App& app, SkinArgs& args) {
   auto* fit =
       app.add_option("--fit", args.fit_file, "a fit's JSON, as printed by `skinspec fit` (its first line is used)");
-  std::vector<CLI::Option*> direct{add_site_option(app, args.site)};
-  auto& p = args.params;
-  direct.push_back(
-      app.add_option("--surface,--surface-reflectance", p[kSurfaceReflectance], "surface (regular) reflectance Rs")
-          ->check(finite_range(0.0, 1.0))
-          ->capture_default_str());
-  for (int i = kMelanin; i < kParamCount; ++i) {
-    const std::string name(kParamNames[static_cast<std::size_t>(i)]);
-    direct.push_back(
-        app.add_option("--" + name, p[static_cast<std::size_t>(i)], name + " weight (1.0 = reference concentration)")
-            ->check(finite_range(0.0, 500))
-            ->capture_default_str());
-  }
+  std::vector<CLI::Option*> direct{add_model_option(app, args.model), add_site_option(app, args.site)};
+  for (auto* option : add_param_options(app, args.params)) direct.push_back(option);
   for (auto* option : direct) fit->excludes(option);
 }
 
@@ -84,9 +79,9 @@ void add_surface_options(CLI::App& app, render::SurfaceParams& s) {
 
 render::Skin skin_from(const SkinArgs& args) {
   if (!args.fit_file.empty()) return skin_from_fit_json(args.fit_file);
-  const auto site = fitter().optics().site(args.site);
+  const auto site = fitter().optics(args.model).site(args.site);
   if (!site) throw Failure{kBadInput, site.error()};
-  return {*site, args.params};
+  return {*site, params_for(args.model, args.params), args.model};
 }
 
 std::pair<int, int> parse_size(const std::string& text) {

@@ -146,9 +146,13 @@ Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const stor
   auto spectrum = Spectrum::create(m.reflectance.wavelength_nm, m.reflectance.values);
   FitOptions fit_options;
   fit_options.site = session.site;
-  if (spectrum) {
+  const auto model = parse_model_kind(session.model);
+  if (!model) {
+    m.warnings.push_back("fit_failed: the session's model '" + session.model + "' is not one this version knows");
+  } else if (spectrum) {
+    fit_options.model = *model;
     auto result = fitter_.fit(*spectrum, fit_options);
-    if (result) fit = records::to_store_fit(*result, fit_options, fitter_.optics().tables_digest());
+    if (result) fit = records::to_store_fit(*result, fit_options, fitter_.optics(*model));
     else m.warnings.push_back("fit_failed: " + result.error());
   } else {
     m.warnings.push_back("not_fittable: " + spectrum.error());

@@ -8,6 +8,7 @@
 
 #include "fit_json.hpp"
 #include "fitter_loader.hpp"
+#include "skinspec/records/fit_record.hpp"
 #include "skinspec/api/render_cache.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/spectral/colour.hpp"
@@ -169,7 +170,9 @@ TEST_F(ApiRouterTest, FitReturnsTheFieldsOfTheCommandLine) {
   const auto r =
       call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", refl}, {"site", "forearm"}}.dump());
   ASSERT_EQ(r.status, 200) << r.body;
-  auto direct = shared_fitter().fit(*Spectrum::create(wl, refl), FitOptions{});
+  FitOptions options;
+  options.model = kDefaultModel;
+  auto direct = shared_fitter().fit(*Spectrum::create(wl, refl), options);
   ASSERT_TRUE(direct);
   EXPECT_EQ(body(r), json::parse(fit_to_json("spectrum", *direct).dump()));
 
@@ -294,14 +297,20 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   const auto fit_id = body(refit)["id"].get<std::int64_t>();
   const auto stored = call("GET", "/api/v1/fits/" + std::to_string(fit_id));
   ASSERT_EQ(stored.status, 200);
-  auto direct = shared_fitter().fit(*Spectrum::create(grid(), skin_like(grid())),
-                                    FitOptions{.site = "cheek", .lateral_diffusion = true, .weights = {}});
+  auto direct = shared_fitter().fit(
+      *Spectrum::create(grid(), skin_like(grid())),
+      FitOptions{.model = kDefaultModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}});
   ASSERT_TRUE(direct);
   const json cli = json::parse(fit_to_json("x", *direct).dump());
-  for (const auto& item : cli.items())
+  // The stored fit is the fit as the command line gives it, its judgement of what the spectrum
+  // determined included.
+  for (const auto& item : cli.items()) {
     if (item.key() != "name") {
       EXPECT_EQ(body(stored)[item.key()], item.value()) << item.key();
     }
+  }
+  EXPECT_EQ(body(stored)["model"], "extended");
+  EXPECT_EQ(body(stored)["constants_digest"], shared_fitter().optics(ModelKind::extended).constants_digest());
   EXPECT_EQ(body(call("GET", "/api/v1/measurements/" + std::to_string(m)))["fit_id"], fit_id);
   // With no body the session's site is used.
   const auto again = router_->handle(Request{"POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", {}, ""});
@@ -583,11 +592,48 @@ TEST_F(ApiRouterTest, TheWebConsoleIsServedWithoutATokenAndOutsideTheApiDocument
   for (const auto& [path, item] : doc["paths"].items()) EXPECT_NE(path.rfind("/ui", 0), 0u) << path;
 }
 
+// A session names its model; its measurements are fitted with it unless a refit asks for
+// another, and the fit says which.
+TEST_F(ApiRouterTest, TheSessionsModelFitsItsMeasurements) {
+  const auto created =
+      call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}, {"model", "paper"}}.dump());
+  ASSERT_EQ(created.status, 201) << created.body;
+  EXPECT_EQ(body(created)["model"], "paper");
+  const store::Id m = add_measurement(1);
+  const auto url = "/api/v1/measurements/" + std::to_string(m) + "/fit";
+  const auto paper = call("POST", url, "");
+  ASSERT_EQ(paper.status, 201) << paper.body;
+  EXPECT_EQ(body(paper)["model"], "paper");
+  EXPECT_EQ(body(paper)["params"].size(), 5u);
+  EXPECT_EQ(body(paper)["constants_digest"], shared_fitter().optics(ModelKind::paper).constants_digest());
+  const auto extended = call("POST", url, json{{"model", "extended"}}.dump());
+  ASSERT_EQ(extended.status, 201) << extended.body;
+  EXPECT_EQ(body(extended)["model"], "extended");
+  EXPECT_TRUE(body(extended)["params"].contains("oxygen_saturation"));
+  EXPECT_TRUE(body(extended)["determination"]["oxygen_saturation"].contains("determined"));
+  EXPECT_NE(body(extended)["constants_digest"], body(paper)["constants_digest"]);
+
+  expect_error(call("POST", url, json{{"model", "textbook"}}.dump()), 422, "unknown_model");
+  expect_error(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}, {"model", 3}}.dump()), 422,
+               "wrong_type");
+  const auto defaulted = body(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "T"}}.dump()));
+  EXPECT_EQ(defaulted["model"], to_string(kDefaultModel));
+
+  const auto wl = grid();
+  const auto fitted = call("POST", "/api/v1/fit",
+                           json{{"wavelength_nm", wl}, {"reflectance", skin_like(wl)}, {"model", "paper"}}.dump());
+  ASSERT_EQ(fitted.status, 200) << fitted.body;
+  EXPECT_EQ(body(fitted)["model"], "paper");
+  expect_error(
+      call("POST", "/api/v1/fit", json{{"wavelength_nm", wl}, {"reflectance", skin_like(wl)}, {"model", ""}}.dump()),
+      422, "unknown_model");
+}
+
 TEST_F(ApiRouterTest, SitesAndTheColourOfAMeasurementUnderTwoLights) {
   const json sites = body(call("GET", "/api/v1/sites"))["sites"];
   std::vector<std::string> names;
   for (const auto& s : sites) names.push_back(s["name"]);
-  EXPECT_EQ(names, shared_fitter().optics().site_names());
+  EXPECT_EQ(names, shared_fitter().optics(kDefaultModel).site_names());
   EXPECT_GT(sites[0]["dermis_mm"].get<double>(), sites[0]["epidermis_mm"].get<double>());
 
   ASSERT_EQ(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}}.dump()).status, 201);

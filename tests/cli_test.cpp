@@ -4,6 +4,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <random>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -189,10 +192,6 @@ const BadSpectra kBadSpectra[] = {
      ":4:1: ", "wavelength 600 nm is below 700 nm"},
     {"repeated_wavelength", "wavelength_nm,a\n400,0.1\n550,0.2\n550,0.3\n700,0.3\n",
      ":4:1: ", "wavelength 550 nm repeats"},
-    {"grid_starts_late", "wavelength_nm,a\n410,0.1\n700,0.2\n", ": ",
-     "the wavelengths cover 410-700 nm but 400-700 nm is needed"},
-    {"grid_ends_early", "wavelength_nm,a\n400,0.1\n690,0.2\n", ": ",
-     "the wavelengths cover 400-690 nm but 400-700 nm is needed"},
     {"nan", "wavelength_nm,a\n400,0.1\n550,nan\n700,0.2\n", ":3:5: ", "'nan' is not a finite number"},
     {"inf", "wavelength_nm,a\n400,0.1\n550,inf\n700,0.2\n", ":3:5: ", "'inf' is not a finite number"},
     {"minus_inf_wavelength", "wavelength_nm,a\n400,0.1\n-inf,0.1\n700,0.2\n",
@@ -243,11 +242,28 @@ TEST_P(CliBadSpectra, IsRefusedWithStatus2AndTheLocation) {
   expect_refused(run, AllOf(StartsWith("skinspec: " + source + bad.location), HasSubstr(bad.message)));
 }
 
+// Grids too narrow for one command: `colour` needs 400-700 nm, `fit` 420-680 nm (docs/model.md).
+const BadSpectra kNarrowForColour[] = {
+    {"grid_starts_late", "wavelength_nm,a\n410,0.1\n700,0.2\n", ": ",
+     "the wavelengths cover 410-700 nm but 400-700 nm is needed"},
+    {"grid_ends_early", "wavelength_nm,a\n400,0.1\n690,0.2\n", ": ",
+     "the wavelengths cover 400-690 nm but 400-700 nm is needed"},
+};
+const BadSpectra kNarrowForFit[] = {
+    {"grid_450_650", "wavelength_nm,a\n450,0.1\n650,0.2\n", ": ",
+     "the wavelengths cover 450-650 nm but 420-680 nm is needed"},
+    {"grid_starts_late", "wavelength_nm,a\n425,0.1\n780,0.2\n", ": ",
+     "the wavelengths cover 425-780 nm but 420-680 nm is needed"},
+};
+
 std::vector<BadSpectraRun> all_bad_spectra_runs() {
   std::vector<BadSpectraRun> runs;
-  for (const char* command : {"fit", "colour"})
-    for (const auto& bad : kBadSpectra)
-      for (const bool from_stdin : {false, true}) runs.push_back({command, bad, from_stdin});
+  for (const bool from_stdin : {false, true}) {
+    for (const char* command : {"fit", "colour"})
+      for (const auto& bad : kBadSpectra) runs.push_back({command, bad, from_stdin});
+    for (const auto& bad : kNarrowForColour) runs.push_back({"colour", bad, from_stdin});
+    for (const auto& bad : kNarrowForFit) runs.push_back({"fit", bad, from_stdin});
+  }
   return runs;
 }
 
@@ -357,6 +373,8 @@ struct TrueSkin {
 
   std::vector<std::string> model_args(const std::string& grid) const {
     return {"model",
+            "--model",
+            "paper",
             "--site",
             "forearm",
             "--grid",
@@ -420,7 +438,7 @@ TEST_F(CliFit, RecoversTheParametersOfModelSpectra) {
   std::string csv = "wavelength_nm," + std::string(kSkins[0].column) + "," + kSkins[1].column + "\n";
   for (std::size_t i = 0; i < spectra[0].wavelength.size(); ++i)
     csv += spectra[0].wavelength[i] + "," + spectra[0].reflectance[i] + "," + spectra[1].reflectance[i] + "\n";
-  const auto run = skinspec({"fit", write("skins.csv", csv)});
+  const auto run = skinspec({"fit", "--model", "paper", write("skins.csv", csv)});
   ASSERT_EQ(run.exit_status, 0) << run.describe();
   const auto results = json_lines(run.out);
   ASSERT_EQ(results.size(), std::size(kSkins)) << run.out;
@@ -431,6 +449,7 @@ TEST_F(CliFit, RecoversTheParametersOfModelSpectra) {
     SCOPED_TRACE(skin.column);
     expect_fit_fields(result);
     EXPECT_EQ(result["name"], skin.column);
+    EXPECT_EQ(result["model"], "paper");
     EXPECT_EQ(result["site"], "forearm");
 
     const auto wavelengths = doubles(result["wavelength_nm"]);
@@ -456,6 +475,136 @@ TEST_F(CliFit, RecoversTheParametersOfModelSpectra) {
   }
 }
 
+// The default model: the extended one, with what each fit determines.
+
+// Two columns of `skinspec model` output on one grid as a spectra CSV.
+std::string spectra_csv(const std::vector<std::pair<std::string, ModelSpectrum>>& columns) {
+  std::string csv = "wavelength_nm";
+  for (const auto& [name, spectrum] : columns) csv += "," + name;
+  csv += "\n";
+  for (std::size_t i = 0; i < columns.front().second.wavelength.size(); ++i) {
+    csv += columns.front().second.wavelength[i];
+    for (const auto& column : columns) csv += "," + column.second.reflectance[i];
+    csv += "\n";
+  }
+  return csv;
+}
+
+const std::vector<std::string> kExtendedSkin = {
+    "--surface-reflectance",     "0.04", "--melanin",   "4", "--total-hemoglobin",  "4",
+    "--oxygen-saturation",       "0.75", "--bilirubin", "1", "--dermis-scattering", "30",
+    "--dermis-scattering-power", "1.3"};
+
+std::vector<std::string> extended_model_args(const std::string& grid) {
+  std::vector<std::string> args = {"model", "--grid", grid};
+  args.insert(args.end(), kExtendedSkin.begin(), kExtendedSkin.end());
+  return args;
+}
+
+TEST_F(CliFit, TheExtendedModelIsTheDefaultAndRecoversItsOwnSpectra) {
+  const auto spectrum = model_output(extended_model_args("380:780:4"));
+  const auto run = skinspec({"fit", write("skin.csv", spectra_csv({{"skin", spectrum}}))});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const auto results = json_lines(run.out);
+  ASSERT_EQ(results.size(), 1u);
+  const Json& r = results.front();
+  EXPECT_EQ(r["model"], "extended");
+  EXPECT_EQ(r["samples_ignored"], 0);
+  EXPECT_FALSE(r.contains("note"));
+  for (std::size_t i = 0; i < kExtendedSkin.size(); i += 2) {
+    std::string name = kExtendedSkin[i].substr(2);
+    std::ranges::replace(name, '-', '_');
+    const double truth = std::stod(kExtendedSkin[i + 1]);
+    EXPECT_NEAR(r["params"][name].get<double>(), truth, 1e-3 * truth) << name;
+    EXPECT_TRUE(r["determination"][name]["determined"].get<bool>()) << name << " " << r["determination"];
+    EXPECT_TRUE(r["stderr"][name].is_number()) << name;
+  }
+  EXPECT_NEAR(r["derived"]["oxygen_saturation"]["value"].get<double>(), 0.75, 1e-3);
+  EXPECT_NEAR(r["derived"]["blood_volume_fraction"]["value"].get<double>(), 4 * 0.002, 1e-5);
+  ASSERT_EQ(r["correlation"]["params"].size(), 7u);
+  ASSERT_EQ(r["correlation"]["matrix"].size(), 7u);
+  EXPECT_EQ(r["correlation"]["matrix"][1][1], 1.0);
+}
+
+TEST_F(CliFit, ANotDeterminedParameterHasANullStandardErrorAndAReason) {
+  // Melanin 80 hides the dermis: the blood's saturation cannot be told.
+  auto args = extended_model_args("380:780:4");
+  *(std::ranges::find(args, "--melanin") + 1) = "80";
+  auto dark = model_output(args);
+  // As measured: with noise (sigma 0.002, seeded), from which the fit estimates its precision.
+  std::mt19937 random(14);
+  std::normal_distribution<double> noise(0, 0.002);
+  for (auto& value : dark.reflectance) value = std::to_string(std::stod(value) + noise(random));
+  const auto file = write("dark.csv", spectra_csv({{"dark", dark}}));
+  const auto run = skinspec({"fit", file});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const Json r = json_lines(run.out).at(0);
+  const Json& saturation = r["determination"]["oxygen_saturation"];
+  EXPECT_FALSE(saturation["determined"].get<bool>()) << r["determination"];
+  EXPECT_TRUE(saturation["reason"].is_string());
+  EXPECT_TRUE(r["stderr"]["oxygen_saturation"].is_null());
+  EXPECT_TRUE(r["params"]["oxygen_saturation"].is_number());
+  EXPECT_FALSE(r["derived"]["oxygen_saturation"]["determined"].get<bool>());
+  EXPECT_TRUE(r["derived"]["oxygen_saturation"]["stderr"].is_null());
+
+  const auto table = skinspec({"fit", "--format", "table", file});
+  ASSERT_EQ(table.exit_status, 0) << table.describe();
+  EXPECT_THAT(table.out, HasSubstr("oxygen_saturation"));
+  EXPECT_THAT(table.out, HasSubstr("n.d."));
+}
+
+TEST_F(CliFit, HeldParametersAreShownAsHeld) {
+  const auto spectrum = model_output(extended_model_args("380:780:4"));
+  const auto file = write("skin.csv", spectra_csv({{"skin", spectrum}}));
+  const auto run = skinspec({"fit", "--fix", "bilirubin=1", "--fix", "dermis_scattering_power", file});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const Json r = json_lines(run.out).at(0);
+  EXPECT_EQ(r["params"]["bilirubin"], 1.0);
+  EXPECT_EQ(r["params"]["dermis_scattering_power"], 1.292);  // its default
+  EXPECT_EQ(r["determination"]["bilirubin"]["reason"], "held");
+  expect_refused(skinspec({"fit", "--fix", "oxyhemoglobin=1", file}), HasSubstr("oxyhemoglobin"));
+  expect_refused(skinspec({"fit", "--fix", "bilirubin=lots", file}), HasSubstr("lots"));
+  expect_refused(skinspec({"fit", "--fix", "oxygen_saturation=0.99", file}), HasSubstr("oxygen_saturation"));
+}
+
+TEST_F(CliFit, AParameterOfTheOtherModelIsRefused) {
+  expect_refused(skinspec({"model", "--oxyhemoglobin", "3"}),
+                 AllOf(HasSubstr("--oxyhemoglobin"), HasSubstr("extended")));
+  expect_refused(skinspec({"model", "--model", "paper", "--total-hemoglobin", "3"}),
+                 AllOf(HasSubstr("--total-hemoglobin"), HasSubstr("paper")));
+  expect_refused(skinspec({"model", "--model", "papier"}), HasSubstr("--model"));
+}
+
+// A hyperspectral camera's 415-950 nm and a 400-700 nm instrument: fitted over what they cover
+// inside the model's 380-780 nm, with a note; 450-650 nm is refused (kNarrowForFit above).
+TEST_F(CliFit, PartialCoverageIsFittedWithANote) {
+  const auto inside = model_output(extended_model_args("415:780:5"));
+  std::string camera = "wavelength_nm,camera\n";
+  for (std::size_t i = 0; i < inside.wavelength.size(); ++i)
+    camera += inside.wavelength[i] + "," + inside.reflectance[i] + "\n";
+  for (int w = 785; w <= 950; w += 5) camera += std::to_string(w) + ",0.6\n";
+  const auto run = skinspec({"fit", write("camera.csv", camera)});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const Json r = json_lines(run.out).at(0);
+  EXPECT_EQ(r["samples_ignored"], 34);
+  EXPECT_THAT(r["note"].get<std::string>(), HasSubstr("415-780 nm"));
+  EXPECT_THAT(run.err, HasSubstr("34 samples outside the model's 380-780 nm"));
+  EXPECT_NEAR(r["params"]["melanin"].get<double>(), 4, 4e-3);
+
+  const auto visible = model_output(extended_model_args("400:700:5"));
+  const auto narrow = skinspec({"fit", write("visible.csv", spectra_csv({{"visible", visible}}))});
+  ASSERT_EQ(narrow.exit_status, 0) << narrow.describe();
+  EXPECT_THAT(json_lines(narrow.out).at(0)["note"].get<std::string>(), HasSubstr("400-700 nm"));
+  EXPECT_THAT(narrow.err, HasSubstr("400-700 nm"));
+}
+
+TEST(CliTune, RefusesAConstantTheModelDoesNotHave) {
+  const auto run = skinspec(
+      {"tune", SKINSPEC_TEST_DATA_DIR "/examples/forearm.csv", "--hold-constant", "dermis_scattering_scale=1"});
+  EXPECT_EQ(run.exit_status, kBadInput) << run.describe();
+  EXPECT_THAT(run.err, HasSubstr("dermis_scattering_scale"));
+}
+
 // ---------------------------------------------------------------------------------------------
 // optics and model: eq. 1 of Doi, Tanaka & Tominaga, computed here from the printed constants in
 // its textbook hyperbolic form, must be what `model` prints.
@@ -474,7 +623,7 @@ double eq1_reflectance(const Json& optics, std::size_t i, const Weights& w) {
 class CliOptics : public CliTest {};
 
 TEST_F(CliOptics, ModelIsEquation1OfThePrintedConstants) {
-  const auto optics_run = skinspec({"optics", "--site", "cheek"});
+  const auto optics_run = skinspec({"optics", "--model", "paper", "--site", "cheek"});
   ASSERT_EQ(optics_run.exit_status, 0) << optics_run.describe();
   const auto optics = json_lines(optics_run.out);
   ASSERT_EQ(optics.size(), 1u);
@@ -488,9 +637,9 @@ TEST_F(CliOptics, ModelIsEquation1OfThePrintedConstants) {
     ASSERT_EQ(o[key].size(), wavelengths.size()) << key;
 
   const Weights w{0.05, 2.5, 1.5, 0.6, 0.8};
-  const auto model =
-      model_output({"model", "--site", "cheek", "--no-lateral-diffusion", "--surface-reflectance", "0.05", "--melanin",
-                    "2.5", "--oxyhemoglobin", "1.5", "--deoxyhemoglobin", "0.6", "--bilirubin", "0.8"});
+  const auto model = model_output({"model", "--model", "paper", "--site", "cheek", "--no-lateral-diffusion",
+                                   "--surface-reflectance", "0.05", "--melanin", "2.5", "--oxyhemoglobin", "1.5",
+                                   "--deoxyhemoglobin", "0.6", "--bilirubin", "0.8"});
   ASSERT_EQ(model.wavelength.size(), wavelengths.size());
   for (std::size_t i = 0; i < wavelengths.size(); ++i) {
     SCOPED_TRACE(wavelengths[i]);
@@ -540,7 +689,7 @@ TEST_F(CliModel, RefusesWeightsOutOfRange) {
   };
   for (const auto& [option, value] : bad) {
     SCOPED_TRACE(option + " " + value);
-    expect_refused(skinspec({"model", option, value}), HasSubstr(option));
+    expect_refused(skinspec({"model", "--model", "paper", option, value}), HasSubstr(option));
   }
 }
 
@@ -655,13 +804,15 @@ struct HelpCase {
 
 TEST(CliHelp, EverySubcommandDescribesItsOptions) {
   const std::vector<HelpCase> cases = {
-      {"fit", {"FILE", "--site", "--no-lateral-diffusion"}},
+      {"fit", {"FILE", "--model", "--site", "--no-lateral-diffusion", "--fix"}},
       {"model",
-       {"--site", "--surface-reflectance", "--melanin", "--oxyhemoglobin", "--deoxyhemoglobin", "--bilirubin",
+       {"--model", "--site", "--surface-reflectance", "--melanin", "--oxyhemoglobin", "--deoxyhemoglobin",
+        "--bilirubin", "--total-hemoglobin", "--oxygen-saturation", "--dermis-scattering", "--dermis-scattering-power",
         "--no-lateral-diffusion", "--grid"}},
-      {"optics", {"--site"}},
+      {"optics", {"--model", "--site"}},
       {"colour", {"FILE", "--illuminant"}},
-      {"tune", {"FILE", "--site"}},
+      {"tune", {"FILE", "--model", "--site", "--fix", "--hold-constant", "--cross-validate", "--fold-out"}},
+      {"render", {"--model", "--fit", "--total-hemoglobin"}},
   };
   for (const auto& [subcommand, mentions] : cases) {
     SCOPED_TRACE(subcommand);

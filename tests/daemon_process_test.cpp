@@ -138,6 +138,7 @@ TEST_F(DaemonTest, MeasurementsAndRefitsOfAStoredSession) {
     ASSERT_TRUE(db);
     auto s = sample_session(1);
     s.site = "forearm";
+    s.model = "extended";
     const auto sid = db->create_session(s);
     ASSERT_TRUE(sid);
     auto measurement = sample_measurement(*sid, 1);

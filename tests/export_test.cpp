@@ -149,7 +149,7 @@ TEST_F(ExportTest, JsonHoldsTheSessionItsSpectraFitsAndProvenance) {
                             "id",        "measurement_id", "samples_ignored", "solver_summary",
                             "options",   "model_version",  "tables_digest",   "created_at"})
     EXPECT_TRUE(fit.contains(field)) << field;
-  EXPECT_EQ(fit["params"]["melanin"], testing::sample_fit(1).params[1]);
+  EXPECT_EQ(fit["params"]["melanin"], testing::sample_fit(1).params[1].value);
   EXPECT_TRUE(fit["stderr"]["bilirubin"].is_null());  // undetermined
   EXPECT_EQ(fit["tables_digest"], "3f2a9c0d");
   EXPECT_EQ(fit["solver_summary"], testing::sample_fit(1).solver_summary);
@@ -204,7 +204,11 @@ TEST_F(ExportTest, CsvHasOneRowPerWavelengthOfEachMeasurementAndFit) {
     EXPECT_EQ(std::stod(row[column("reflectance")]), expected.reflectance.values[5]);
     EXPECT_EQ(row[column("tables_digest")], "3f2a9c0d");
     const int n = row[column("fit_id")] == "1" ? 1 : 2;
-    EXPECT_EQ(std::stod(row[column("melanin")]), testing::sample_fit(n).params[1]);
+    EXPECT_EQ(std::stod(row[column("melanin")]), testing::sample_fit(n).params[1].value);
+    // The paper model's fit leaves the other model's columns empty.
+    EXPECT_EQ(row[column("model")], "paper");
+    EXPECT_EQ(row[column("total_hemoglobin")], "");
+    EXPECT_EQ(row[column("constants_digest")], "77aa01be");
     EXPECT_EQ(std::stod(row[column("fitted")]), testing::sample_fit(n).fitted[5]);
     ++checked;
   }

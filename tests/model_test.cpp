@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <expected>
@@ -260,7 +261,7 @@ struct ModelResidual {
   }
 };
 
-using ModelCost = ceres::AutoDiffCostFunction<ModelResidual, ceres::DYNAMIC, kParamCount>;
+using ModelCost = ceres::AutoDiffCostFunction<ModelResidual, ceres::DYNAMIC, kPaperParamCount>;
 
 // A measured spectrum close to, but not on, the model, so residuals are not all zero.
 std::vector<double> nearby_measurement(const SkinModel& model) {
@@ -323,12 +324,13 @@ TEST_P(ModelGradient, AutomaticDerivativesMatchNumericOnesUnderHeavyMelanin) {
   ASSERT_TRUE(results.return_value) << results.error_log;
   const auto& automatic = results.jacobians.at(0);
   const auto& numeric = results.numeric_jacobians.at(0);
-  for (int j = 0; j < kParamCount; ++j) {
+  const auto params = model_spec(ModelKind::paper).params;
+  for (int j = 0; j < kPaperParamCount; ++j) {
     const double scale = automatic.col(j).cwiseAbs().maxCoeff();
-    ASSERT_GT(scale, 0.0) << kParamNames[static_cast<std::size_t>(j)];
+    ASSERT_GT(scale, 0.0) << params[static_cast<std::size_t>(j)].name;
     for (int i = 0; i < automatic.rows(); ++i)
       EXPECT_LE(std::abs(automatic(i, j) - numeric(i, j)), kRelativePrecision * scale)
-          << kParamNames[static_cast<std::size_t>(j)] << " at " << model_.grid()[static_cast<std::size_t>(i)] << " nm";
+          << params[static_cast<std::size_t>(j)].name << " at " << model_.grid()[static_cast<std::size_t>(i)] << " nm";
   }
 }
 
@@ -348,6 +350,9 @@ const std::vector<std::string> kModelFiles = {
     "model/sites.csv",
     "model/constants.csv",
 };
+
+// The file only the extended model reads.
+const std::string kExtendedConstantsFile = "model/constants-extended.csv";
 
 // The source data directory, with `file`'s bytes passed through `change` (or replaced by a
 // read error when change is null).
@@ -377,21 +382,21 @@ std::string with_malformed_row(std::string bytes) {
 class TableLoading : public ::testing::TestWithParam<std::string> {};
 
 TEST(TableLoadingBaseline, ShippedTablesLoad) {
-  const auto optics = SkinOptics::load(source_data_reader());
+  const auto optics = SkinOptics::load(source_data_reader(), ModelKind::paper);
   ASSERT_TRUE(optics.has_value()) << optics.error().what();
   EXPECT_EQ(optics->optics().wavelength_nm.size(), 401u);
   EXPECT_FALSE(optics->tables_digest().empty());
 }
 
 TEST_P(TableLoading, ReadErrorNamesTheFile) {
-  const auto optics = SkinOptics::load(reader_changing(GetParam(), nullptr));
+  const auto optics = SkinOptics::load(reader_changing(GetParam(), nullptr), ModelKind::paper);
   ASSERT_FALSE(optics.has_value());
   EXPECT_EQ(optics.error().source, GetParam());
   EXPECT_THAT(optics.error().what(), AllOf(HasSubstr(GetParam()), HasSubstr("disk on fire")));
 }
 
 TEST_P(TableLoading, MalformedTableNamesTheFileAndLine) {
-  const auto optics = SkinOptics::load(reader_changing(GetParam(), with_malformed_row));
+  const auto optics = SkinOptics::load(reader_changing(GetParam(), with_malformed_row), ModelKind::paper);
   ASSERT_FALSE(optics.has_value());
   EXPECT_EQ(optics.error().source, GetParam());
   EXPECT_GT(optics.error().line, 0u);
@@ -399,16 +404,19 @@ TEST_P(TableLoading, MalformedTableNamesTheFileAndLine) {
 }
 
 TEST_P(TableLoading, MissingSourceLineIsRefused) {
-  const auto optics = SkinOptics::load(reader_changing(GetParam(), without_source_line));
+  const auto optics = SkinOptics::load(reader_changing(GetParam(), without_source_line), ModelKind::paper);
   ASSERT_FALSE(optics.has_value());
   EXPECT_EQ(optics.error().source, GetParam());
   EXPECT_THAT(optics.error().what(), AllOf(HasSubstr(GetParam()), HasSubstr("source")));
 }
 
 TEST_P(TableLoading, ChangingATableChangesTheDigest) {
-  const auto changed = SkinOptics::load(reader_changing(GetParam(), [](std::string bytes) {
-    return bytes + "\n";  // a blank line: same numbers, different bytes
-  }));
+  const auto changed =
+      SkinOptics::load(reader_changing(GetParam(),
+                                       [](std::string bytes) {
+                                         return bytes + "\n";  // a blank line: same numbers, different bytes
+                                       }),
+                       ModelKind::paper);
   ASSERT_TRUE(changed.has_value()) << changed.error().what();
   EXPECT_NE(changed->tables_digest(), shipped_optics().tables_digest());
 }
@@ -448,6 +456,209 @@ TEST(Sites, ThicknessScalesApply) {
   const Site after = *shipped_optics().with_constants(constants).site("forearm");
   EXPECT_NEAR(after.epidermis_mm, 2 * before.epidermis_mm, 1e-15);
   EXPECT_NEAR(after.dermis_mm, 3 * before.dermis_mm, 1e-15);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The extended model: its equations written out by hand (support/reference_model.hpp), its
+// derivatives, vessel packaging and the baseline-absorption correction.
+
+using testing::reference::ExtendedParams;
+
+// From nearly unpigmented to dark skin, with the free shapes away from their defaults.
+const std::vector<Params> kExtendedSkins = {
+    {0.03, 0.5, 2.0, 0.6, 0.5, 25, 1.0},
+    {0.04, 3.0, 5.0, 0.75, 1.0, 35, 1.6},
+    {0.05, 15.0, 8.0, 0.9, 2.0, 15, 2.2},
+    {0.06, 45.0, 12.0, 0.45, 3.0, 50, 3.5},
+};
+
+double plain_extended(const SkinOptics& optics, std::size_t i, const Site& site, const Params& p) {
+  const LayerOptics& o = optics.optics();
+  return testing::reference::extended(
+      {o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i]}, o.wavelength_nm[i], site.epidermis_mm,
+      site.dermis_mm, optics.constants().vessel_radius_um / 1000, {p[0], p[1], p[2], p[3], p[4], p[5], p[6]});
+}
+
+TEST(ExtendedModel, MatchesItsEquationsWrittenOutByHandOnEverySiteAndTheWholeGrid) {
+  const SkinOptics& optics = shipped_optics(ModelKind::extended);
+  ASSERT_GT(optics.constants().vessel_radius_um, 0.0);  // so that packaging is exercised
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 1);
+  for (const auto& name : optics.site_names()) {
+    const Site site = *optics.site(name);
+    const SkinModel model(optics, site, grid, false);
+    ASSERT_EQ(model.param_count(), static_cast<std::size_t>(kExtendedParamCount));
+    for (const Params& p : kExtendedSkins) {
+      const auto r = model.reflectance(p);
+      for (std::size_t i = 0; i < grid.size(); ++i)
+        ASSERT_NEAR(r[i], plain_extended(optics, i, site, p), 1e-12) << name << " " << grid[i] << " nm";
+    }
+  }
+}
+
+TEST(ExtendedModel, ReflectanceStaysStrictlyBetweenZeroAndOneAcrossItsRanges) {
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 1);
+  const auto specs = model_spec(ModelKind::extended).params;
+  for (const SkinOptics* optics : {&shipped_optics(ModelKind::extended), &textbook_optics(ModelKind::extended)})
+    for (const bool lateral : {false, true}) {
+      const SkinModel model(*optics, *optics->site("forearm"), grid, lateral);
+      // Every corner of the plausible ranges of the scattering, ordinary pigments.
+      for (const double a : {specs[kDermisScattering].lower, specs[kDermisScattering].upper})
+        for (const double b : {specs[kDermisScatteringPower].lower, specs[kDermisScatteringPower].upper}) {
+          const Params p = {0.04, 5, 5, 0.75, 1, a, b};
+          for (const double r : model.reflectance(p)) {
+            ASSERT_GT(r, 0.0);
+            ASSERT_LT(r, 1.0);
+          }
+        }
+    }
+}
+
+TEST(ExtendedModel, MoreOxygenMovesTheSoretPeakFrom433To415Nm) {
+  // Deoxy-haemoglobin's Soret band peaks near 433 nm, oxy-haemoglobin's near 415 nm: raising
+  // the saturation darkens 415 nm and brightens 433 nm.
+  const SkinOptics& optics = textbook_optics(ModelKind::extended);
+  const std::vector<double> grid = {415, 433};
+  const SkinModel model(optics, *optics.site("forearm"), grid, false);
+  Params venous = default_params(ModelKind::extended), arterial = venous;
+  venous[kOxygenSaturation] = 0.4;
+  arterial[kOxygenSaturation] = 0.95;
+  const auto r_venous = model.reflectance(venous), r_arterial = model.reflectance(arterial);
+  EXPECT_LT(r_arterial[0], r_venous[0]);
+  EXPECT_GT(r_arterial[1], r_venous[1]);
+}
+
+TEST(VesselPackaging, IsOneForEvenlySpreadBloodAndFallsAsAbsorptionGrows) {
+  EXPECT_EQ(vessel_packaging(100.0, 0.0), 1.0);
+  EXPECT_NEAR(vessel_packaging(1e-6, 0.01), 1.0 - 1e-8, 1e-15);  // x = 2e-8: C = 1 - x/2 to first order
+  double previous = 1;
+  for (const double mu_a : {1.0, 10.0, 100.0, 1000.0}) {
+    const double c = vessel_packaging(mu_a, 0.01);
+    EXPECT_LT(c, previous) << mu_a;
+    previous = c;
+  }
+  // A very strong band inside a vessel of radius r: only its surface layer absorbs, C -> 1 / x.
+  EXPECT_NEAR(vessel_packaging(1e4, 0.01), 1.0 / 200, 1e-12);
+  // x = 2 mu_a r = 1 exactly: C = 1 - 1/e.
+  EXPECT_NEAR(vessel_packaging(50.0, 0.01), 1 - std::exp(-1.0), 1e-15);
+}
+
+TEST(MelaninExponent, ScalesTheTabulatedMelaninAroundItsPivot) {
+  const SkinOptics& base = textbook_optics(ModelKind::extended);
+  ModelConstants constants = base.constants();
+  ASSERT_EQ(constants.melanin_exponent, 3.0);  // the table's own
+  constants.melanin_exponent = 3.6;
+  const SkinOptics steeper = base.with_constants(constants);
+  for (std::size_t i = 0; i < base.optics().wavelength_nm.size(); i += 25) {
+    const double w = base.optics().wavelength_nm[i];
+    EXPECT_NEAR(steeper.optics().Km[i], base.optics().Km[i] * std::pow(w / 500, -0.6), 1e-12 * base.optics().Km[i])
+        << w;
+  }
+}
+
+TEST(BaselineCorrection, MultipliesTheBaselineAbsorptionByTheExpOfALegendreSeries) {
+  const SkinOptics& base = textbook_optics(ModelKind::extended);
+  ModelConstants constants = base.constants();
+  constants.baseline_absorption[0] = 0.3;
+  constants.baseline_absorption[1] = -0.2;
+  constants.baseline_absorption[2] = 0.1;
+  const SkinOptics corrected = base.with_constants(constants);
+  for (std::size_t i = 0; i < base.optics().wavelength_nm.size(); i += 25) {
+    const double x = (base.optics().wavelength_nm[i] - 580) / 200;
+    const double factor = std::exp(0.3 - 0.2 * x + 0.1 * (3 * x * x - 1) / 2);
+    EXPECT_NEAR(corrected.optics().Ke[i], factor * base.optics().Ke[i], 1e-12 * corrected.optics().Ke[i]);
+    EXPECT_NEAR(corrected.optics().Kd[i], factor * base.optics().Kd[i], 1e-12 * corrected.optics().Kd[i]);
+    EXPECT_EQ(corrected.optics().Kh[i], base.optics().Kh[i]);  // pigments untouched
+    EXPECT_EQ(corrected.optics().Km[i], base.optics().Km[i]);
+  }
+}
+
+TEST(ExtendedModel, AutomaticDerivativesMatchNumericOnes) {
+  for (const bool lateral : {false, true}) {
+    const SkinOptics& optics = shipped_optics(ModelKind::extended);
+    const SkinModel model(optics, *optics.site("forearm"),
+                          Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 4), lateral);
+    auto measured = model.reflectance(kExtendedSkins[1]);
+    for (std::size_t i = 0; i < measured.size(); ++i) measured[i] += 0.01 * std::sin(0.1 * static_cast<double>(i));
+    ceres::AutoDiffCostFunction<ModelResidual, ceres::DYNAMIC, kExtendedParamCount> cost(
+        new ModelResidual{model, measured}, static_cast<int>(model.size()));
+    ceres::NumericDiffOptions numeric;
+    numeric.ridders_relative_initial_step_size = 1e-3;
+    ceres::GradientChecker checker(&cost, static_cast<const std::vector<const ceres::Manifold*>*>(nullptr), numeric);
+    for (const Params& p : std::vector<Params>(kExtendedSkins.begin(), kExtendedSkins.begin() + 3)) {
+      const double* parameters[] = {p.data()};
+      ceres::GradientChecker::ProbeResults results;
+      EXPECT_TRUE(checker.Probe(parameters, 1e-6, &results))
+          << "lateral " << lateral << ", melanin " << p[kMelanin] << ": worst relative error "
+          << results.maximum_relative_error << "\n"
+          << results.error_log;
+    }
+  }
+}
+
+// The fit's Jacobian comes from reflectance_and_gradient, which differentiates through the
+// layers' inputs; it must equal automatic differentiation of reflectance_at by every parameter.
+template <int N>
+void expect_model_gradient_is_automatic(const SkinModel& model, const std::vector<Params>& points) {
+  ceres::AutoDiffCostFunction<ModelResidual, ceres::DYNAMIC, N> cost(
+      new ModelResidual{model, std::vector<double>(model.size(), 0.0)}, static_cast<int>(model.size()));
+  for (const Params& p : points) {
+    std::vector<double> residuals(model.size()), automatic(model.size() * N);
+    const double* parameters[] = {p.data()};
+    double* jacobians[] = {automatic.data()};
+    ASSERT_TRUE(cost.Evaluate(parameters, residuals.data(), jacobians));
+    std::array<double, kMaxParamCount> gradient{};
+    for (std::size_t i = 0; i < model.size(); ++i) {
+      EXPECT_NEAR(model.reflectance_and_gradient(i, p.data(), gradient.data()), residuals[i], 1e-15);
+      for (std::size_t j = 0; j < N; ++j) {
+        const double expected = automatic[i * N + j];
+        EXPECT_NEAR(gradient[j], expected, 1e-10 * std::abs(expected) + 1e-15)
+            << model_spec(model.kind()).params[j].name << " at " << model.grid()[i] << " nm, melanin " << p[kMelanin];
+      }
+    }
+  }
+}
+
+TEST(ModelGradientThroughLayers, EqualsAutomaticDifferentiationByEveryParameter) {
+  for (const bool lateral : {false, true}) {
+    const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 4);
+    const SkinOptics& extended = shipped_optics(ModelKind::extended);
+    expect_model_gradient_is_automatic<kExtendedParamCount>(SkinModel(extended, *extended.site("cheek"), grid, lateral),
+                                                            kExtendedSkins);
+    const SkinOptics& paper = shipped_optics(ModelKind::paper);
+    expect_model_gradient_is_automatic<kPaperParamCount>(SkinModel(paper, *paper.site("forearm"), grid, lateral),
+                                                         kCheckPoints);
+  }
+}
+
+TEST(ModelDigest, EachModelHasItsOwnAndOnlyItsConstantsChangeIt) {
+  const auto& paper = shipped_optics(ModelKind::paper);
+  const auto& extended = shipped_optics(ModelKind::extended);
+  EXPECT_NE(paper.tables_digest(), extended.tables_digest());
+  const auto blank_line = [](std::string bytes) { return bytes + "\n"; };
+  const auto paper_again = SkinOptics::load(reader_changing(kExtendedConstantsFile, blank_line), ModelKind::paper);
+  const auto extended_again =
+      SkinOptics::load(reader_changing(kExtendedConstantsFile, blank_line), ModelKind::extended);
+  ASSERT_TRUE(paper_again && extended_again);
+  EXPECT_EQ(paper_again->tables_digest(), paper.tables_digest());
+  EXPECT_NE(extended_again->tables_digest(), extended.tables_digest());
+}
+
+TEST(ModelConstantsFile, AMissingConstantIsRefusedNamingIt) {
+  const auto without_vessels = [](std::string bytes) {
+    const auto start = bytes.find("vessel_radius_um,");
+    return bytes.erase(start, bytes.find('\n', start) - start + 1);
+  };
+  const auto optics = SkinOptics::load(reader_changing(kExtendedConstantsFile, without_vessels), ModelKind::extended);
+  ASSERT_FALSE(optics.has_value());
+  EXPECT_EQ(optics.error().source, kExtendedConstantsFile);
+  EXPECT_THAT(optics.error().what(), HasSubstr("vessel_radius_um"));
+}
+
+TEST(ModelNames, MapBothWays) {
+  for (const ModelKind kind : kModelKinds) EXPECT_EQ(parse_model_kind(to_string(kind)), kind);
+  EXPECT_EQ(parse_model_kind("Paper"), std::nullopt);
+  EXPECT_EQ(model_names(), "paper, extended");
+  EXPECT_EQ(kDefaultModel, ModelKind::extended);
 }
 
 }  // namespace

@@ -175,6 +175,7 @@ TEST(SupervisorJobs, TheStoresRefusalsAreTheServicesErrors) {
     store::Session s;
     s.subject = "S";
     s.site = "forearm";
+    s.model = "extended";
     auto created = db->create_session(s);
     ASSERT_TRUE(created) << created.error().message;
     session = *created;

@@ -169,7 +169,7 @@ TEST(TorranceSparrow, NothingFromBehindTheSurface) {
 }
 
 Lab skin_lab(const PigmentScales& scales) {
-  const Params p = *scaled_params(kForearm, scales);
+  const Params p = *scaled_params(ModelKind::paper, kForearm, scales);
   return testing::colorimetry().lab(skin_reflectance_spectrum(testing::shipped_optics(), forearm(), p), d65());
 }
 
@@ -191,11 +191,38 @@ TEST(RenderPigments, MelaninDarkensTheRenderedHand) {
   EXPECT_LT(mean_green({4, 1, 1, 1}), 0.8 * mean_green({}));
 }
 
+TEST(RenderPigments, ExtendedScalesTheBloodItsOxyAndDeoxyHaemoglobinStandFor) {
+  const Params p = {0.04, 5, 4, 0.75, 1, 30, 1.3};
+  const auto both = *scaled_params(ModelKind::extended, p, {1, 2, 2, 1});
+  EXPECT_DOUBLE_EQ(both[kTotalHemoglobin], 8);
+  EXPECT_DOUBLE_EQ(both[kOxygenSaturation], 0.75);
+  const auto more_oxy = *scaled_params(ModelKind::extended, p, {1, 3, 1, 1});  // oxy 9, deoxy 1
+  EXPECT_DOUBLE_EQ(more_oxy[kTotalHemoglobin], 10);
+  EXPECT_DOUBLE_EQ(more_oxy[kOxygenSaturation], 0.9);
+  const auto darker = *scaled_params(ModelKind::extended, p, {4, 1, 1, 10});
+  EXPECT_DOUBLE_EQ(darker[kMelanin], 20);
+  EXPECT_DOUBLE_EQ(darker[kBilirubin], 10);
+  EXPECT_EQ(darker[kDermisScattering], 30);
+  EXPECT_FALSE(scaled_params(ModelKind::extended, {0.04, 5, 4, 1.5, 1, 30, 1.3}, {}));  // saturation above 1
+  EXPECT_FALSE(scaled_params(ModelKind::extended, kForearm, {}));                       // the paper's five
+}
+
+TEST(RenderPigments, ASkinIsRenderedOnlyWithItsModelsOptics) {
+  const Skin skin{forearm(), {0.04, 5, 4, 0.75, 1, 30, 1.3}, ModelKind::extended};
+  const Scene scene = builtin_scene(SceneKind::sphere, 1.0);
+  const auto& c = testing::colorimetry();
+  EXPECT_TRUE(render_skin(testing::shipped_optics(ModelKind::extended), c, skin, {}, d65(), scene, settings(8, 1, 2)));
+  const auto wrong =
+      render_skin(testing::shipped_optics(ModelKind::paper), c, skin, {}, d65(), scene, settings(8, 1, 2));
+  ASSERT_FALSE(wrong);
+  EXPECT_NE(wrong.error().find("extended"), std::string::npos);
+}
+
 TEST(RenderInput, RefusesBadScalesSizesAndSurfaces) {
-  EXPECT_FALSE(scaled_params(kForearm, {-1, 1, 1, 1}));
-  EXPECT_FALSE(scaled_params(kForearm, {1, std::nan(""), 1, 1}));
-  EXPECT_FALSE(scaled_params(kForearm, {1, 1, 1, 1e6}));
-  EXPECT_FALSE(scaled_params({0.04, -5, 6, 3, 1}, {}));
+  EXPECT_FALSE(scaled_params(ModelKind::paper, kForearm, {-1, 1, 1, 1}));
+  EXPECT_FALSE(scaled_params(ModelKind::paper, kForearm, {1, std::nan(""), 1, 1}));
+  EXPECT_FALSE(scaled_params(ModelKind::paper, kForearm, {1, 1, 1, 1e6}));
+  EXPECT_FALSE(scaled_params(ModelKind::paper, {0.04, -5, 6, 3, 1}, {}));
   const Scene scene{square(0, 0, 0, 1), overhead(), {overhead_light()}};
   const auto colours = spectral_colours(testing::colorimetry(), perfect_white(), d65());
   for (const auto& [w, h] : {std::pair{0, 10}, {10, -1}, {kMaxImageSide + 1, 10}}) {

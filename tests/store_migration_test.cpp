@@ -84,10 +84,17 @@ INSERT INTO fits VALUES (2, 3, 'forearm', 0.1, 7, 3, 2, 1, 0.01, 0.2, 0.3, 0.2, 
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 0, 1700000000000019);
 )sql";
 
+// Version 4's jobs: the error a JSON object, in the last column.
+const std::string kVersion4Job = R"sql(
+INSERT INTO jobs VALUES (1, 'measure', '{"kind":"sample"}', '', 1, 'k-1', 'failed', '{}', 1700000000000010,
+  1700000000000011, 1700000000000012, '{"code":"bad_reading","message":"quality 19"}');
+)sql";
+
 const std::map<int, std::string> kRowsAtVersion = {
     {1, rows_written_by_version("")},
     {2, rows_written_by_version(", NULL") + kVersion2Job},
     {3, rows_written_by_version(", NULL") + kVersion2Job + kVersion3Jobs},
+    {4, rows_written_by_version(", NULL") + kVersion4Job},
 };
 
 // What every version's rows must read back as under the current schema.
@@ -110,8 +117,18 @@ void expect_rows_of_earlier_version(Store& store) {
   EXPECT_FALSE(sample.job_id);
   EXPECT_EQ(sample.finished_at, Time(std::chrono::microseconds(1700000000000007)));
   ASSERT_GE(detail.fits.size(), 1u);
-  EXPECT_EQ(detail.fits[0].params[1], 7);
-  EXPECT_TRUE(std::isnan(detail.fits[0].standard_error[4]));
+  // Fits before version 5 are the paper model's: its five parameters by name, a standard error
+  // stored as NULL read as one the fit could not bound, and nothing judged.
+  EXPECT_EQ(detail.session.model, "paper");
+  const auto& fit = detail.fits[0];
+  EXPECT_EQ(fit.model, "paper");
+  EXPECT_EQ(fit.params, (std::vector<FitParam>{{"surface_reflectance", 0.1, 0.01},
+                                               {"melanin", 7, 0.2},
+                                               {"oxyhemoglobin", 3, 0.3},
+                                               {"deoxyhemoglobin", 2, 0.2},
+                                               {"bilirubin", 1, std::numeric_limits<double>::infinity()}}));
+  EXPECT_EQ(fit.assessment, "{}");
+  EXPECT_EQ(fit.constants_digest, "");
   EXPECT_EQ(detail.fits[0].tables_digest, "abc123");
   EXPECT_EQ(detail.fits[0].measured, std::vector<double>({0.5, 0.25}));
 }

@@ -5,6 +5,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -195,7 +197,7 @@ TEST_F(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
   const auto f = value_of(store.fit(*ids.fit_id));
   EXPECT_EQ(check_sample_fit(f, 5), "");
   EXPECT_EQ(f.measurement_id, ids.measurement_id);
-  EXPECT_TRUE(std::isinf(f.standard_error[4]));
+  EXPECT_TRUE(std::isinf(f.params[4].standard_error));
   EXPECT_EQ(f.site, "forearm");
   EXPECT_EQ(f.solver_summary, sample_fit(5).solver_summary);
   EXPECT_EQ(f.options, sample_fit(5).options);
@@ -206,9 +208,10 @@ TEST_F(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
   auto refit = sample_fit(5);
   refit.measurement_id = ids.measurement_id;
   refit.options = R"({"site":"forearm","lateral_diffusion":false})";
-  refit.standard_error[0] = std::numeric_limits<double>::quiet_NaN();
+  refit.params[0].standard_error = std::numeric_limits<double>::quiet_NaN();
   const Id refit_id = value_of(store.add_fit(refit));
-  EXPECT_TRUE(std::isnan(value_of(store.fit(refit_id)).standard_error[0]));
+  // Any standard error that is not finite is one the fit could not bound.
+  EXPECT_TRUE(std::isinf(value_of(store.fit(refit_id)).params[0].standard_error));
   EXPECT_EQ(value_of(store.fits_of_measurement(ids.measurement_id)).size(), 2u);
 
   EXPECT_EQ(value_of(store.latest_measurement(session, MeasurementKind::white))->id, white_ids.measurement_id);
@@ -278,7 +281,7 @@ TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
   auto store = open();
   const Id session = value_of(store.create_session(sample_session(1)));
   auto bad_fit = sample_fit(1);
-  bad_fit.params[1] = std::numeric_limits<double>::quiet_NaN();
+  bad_fit.params[1].value = std::numeric_limits<double>::quiet_NaN();
   const auto refused = store.record_measurement(sample_measurement(session, 1), bad_fit);
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().kind, Kind::invalid_argument);
@@ -292,8 +295,43 @@ TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
   auto bad_options = sample_fit(1);
   bad_options.options = "{";
   EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad_options).error().kind, Kind::invalid_argument);
+  // A fit names its model and at least one parameter, each named; its judgement is a JSON object.
+  for (const auto& spoil : std::vector<std::function<void(Fit&)>>{
+           [](Fit& f) { f.model.clear(); }, [](Fit& f) { f.params.clear(); }, [](Fit& f) { f.params[2].name.clear(); },
+           [](Fit& f) { f.assessment = "[]"; }, [](Fit& f) { f.assessment = "{\"note\":"; }}) {
+    auto bad = sample_fit(1);
+    spoil(bad);
+    EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad).error().kind, Kind::invalid_argument);
+  }
   EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 0);
   EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM fits"), 0);
+}
+
+// Any model's fit comes back as it was given: its model, its parameters by name in order, its
+// judgement and its constants digest.
+TEST_F(StoreTest, AFitOfAnyModelReadsBackAsStored) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(2)));
+  EXPECT_EQ(value_of(store.session(session)).model, "extended");
+  Fit fit = sample_fit(2);
+  fit.model = "extended";
+  fit.params = {{"surface_reflectance", 0.05, 0.003},
+                {"melanin", 4.25, 0.1},
+                {"total_hemoglobin", 11.5, 1.0},
+                {"oxygen_saturation", 0.4, std::numeric_limits<double>::infinity()},
+                {"bilirubin", 0, std::numeric_limits<double>::infinity()},
+                {"dermis_scattering", 36.2, 3.2},
+                {"dermis_scattering_power", 1.0 / 3.0, 0.125}};
+  fit.assessment = R"({"determination":{"bilirubin":{"determined":false,"reason":"at_bound"}},"note":"ünïcode"})";
+  fit.constants_digest = "0123456789abcdef";
+  const auto ids = value_of(store.record_measurement(sample_measurement(session, 2), fit));
+  const Fit stored = value_of(store.fit(*ids.fit_id));
+  EXPECT_EQ(stored.model, fit.model);
+  EXPECT_EQ(stored.params, fit.params);
+  EXPECT_EQ(stored.assessment, fit.assessment);
+  EXPECT_EQ(stored.constants_digest, fit.constants_digest);
+  EXPECT_EQ(testing::sqlite_text(path_, "SELECT json_extract(parameters, '$[3].standard_error') IS NULL FROM fits"),
+            "1");
 }
 
 TEST_F(StoreTest, MeasurementsAreCheckedBeforeTheyAreStored) {
@@ -478,7 +516,7 @@ TEST_F(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
   value_of(store.update_job(job_id, {.state = JobState::running}));
 
   auto bad_fit = sample_fit(1);
-  bad_fit.params[1] = std::nan("");
+  bad_fit.params[1].value = std::nan("");
   EXPECT_EQ(store.complete_measurement_job(job_id, m, bad_fit, "{}").error().kind, Kind::invalid_argument);
   EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "[]").error().kind, Kind::invalid_argument);
   EXPECT_EQ(

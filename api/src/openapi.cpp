@@ -3,6 +3,7 @@
 
 #include "skinspec/api/acquisition.hpp"
 #include "skinspec/api/router.hpp"
+#include "skinspec/fit/model_spec.hpp"
 #include "skinspec/version.hpp"
 
 namespace skinspec::api {
@@ -27,11 +28,42 @@ json names(std::span<const std::pair<E, std::string_view>> mapping) {
   return out;
 }
 
+// The parameters of every model: a fit has those of its own.
 json params_schema() {
   json props = json::object();
-  for (const char* name : {"surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
-    props[name] = nullable("number");
+  for (const auto model : kModelKinds)
+    for (const auto& spec : model_spec(model).params) props[std::string(spec.name)] = nullable("number");
   return {{"type", "object"}, {"properties", props}};
+}
+
+json model_schema() {
+  json models = json::array();
+  for (const auto model : kModelKinds) models.push_back(std::string(to_string(model)));
+  return {{"type", "string"}, {"enum", models}, {"default", std::string(to_string(kDefaultModel))}};
+}
+
+// What the spectrum determined (docs/model.md, "What the spectrum determines").
+json assessment_fields() {
+  const json derived = {{"type", "object"},
+                        {"properties",
+                         {{"value", nullable("number")},
+                          {"stderr", nullable("number")},
+                          {"determined", {{"type", "boolean"}}},
+                          {"reason", {{"type", "string"}}}}}};
+  const json determination = {{"type", "object"},
+                              {"properties",
+                               {{"determined", {{"type", "boolean"}}},
+                                {"reason", {{"type", "string"}}},
+                                {"correlated_with", {{"type", "string"}}}}}};
+  return {{"determination", {{"type", "object"}, {"additionalProperties", determination}}},
+          {"derived",
+           {{"type", "object"}, {"properties", {{"oxygen_saturation", derived}, {"blood_volume_fraction", derived}}}}},
+          {"correlation",
+           {{"type", "object"},
+            {"properties",
+             {{"params", {{"type", "array"}, {"items", {{"type", "string"}}}}},
+              {"matrix", {{"type", "array"}, {"items", {{"type", "array"}, {"items", nullable("number")}}}}}}}}},
+          {"note", {{"type", "string"}}}};
 }
 
 json instrument_schema() {
@@ -70,25 +102,28 @@ json port_list_schema() {
 }
 
 json schemas() {
-  const json fit_fields = {{"name", {{"type", "string"}}},
-                           {"site", {{"type", "string"}}},
-                           {"params", params_schema()},
-                           {"stderr", params_schema()},
-                           {"rmse", {{"type", "number"}}},
-                           {"max_abs_error", {{"type", "number"}}},
-                           {"delta_e00_d65", {{"type", "number"}}},
-                           {"iterations", {{"type", "integer"}}},
-                           {"converged", {{"type", "boolean"}}},
-                           {"wavelength_nm", numbers()},
-                           {"measured", numbers()},
-                           {"fitted", numbers()}};
+  json fit_fields = {{"name", {{"type", "string"}}},
+                     {"model", model_schema()},
+                     {"site", {{"type", "string"}}},
+                     {"params", params_schema()},
+                     {"stderr", params_schema()},
+                     {"rmse", {{"type", "number"}}},
+                     {"max_abs_error", {{"type", "number"}}},
+                     {"delta_e00_d65", {{"type", "number"}}},
+                     {"iterations", {{"type", "integer"}}},
+                     {"converged", {{"type", "boolean"}}},
+                     {"samples_ignored", {{"type", "integer"}}},
+                     {"wavelength_nm", numbers()},
+                     {"measured", numbers()},
+                     {"fitted", numbers()}};
+  fit_fields.update(assessment_fields());
   json stored_fit = fit_fields;
   stored_fit["id"] = {{"type", "integer"}};
   stored_fit["measurement_id"] = {{"type", "integer"}};
   stored_fit["options"] = {{"type", "object"}};
   stored_fit["model_version"] = {{"type", "string"}};
   stored_fit["tables_digest"] = {{"type", "string"}};
-  stored_fit["samples_ignored"] = {{"type", "integer"}};
+  stored_fit["constants_digest"] = {{"type", "string"}};
   stored_fit["solver_summary"] = {{"type", "string"}};
   stored_fit["created_at"] = {{"type", "string"}, {"format", "date-time"}};
   const json session_props = {{"id", {{"type", "integer"}}},
@@ -96,6 +131,7 @@ json schemas() {
                               {"site", {{"type", "string"}}},
                               {"operator", {{"type", "string"}}},
                               {"notes", {{"type", "string"}}},
+                              {"model", model_schema()},
                               {"white_standard_id", nullable("integer")},
                               {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}},
                               {"created_at", {{"type", "string"}, {"format", "date-time"}}},
@@ -141,6 +177,7 @@ json schemas() {
           {"spectra", {{"type", "object"}, {"additionalProperties", numbers()}}},
           {"site", {{"type", "string"}, {"default", "forearm"}}},
           {"name", {{"type", "string"}}},
+          {"model", model_schema()},
           {"lateral_diffusion", {{"type", "boolean"}, {"default", true}}}}}}},
       {"FitResult", {{"type", "object"}, {"properties", fit_fields}}},
       {"FitResponse", fit_response},
@@ -148,7 +185,8 @@ json schemas() {
       {"RefitRequest",
        {{"type", "object"},
         {"additionalProperties", false},
-        {"properties", {{"site", {{"type", "string"}}}, {"lateral_diffusion", {{"type", "boolean"}}}}}}},
+        {"properties",
+         {{"site", {{"type", "string"}}}, {"model", model_schema()}, {"lateral_diffusion", {{"type", "boolean"}}}}}}},
       {"WhiteStandardCreate",
        {{"type", "object"},
         {"required", {"name", "wavelength_nm", "reflectance"}},
@@ -179,7 +217,8 @@ json schemas() {
           {"subject", {{"type", "string"}}},
           {"operator", {{"type", "string"}}},
           {"white_standard_id", {{"type", "integer"}}},
-          {"notes", {{"type", "string"}}}}}}},
+          {"notes", {{"type", "string"}}},
+          {"model", model_schema()}}}}},
       {"SessionUpdate",
        {{"type", "object"},
         {"additionalProperties", false},

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "json_io.hpp"
+#include "skinspec/records/fit_record.hpp"
 #include "skinspec/render/figures.hpp"
 #include "skinspec/render/png.hpp"
 #include "skinspec/render/scenes.hpp"
@@ -97,17 +98,18 @@ std::string cache_key(store::Id fit_id, const RenderQuery& q) {
 }
 
 std::string render_png(const Fitter& fitter, const store::Fit& fit, const RenderQuery& q) {
-  const auto site = fitter.optics().site(fit.site);
+  const auto result = records::to_fit_result(fit);
+  if (!result) fail(ErrorKind::unprocessable, "unknown_model", result.error());
+  const SkinOptics& optics = fitter.optics(result->model);
+  const auto site = optics.site(fit.site);
   if (!site) fail(ErrorKind::unprocessable, "unknown_site", "fit " + std::to_string(fit.id) + ": " + site.error());
-  static_assert(store::kFitParamCount == kParamCount);
-  render::Skin skin{*site, {}};
-  std::copy(fit.params.begin(), fit.params.end(), skin.params.begin());
+  const render::Skin skin{*site, result->params, result->model};
   render::RenderSettings settings;
   settings.width = q.width;
   settings.height = q.height;
   settings.samples_per_side = 2;
   const auto scene = render::builtin_scene(render::SceneKind::hand, static_cast<double>(q.width) / q.height);
-  const auto image = render::render_skin(fitter.optics(), fitter.colorimetry(), skin, q.scales,
+  const auto image = render::render_skin(optics, fitter.colorimetry(), skin, q.scales,
                                          *fitter.colorimetry().illuminant(q.illuminant), scene, settings);
   if (!image) fail(ErrorKind::unprocessable, "render_failed", image.error());
   const auto png = render::encode_png(*image, 8);

@@ -55,8 +55,17 @@ struct Router::Handlers {
     if (!call.query.empty())
       fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + call.query.begin()->first + "'");
   }
+  // The optional "model" of a request, by name; the default model when absent.
+  static ModelKind model_of(const json& body, ModelKind fallback = kDefaultModel) {
+    const auto name = detail::optional_string(body, "model", 64);
+    if (!name) return fallback;
+    const auto model = parse_model_kind(*name);
+    if (!model)
+      fail(ErrorKind::unprocessable, "unknown_model", "unknown model '" + *name + "' (known: " + model_names() + ")");
+    return *model;
+  }
   static std::string checked_site(const RouterContext& c, const std::string& site) {
-    if (auto known = fitter_of(c).optics().site(site); !known)
+    if (auto known = fitter_of(c).optics(kDefaultModel).site(site); !known)
       fail(ErrorKind::unprocessable, "unknown_site", known.error());
     return site;
   }
@@ -180,8 +189,10 @@ struct Router::Handlers {
   // POST /api/v1/fit
   static Response fit(const RouterContext& c, const Call& call) {
     const json body = detail::parse_object(call.request.body);
-    detail::only_fields(body, {"wavelength_nm", "reflectance", "spectra", "site", "name", "lateral_diffusion"});
+    detail::only_fields(body,
+                        {"wavelength_nm", "reflectance", "spectra", "site", "name", "lateral_diffusion", "model"});
     FitOptions options;
+    options.model = model_of(body);
     options.site = detail::optional_string(body, "site", 64).value_or("forearm");
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
     checked_site(c, options.site);
@@ -245,9 +256,10 @@ struct Router::Handlers {
   // Sessions
   static Response create_session(const RouterContext& c, const Call& call) {
     const json body = detail::parse_object(call.request.body);
-    detail::only_fields(body, {"site", "subject", "operator", "white_standard_id", "notes"});
+    detail::only_fields(body, {"site", "subject", "operator", "white_standard_id", "notes", "model"});
     store::Session s;
     s.site = checked_site(c, detail::required_string(body, "site", 64));
+    s.model = std::string(to_string(model_of(body)));
     s.subject = detail::required_string(body, "subject", 200);
     s.operator_name = detail::optional_string(body, "operator", 200).value_or("");
     s.notes = detail::optional_string(body, "notes", 20000).value_or("");
@@ -382,8 +394,8 @@ struct Router::Handlers {
   static Response sites(const RouterContext& c, const Call& call) {
     no_query(call);
     json list = json::array();
-    for (const auto& name : fitter_of(c).optics().site_names()) {
-      const auto site = fitter_of(c).optics().site(name);
+    for (const auto& name : fitter_of(c).optics(kDefaultModel).site_names()) {
+      const auto site = fitter_of(c).optics(kDefaultModel).site(name);
       if (site)
         list.push_back({{"name", site->name}, {"epidermis_mm", site->epidermis_mm}, {"dermis_mm", site->dermis_mm}});
     }
@@ -395,19 +407,20 @@ struct Router::Handlers {
   }
   static Response refit(const RouterContext& c, const Call& call) {
     const json body = call.request.body.empty() ? json::object() : detail::parse_object(call.request.body);
-    detail::only_fields(body, {"site", "lateral_diffusion"});
+    detail::only_fields(body, {"site", "lateral_diffusion", "model"});
     store::Store& db = store_of(c);
     const auto m = value(db.measurement(call.ids[0]));
     if (m.reflectance.empty())
       fail(ErrorKind::conflict, "no_reflectance", "measurement " + std::to_string(m.id) + " has no reflectance to fit");
+    const auto session = value(db.session(m.session_id));
     FitOptions options;
-    options.site = detail::optional_string(body, "site", 64).value_or("");
-    if (options.site.empty()) options.site = value(db.session(m.session_id)).site;
+    options.model = model_of(body, parse_model_kind(session.model).value_or(kDefaultModel));
+    options.site = detail::optional_string(body, "site", 64).value_or(session.site);
     checked_site(c, options.site);
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);
     const auto result =
         run_fit(c, make_spectrum(m.reflectance.wavelength_nm, m.reflectance.values, "reflectance"), options);
-    store::Fit f = records::to_store_fit(result, options, fitter_of(c).optics().tables_digest());
+    store::Fit f = records::to_store_fit(result, options, fitter_of(c).optics(options.model));
     f.measurement_id = m.id;
     const store::Id id = value(db.add_fit(f));
     Response r = json_response(records::to_json(value(db.fit(id))), 201);

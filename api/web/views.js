@@ -16,13 +16,19 @@ export function h(tag, attributes = {}, ...children) {
   return node;
 }
 
-const PARAMS = [
-  ["surface_reflectance", "Surface reflectance", ""],
-  ["melanin", "Melanin", "× ref"],
-  ["oxyhemoglobin", "Oxy-haemoglobin", "× ref"],
-  ["deoxyhemoglobin", "Deoxy-haemoglobin", "× ref"],
-  ["bilirubin", "Bilirubin", "× ref"],
-];
+// Labels and units of every model's parameters; a fit shows those of its own model, in its order.
+const PARAM_LABELS = {
+  surface_reflectance: ["Surface reflectance", ""],
+  melanin: ["Melanin", "× ref"],
+  oxyhemoglobin: ["Oxy-haemoglobin", "× ref"],
+  deoxyhemoglobin: ["Deoxy-haemoglobin", "× ref"],
+  total_hemoglobin: ["Total haemoglobin", "× ref"],
+  oxygen_saturation: ["Oxygen saturation", ""],
+  bilirubin: ["Bilirubin", "× ref"],
+  dermis_scattering: ["Dermal scattering", "× ref"],
+  dermis_scattering_power: ["Scattering power", ""],
+};
+const MODELS = ["extended", "paper"];
 
 const fmt = (v, digits = 4) => (v === null || v === undefined || !Number.isFinite(v) ? "–" : Number(v).toPrecision(digits));
 const when = (t) => (t ? new Date(t).toLocaleString() : "–");
@@ -78,12 +84,13 @@ export async function sessionsView(root, query) {
       h("option", { value: "" }, "flat 0.99 (default)"),
       standards.white_standards.map((s) => h("option", { value: s.id }, `${s.name} (#${s.id})`)))),
     field("Notes", h("textarea", { name: "notes", rows: 2 })),
+    field("Skin model", h("select", { name: "model" }, MODELS.map((m) => h("option", { value: m }, m)))),
     h("button", { type: "submit", class: "primary" }, "Open session"),
     h("p", { class: "error", role: "alert" }));
   form.addEventListener("submit", async (e) => {
     e.preventDefault();
     const data = Object.fromEntries(new FormData(form));
-    const body = { site: data.site, subject: data.subject, operator: data.operator, notes: data.notes };
+    const body = { site: data.site, subject: data.subject, operator: data.operator, notes: data.notes, model: data.model };
     if (data.white_standard_id) body.white_standard_id = Number(data.white_standard_id);
     try {
       const session = await api("POST", "/api/v1/sessions", body);
@@ -145,7 +152,7 @@ export async function sessionView(root, id) {
   root.replaceChildren(
     h("section", { class: "card" },
       h("h2", {}, `Session #${session.id}: ${session.subject}, ${session.site}`),
-      h("p", { class: "meta" }, `Operator ${session.operator || "–"} · white standard ${session.white_standard_id ?? "flat 0.99"} · `,
+      h("p", { class: "meta" }, `Operator ${session.operator || "–"} · model ${session.model} · white standard ${session.white_standard_id ?? "flat 0.99"} · `,
         h("span", { class: `state ${session.state}` }, session.state), ` · opened ${when(session.created_at)}`),
       session.notes ? h("p", {}, session.notes) : null,
       h("div", { class: "row" },
@@ -248,15 +255,41 @@ export async function measurementView(root, id) {
   root.replaceChildren(...parts);
 }
 
+// A parameter the spectrum did not determine shows "n.d." and why, never a number that looks known.
+function determined(fit, key) {
+  const d = fit.determination && fit.determination[key];
+  return !d || d.determined;
+}
+
+function paramRow(fit, key) {
+  const [name, unit] = PARAM_LABELS[key] || [key, ""];
+  const d = fit.determination && fit.determination[key];
+  const value = determined(fit, key)
+    ? [h("td", { class: "value" }, fmt(fit.params[key])), h("td", {}, "±"), h("td", { class: "se" }, fmt(fit.stderr[key], 2))]
+    : [h("td", { class: "value nd", title: `not determined: ${d.reason}${d.correlated_with ? " with " + d.correlated_with : ""}` }, "n.d."),
+       h("td", {}), h("td", { class: "se" }, d.reason.replace("_", " "))];
+  return h("tr", { "data-param": key }, h("th", {}, name), ...value, h("td", {}, unit));
+}
+
+function derivedRow(fit, key, name) {
+  const q = fit.derived && fit.derived[key];
+  if (!q || key in fit.params) return null;
+  const value = q.determined ? [h("td", { class: "value" }, fmt(q.value, 3)), h("td", {}, "±"), h("td", { class: "se" }, fmt(q.stderr, 2))]
+    : [h("td", { class: "value nd" }, "n.d."), h("td", {}), h("td", { class: "se" }, q.reason.replace("_", " "))];
+  return h("tr", { "data-param": key }, h("th", {}, name), ...value, h("td", {}));
+}
+
 function fitTable(fit) {
-  return h("div", { class: "card" }, h("h2", {}, `Fit #${fit.id}, ${fit.site}`),
+  return h("div", { class: "card" }, h("h2", {}, `Fit #${fit.id}, ${fit.site}, model ${fit.model}`),
     h("table", { class: "params", id: "fit-params" },
       h("tbody", {},
-        PARAMS.map(([key, name, unit]) => h("tr", { "data-param": key }, h("th", {}, name),
-          h("td", { class: "value" }, fmt(fit.params[key])), h("td", {}, "±"), h("td", { class: "se" }, fmt(fit.stderr[key], 2)), h("td", {}, unit))),
+        Object.keys(fit.params).map((key) => paramRow(fit, key)),
+        derivedRow(fit, "oxygen_saturation", "Oxygen saturation (derived)"),
+        derivedRow(fit, "blood_volume_fraction", "Blood volume fraction"),
         h("tr", { "data-param": "rmse" }, h("th", {}, "RMSE"), h("td", { class: "value" }, fmt(fit.rmse, 3))),
         h("tr", { "data-param": "delta_e00_d65" }, h("th", {}, "ΔE2000 (D65)"), h("td", { class: "value" }, fmt(fit.delta_e00_d65, 3))),
-        h("tr", {}, h("th", {}, "Converged"), h("td", {}, fit.converged ? `yes, ${fit.iterations} iterations` : "no")))));
+        h("tr", {}, h("th", {}, "Converged"), h("td", {}, fit.converged ? `yes, ${fit.iterations} iterations` : "no")))),
+    fit.note ? h("p", { class: "meta" }, fit.note) : null);
 }
 
 function swatches(colour) {

@@ -9,11 +9,24 @@
 
 namespace skinspec {
 
-// Fields of `skinspec fit`: name, site, params, stderr, rmse, max_abs_error, delta_e00_d65,
-// iterations, converged, wavelength_nm, measured, fitted. An unbounded standard error (a
-// parameter the spectrum cannot determine) is null.
+// Fields of `skinspec fit`: name, model, site, params, stderr, rmse, max_abs_error,
+// delta_e00_d65, iterations, converged, samples_ignored, wavelength_nm, measured, fitted; and,
+// for a fit that judged its parameters, determination, derived (oxygen_saturation,
+// blood_volume_fraction) and correlation; note when the spectrum covered less than the model's
+// range. A standard error is null where the spectrum does not determine the parameter, and
+// determination says why.
 nlohmann::json fit_to_json(std::string_view name, const FitResult& fit);
 
-nlohmann::json params_to_json(const Params& params);
+// What the spectrum determined, as fit_to_json gives it: {determination, derived, correlation,
+// note}, each only when the fit has it. The stored form of a fit's judgement.
+nlohmann::json assessment_to_json(const FitResult& fit);
+
+// Reads assessment_to_json's object back into `fit` (whose model and params are set): its
+// determination, derived quantities, correlation and note. A field that is absent stays
+// empty (a fit stored before fits were judged); false when a field is malformed.
+bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit);
+
+// {name: value} in the model's parameter order; non-finite values are null.
+nlohmann::json params_to_json(ModelKind model, const Params& params);
 
 }  // namespace skinspec

@@ -1,5 +1,6 @@
 #pragma once
-// The model the programs fit with: the optical tables and colorimetry from a data directory.
+// The models the programs fit with (every ModelKind): the optical tables, each model's
+// constants and colorimetry from a data directory.
 
 #include <expected>
 #include <filesystem>

@@ -1,277 +1,160 @@
 #include "skinspec/fit/fitter.hpp"
 
-#include <ceres/ceres.h>
-
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <span>
-#include <vector>
-#include <limits>
-#include <span>
-#include <vector>
 #include <fmt/format.h>
+
+#include "determination.hpp"
+#include "solver.hpp"
 
 namespace skinspec {
 
+std::string_view to_string(Determination d) {
+  switch (d) {
+    case Determination::determined:
+      return "determined";
+    case Determination::at_bound:
+      return "at_bound";
+    case Determination::correlated:
+      return "correlated";
+    case Determination::imprecise:
+      return "imprecise";
+    case Determination::unconstrained:
+      return "unconstrained";
+    case Determination::held:
+      return "held";
+  }
+  return "unknown";
+}
+
+std::optional<Determination> parse_determination(std::string_view name) {
+  for (const auto d : {Determination::determined, Determination::at_bound, Determination::correlated,
+                       Determination::imprecise, Determination::unconstrained, Determination::held})
+    if (to_string(d) == name) return d;
+  return std::nullopt;
+}
+
 namespace {
 
-// Weighted residuals sqrt(w_i) (model_i - measured_i), differentiated by Ceres.
-struct SpectrumResidual {
-  const SkinModel& model;
-  const std::vector<double>& measured;
-  const std::vector<double>& sqrt_weights;
-
-  template <typename T>
-  bool operator()(const T* p, T* residuals) const {
-    for (std::size_t i = 0; i < model.size(); ++i)
-      residuals[i] = sqrt_weights[i] * (model.reflectance_at(i, p) - measured[i]);
-    return true;
-  }
+// The measured samples inside the model's range, with their weights.
+struct FittedSamples {
+  std::vector<double> wavelength_nm, measured, weights;
+  std::size_t ignored = 0;
 };
 
-using ResidualCost = ceres::AutoDiffCostFunction<SpectrumResidual, ceres::DYNAMIC, kParamCount>;
-
-double weighted_sum_of_squares(const SkinModel& model, const std::vector<double>& measured,
-                               const std::vector<double>& weights, const Params& p, std::size_t stride) {
-  double sum = 0;
-  for (std::size_t i = 0; i < model.size(); i += stride) {
-    const double r = model.reflectance_at(i, p.data()) - measured[i];
-    sum += weights[i] * r * r;
-  }
-  return sum;
-}
-
-// Start points for the solver: a coarse log-spaced search over the pigments that shape skin
-// most (melanin and blood), on every fourth sample. Returns the best few, best first, each
-// with a different amount of blood: dark skin has a second basin where melanin explains the
-// blue and haemoglobin drops to zero, and starts from one blood level all fall into it.
-std::vector<Params> coarse_starts(const SkinModel& model, const std::vector<double>& measured,
-                                  const std::vector<double>& weights, std::size_t how_many) {
-  constexpr double kMelanin[] = {0.25, 1, 3, 8, 20, 50, 120};
-  constexpr double kBlood[] = {0.25, 1, 3, 8, 20};
-  constexpr double kOxygenShare[] = {0.4, 0.8};
-  std::vector<std::pair<double, Params>> scored;
-  for (double m : kMelanin)
-    for (double blood : kBlood)
-      for (double share : kOxygenShare) {
-        const Params p = {0.03, m, blood * share, blood * (1 - share), 1.0};
-        scored.emplace_back(weighted_sum_of_squares(model, measured, weights, p, 4), p);
-      }
-  std::ranges::sort(scored, {}, &std::pair<double, Params>::first);
-  std::vector<Params> starts;
-  const auto blood_of = [](const Params& p) { return p[kOxyhemoglobin] + p[kDeoxyhemoglobin]; };
-  for (const auto& [score, p] : scored) {
-    if (starts.size() == how_many) break;
-    if (std::ranges::none_of(starts, [&](const Params& s) { return blood_of(s) == blood_of(p); })) starts.push_back(p);
-  }
-  return starts;
-}
-
-struct Solution {
-  Params params{};
-  double cost = 0;
-  int iterations = 0;
-  bool converged = false;
-  std::string message;
-};
-
-using HeldAtZero = std::array<bool, kParamCount>;
-
-// Ends a solve as soon as a free pigment weight turns negative, so that the active-set loop
-// can pin it at zero: continuing would only fit a physically meaningless weight.
-class StopWhenNegative : public ceres::IterationCallback {
- public:
-  StopWhenNegative(const Params& p, const std::array<bool, kParamCount>& held) : p_(p), held_(held) {}
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
-    for (std::size_t i = kMelanin; i < kParamCount; ++i)
-      if (!held_[i] && p_[i] < 0) return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
-    return ceres::SOLVER_CONTINUE;
-  }
-
- private:
-  const Params& p_;
-  const std::array<bool, kParamCount>& held_;
-};
-
-// One Levenberg-Marquardt solve. Pigment weights may dip a little below zero here (never so
-// far that an absorption turns negative) and those in `held` stay at zero: non-negativity is
-// kept by the active-set loop in solve_from rather than by a bound at zero, because Ceres's
-// projection onto an active bound shrinks the trust region step after step while the
-// solution creeps along the bound.
-Solution solve_once(const SkinModel& model, const std::vector<double>& measured,
-                    const std::vector<double>& sqrt_weights, Params p, const HeldAtZero& held) {
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  auto* cost = new ResidualCost(new SpectrumResidual{model, measured, sqrt_weights}, static_cast<int>(model.size()));
-  problem.AddResidualBlock(cost, nullptr, p.data());
-  const Params lowest = model.lowest_safe_weights();
-  for (std::size_t i = 0; i < kParamCount; ++i) {
-    problem.SetParameterLowerBound(p.data(), static_cast<int>(i), std::min(lowest[i], kLowerBounds[i]));
-    problem.SetParameterUpperBound(p.data(), static_cast<int>(i), kUpperBounds[i]);
-  }
-  std::vector<int> constant;
-  for (int i = 0; i < kParamCount; ++i)
-    if (held[static_cast<std::size_t>(i)]) constant.push_back(i);
-  if (!constant.empty()) problem.SetManifold(p.data(), new ceres::SubsetManifold(kParamCount, constant));
-
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.logging_type = ceres::SILENT;
-  options.max_num_iterations = 100;
-  options.function_tolerance = 1e-7;
-  options.gradient_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-8;
-  options.num_threads = 1;
-  StopWhenNegative stop_when_negative(p, held);
-  options.callbacks.push_back(&stop_when_negative);
-  options.update_state_every_iteration = true;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  return {p, summary.final_cost, static_cast<int>(summary.iterations.size()),
-          summary.termination_type == ceres::CONVERGENCE, summary.BriefReport()};
-}
-
-// d(cost)/d(p_i) at p: where it is negative for a weight held at zero, the fit would improve
-// by letting that weight grow again.
-Params cost_gradient(const SkinModel& model, const std::vector<double>& measured,
-                     const std::vector<double>& sqrt_weights, const Params& p) {
-  const auto n = model.size();
-  std::vector<double> residuals(n), jacobian(n * kParamCount);
-  const double* parameters[] = {p.data()};
-  double* jacobians[] = {jacobian.data()};
-  ResidualCost cost(new SpectrumResidual{model, measured, sqrt_weights}, static_cast<int>(n));
-  cost.Evaluate(parameters, residuals.data(), jacobians);
-  Params gradient{};
-  for (std::size_t r = 0; r < n; ++r)
-    for (std::size_t i = 0; i < kParamCount; ++i) gradient[i] += residuals[r] * jacobian[r * kParamCount + i];
-  return gradient;
-}
-
-// Bounded least squares by active sets: solve; pin every weight that went negative at zero
-// and solve again; release a pinned weight whose gradient asks for it to grow.
-Solution solve_from(const SkinModel& model, const std::vector<double>& measured,
-                    const std::vector<double>& sqrt_weights, const Params& start) {
-  HeldAtZero held{};
-  Solution solution{start, 0, 0, false, {}};
-  int iterations = 0;
-  for (int round = 0; round < 2 * kParamCount; ++round) {
-    solution = solve_once(model, measured, sqrt_weights, solution.params, held);
-    iterations += solution.iterations;
-    bool changed = false;
-    for (std::size_t i = kMelanin; i < kParamCount; ++i)
-      if (!held[i] && solution.params[i] < 0) {
-        solution.params[i] = 0;
-        held[i] = changed = true;
-      }
-    if (!changed) {
-      const Params gradient = cost_gradient(model, measured, sqrt_weights, solution.params);
-      for (std::size_t i = kMelanin; i < kParamCount; ++i)
-        if (held[i] && gradient[i] < 0) held[i] = false, changed = true;
-    }
-    if (!changed) break;
-  }
-  solution.iterations = iterations;
-  return solution;
-}
-
-// Standard errors from the Gauss-Newton covariance sigma^2 (J^T J)^-1, with sigma^2 estimated
-// from the residuals. A pseudo-inverse keeps parameters the data cannot see (a dermis hidden
-// by melanin) from poisoning the others: their error is reported as very large instead.
-Params standard_errors(const SkinModel& model, const std::vector<double>& measured,
-                       const std::vector<double>& sqrt_weights, const Params& p, double cost) {
-  const auto n = static_cast<int>(model.size());
-  Eigen::Matrix<double, Eigen::Dynamic, kParamCount, Eigen::RowMajor> jacobian(n, kParamCount);
-  std::vector<double> residuals(model.size());
-  const double* parameters[] = {p.data()};
-  double* jacobians[] = {jacobian.data()};
-  ResidualCost cost_function(new SpectrumResidual{model, measured, sqrt_weights}, n);
-  cost_function.Evaluate(parameters, residuals.data(), jacobians);
-
-  const double dof = std::max(1, n - kParamCount);
-  const double sigma2 = 2 * cost / dof;
-  const Eigen::Matrix<double, kParamCount, kParamCount> jtj = jacobian.transpose() * jacobian;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, kParamCount, kParamCount>> eigen(jtj);
-  const auto& values = eigen.eigenvalues();
-  const auto& vectors = eigen.eigenvectors();
-  const double tiny = values.maxCoeff() * 1e-14;
-  Params errors{};
-  for (int j = 0; j < kParamCount; ++j) {
-    double variance = 0;
-    bool in_null_space = false;
-    for (int i = 0; i < kParamCount; ++i) {
-      const double share = vectors(j, i) * vectors(j, i);
-      if (values(i) > tiny) variance += share / values(i);
-      else in_null_space = in_null_space || share > 1e-6;
-    }
-    errors[static_cast<std::size_t>(j)] =
-        in_null_space ? std::numeric_limits<double>::infinity() : std::sqrt(sigma2 * variance);
-  }
-  return errors;
-}
-
-}  // namespace
-
-Fitter::Fitter(SkinOptics optics, Colorimetry colorimetry)
-    : optics_(std::move(optics)),
-      colorimetry_(std::move(colorimetry)),
-      d65_(colorimetry_.weighting(*colorimetry_.illuminant("D65"))) {}
-
-std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, const FitOptions& options) const {
-  const auto site = optics_.site(options.site);
-  if (!site) return std::unexpected(site.error());
+std::expected<FittedSamples, std::string> samples_inside(const Spectrum& measured, const FitOptions& options) {
   if (!options.weights.empty() && options.weights.size() != measured.size())
     return std::unexpected(fmt::format("{} weights for {} samples", options.weights.size(), measured.size()));
-
-  FitResult result;
-  result.site = site->name;
-  std::vector<double> weights;
+  FittedSamples s;
   for (std::size_t i = 0; i < measured.size(); ++i) {
     const double w = measured.wavelengths()[i];
     if (w < SkinOptics::kFirstNm || w > SkinOptics::kLastNm) {
-      ++result.samples_ignored;
+      ++s.ignored;
       continue;
     }
     const double weight = options.weights.empty() ? 1.0 : options.weights[i];
     if (!(weight >= 0) || !std::isfinite(weight))
       return std::unexpected(fmt::format("weight at {} nm must be a finite number >= 0", w));
-    result.wavelength_nm.push_back(w);
-    result.measured.push_back(measured.values()[i]);
-    weights.push_back(weight);
+    s.wavelength_nm.push_back(w);
+    s.measured.push_back(measured.values()[i]);
+    s.weights.push_back(weight);
   }
-  if (result.wavelength_nm.size() < 2 || result.wavelength_nm.front() > 400 || result.wavelength_nm.back() < 700)
-    return std::unexpected(std::string("the spectrum must cover 400-700 nm inside the model's 380-780 nm"));
+  if (s.wavelength_nm.size() < 2 || s.wavelength_nm.front() > kMinCoverFromNm || s.wavelength_nm.back() < kMinCoverToNm)
+    return std::unexpected(fmt::format("the spectrum must cover {}-{} nm inside the model's {}-{} nm", kMinCoverFromNm,
+                                       kMinCoverToNm, SkinOptics::kFirstNm, SkinOptics::kLastNm));
+  return s;
+}
 
-  const SkinModel model(optics_, *site, result.wavelength_nm, options.lateral_diffusion);
-  std::vector<double> sqrt_weights(weights.size());
-  std::ranges::transform(weights, sqrt_weights.begin(), [](double w) { return std::sqrt(w); });
-
-  Solution best;
-  best.cost = std::numeric_limits<double>::infinity();
-  for (const Params& start : coarse_starts(model, result.measured, weights, 2)) {
-    Solution s = solve_from(model, result.measured, sqrt_weights, start);
-    if (s.cost < best.cost) best = std::move(s);
+// Which parameters are held, and at what; an error for an unknown index or a value outside the
+// parameter's plausible range.
+std::expected<std::pair<std::vector<bool>, Params>, std::string> held_parameters(const FitOptions& options) {
+  const auto specs = model_spec(options.model).params;
+  std::vector<bool> held(specs.size(), false);
+  Params values(specs.size(), 0.0);
+  for (const auto& [index, value] : options.held) {
+    if (index >= specs.size())
+      return std::unexpected(fmt::format("model {} has no parameter {} to hold", to_string(options.model), index));
+    const ParamSpec& spec = specs[index];
+    if (!(value >= spec.lower && value <= spec.upper))
+      return std::unexpected(
+          fmt::format("{} can only be held within {}..{}, not at {}", spec.name, spec.lower, spec.upper, value));
+    held[index] = true;
+    values[index] = value;
   }
-  // A weight pinned at zero may be a local minimum of its own (melanin standing in for blood
-  // in dark skin): try once more with those weights brought back to their reference level.
-  if (std::ranges::any_of(std::span(best.params).subspan(kMelanin), [](double w) { return w == 0; })) {
-    Params reseeded = best.params;
-    for (std::size_t i = kMelanin; i < kParamCount; ++i)
-      if (reseeded[i] == 0) reseeded[i] = 3;
-    Solution s = solve_from(model, result.measured, sqrt_weights, reseeded);
-    s.iterations += best.iterations;
-    if (s.cost < best.cost) best = std::move(s);
-  }
+  return std::pair{std::move(held), std::move(values)};
+}
 
+std::string coverage_note(const FitResult& r) {
+  const double first = r.wavelength_nm.front(), last = r.wavelength_nm.back();
+  if (first <= SkinOptics::kFirstNm + 5 && last >= SkinOptics::kLastNm - 5) return {};
+  return fmt::format(
+      "fitted over {}-{} nm of the model's {}-{} nm; what the spectrum leaves out widens the "
+      "standard errors",
+      first, last, SkinOptics::kFirstNm, SkinOptics::kLastNm);
+}
+
+}  // namespace
+
+Fitter::Fitter(std::vector<SkinOptics> models, Colorimetry colorimetry)
+    : models_(std::move(models)),
+      colorimetry_(std::move(colorimetry)),
+      d65_(colorimetry_.weighting(*colorimetry_.illuminant("D65"))) {}
+
+Fitter::Fitter(SkinOptics optics, Colorimetry colorimetry)
+    : Fitter(std::vector<SkinOptics>{std::move(optics)}, std::move(colorimetry)) {}
+
+bool Fitter::has(ModelKind model) const {
+  return std::ranges::any_of(models_, [&](const SkinOptics& o) { return o.model() == model; });
+}
+
+const SkinOptics& Fitter::optics(ModelKind model) const {
+  return *std::ranges::find_if(models_, [&](const SkinOptics& o) { return o.model() == model; });
+}
+
+Fitter Fitter::with_optics(SkinOptics optics) const {
+  Fitter copy = *this;
+  const auto it = std::ranges::find_if(copy.models_, [&](const SkinOptics& o) { return o.model() == optics.model(); });
+  if (it == copy.models_.end()) copy.models_.push_back(std::move(optics));
+  else *it = std::move(optics);
+  return copy;
+}
+
+std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, const FitOptions& options) const {
+  if (!has(options.model)) return std::unexpected(fmt::format("the {} model is not loaded", to_string(options.model)));
+  const SkinOptics& skin = optics(options.model);
+  const auto site = skin.site(options.site);
+  if (!site) return std::unexpected(site.error());
+  auto samples = samples_inside(measured, options);
+  if (!samples) return std::unexpected(samples.error());
+  auto held = held_parameters(options);
+  if (!held) return std::unexpected(held.error());
+
+  FitResult result;
+  result.model = options.model;
+  result.site = site->name;
+  result.wavelength_nm = std::move(samples->wavelength_nm);
+  result.measured = std::move(samples->measured);
+  result.samples_ignored = samples->ignored;
+  const SkinModel model(skin, *site, result.wavelength_nm, options.lateral_diffusion);
+  std::vector<double> sqrt_weights(samples->weights.size());
+  std::ranges::transform(samples->weights, sqrt_weights.begin(), [](double w) { return std::sqrt(w); });
+  const detail::Problem problem{model,        result.measured,        samples->weights,
+                                sqrt_weights, std::move(held->first), std::move(held->second)};
+
+  const detail::Solution best = detail::solve(problem);
   result.params = best.params;
   result.iterations = best.iterations;
   result.converged = best.converged;
   result.solver_message = best.message;
   result.fitted = model.reflectance(best.params);
-  result.standard_error = standard_errors(model, result.measured, sqrt_weights, best.params, best.cost);
+  auto uncertainty = detail::assess_uncertainty(options.model, detail::jacobian(problem, best.params), best.cost,
+                                                best.params, problem.held, best.pinned);
+  result.standard_error = std::move(uncertainty.standard_error);
+  result.correlation = std::move(uncertainty.correlation);
+  result.determination = std::move(uncertainty.determination);
+  result.oxygen_saturation = uncertainty.oxygen_saturation;
+  result.blood_volume_fraction = uncertainty.blood_volume_fraction;
+
   double sum_squares = 0;
   for (std::size_t i = 0; i < result.fitted.size(); ++i) {
     const double r = result.fitted[i] - result.measured[i];
@@ -282,6 +165,7 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   const auto measured_lab = Colorimetry::lab(*Spectrum::create(result.wavelength_nm, result.measured), d65_);
   const auto fitted_lab = Colorimetry::lab(*Spectrum::create(result.wavelength_nm, result.fitted), d65_);
   result.delta_e00_d65 = delta_e2000(measured_lab, fitted_lab);
+  result.coverage_note = coverage_note(result);
   return result;
 }
 

@@ -16,7 +16,6 @@ namespace {
 
 // What weight 1.0 of each pigment means (docs/model.md, "Pigment weights").
 constexpr double kReferenceMelanosomeFraction = 0.01;  // of the epidermis volume
-constexpr double kReferenceBloodFraction = 0.002;      // of the dermis volume (Jacques 1998)
 constexpr double kHaemoglobinInBlood_g_per_L = 150;    // Prahl's convention
 constexpr double kHaemoglobinMolarMass_g_per_mol = 64500;
 constexpr double kReferenceBilirubin_g_per_L = 0.005;  // in the dermis (BioSpec default)
@@ -120,36 +119,100 @@ std::expected<std::vector<Site>, InputError> load_sites(Loaded& loaded) {
   return sites;
 }
 
-std::expected<ModelConstants, InputError> load_constants(Loaded& loaded) {
-  auto t = loaded.table("model/constants.csv", {"value"});
+std::expected<ModelConstants, InputError> load_constants(Loaded& loaded, ModelKind model) {
+  auto t = loaded.table(model_spec(model).constants_file, {"value"});
   if (!t) return std::unexpected(t.error());
-  ModelConstants constants;
-  for (const auto& [name, field] : model_constant_fields()) {
-    const auto it = std::ranges::find(t->keys(), name);
-    if (it == t->keys().end())
-      return std::unexpected(InputError{t->source(), 0, 0, fmt::format("missing constant '{}'", name)});
-    const double value = t->column("value")[static_cast<std::size_t>(it - t->keys().begin())];
-    if (value < 0)
-      return std::unexpected(InputError{t->source(), 0, 0, fmt::format("constant '{}' is negative", name)});
-    constants.*field = value;
-  }
-  return constants;
+  return parse_constants(*t, model);
 }
 
-LayerOptics with_scattering_scales(LayerOptics o, const ModelConstants& c) {
+LayerOptics with_constants_applied(LayerOptics o, const ModelConstants& c) {
   for (double& s : o.Se) s *= c.epidermis_scattering_scale;
   for (double& s : o.Sd) s *= c.dermis_scattering_scale;
+  for (std::size_t i = 0; i < o.wavelength_nm.size(); ++i) {
+    const double factor = baseline_absorption_factor(c, o.wavelength_nm[i]);
+    o.Ke[i] *= factor;
+    o.Kd[i] *= factor;
+    if (c.melanin_exponent != 3) o.Km[i] *= std::pow(o.wavelength_nm[i] / kMelaninPivotNm, 3 - c.melanin_exponent);
+  }
   return o;
+}
+
+// Legendre polynomial P_n(x) by Bonnet's recursion.
+double legendre(std::size_t n, double x) {
+  double previous = 1, current = x;
+  if (n == 0) return previous;
+  for (std::size_t k = 1; k < n; ++k) {
+    const double next = ((2.0 * static_cast<double>(k) + 1) * x * current - static_cast<double>(k) * previous) /
+                        (static_cast<double>(k) + 1);
+    previous = current;
+    current = next;
+  }
+  return current;
 }
 
 }  // namespace
 
-std::vector<std::pair<std::string_view, double ModelConstants::*>> model_constant_fields() {
-  return {{"epidermis_scattering_scale", &ModelConstants::epidermis_scattering_scale},
-          {"dermis_scattering_scale", &ModelConstants::dermis_scattering_scale},
-          {"epidermis_thickness_scale", &ModelConstants::epidermis_thickness_scale},
-          {"dermis_thickness_scale", &ModelConstants::dermis_thickness_scale},
-          {"lateral_radius_mm", &ModelConstants::lateral_radius_mm}};
+std::expected<ModelConstants, InputError> parse_constants(const Table& t, ModelKind model) {
+  if (!t.has_column("value")) return std::unexpected(InputError{t.source(), 0, 0, "no 'value' column"});
+  std::vector<double> values;
+  for (const ConstantSpec& spec : model_spec(model).constants) {
+    const auto it = std::ranges::find(t.keys(), spec.name);
+    if (it == t.keys().end())
+      return std::unexpected(InputError{t.source(), 0, 0, fmt::format("missing constant '{}'", spec.name)});
+    const double value = t.column("value")[static_cast<std::size_t>(it - t.keys().begin())];
+    if (spec.scale == ConstantScale::logarithmic && value < 0)
+      return std::unexpected(InputError{t.source(), 0, 0, fmt::format("constant '{}' is negative", spec.name)});
+    values.push_back(value);
+  }
+  return constants_from_values(model, values);
+}
+
+double* constant_field(ModelConstants& c, std::string_view name) {
+  const std::pair<std::string_view, double*> named[] = {{"epidermis_scattering_scale", &c.epidermis_scattering_scale},
+                                                        {"dermis_scattering_scale", &c.dermis_scattering_scale},
+                                                        {"epidermis_thickness_scale", &c.epidermis_thickness_scale},
+                                                        {"dermis_thickness_scale", &c.dermis_thickness_scale},
+                                                        {"lateral_radius_mm", &c.lateral_radius_mm},
+                                                        {"vessel_radius_um", &c.vessel_radius_um},
+                                                        {"melanin_exponent", &c.melanin_exponent}};
+  for (const auto& [field_name, field] : named)
+    if (field_name == name) return field;
+  constexpr std::string_view kBaseline = "baseline_absorption_";
+  if (name.starts_with(kBaseline)) {
+    const std::string_view digits = name.substr(kBaseline.size());
+    if (digits.size() == 1 && digits[0] >= '0' && static_cast<std::size_t>(digits[0] - '0') < kMaxBaselineTerms)
+      return &c.baseline_absorption[static_cast<std::size_t>(digits[0] - '0')];
+  }
+  return nullptr;
+}
+
+ModelConstants textbook_constants(ModelKind model) {
+  std::vector<double> values;
+  for (const ConstantSpec& spec : model_spec(model).constants) values.push_back(spec.textbook);
+  return constants_from_values(model, values);
+}
+
+std::vector<double> constant_values(ModelKind model, const ModelConstants& constants) {
+  ModelConstants copy = constants;
+  std::vector<double> values;
+  for (const ConstantSpec& spec : model_spec(model).constants) values.push_back(*constant_field(copy, spec.name));
+  return values;
+}
+
+ModelConstants constants_from_values(ModelKind model, std::span<const double> values) {
+  ModelConstants constants;
+  const auto specs = model_spec(model).constants;
+  for (std::size_t i = 0; i < specs.size() && i < values.size(); ++i)
+    *constant_field(constants, specs[i].name) = values[i];
+  return constants;
+}
+
+double baseline_absorption_factor(const ModelConstants& constants, double wavelength_nm) {
+  const double x = (wavelength_nm - 580.0) / 200.0;
+  double exponent = 0;
+  for (std::size_t n = 0; n < kMaxBaselineTerms; ++n)
+    if (constants.baseline_absorption[n] != 0) exponent += constants.baseline_absorption[n] * legendre(n, x);
+  return std::exp(exponent);
 }
 
 LayerOptics LayerOptics::resampled(std::span<const double> grid_nm) const {
@@ -166,15 +229,16 @@ LayerOptics LayerOptics::resampled(std::span<const double> grid_nm) const {
   return out;
 }
 
-std::expected<SkinOptics, InputError> SkinOptics::load(const DataReader& read) {
+std::expected<SkinOptics, InputError> SkinOptics::load(const DataReader& read, ModelKind model) {
   Loaded loaded{.read = read};
   auto base = layer_optics(loaded);
   if (!base) return std::unexpected(base.error());
   auto sites = load_sites(loaded);
   if (!sites) return std::unexpected(sites.error());
-  auto constants = load_constants(loaded);
+  auto constants = load_constants(loaded, model);
   if (!constants) return std::unexpected(constants.error());
   SkinOptics optics;
+  optics.model_ = model;
   optics.base_ = std::move(*base);
   optics.sites_ = std::move(*sites);
   optics.digest_ = fmt::format("{:016x}", loaded.hash);
@@ -184,8 +248,17 @@ std::expected<SkinOptics, InputError> SkinOptics::load(const DataReader& read) {
 SkinOptics SkinOptics::with_constants(const ModelConstants& constants) const {
   SkinOptics copy = *this;
   copy.constants_ = constants;
-  copy.optics_ = with_scattering_scales(base_, constants);
+  copy.optics_ = with_constants_applied(base_, constants);
   return copy;
+}
+
+std::string SkinOptics::constants_digest() const {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  const auto specs = model_spec(model_).constants;
+  const auto values = constant_values(model_, constants_);
+  for (std::size_t i = 0; i < specs.size() && i < values.size(); ++i)
+    hash = fnv1a(hash, fmt::format("{}={:.17g};", specs[i].name, values[i]));
+  return fmt::format("{:016x}", hash);
 }
 
 std::vector<std::string> SkinOptics::site_names() const {

@@ -20,47 +20,67 @@ double quantile(std::vector<double> values, double q) {
   return values[below] + (position - static_cast<double>(below)) * (values[above] - values[below]);
 }
 
-constexpr std::size_t kTunedCount = 5;
-using Vector = std::array<double, kTunedCount>;
+using Vector = std::vector<double>;
 
-// The tuned constants as a point of the search: logarithms, so every value stays positive
-// and a step means the same relative change whatever the scale.
-Vector to_point(const ModelConstants& c) {
-  Vector x{};
-  const auto fields = model_constant_fields();
-  for (std::size_t i = 0; i < kTunedCount; ++i) x[i] = std::log(std::max(c.*fields[i].second, 1e-3));
-  return x;
+// The tuned constants as a point of the search: logarithms of scales and lengths, so every
+// value stays positive and a step means the same relative change whatever the scale. Held
+// constants are not part of it.
+double to_coordinate(const ConstantSpec& spec, double value) {
+  return spec.scale == ConstantScale::logarithmic ? std::log(std::max(value, 1e-3)) : value;
+}
+double from_coordinate(const ConstantSpec& spec, double x) {
+  return spec.scale == ConstantScale::logarithmic ? std::exp(x) : x;
 }
 
-// The range each constant may take: wide enough for the tuning to matter, narrow enough that
-// the layers stay recognisable skin (without it the search can trade a scattering epidermis
-// for a thick clear one that fits a little better and means nothing).
-constexpr std::array<std::pair<double, double>, kTunedCount> kPlausible = {{
-    {0.33, 3.0},  // epidermis_scattering_scale
-    {0.33, 3.0},  // dermis_scattering_scale
-    {0.5, 2.0},   // epidermis_thickness_scale
-    {0.5, 5.0},   // dermis_thickness_scale: also stands in for a hypodermis that is not quite white
-    {0.5, 20.0},  // lateral_radius_mm
-}};
+class SearchSpace {
+ public:
+  SearchSpace(ModelKind model, ModelConstants start, const std::vector<std::pair<std::string, double>>& held)
+      : model_(model), start_(std::move(start)) {
+    for (const auto& [name, value] : held) *constant_field(start_, name) = value;
+    const auto specs = model_spec(model).constants;
+    for (std::size_t i = 0; i < specs.size(); ++i)
+      if (std::ranges::none_of(held, [&](const auto& h) { return h.first == specs[i].name; })) searched_.push_back(i);
+  }
 
-bool plausible(const Vector& x) {
-  for (std::size_t i = 0; i < kTunedCount; ++i)
-    if (x[i] < std::log(kPlausible[i].first) || x[i] > std::log(kPlausible[i].second)) return false;
-  return true;
-}
+  Vector start_point() const {
+    const auto specs = model_spec(model_).constants;
+    const auto values = constant_values(model_, start_);
+    Vector x;
+    for (const std::size_t i : searched_) x.push_back(to_coordinate(specs[i], values[i]));
+    return x;
+  }
 
-ModelConstants from_point(const Vector& x) {
-  ModelConstants c;
-  const auto fields = model_constant_fields();
-  for (std::size_t i = 0; i < kTunedCount; ++i) c.*fields[i].second = std::exp(x[i]);
-  return c;
-}
+  ModelConstants constants(const Vector& x) const {
+    const auto specs = model_spec(model_).constants;
+    auto values = constant_values(model_, start_);
+    for (std::size_t k = 0; k < searched_.size(); ++k)
+      values[searched_[k]] = from_coordinate(specs[searched_[k]], x[k]);
+    return constants_from_values(model_, values);
+  }
+
+  // Each constant's range (ConstantSpec): wide enough for the tuning to matter, narrow enough
+  // that the layers stay recognisable skin (without it the search can trade a scattering
+  // epidermis for a thick clear one that fits a little better and means nothing).
+  bool plausible(const Vector& x) const {
+    const auto specs = model_spec(model_).constants;
+    for (std::size_t k = 0; k < searched_.size(); ++k) {
+      const ConstantSpec& spec = specs[searched_[k]];
+      if (x[k] < to_coordinate(spec, spec.lower) || x[k] > to_coordinate(spec, spec.upper)) return false;
+    }
+    return true;
+  }
+
+ private:
+  ModelKind model_;
+  ModelConstants start_;
+  std::vector<std::size_t> searched_;
+};
 
 // Nelder & Mead (1965) with the usual coefficients, minimising f from x0 with initial step.
 template <typename F>
 std::pair<Vector, double> nelder_mead(F&& f, const Vector& x0, double step, int max_evaluations, int& evaluations) {
-  constexpr std::size_t n = kTunedCount;
-  std::array<std::pair<Vector, double>, n + 1> simplex;
+  const std::size_t n = x0.size();
+  std::vector<std::pair<Vector, double>> simplex(n + 1);
   simplex[0] = {x0, f(x0)};
   for (std::size_t i = 0; i < n; ++i) {
     Vector x = x0;
@@ -68,17 +88,17 @@ std::pair<Vector, double> nelder_mead(F&& f, const Vector& x0, double step, int 
     simplex[i + 1] = {x, f(x)};
   }
   evaluations = static_cast<int>(n + 1);
-  const auto along = [](const Vector& from, const Vector& to, double t) {
-    Vector out{};
+  const auto along = [n](const Vector& from, const Vector& to, double t) {
+    Vector out(n);
     for (std::size_t i = 0; i < n; ++i) out[i] = from[i] + t * (to[i] - from[i]);
     return out;
   };
   while (evaluations < max_evaluations) {
     std::ranges::sort(simplex, {}, &std::pair<Vector, double>::second);
     if (simplex[n].second - simplex[0].second < 1e-7) break;
-    Vector centroid{};
+    Vector centroid(n, 0.0);
     for (std::size_t k = 0; k < n; ++k)
-      for (std::size_t i = 0; i < n; ++i) centroid[i] += simplex[k].first[i] / n;
+      for (std::size_t i = 0; i < n; ++i) centroid[i] += simplex[k].first[i] / static_cast<double>(n);
     auto& worst = simplex[n];
     const Vector reflected = along(worst.first, centroid, 2.0);
     const double fr = f(reflected);
@@ -146,23 +166,29 @@ std::expected<FitScores, std::string> score_fits(const Fitter& fitter, const std
 
 std::expected<TuningResult, std::string> tune_constants(const Fitter& start, const std::vector<Spectrum>& training,
                                                         const TuningOptions& options) {
-  if (auto site = start.optics().site(options.site); !site) return std::unexpected(site.error());
-  const FitOptions fit_options{.site = options.site, .lateral_diffusion = true, .weights = {}};
+  const ModelKind model = options.fit.model;
+  if (!start.has(model)) return std::unexpected(fmt::format("the {} model is not loaded", to_string(model)));
+  const SkinOptics& optics = start.optics(model);
+  if (auto site = optics.site(options.fit.site); !site) return std::unexpected(site.error());
+  for (const auto& [name, value] : options.held_constants)
+    if (std::ranges::none_of(model_spec(model).constants, [&](const ConstantSpec& c) { return c.name == name; }))
+      return std::unexpected(fmt::format("the {} model has no constant '{}'", to_string(model), name));
+  ModelConstants initial = optics.constants();
+  if (initial.lateral_radius_mm <= 0) initial.lateral_radius_mm = 3;  // the search needs a finite start
+  const SearchSpace space(model, initial, options.held_constants);
   const auto mean_rmse = [&](const Vector& x) {
-    if (!plausible(x)) return std::numeric_limits<double>::infinity();
-    const Fitter candidate(start.optics().with_constants(from_point(x)), start.colorimetry());
+    if (!space.plausible(x)) return std::numeric_limits<double>::infinity();
+    const Fitter candidate = start.with_optics(optics.with_constants(space.constants(x)));
     std::vector<double> rmse(training.size(), std::numeric_limits<double>::infinity());
     parallel_for(training.size(), options.threads, [&](std::size_t i) {
-      if (auto fit = candidate.fit(training[i], fit_options)) rmse[i] = fit->rmse;
+      if (auto fit = candidate.fit(training[i], options.fit)) rmse[i] = fit->rmse;
     });
     return std::accumulate(rmse.begin(), rmse.end(), 0.0) / static_cast<double>(rmse.size());
   };
-  ModelConstants initial = start.optics().constants();
-  if (initial.lateral_radius_mm <= 0) initial.lateral_radius_mm = 3;  // the search needs a finite start
   TuningResult result;
   const auto [best, value] =
-      nelder_mead(mean_rmse, to_point(initial), 0.3, options.max_evaluations, result.evaluations);
-  result.constants = from_point(best);
+      nelder_mead(mean_rmse, space.start_point(), 0.3, options.max_evaluations, result.evaluations);
+  result.constants = space.constants(best);
   result.mean_rmse = value;
   return result;
 }

@@ -6,7 +6,9 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <ostream>
+#include <stdexcept>
 
+#include "skinspec/records/fit_record.hpp"
 #include "skinspec/records/record_json.hpp"
 
 namespace skinspec::records {
@@ -85,6 +87,38 @@ std::string value_at(const Column& column, double wavelength) {
   return found == column.end() ? std::string() : number(found->second);
 }
 
+// One column per parameter of any model, in the models' order: a fit leaves the columns of
+// parameters its model does not have empty.
+const std::vector<std::string>& parameter_columns() {
+  static const auto columns = [] {
+    std::vector<std::string> names;
+    for (const auto model : kModelKinds)
+      for (const auto& spec : model_spec(model).params)
+        if (std::ranges::find(names, spec.name) == names.end()) names.emplace_back(spec.name);
+    return names;
+  }();
+  return columns;
+}
+
+std::string value_of(const Fit& fit, const std::string& name) {
+  const auto found = std::ranges::find(fit.params, name, &store::FitParam::name);
+  return found == fit.params.end() ? std::string() : number(found->value);
+}
+
+// The parameters the spectrum did not determine, with why: "bilirubin:at_bound;...".
+std::string not_determined(const Fit& fit) {
+  const auto result = to_fit_result(fit);
+  if (!result) throw std::runtime_error(result.error());
+  std::string out;
+  for (std::size_t i = 0; i < result->determination.size(); ++i) {
+    const auto& d = result->determination[i];
+    if (d.determined()) continue;
+    if (!out.empty()) out += ';';
+    out += fmt::format("{}:{}", fit.params[i].name, to_string(d.status));
+  }
+  return out;
+}
+
 void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, const Fit* fit) {
   const Column radiance = column_of(m.radiance.wavelength_nm, m.radiance.values);
   const Column sd = column_of(m.radiance_sd.wavelength_nm, m.radiance_sd.values);
@@ -98,13 +132,14 @@ void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, c
                                    to_string(s.state), m.id, to_string(m.kind), csv_field(m.label), m.simulated ? 1 : 0,
                                    m.quality_code, m.reading_count, json_time(m.started_at));
   if (fit) {
-    prefix += fmt::format("{},", fit->id);
-    for (const double p : fit->params) prefix += number(p) + ",";
+    prefix += fmt::format("{},{},", fit->id, csv_field(fit->model));
+    for (const auto& name : parameter_columns()) prefix += value_of(*fit, name) + ",";
     prefix +=
-        fmt::format("{},{},{},{},{},{},", number(fit->rmse), number(fit->max_abs_error), number(fit->delta_e00_d65),
-                    fit->converged ? 1 : 0, csv_field(fit->model_version), csv_field(fit->tables_digest));
+        fmt::format("{},{},{},{},{},{},{},{},", csv_field(not_determined(*fit)), number(fit->rmse),
+                    number(fit->max_abs_error), number(fit->delta_e00_d65), fit->converged ? 1 : 0,
+                    csv_field(fit->model_version), csv_field(fit->tables_digest), csv_field(fit->constants_digest));
   } else {
-    prefix += std::string(12, ',');
+    prefix += std::string(parameter_columns().size() + 10, ',');
   }
   for (const auto& [w, unused] : grid) {
     out << prefix << number(w) << ',' << value_at(radiance, w) << ',' << value_at(sd, w) << ','
@@ -116,9 +151,10 @@ void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, c
 
 void write_csv_header(std::ostream& out) {
   out << "session_id,subject,site,session_state,measurement_id,kind,label,simulated,quality_code,reading_count,"
-         "started_at,fit_id,surface_reflectance,melanin,oxyhemoglobin,deoxyhemoglobin,bilirubin,rmse,max_abs_error,"
-         "delta_e00_d65,converged,model_version,tables_digest,wavelength_nm,radiance,radiance_sd,reflectance,"
-         "fitted\n";
+         "started_at,fit_id,model,";
+  for (const auto& name : parameter_columns()) out << name << ',';
+  out << "not_determined,rmse,max_abs_error,delta_e00_d65,converged,model_version,tables_digest,constants_digest,"
+         "wavelength_nm,radiance,radiance_sd,reflectance,fitted\n";
 }
 
 Result<void> export_session(const Store& store, Id session_id, ExportFormat format, std::ostream& out) {

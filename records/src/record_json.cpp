@@ -4,6 +4,8 @@
 
 #include <chrono>
 
+#include <stdexcept>
+
 #include "fit_json.hpp"
 #include "skinspec/records/fit_record.hpp"
 
@@ -78,6 +80,7 @@ json to_json(const store::Session& s) {
           {"site", s.site},
           {"operator", s.operator_name},
           {"notes", s.notes},
+          {"model", s.model},
           {"white_standard_id", optional_id(s.white_standard_id)},
           {"state", store::to_string(s.state)},
           {"created_at", json_time(s.created_at)},
@@ -124,7 +127,10 @@ json to_json(const store::RejectedReading& r) {
 }
 
 json to_json(const store::Fit& f) {
-  json out = fit_to_json("measurement-" + std::to_string(f.measurement_id), to_fit_result(f));
+  const auto result = to_fit_result(f);
+  // A store of this schema version holds only fits this version wrote or migrated.
+  if (!result) throw std::runtime_error(result.error());
+  json out = fit_to_json("measurement-" + std::to_string(f.measurement_id), *result);
   out["id"] = f.id;
   out["measurement_id"] = f.measurement_id;
   out["samples_ignored"] = f.samples_ignored;
@@ -132,6 +138,7 @@ json to_json(const store::Fit& f) {
   out["options"] = embedded(f.options);
   out["model_version"] = f.model_version;
   out["tables_digest"] = f.tables_digest;
+  out["constants_digest"] = f.constants_digest;
   out["created_at"] = json_time(f.created_at);
   return out;
 }

@@ -7,7 +7,10 @@ namespace skinspec::render {
 std::expected<Image, std::string> render_skin(const SkinOptics& optics, const Colorimetry& colorimetry,
                                               const Skin& skin, const PigmentScales& scales, const Spectrum& illuminant,
                                               const Scene& scene, const RenderSettings& settings) {
-  const auto params = scaled_params(skin.params, scales);
+  if (optics.model() != skin.model)
+    return std::unexpected(fmt::format("a skin of the {} model cannot be rendered with the {} model's optics",
+                                       to_string(skin.model), to_string(optics.model())));
+  const auto params = scaled_params(skin.model, skin.params, scales);
   if (!params) return std::unexpected(params.error());
   const Spectrum reflectance = skin_reflectance_spectrum(optics, skin.site, *params);
   return render(scene, spectral_colours(colorimetry, reflectance, illuminant), settings);

@@ -7,22 +7,42 @@
 
 namespace skinspec::render {
 
-std::expected<Params, std::string> scaled_params(const Params& params, const PigmentScales& scales) {
-  for (int p = 0; p < kParamCount; ++p)
-    if (!(params[p] >= kLowerBounds[p] && params[p] <= kUpperBounds[p]))
-      return std::unexpected(
-          fmt::format("{} = {} is outside {}..{}", kParamNames[p], params[p], kLowerBounds[p], kUpperBounds[p]));
-  const std::pair<Param, double> factors[] = {{kMelanin, scales.melanin},
-                                              {kOxyhemoglobin, scales.oxyhemoglobin},
-                                              {kDeoxyhemoglobin, scales.deoxyhemoglobin},
-                                              {kBilirubin, scales.bilirubin}};
+namespace {
+
+std::expected<void, std::string> check_scale(std::string_view pigment, double factor) {
+  if (factor >= 0 && factor <= kMaxPigmentScale) return {};
+  return std::unexpected(fmt::format("the scale of {} must be 0..{}, not {}", pigment, kMaxPigmentScale, factor));
+}
+
+}  // namespace
+
+std::expected<Params, std::string> scaled_params(ModelKind model, const Params& params, const PigmentScales& scales) {
+  const auto specs = model_spec(model).params;
+  if (params.size() != specs.size())
+    return std::unexpected(
+        fmt::format("{} parameters for the {} model, which has {}", params.size(), to_string(model), specs.size()));
+  for (std::size_t p = 0; p < specs.size(); ++p)
+    if (!(params[p] >= specs[p].domain_lower && params[p] <= specs[p].domain_upper))
+      return std::unexpected(fmt::format("{} = {} is outside {}..{}", specs[p].name, params[p], specs[p].domain_lower,
+                                         specs[p].domain_upper));
+  const std::pair<std::string_view, double> factors[] = {{"melanin", scales.melanin},
+                                                         {"oxyhemoglobin", scales.oxyhemoglobin},
+                                                         {"deoxyhemoglobin", scales.deoxyhemoglobin},
+                                                         {"bilirubin", scales.bilirubin}};
+  for (const auto& [pigment, factor] : factors)
+    if (auto ok = check_scale(pigment, factor); !ok) return std::unexpected(ok.error());
   Params out = params;
-  for (const auto& [p, factor] : factors) {
-    if (!(factor >= 0 && factor <= kMaxPigmentScale))
-      return std::unexpected(
-          fmt::format("the scale of {} must be 0..{}, not {}", kParamNames[p], kMaxPigmentScale, factor));
-    out[p] *= factor;
+  out[kMelanin] *= scales.melanin;
+  out[kBilirubin] *= scales.bilirubin;
+  if (model == ModelKind::paper) {
+    out[kOxyhemoglobin] *= scales.oxyhemoglobin;
+    out[kDeoxyhemoglobin] *= scales.deoxyhemoglobin;
+    return out;
   }
+  const double oxy = params[kTotalHemoglobin] * params[kOxygenSaturation] * scales.oxyhemoglobin;
+  const double deoxy = params[kTotalHemoglobin] * (1 - params[kOxygenSaturation]) * scales.deoxyhemoglobin;
+  out[kTotalHemoglobin] = oxy + deoxy;
+  if (oxy + deoxy > 0) out[kOxygenSaturation] = oxy / (oxy + deoxy);
   return out;
 }
 

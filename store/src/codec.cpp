@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "sqlite.hpp"
@@ -73,6 +74,34 @@ std::vector<std::string> decode_text_list(std::string_view json, std::string_vie
     items.push_back(item.get<std::string>());
   }
   return items;
+}
+
+std::string encode_fit_params(const std::vector<FitParam>& params) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& p : params) {
+    const auto standard_error = std::isfinite(p.standard_error) ? nlohmann::json(p.standard_error) : nlohmann::json();
+    out.push_back({{"name", p.name}, {"value", p.value}, {"standard_error", standard_error}});
+  }
+  return out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::vector<FitParam> decode_fit_params(std::string_view json, std::string_view what) {
+  const auto parsed = nlohmann::json::parse(json, nullptr, false);
+  const auto corrupt = [&] {
+    fail(StoreError::Kind::corrupt, fmt::format("{}: not a JSON array of {{name, value, standard_error}}", what));
+  };
+  if (parsed.is_discarded() || !parsed.is_array() || parsed.empty()) corrupt();
+  std::vector<FitParam> params;
+  for (const auto& item : parsed) {
+    if (!item.is_object() || !item.contains("name") || !item["name"].is_string() || !item.contains("value") ||
+        !item["value"].is_number() || !item.contains("standard_error"))
+      corrupt();
+    const auto& se = item["standard_error"];
+    if (!se.is_null() && !se.is_number()) corrupt();
+    params.push_back({item["name"].get<std::string>(), item["value"].get<double>(),
+                      se.is_null() ? std::numeric_limits<double>::infinity() : se.get<double>()});
+  }
+  return params;
 }
 
 std::string encode_job_error(const JobError& error) {

@@ -23,6 +23,11 @@ Time from_micros(std::int64_t micros);
 std::string encode_text_list(const std::vector<std::string>& items);
 std::vector<std::string> decode_text_list(std::string_view json, std::string_view what);
 
+// A fit's parameters as the JSON array [{"name", "value", "standard_error"}], a standard error
+// that is not finite as null (read back as infinity: the fit could not bound it).
+std::string encode_fit_params(const std::vector<FitParam>& params);
+std::vector<FitParam> decode_fit_params(std::string_view json, std::string_view what);
+
 // A job's error as the JSON object {"code": "...", "message": "..."}.
 std::string encode_job_error(const JobError& error);
 JobError decode_job_error(std::string_view json, std::string_view what);

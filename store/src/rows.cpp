@@ -64,6 +64,7 @@ Session read_session(const Statement& row) {
   out.created_at = time_at(row, 7);
   out.updated_at = time_at(row, 8);
   out.ended_at = optional_time(row, 9);
+  out.model = row.text(10);
   return out;
 }
 
@@ -99,28 +100,28 @@ Fit read_fit(const Statement& row) {
   out.id = row.integer(0);
   out.measurement_id = row.integer(1);
   out.site = row.text(2);
-  for (std::size_t i = 0; i < kFitParamCount; ++i) {
-    out.params[i] = row.real(3 + static_cast<int>(i));
-    out.standard_error[i] = row.real(8 + static_cast<int>(i));
-  }
-  out.rmse = row.real(13);
-  out.max_abs_error = row.real(14);
-  out.delta_e00_d65 = row.real(15);
-  out.iterations = static_cast<int>(row.integer(16));
-  out.converged = row.integer(17) != 0;
-  out.solver_summary = row.text(18);
-  out.options = row.text(19);
-  out.model_version = row.text(20);
-  out.tables_digest = row.text(21);
-  auto measured = decode_spectrum(row.blob(22), "fits.measured");
-  auto fitted = decode_spectrum(row.blob(23), "fits.fitted");
+  out.model = row.text(3);
+  out.params = decode_fit_params(row.text(4), fmt::format("fit {} parameters", out.id));
+  out.assessment = row.text(5);
+  out.rmse = row.real(6);
+  out.max_abs_error = row.real(7);
+  out.delta_e00_d65 = row.real(8);
+  out.iterations = static_cast<int>(row.integer(9));
+  out.converged = row.integer(10) != 0;
+  out.solver_summary = row.text(11);
+  out.options = row.text(12);
+  out.model_version = row.text(13);
+  out.tables_digest = row.text(14);
+  out.constants_digest = row.text(15);
+  auto measured = decode_spectrum(row.blob(16), "fits.measured");
+  auto fitted = decode_spectrum(row.blob(17), "fits.fitted");
   if (measured.wavelength_nm != fitted.wavelength_nm)
     fail(StoreError::Kind::corrupt, fmt::format("fit {}: measured and fitted are on different grids", out.id));
   out.wavelength_nm = std::move(measured.wavelength_nm);
   out.measured = std::move(measured.values);
   out.fitted = std::move(fitted.values);
-  out.samples_ignored = static_cast<int>(row.integer(24));
-  out.created_at = time_at(row, 25);
+  out.samples_ignored = static_cast<int>(row.integer(18));
+  out.created_at = time_at(row, 19);
   return out;
 }
 

@@ -13,15 +13,14 @@ inline constexpr std::string_view kInstrumentColumns =
     "id, model, serial_number, spectral_configuration, connection, created_at, last_seen_at";
 inline constexpr std::string_view kWhiteStandardColumns = "id, name, certificate, reflectance, created_at";
 inline constexpr std::string_view kSessionColumns =
-    "id, subject, site, operator_name, notes, white_standard_id, state, created_at, updated_at, ended_at";
+    "id, subject, site, operator_name, notes, white_standard_id, state, created_at, updated_at, ended_at, model";
 inline constexpr std::string_view kMeasurementColumns =
     "id, session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, quality_code, quality, "
     "units, settings, reading_count, radiance, radiance_sd, reflectance, warnings, raw_reply, started_at, "
     "finished_at, created_at";
 inline constexpr std::string_view kFitColumns =
-    "id, measurement_id, site, surface_reflectance, melanin, oxyhemoglobin, deoxyhemoglobin, bilirubin, "
-    "se_surface_reflectance, se_melanin, se_oxyhemoglobin, se_deoxyhemoglobin, se_bilirubin, rmse, max_abs_error, "
-    "delta_e00_d65, iterations, converged, solver_summary, options, model_version, tables_digest, measured, fitted, "
+    "id, measurement_id, site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, iterations, "
+    "converged, solver_summary, options, model_version, tables_digest, constants_digest, measured, fitted, "
     "samples_ignored, created_at";
 inline constexpr std::string_view kJobColumns =
     "id, kind, request, requested_by, session_id, idempotency_key, state, error, result, created_at, started_at, "

@@ -171,6 +171,60 @@ ALTER TABLE jobs DROP COLUMN error;
 ALTER TABLE jobs RENAME COLUMN typed_error TO error;
 )sql";
 
+// Version 5: fits of any skin model. A fit names its model and keeps that model's parameters
+// as a JSON array [{"name", "value", "standard_error"}] (null where the fit could not bound
+// one), what the spectrum determined as a JSON object, and the digest of the model's tuned
+// constants; a session names the model its samples are fitted with. Earlier fits and sessions
+// are the paper model's, whose five parameter columns become the array; their constants
+// digest is unknown and left empty.
+constexpr std::string_view kVersion5 = R"sql(
+ALTER TABLE sessions ADD COLUMN model TEXT NOT NULL DEFAULT 'paper';
+
+CREATE TABLE fits_v5 (
+  id               INTEGER PRIMARY KEY,
+  measurement_id   INTEGER NOT NULL REFERENCES measurements (id),
+  site             TEXT NOT NULL,
+  model            TEXT NOT NULL,
+  parameters       TEXT NOT NULL CHECK (json_valid(parameters) AND json_type(parameters) = 'array'),
+  assessment       TEXT NOT NULL CHECK (json_valid(assessment) AND json_type(assessment) = 'object'),
+  rmse             REAL NOT NULL,
+  max_abs_error    REAL NOT NULL,
+  delta_e00_d65    REAL NOT NULL,
+  iterations       INTEGER NOT NULL,
+  converged        INTEGER NOT NULL CHECK (converged IN (0, 1)),
+  solver_summary   TEXT NOT NULL,
+  options          TEXT NOT NULL CHECK (json_valid(options)),
+  model_version    TEXT NOT NULL,
+  tables_digest    TEXT NOT NULL,
+  constants_digest TEXT NOT NULL,
+  measured         BLOB NOT NULL,
+  fitted           BLOB NOT NULL,
+  samples_ignored  INTEGER NOT NULL,
+  created_at       INTEGER NOT NULL
+);
+
+INSERT INTO fits_v5
+SELECT id, measurement_id, site, 'paper',
+       json_array(
+                  json_object('name', 'surface_reflectance', 'value', surface_reflectance, 'standard_error',
+                              CASE WHEN abs(se_surface_reflectance) <= 1.7976931348623157e308 THEN se_surface_reflectance END),
+                  json_object('name', 'melanin', 'value', melanin, 'standard_error',
+                              CASE WHEN abs(se_melanin) <= 1.7976931348623157e308 THEN se_melanin END),
+                  json_object('name', 'oxyhemoglobin', 'value', oxyhemoglobin, 'standard_error',
+                              CASE WHEN abs(se_oxyhemoglobin) <= 1.7976931348623157e308 THEN se_oxyhemoglobin END),
+                  json_object('name', 'deoxyhemoglobin', 'value', deoxyhemoglobin, 'standard_error',
+                              CASE WHEN abs(se_deoxyhemoglobin) <= 1.7976931348623157e308 THEN se_deoxyhemoglobin END),
+                  json_object('name', 'bilirubin', 'value', bilirubin, 'standard_error',
+                              CASE WHEN abs(se_bilirubin) <= 1.7976931348623157e308 THEN se_bilirubin END)),
+       '{}', rmse, max_abs_error, delta_e00_d65, iterations, converged, solver_summary, options, model_version,
+       tables_digest, '', measured, fitted, samples_ignored, created_at
+FROM fits;
+
+DROP TABLE fits;
+ALTER TABLE fits_v5 RENAME TO fits;
+CREATE INDEX fits_by_measurement ON fits (measurement_id);
+)sql";
+
 // The free-text errors of versions 2 and 3 began with the kind of failure and a colon, under
 // these names; the codes they became in version 4.
 constexpr std::array<std::pair<std::string_view, std::string_view>, 13> kVersion3ErrorKinds = {{
@@ -226,11 +280,12 @@ struct Migration {
   std::string_view after_sql = {};
 };
 
-constexpr std::array<Migration, 4> kMigrations = {{
+constexpr std::array<Migration, 5> kMigrations = {{
     {kVersion1},
     {kVersion2},
     {kVersion3},
     {kVersion4, convert_version3_errors, kVersion4After},
+    {kVersion5},
 }};
 
 }  // namespace

@@ -35,9 +35,13 @@ void check_fit(const Fit& f) {
   detail::check_not_empty(f.site, "the fit's site");
   detail::check_not_empty(f.model_version, "model_version");
   detail::check_not_empty(f.tables_digest, "tables_digest");
-  for (std::size_t i = 0; i < kFitParamCount; ++i) {
-    if (!std::isfinite(f.params[i])) invalid(fmt::format("parameter {} is not finite", kFitParamNames[i]));
+  detail::check_not_empty(f.model, "the fit's model");
+  if (f.params.empty()) invalid("the fit has no parameters");
+  for (const auto& p : f.params) {
+    detail::check_not_empty(p.name, "a fit parameter's name");
+    if (!std::isfinite(p.value)) invalid(fmt::format("parameter {} is not finite", p.name));
   }
+  detail::check_json_object(f.assessment, "fit assessment");
   if (f.measured.size() != f.wavelength_nm.size() || f.fitted.size() != f.wavelength_nm.size()) {
     invalid(fmt::format("fit: {} wavelengths, {} measured, {} fitted values", f.wavelength_nm.size(), f.measured.size(),
                         f.fitted.size()));
@@ -62,18 +66,14 @@ void require_row(Connection& c, std::string_view sql, Id id, std::string_view wh
 Id insert_fit(Connection& c, const Fit& f, Id measurement_id, Time now) {
   const auto measured = detail::encode_spectrum({f.wavelength_nm, f.measured});
   const auto fitted = detail::encode_spectrum({f.wavelength_nm, f.fitted});
-  const auto& p = f.params;
-  const auto& se = f.standard_error;
   c.prepare(
-       "INSERT INTO fits (measurement_id, site, surface_reflectance, melanin, oxyhemoglobin, deoxyhemoglobin, "
-       "bilirubin, se_surface_reflectance, se_melanin, se_oxyhemoglobin, se_deoxyhemoglobin, se_bilirubin, rmse, "
-       "max_abs_error, delta_e00_d65, iterations, converged, solver_summary, options, model_version, tables_digest, "
-       "measured, fitted, samples_ignored, created_at) "
-       "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, "
-       "?23, ?24, ?25)")
-      .bind(measurement_id, f.site, p[0], p[1], p[2], p[3], p[4], se[0], se[1], se[2], se[3], se[4], f.rmse,
-            f.max_abs_error, f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options, f.model_version,
-            f.tables_digest, Blob{measured}, Blob{fitted}, f.samples_ignored, detail::to_micros(now))
+       "INSERT INTO fits (measurement_id, site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, "
+       "iterations, converged, solver_summary, options, model_version, tables_digest, constants_digest, measured, "
+       "fitted, samples_ignored, created_at) "
+       "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)")
+      .bind(measurement_id, f.site, f.model, detail::encode_fit_params(f.params), f.assessment, f.rmse, f.max_abs_error,
+            f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options, f.model_version, f.tables_digest,
+            f.constants_digest, Blob{measured}, Blob{fitted}, f.samples_ignored, detail::to_micros(now))
       .run();
   return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
 }
@@ -230,13 +230,14 @@ Result<Id> Store::create_session(const Session& s) {
   return impl_->write("creating a session", [&](Connection& c) {
     detail::check_not_empty(s.subject, "the session's subject");
     detail::check_not_empty(s.site, "the session's site");
+    detail::check_not_empty(s.model, "the session's model");
     if (s.white_standard_id)
       require_row(c, "SELECT 1 FROM white_standards WHERE id = ?1", *s.white_standard_id, "white standard");
     const auto now = detail::to_micros(impl_->now());
     c.prepare(
-         "INSERT INTO sessions (subject, site, operator_name, notes, white_standard_id, state, created_at, "
-         "updated_at) VALUES (?1, ?2, ?3, ?4, ?5, 'open', ?6, ?6)")
-        .bind(s.subject, s.site, s.operator_name, s.notes, s.white_standard_id, now)
+         "INSERT INTO sessions (subject, site, operator_name, notes, model, white_standard_id, state, created_at, "
+         "updated_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'open', ?7, ?7)")
+        .bind(s.subject, s.site, s.operator_name, s.notes, s.model, s.white_standard_id, now)
         .run();
     return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
   });

@@ -39,22 +39,37 @@ const Colorimetry& colorimetry() {
 
 DataReader source_data_reader() { return directory_reader(SKINSPEC_TEST_DATA_DIR); }
 
-const SkinOptics& shipped_optics() {
-  static const SkinOptics optics = [] {
-    auto loaded = SkinOptics::load(source_data_reader());
-    if (!loaded) die("cannot load the model tables: " + loaded.error().what());
-    return *loaded;
-  }();
-  return optics;
+namespace {
+
+SkinOptics load_optics(ModelKind model) {
+  auto loaded = SkinOptics::load(source_data_reader(), model);
+  if (!loaded) die("cannot load the model tables: " + loaded.error().what());
+  return *loaded;
 }
 
-const SkinOptics& textbook_optics() {
-  static const SkinOptics optics = [] {
-    ModelConstants constants;  // every scale 1
-    constants.lateral_radius_mm = kTypicalLateralRadiusMm;
-    return shipped_optics().with_constants(constants);
-  }();
-  return optics;
+SkinOptics textbook(ModelKind model) {
+  ModelConstants constants;  // every scale 1, no baseline correction
+  constants.lateral_radius_mm = kTypicalLateralRadiusMm;
+  return shipped_optics(model).with_constants(constants);
+}
+
+}  // namespace
+
+const SkinOptics& shipped_optics(ModelKind model) {
+  static const SkinOptics paper = load_optics(ModelKind::paper);
+  static const SkinOptics extended = load_optics(ModelKind::extended);
+  return model == ModelKind::paper ? paper : extended;
+}
+
+const SkinOptics& textbook_optics(ModelKind model) {
+  static const SkinOptics paper = textbook(ModelKind::paper);
+  static const SkinOptics extended = textbook(ModelKind::extended);
+  return model == ModelKind::paper ? paper : extended;
+}
+
+const Fitter& shipped_fitter() {
+  static const Fitter fitter({shipped_optics(ModelKind::paper), shipped_optics(ModelKind::extended)}, colorimetry());
+  return fitter;
 }
 
 }  // namespace skinspec::testing

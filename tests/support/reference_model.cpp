@@ -24,4 +24,19 @@ double eq1(const Coefficients& c, double epidermis_mm, double dermis_mm, const W
   return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, c.Sd, dermis_mm), w.surface_reflectance);
 }
 
+double extended(const Coefficients& c, double wavelength_nm, double epidermis_mm, double dermis_mm,
+                double vessel_radius_mm, const ExtendedParams& p) {
+  const double oxy = p.total_hemoglobin * p.oxygen_saturation, deoxy = p.total_hemoglobin * (1 - p.oxygen_saturation);
+  // Whole blood's mu_a per mm: weight 1.0 is 0.2 % blood, and K = 2 mu_a.
+  const double blood_mu_a = (p.oxygen_saturation * c.Kh + (1 - p.oxygen_saturation) * c.Kdh) / (2 * 0.002);
+  const double x = 2 * blood_mu_a * vessel_radius_mm;
+  const double packaging = vessel_radius_mm > 0 ? (1 - std::exp(-x)) / x : 1.0;
+  const double K_et = c.Ke + p.melanin * c.Km;
+  const double K_dt = c.Kd + packaging * (oxy * c.Kh + deoxy * c.Kdh) + p.bilirubin * c.Kb;
+  const double mu_s_reduced_per_mm =
+      p.dermis_scattering * std::pow(wavelength_nm / 620, -p.dermis_scattering_power) / 10;
+  const double S_d = 0.75 * mu_s_reduced_per_mm;
+  return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, S_d, dermis_mm), p.surface_reflectance);
+}
+
 }  // namespace skinspec::testing::reference

@@ -32,4 +32,16 @@ struct Weights {
 // R(lambda) of eq. 1, with the pigment weights applied exactly as the paper's K_et and K_dt.
 double eq1(const Coefficients& c, double epidermis_mm, double dermis_mm, const Weights& w);
 
+// The extended model's parameters (docs/model.md): blood as total haemoglobin and saturation,
+// the dermis's reduced scattering A (lambda / 620 nm)^-b in cm-1.
+struct ExtendedParams {
+  double surface_reflectance, melanin, total_hemoglobin, oxygen_saturation, bilirubin;
+  double dermis_scattering, dermis_scattering_power;
+};
+
+// R(lambda) of the extended model without lateral diffusion, from eq. 1's layers, with blood
+// packed in vessels of the given radius (0: spread evenly); c.Sd unused.
+double extended(const Coefficients& c, double wavelength_nm, double epidermis_mm, double dermis_mm,
+                double vessel_radius_mm, const ExtendedParams& p);
+
 }  // namespace skinspec::testing::reference

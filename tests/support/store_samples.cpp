@@ -64,6 +64,7 @@ Session sample_session(int n) {
   s.site = n % 2 == 0 ? "forearm" : "cheek";
   s.operator_name = "operator " + std::to_string(n);
   s.notes = "notes, with \"quotes\"\nand a line break";
+  s.model = n % 2 == 0 ? "extended" : "paper";
   return s;
 }
 
@@ -92,8 +93,13 @@ Measurement sample_measurement(Id session_id, int n) {
 Fit sample_fit(int n) {
   Fit f;
   f.site = "forearm";
-  f.params = {0.05 + n * 1e-6, 7.0 + n, 3.0, 2.5, 0.0};
-  f.standard_error = {0.001, 0.2, 0.3, 0.25, std::numeric_limits<double>::infinity()};
+  f.model = "paper";
+  f.params = {{"surface_reflectance", 0.05 + n * 1e-6, 0.001},
+              {"melanin", 7.0 + n, 0.2},
+              {"oxyhemoglobin", 3.0, 0.3},
+              {"deoxyhemoglobin", 2.5, 0.25},
+              {"bilirubin", 0.0, std::numeric_limits<double>::infinity()}};
+  f.assessment = R"({"note":"sample )" + std::to_string(n) + R"("})";
   f.rmse = 0.01 + n * 1e-7;
   f.max_abs_error = 0.03;
   f.delta_e00_d65 = 0.9;
@@ -103,6 +109,7 @@ Fit sample_fit(int n) {
   f.options = R"({"site":"forearm","lateral_diffusion":true})";
   f.model_version = "skinspec 0.1.0";
   f.tables_digest = "3f2a9c0d";
+  f.constants_digest = "77aa01be";
   const auto reflectance = spectrum_of(n, 1e-4, 0.4);
   f.wavelength_nm = reflectance.wavelength_nm;
   f.measured = reflectance.values;
@@ -129,12 +136,13 @@ std::string check_sample_measurement(const Measurement& stored) {
 std::string check_sample_fit(const Fit& stored, int n) {
   const auto expected = sample_fit(n);
   if (stored.params != expected.params) return "params differ";
-  if (stored.standard_error != expected.standard_error) return "standard errors differ";
+  if (stored.model != expected.model || stored.assessment != expected.assessment) return "model or assessment differ";
   if (stored.rmse != expected.rmse || stored.iterations != expected.iterations) return "rmse or iterations differ";
   if (stored.wavelength_nm != expected.wavelength_nm || stored.measured != expected.measured ||
       stored.fitted != expected.fitted)
     return "fitted spectra differ";
-  if (stored.model_version != expected.model_version || stored.tables_digest != expected.tables_digest)
+  if (stored.model_version != expected.model_version || stored.tables_digest != expected.tables_digest ||
+      stored.constants_digest != expected.constants_digest)
     return "provenance differs";
   return "";
 }

@@ -1,8 +1,8 @@
 #pragma once
 // The two-layer Kubelka-Munk skin model of Doi, Tanaka & Tominaga, eq. 1, one wavelength at a
-// time. Templated on the scalar so that Ceres can differentiate exactly what plain double runs.
+// time, in the forms of each model (model_spec.hpp). Templated on the scalar so that Ceres can
+// differentiate exactly what plain double runs.
 
-#include <array>
 #include <cmath>
 #include <span>
 #include <string_view>
@@ -12,17 +12,18 @@
 
 namespace skinspec {
 
-// The five unknowns, in the order of the parameter vector.
-enum Param : int { kSurfaceReflectance, kMelanin, kOxyhemoglobin, kDeoxyhemoglobin, kBilirubin };
-inline constexpr int kParamCount = 5;
-using Params = std::array<double, kParamCount>;
-inline constexpr std::array<std::string_view, kParamCount> kParamNames = {
-    "surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"};
-
-// One wavelength's constants (per mm).
+// One wavelength's constants (per mm), and the logarithm the extended model's scattering power
+// law needs.
 struct OpticsAt {
   double Ke, Se, Kd, Sd, Km, Kh, Kdh, Kb;
+  double log_scattering_ratio = 0;  // ln(lambda / kScatteringPivotNm)
 };
+
+// Where the extended model's dermal scattering power law is pivoted: at 620 nm, in the red
+// where blood absorbs little, so that its amplitude and its power are told apart (docs/model.md).
+inline constexpr double kScatteringPivotNm = 620;
+// Kubelka-Munk S per mm for a reduced scattering coefficient of 1 cm-1: S = 3/4 mu_s'.
+inline constexpr double kScatteringPerTransport = 0.75 * 0.1;
 
 template <typename T>
 struct ReflectanceTransmittance {
@@ -32,14 +33,14 @@ struct ReflectanceTransmittance {
 // Kubelka's reflectance and transmittance of a layer of absorption K, scattering S and
 // thickness D: R = 1/(a + b coth C), T = b/(a sinh C + b cosh C), C = D b S. Written with
 // e^(-2C) so that thick layers tend to R = a - b instead of overflowing cosh.
-template <typename T>
-ReflectanceTransmittance<T> kubelka_layer(const T& K, double S, double D) {
+template <typename T, typename S>
+ReflectanceTransmittance<T> kubelka_layer(const T& K, const S& scattering, double D) {
   using std::exp;
   using std::sqrt;
-  const T k = K / S;
+  const T k = K / scattering;
   const T a = 1.0 + k;
   const T b = sqrt(k * (k + 2.0));  // sqrt(a^2 - 1) without cancellation for small k
-  const T c = D * S * b;
+  const T c = D * scattering * b;
   const T e = exp(-2.0 * c);
   const T denominator = a * (1.0 - e) + b * (1.0 + e);
   return {(1.0 - e) / denominator, 2.0 * b * exp(-c) / denominator};
@@ -48,31 +49,89 @@ ReflectanceTransmittance<T> kubelka_layer(const T& K, double S, double D) {
 // Fraction of the light remitted through the dermis that leaves the skin beyond `radius_mm`
 // from where it entered, so is missed by the instrument: for an exponential radial profile
 // exp(-mu_eff r) of diffusing light, the share beyond r0 is (1 + mu_eff r0) exp(-mu_eff r0).
-template <typename T>
-T lateral_loss(const T& dermis_K, double dermis_S, double radius_mm) {
+template <typename T, typename S>
+T lateral_loss(const T& dermis_K, const S& dermis_S, double radius_mm) {
   using std::exp;
   using std::sqrt;
   if (radius_mm <= 0) return T(0.0);
-  const T mu_a = dermis_K / 2.0;                     // K = 2 mu_a
-  const double mu_s_reduced = dermis_S * 4.0 / 3.0;  // S = 3/4 mu_s'
+  const T mu_a = dermis_K / 2.0;                // K = 2 mu_a
+  const S mu_s_reduced = dermis_S * 4.0 / 3.0;  // S = 3/4 mu_s'
   const T mu_eff = sqrt(3.0 * mu_a * (mu_a + mu_s_reduced));
   const T x = radius_mm * mu_eff;
   return (1.0 + x) * exp(-x);
 }
 
-// Eq. 1: surface reflection Rs, then the epidermis over the dermis over a white hypodermis
-// (reflectance 1). p holds the five unknowns in Param order.
+// The fixed geometry of one model on one site: layer thicknesses, the radius beyond which
+// remitted light is lost (0: none) and the radius of the vessels blood is packed in (0: blood
+// spread evenly; the extended model only).
+struct Geometry {
+  Site site;
+  double lateral_radius_mm = 0;
+  double vessel_radius_mm = 0;
+};
+
+// The share of its absorption that blood packed in cylindrical vessels of radius r exerts,
+// compared with the same blood spread evenly: C = (1 - exp(-x)) / x, x = 2 mu_a,blood r
+// (L. O. Svaasand et al., Lasers Med. Sci. 10, 55 (1995); R. L. P. van Veen, W. Verkruysse and
+// H. J. C. M. Sterenborg, Opt. Lett. 27, 246 (2002)). Strong bands are flattened most.
 template <typename T>
-T skin_reflectance(const OpticsAt& o, const Site& site, double lateral_radius_mm, const T* p) {
-  const T& rs = p[kSurfaceReflectance];
+T vessel_packaging(const T& blood_mu_a_per_mm, double vessel_radius_mm) {
+  using std::expm1;
+  if (vessel_radius_mm <= 0) return T(1.0);
+  const T x = 2.0 * blood_mu_a_per_mm * vessel_radius_mm;
+  return -expm1(-x) / x;
+}
+
+// The dermis over a white hypodermis (reflectance 1): its total reflectance Rdt.
+template <typename T>
+T dermis_over_white(const ReflectanceTransmittance<T>& dermis) {
+  return dermis.r + dermis.t * dermis.t / (1.0 - dermis.r);
+}
+
+// Eq. 1's layers combined: surface reflection rs, then the epidermis over the dermis
+// (`dermis_total`), of which the share `kept` of what it remits reaches the instrument.
+template <typename T>
+T combined_reflectance(const T& rs, const ReflectanceTransmittance<T>& epidermis, const T& dermis_total,
+                       const T& kept) {
+  const T through_dermis = epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
+  return (1.0 - rs) * (epidermis.r + kept * through_dermis) + rs;
+}
+
+// Eq. 1's layers: surface reflection rs, then the epidermis over the dermis over a white
+// hypodermis, less what lateral diffusion carries out of the measured spot.
+template <typename T, typename S>
+T layered_reflectance(const T& rs, const T& epidermis_K, double epidermis_S, const T& dermis_K, const S& dermis_S,
+                      const Site& site, double lateral_radius_mm) {
+  const auto epidermis = kubelka_layer(epidermis_K, epidermis_S, site.epidermis_mm);
+  const auto dermis = kubelka_layer(dermis_K, dermis_S, site.dermis_mm);
+  const T kept = 1.0 - lateral_loss(dermis_K, dermis_S, lateral_radius_mm);
+  return combined_reflectance(rs, epidermis, dermis_over_white(dermis), kept);
+}
+
+// Eq. 1 as the paper writes it: p holds Rs and the four pigment weights (Param order).
+template <typename T>
+T paper_reflectance(const OpticsAt& o, const Geometry& g, const T* p) {
   const T epidermis_K = o.Ke + p[kMelanin] * o.Km;
   const T dermis_K = o.Kd + p[kOxyhemoglobin] * o.Kh + p[kDeoxyhemoglobin] * o.Kdh + p[kBilirubin] * o.Kb;
-  const auto epidermis = kubelka_layer(epidermis_K, o.Se, site.epidermis_mm);
-  const auto dermis = kubelka_layer(dermis_K, o.Sd, site.dermis_mm);
-  const T dermis_total = dermis.r + dermis.t * dermis.t / (1.0 - dermis.r);  // Rdt, hypodermis R = 1
-  const T through_dermis = epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
-  const T kept = 1.0 - lateral_loss(dermis_K, o.Sd, lateral_radius_mm);
-  return (1.0 - rs) * (epidermis.r + kept * through_dermis) + rs;
+  return layered_reflectance(p[kSurfaceReflectance], epidermis_K, o.Se, dermis_K, o.Sd, g.site, g.lateral_radius_mm);
+}
+
+// The extended model (ExtendedParam order): blood as total haemoglobin and its oxygen
+// saturation, packed in vessels, and the dermis's reduced scattering a power law
+// mu_s' = A (lambda / 620 nm)^-b with A and b free. Its melanin and baseline absorption carry the
+// tuned corrections already (SkinOptics::optics()).
+template <typename T>
+T extended_reflectance(const OpticsAt& o, const Geometry& g, const T* p) {
+  using std::exp;
+  const T epidermis_K = o.Ke + p[kMelanin] * o.Km;
+  const T saturation = p[kOxygenSaturation];
+  const T blood_K = saturation * o.Kh + (1.0 - saturation) * o.Kdh;  // weight 1: kReferenceBloodFraction of blood
+  const T packed_K = blood_K * vessel_packaging(blood_K / (2.0 * kReferenceBloodFraction), g.vessel_radius_mm);
+  const T dermis_K = o.Kd + p[kTotalHemoglobin] * packed_K + p[kBilirubin] * o.Kb;
+  const T dermis_S =
+      kScatteringPerTransport * p[kDermisScattering] * exp(-p[kDermisScatteringPower] * o.log_scattering_ratio);
+  return layered_reflectance(p[kSurfaceReflectance], epidermis_K, o.Se, dermis_K, dermis_S, g.site,
+                             g.lateral_radius_mm);
 }
 
 // The model on one wavelength grid for one site.
@@ -83,24 +142,36 @@ class SkinModel {
 
   std::span<const double> grid() const { return grid_; }
   std::size_t size() const { return at_.size(); }
-  const Site& site() const { return site_; }
+  const Site& site() const { return geometry_.site; }
+  const Geometry& geometry() const { return geometry_; }
+  // The constants at sample i.
+  const OpticsAt& optics_at(std::size_t i) const { return at_[i]; }
 
+  ModelKind kind() const { return kind_; }
+  std::size_t param_count() const { return model_spec(kind_).params.size(); }
+
+  // p holds param_count() values in the order of the model's ParamSpec table.
   template <typename T>
   T reflectance_at(std::size_t i, const T* p) const {
-    return skin_reflectance(at_[i], site_, lateral_radius_mm_, p);
+    return kind_ == ModelKind::paper ? paper_reflectance(at_[i], geometry_, p)
+                                     : extended_reflectance(at_[i], geometry_, p);
   }
+  // The reflectance at sample i and, when `gradient` is not null, its derivative with respect
+  // to each of the param_count() parameters, exactly (model_gradient.cpp).
+  double reflectance_and_gradient(std::size_t i, const double* p, double* gradient) const;
+  // Requires p.size() == param_count().
   std::vector<double> reflectance(const Params& p) const;
 
-  // The most negative pigment weights that still leave every layer's absorption positive
-  // (with margin), even when all pigments of a layer are that negative at once: a solver may
-  // wander there briefly without the model turning into NaN.
+  // The most negative absorber amounts that still leave every layer's absorption positive
+  // (with margin), even when all absorbers of a layer are that negative at once: a solver may
+  // wander there briefly without the model turning into NaN. Other entries are 0.
   Params lowest_safe_weights() const;
 
  private:
+  ModelKind kind_;
   std::vector<double> grid_;
   std::vector<OpticsAt> at_;
-  Site site_;
-  double lateral_radius_mm_;
+  Geometry geometry_;
 };
 
 }  // namespace skinspec

@@ -1,7 +1,9 @@
 #pragma once
-// Choosing the model's fixed constants (scattering and thickness scales, lateral-diffusion
-// radius) on measured skin: the constants that minimise the mean fit RMSE of a training set,
-// found by a Nelder-Mead search over their logarithms. Repeatable: no randomness.
+// Choosing a model's fixed constants (those its ConstantSpec table names: scattering and
+// thickness scales, lateral-diffusion radius, baseline-absorption correction) on measured skin:
+// the constants that minimise the mean fit RMSE of a training set, found by a Nelder-Mead
+// search over their logarithms (or values, for coefficients that may be negative) within
+// their plausible ranges. Repeatable: no randomness.
 
 #include <expected>
 #include <string>
@@ -33,9 +35,11 @@ std::expected<FitScores, std::string> score_fits(const Fitter& fitter, const std
                                                  const FitOptions& options, unsigned threads = 0);
 
 struct TuningOptions {
-  std::string site = "forearm";
+  FitOptions fit;  // how each training spectrum is fitted: the model, site, held parameters
   int max_evaluations = 300;
   unsigned threads = 0;
+  // Constants kept at a value instead of searched: (name as in the model's ConstantSpec, value).
+  std::vector<std::pair<std::string, double>> held_constants;
 };
 
 struct TuningResult {
@@ -44,6 +48,8 @@ struct TuningResult {
   int evaluations = 0;
 };
 
+// Starts from start.optics(options.fit.model)'s constants. Errors: a model not loaded, an
+// unknown site, a held constant the model does not have.
 std::expected<TuningResult, std::string> tune_constants(const Fitter& start, const std::vector<Spectrum>& training,
                                                         const TuningOptions& options);
 

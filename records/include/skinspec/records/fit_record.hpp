@@ -1,8 +1,9 @@
 #pragma once
 // The one place where the fitter's results and the store's fit records meet: a FitResult as a
 // store::Fit (for the service's refits and the daemon's measurement jobs) and back (for the
-// stored fit's JSON).
+// stored fit's JSON, renders and exports).
 
+#include <expected>
 #include <string>
 
 #include "skinspec/fit/fitter.hpp"
@@ -13,12 +14,14 @@ namespace skinspec::records {
 // The software a stored fit names as its model_version: "skinspec <version>".
 std::string model_version();
 
-// `result` as the store keeps it: the options it was fitted with ({"site", "lateral_diffusion"}),
-// model_version() and the digest of the optical tables behind the fitter. The caller sets
-// measurement_id (record_measurement does it for a fit stored with its measurement).
-store::Fit to_store_fit(const FitResult& result, const FitOptions& options, const std::string& tables_digest);
+// `result` as the store keeps it: its model and parameters by name, what the spectrum
+// determined, the options it was fitted with ({"site", "lateral_diffusion"}), model_version()
+// and the digests of the tables and constants of `optics` (the model that fitted it). The
+// caller sets measurement_id (record_measurement does it for a fit stored with its measurement).
+store::Fit to_store_fit(const FitResult& result, const FitOptions& options, const SkinOptics& optics);
 
-// A stored fit's values as the fitter gave them.
-FitResult to_fit_result(const store::Fit& fit);
+// A stored fit's values as the fitter gave them; an error when its model is not one this
+// version knows or its parameters are not that model's.
+std::expected<FitResult, std::string> to_fit_result(const store::Fit& fit);
 
 }  // namespace skinspec::records

@@ -9,13 +9,15 @@
 
 namespace skinspec::render {
 
-// A skin as the fit describes it: its site (layer thicknesses) and five parameters.
+// A skin as a fit describes it: its site (layer thicknesses) and its model's parameters.
 struct Skin {
   Site site;
-  Params params{};
+  Params params;
+  ModelKind model = ModelKind::paper;
 };
 
-// Eq. 2-6 for `skin` with its pigments scaled, under `illuminant`, in `scene`.
+// Eq. 2-6 for `skin` with its pigments scaled, under `illuminant`, in `scene`; `optics` must
+// be those of the skin's model.
 std::expected<Image, std::string> render_skin(const SkinOptics& optics, const Colorimetry& colorimetry,
                                               const Skin& skin, const PigmentScales& scales, const Spectrum& illuminant,
                                               const Scene& scene, const RenderSettings& settings);

@@ -18,12 +18,15 @@ struct PigmentScales {
 };
 inline constexpr double kMaxPigmentScale = 100;
 
-// The parameters with each pigment weight multiplied by its scale; an error when a scale is
-// negative, above kMaxPigmentScale or not finite, or a parameter lies outside the fit's bounds.
-std::expected<Params, std::string> scaled_params(const Params& params, const PigmentScales& scales);
+// A model's parameters with each pigment multiplied by its scale (in the extended model, the
+// oxy- and deoxy-haemoglobin its total haemoglobin and saturation stand for); an error when a
+// scale is negative, above kMaxPigmentScale or not finite, or a parameter lies outside the
+// range its equations hold for.
+std::expected<Params, std::string> scaled_params(ModelKind model, const Params& params, const PigmentScales& scales);
 
-// R(lambda) on 380-780 nm every 1 nm. Without the lateral-loss correction: that models light
-// an instrument's aperture misses, while an eye looking at a hand sees all of it.
+// R(lambda) on 380-780 nm every 1 nm, in optics' model. Without the lateral-loss correction:
+// that models light an instrument's aperture misses, while an eye looking at a hand sees all
+// of it.
 Spectrum skin_reflectance_spectrum(const SkinOptics& optics, const Site& site, const Params& params);
 
 // Eq. 6 applied to the two spectra of eq. 2. Because F has no wavelength dependence here (one

@@ -83,6 +83,7 @@ struct Session {
   std::string site;     // body site, as the model names them ("forearm")
   std::string operator_name;
   std::string notes;
+  std::string model;  // the skin model its samples are fitted with ("paper", "extended"); required
   std::optional<Id> white_standard_id{};
   SessionState state = SessionState::open;  // new sessions are always open
   Time created_at{}, updated_at{};
@@ -132,25 +133,29 @@ struct RejectedReading {
   Time created_at{};      // when it was stored
 };
 
-// The fit's five parameters, in this order.
-inline constexpr std::size_t kFitParamCount = 5;
-using FitParams = std::array<double, kFitParamCount>;
-inline constexpr std::array<std::string_view, kFitParamCount> kFitParamNames = {
-    "surface_reflectance", "melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"};
+// One fitted parameter of a fit, named as its model names it.
+struct FitParam {
+  std::string name;
+  double value = 0;           // finite
+  double standard_error = 0;  // infinite where the fit could not bound it (stored as null)
+  bool operator==(const FitParam&) const = default;
+};
 
 struct Fit {
   Id id = 0;
   Id measurement_id = 0;  // set by record_measurement when stored with its measurement
   std::string site;
-  FitParams params{};          // finite
-  FitParams standard_error{};  // may be infinite (undetermined); NaN reads back as NaN
+  std::string model;              // the skin model fitted ("paper", "extended")
+  std::vector<FitParam> params;   // in the model's order; at least one
+  std::string assessment = "{}";  // a JSON object: what the spectrum determined (records/ writes and reads it)
   double rmse = 0, max_abs_error = 0, delta_e00_d65 = 0;
   int iterations = 0;
   bool converged = false;
   std::string solver_summary;
-  std::string options = "{}";  // a JSON object: the fit options used
-  std::string model_version;   // the program and version that fitted
-  std::string tables_digest;   // digest of the optical tables behind the model
+  std::string options = "{}";    // a JSON object: the fit options used
+  std::string model_version;     // the program and version that fitted
+  std::string tables_digest;     // digest of every table behind the model, its constants included
+  std::string constants_digest;  // digest of the model's tuned constants alone (empty before schema 5)
   // The samples that were fitted, equal lengths.
   std::vector<double> wavelength_nm, measured, fitted;
   int samples_ignored = 0;

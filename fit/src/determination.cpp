@@ -1,0 +1,242 @@
+#include "determination.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "solver.hpp"
+
+namespace skinspec::detail {
+
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// An imprecise parameter correlated above this with another is "correlated" with it: the
+// spectrum sees mainly a combination of the two (docs/model.md, "What the spectrum determines").
+constexpr double kCorrelationLimit = 0.9;
+
+// The standard error up to which an estimate counts as determined.
+double precision(double absolute, double relative, double value) {
+  return std::max(absolute, relative * std::abs(value));
+}
+
+bool on_bound(const ParamSpec& spec, double value, Pin pin) {
+  if (pin != Pin::none) return true;
+  const double tolerance = 1e-9 * (spec.upper - spec.lower);
+  return value <= spec.lower + tolerance || value >= spec.upper - tolerance;
+}
+
+// sigma^2 (J^T J)^-1 over the free parameters, with sigma^2 estimated from the residuals.
+// Columns are scaled to unit norm first so that one threshold tells the null space of J from
+// parameters that merely have different units. A pseudo-inverse keeps parameters the data
+// cannot see (a dermis hidden by melanin) from poisoning the others: their variance is
+// infinite instead.
+Eigen::MatrixXd covariance(const Eigen::MatrixXd& j_free, double cost) {
+  const auto n = j_free.rows(), k = j_free.cols();
+  Eigen::MatrixXd c = Eigen::MatrixXd::Constant(k, k, kNaN);
+  if (k == 0) return c;
+  Eigen::VectorXd scale = j_free.colwise().norm().transpose();
+  const double sigma2 = 2 * cost / static_cast<double>(std::max<Eigen::Index>(1, n - k));
+  std::vector<bool> invisible(static_cast<std::size_t>(k));
+  for (Eigen::Index i = 0; i < k; ++i) {
+    invisible[static_cast<std::size_t>(i)] = !(scale(i) > 0);
+    if (!(scale(i) > 0)) scale(i) = 1;
+  }
+  const Eigen::MatrixXd scaled = j_free * scale.cwiseInverse().asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled.transpose() * scaled);
+  const auto& values = eigen.eigenvalues();
+  const auto& vectors = eigen.eigenvectors();
+  const double tiny = values.maxCoeff() * 1e-14;
+  Eigen::MatrixXd inverse = Eigen::MatrixXd::Zero(k, k);
+  std::vector<bool> in_null_space(invisible);
+  for (Eigen::Index e = 0; e < k; ++e) {
+    if (values(e) > tiny) {
+      inverse += vectors.col(e) * vectors.col(e).transpose() / values(e);
+      continue;
+    }
+    for (Eigen::Index i = 0; i < k; ++i)
+      if (vectors(i, e) * vectors(i, e) > 1e-6) in_null_space[static_cast<std::size_t>(i)] = true;
+  }
+  for (Eigen::Index a = 0; a < k; ++a)
+    for (Eigen::Index b = 0; b < k; ++b) {
+      const bool unseen = in_null_space[static_cast<std::size_t>(a)] || in_null_space[static_cast<std::size_t>(b)];
+      c(a, b) = unseen ? (a == b ? kInfinity : kNaN) : sigma2 * inverse(a, b) / (scale(a) * scale(b));
+    }
+  return c;
+}
+
+// A derived quantity as a function of the parameters at one point: value, gradient, the
+// parameters it depends on, and the range over which it could plausibly vary.
+struct Derivation {
+  double value = kNaN;
+  std::vector<double> gradient;
+  std::vector<std::size_t> inputs;
+  double range = 1;
+  double precision_absolute = 0, precision_relative = 0;
+};
+
+// Derived quantities are held to the precision of the extended model's parameter that states them.
+Derivation with_precision_of(Derivation d, const ParamSpec& spec) {
+  d.precision_absolute = spec.precision_absolute;
+  d.precision_relative = spec.precision_relative;
+  return d;
+}
+
+Derivation oxygen_saturation(ModelKind model, const Params& p) {
+  Derivation d;
+  d.gradient.assign(p.size(), 0.0);
+  if (model == ModelKind::extended) {
+    const ParamSpec& spec = model_spec(model).params[kOxygenSaturation];
+    d.value = p[kOxygenSaturation];
+    d.gradient[kOxygenSaturation] = 1;
+    d.inputs = {kOxygenSaturation};
+    d.range = spec.upper - spec.lower;
+    return with_precision_of(d, spec);
+  }
+  const double oxy = p[kOxyhemoglobin], deoxy = p[kDeoxyhemoglobin], total = oxy + deoxy;
+  d.inputs = {kOxyhemoglobin, kDeoxyhemoglobin};
+  if (total > 0) {
+    d.value = oxy / total;
+    d.gradient[kOxyhemoglobin] = deoxy / (total * total);
+    d.gradient[kDeoxyhemoglobin] = -oxy / (total * total);
+  }
+  return with_precision_of(d, model_spec(ModelKind::extended).params[kOxygenSaturation]);
+}
+
+Derivation blood_volume_fraction(ModelKind model, const Params& p) {
+  Derivation d;
+  d.gradient.assign(p.size(), 0.0);
+  const auto params = model_spec(model).params;
+  if (model == ModelKind::extended) {
+    d.value = kReferenceBloodFraction * p[kTotalHemoglobin];
+    d.gradient[kTotalHemoglobin] = kReferenceBloodFraction;
+    d.inputs = {kTotalHemoglobin};
+    d.range = kReferenceBloodFraction * (params[kTotalHemoglobin].upper - params[kTotalHemoglobin].lower);
+  } else {
+    d.value = kReferenceBloodFraction * (p[kOxyhemoglobin] + p[kDeoxyhemoglobin]);
+    d.gradient[kOxyhemoglobin] = d.gradient[kDeoxyhemoglobin] = kReferenceBloodFraction;
+    d.inputs = {kOxyhemoglobin, kDeoxyhemoglobin};
+    d.range = kReferenceBloodFraction * (params[kOxyhemoglobin].upper - params[kOxyhemoglobin].lower);
+  }
+  const ParamSpec& blood = model_spec(ModelKind::extended).params[kTotalHemoglobin];
+  d.precision_absolute = kReferenceBloodFraction * blood.precision_absolute;
+  d.precision_relative = blood.precision_relative;
+  return d;
+}
+
+struct Judged {
+  std::vector<ParamDetermination> determination;
+  Eigen::MatrixXd covariance;  // all parameters; NaN rows for those not fitted
+};
+
+// The most correlated other parameter of j among `candidates`, and the correlation's size.
+std::pair<int, double> most_correlated(const Eigen::MatrixXd& c, std::size_t j,
+                                       const std::vector<std::size_t>& candidates) {
+  std::pair<int, double> best{-1, 0.0};
+  for (const std::size_t l : candidates) {
+    if (l == j) continue;
+    const double rho = std::abs(c(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(l))) /
+                       std::sqrt(c(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)) *
+                                 c(static_cast<Eigen::Index>(l), static_cast<Eigen::Index>(l)));
+    if (std::isfinite(rho) && rho > best.second) best = {static_cast<int>(l), rho};
+  }
+  return best;
+}
+
+DerivedQuantity derive(const Derivation& d, const Judged& judged) {
+  DerivedQuantity q{d.value, kInfinity, Determination::determined};
+  const auto status_of = [&](std::size_t i) { return judged.determination[i].status; };
+  if (std::ranges::all_of(d.inputs, [&](std::size_t i) { return status_of(i) == Determination::held; })) {
+    q.status = Determination::held;
+    return q;
+  }
+  if (std::ranges::any_of(d.inputs, [&](std::size_t i) { return status_of(i) == Determination::at_bound; })) {
+    q.status = Determination::at_bound;
+    return q;
+  }
+  double variance = 0;
+  for (const std::size_t a : d.inputs)
+    for (const std::size_t b : d.inputs)
+      if (status_of(a) != Determination::held && status_of(b) != Determination::held)
+        variance += d.gradient[a] * d.gradient[b] *
+                    judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+  const double se = std::sqrt(variance);
+  q.standard_error = se;
+  if (!std::isfinite(d.value) || !std::isfinite(se) || se > d.range) {
+    q.status = Determination::unconstrained;
+    return q;
+  }
+  if (se <= precision(d.precision_absolute, d.precision_relative, d.value)) return q;
+  // Correlations among its own inputs are accounted for by the delta method; blame one with a
+  // parameter outside them.
+  std::vector<std::size_t> others;
+  for (std::size_t l = 0; l < judged.determination.size(); ++l)
+    if (std::ranges::find(d.inputs, l) == d.inputs.end()) others.push_back(l);
+  q.status = Determination::imprecise;
+  for (const std::size_t i : d.inputs)
+    if (status_of(i) != Determination::held &&
+        most_correlated(judged.covariance, i, others).second >= kCorrelationLimit)
+      q.status = Determination::correlated;
+  return q;
+}
+
+}  // namespace
+
+FitUncertainty assess_uncertainty(ModelKind model, const Eigen::MatrixXd& jacobian, double cost, const Params& params,
+                                  const std::vector<bool>& held, const std::vector<Pin>& pinned) {
+  const auto specs = model_spec(model).params;
+  const std::size_t n = params.size();
+  Judged judged;
+  judged.determination.resize(n);
+  // The covariance is taken over every fitted parameter, those on a bound included: a
+  // parameter pinned at a bound may be there only because the spectrum cannot place it, and
+  // the others' errors must allow for it moving.
+  std::vector<std::size_t> free;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (held[i]) judged.determination[i].status = Determination::held;
+    else free.push_back(i);
+    if (!held[i] && on_bound(specs[i], params[i], pinned[i])) judged.determination[i].status = Determination::at_bound;
+  }
+  Eigen::MatrixXd j_free(jacobian.rows(), static_cast<Eigen::Index>(free.size()));
+  for (std::size_t f = 0; f < free.size(); ++f)
+    j_free.col(static_cast<Eigen::Index>(f)) = jacobian.col(static_cast<Eigen::Index>(free[f]));
+  const Eigen::MatrixXd c_free = covariance(j_free, cost);
+  judged.covariance = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n), kNaN);
+  for (std::size_t a = 0; a < free.size(); ++a)
+    for (std::size_t b = 0; b < free.size(); ++b)
+      judged.covariance(static_cast<Eigen::Index>(free[a]), static_cast<Eigen::Index>(free[b])) =
+          c_free(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+
+  FitUncertainty out;
+  out.standard_error.assign(n, kInfinity);
+  out.correlation.assign(n * n, kNaN);
+  for (const std::size_t a : free)
+    for (const std::size_t b : free)
+      out.correlation[a * n + b] =
+          judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) /
+          std::sqrt(judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(a)) *
+                    judged.covariance(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(b)));
+  for (const std::size_t j : free) {
+    auto& d = judged.determination[j];
+    if (d.status == Determination::at_bound) continue;
+    const double se = std::sqrt(judged.covariance(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)));
+    out.standard_error[j] = se;
+    if (!std::isfinite(se) || se > specs[j].upper - specs[j].lower) {
+      d.status = Determination::unconstrained;
+      continue;
+    }
+    if (se <= precision(specs[j].precision_absolute, specs[j].precision_relative, params[j])) continue;
+    const auto [other, rho] = most_correlated(judged.covariance, j, free);
+    d.status = rho >= kCorrelationLimit ? Determination::correlated : Determination::imprecise;
+    if (rho >= kCorrelationLimit) d.correlated_with = other;
+  }
+  out.determination = judged.determination;
+  out.oxygen_saturation = derive(oxygen_saturation(model, params), judged);
+  out.blood_volume_fraction = derive(blood_volume_fraction(model, params), judged);
+  return out;
+}
+
+}  // namespace skinspec::detail

@@ -1,0 +1,27 @@
+#pragma once
+// What a fit's spectrum determines (private to fit/): standard errors and correlations from
+// the Gauss-Newton covariance, each parameter judged determined or not (and why), and the
+// derived oxygen saturation and blood volume fraction by the delta method.
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "skinspec/fit/fitter.hpp"
+
+namespace skinspec::detail {
+
+enum class Pin;
+
+struct FitUncertainty {
+  Params standard_error;
+  std::vector<double> correlation;  // row-major
+  std::vector<ParamDetermination> determination;
+  DerivedQuantity oxygen_saturation, blood_volume_fraction;
+};
+
+// `jacobian` of the weighted residuals at `params` (rows samples), `cost` half their sum of
+// squares; `held` the parameters not fitted, `pinned` those the solver left on a bound.
+FitUncertainty assess_uncertainty(ModelKind model, const Eigen::MatrixXd& jacobian, double cost, const Params& params,
+                                  const std::vector<bool>& held, const std::vector<Pin>& pinned);
+
+}  // namespace skinspec::detail

@@ -1,0 +1,278 @@
+#include "solver.hpp"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "spectrum_cost.hpp"
+
+namespace skinspec::detail {
+
+namespace {
+
+[[gnu::flatten]] double weighted_sum_of_squares(const Problem& problem, const Params& p, std::size_t stride) {
+  double sum = 0;
+  for (std::size_t i = 0; i < problem.model.size(); i += stride) {
+    const double r = problem.model.reflectance_at(i, p.data()) - problem.measured[i];
+    sum += problem.weights[i] * r * r;
+  }
+  return sum;
+}
+
+// The plausible range of each parameter, and the wider box the solver may roam before the
+// active-set loop pins a parameter at the bound it crossed.
+struct Bounds {
+  Params lower, upper, solver_lower, solver_upper;
+};
+
+Bounds bounds_of(const SkinModel& model) {
+  const ModelSpec& spec = model_spec(model.kind());
+  const Params safe = model.lowest_safe_weights();
+  Bounds b;
+  for (std::size_t i = 0; i < spec.params.size(); ++i) {
+    const ParamSpec& param = spec.params[i];
+    const double overshoot = spec.bound_overshoot * (param.upper - param.lower);
+    b.lower.push_back(param.lower);
+    b.upper.push_back(param.upper);
+    b.solver_lower.push_back(param.absorber ? std::min(safe[i], param.lower) : param.lower - overshoot);
+    b.solver_upper.push_back(param.upper + overshoot);
+  }
+  return b;
+}
+
+// A start point: melanin, an amount of blood and its oxygen share in each model's terms;
+// every other parameter at its default, held parameters at their values.
+Params start_point(const Problem& problem, double melanin, double blood, double oxygen_share) {
+  const ModelKind kind = problem.model.kind();
+  Params p = default_params(kind);
+  if (kind == ModelKind::paper) {
+    p = {0.03, melanin, blood * oxygen_share, blood * (1 - oxygen_share), 1.0};
+  } else {
+    p[kSurfaceReflectance] = 0.03;
+    p[kMelanin] = melanin;
+    p[kTotalHemoglobin] = blood;
+    p[kOxygenSaturation] = oxygen_share;
+    p[kBilirubin] = 1.0;
+  }
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (problem.held[i]) p[i] = problem.held_values[i];
+  return p;
+}
+
+double blood_of(ModelKind kind, const Params& p) {
+  return kind == ModelKind::paper ? p[kOxyhemoglobin] + p[kDeoxyhemoglobin] : p[kTotalHemoglobin];
+}
+
+// Start points for the solver: a coarse log-spaced search over what shapes skin most (melanin
+// and blood), on every fourth sample. Returns the best few, best first, each with a different
+// amount of blood: dark skin has a second basin where melanin explains the blue and
+// haemoglobin drops to zero, and starts from one blood level all fall into it.
+std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) {
+  constexpr double kMelaninLevels[] = {0.25, 1, 3, 8, 20, 50, 120};
+  constexpr double kBloodLevels[] = {0.25, 1, 3, 8, 20};
+  constexpr double kOxygenShares[] = {0.4, 0.8};
+  const ModelKind kind = problem.model.kind();
+  const double melanin_limit = model_spec(kind).params[kMelanin].upper;
+  std::vector<std::pair<double, Params>> scored;
+  for (double m : kMelaninLevels)
+    for (double blood : kBloodLevels)
+      for (double share : kOxygenShares) {
+        const Params p = start_point(problem, std::min(m, melanin_limit), blood, share);
+        scored.emplace_back(weighted_sum_of_squares(problem, p, 4), p);
+      }
+  std::ranges::sort(scored, {}, &std::pair<double, Params>::first);
+  std::vector<Params> starts;
+  for (const auto& [score, p] : scored) {
+    if (starts.size() == how_many) break;
+    if (std::ranges::none_of(starts, [&](const Params& s) { return blood_of(kind, s) == blood_of(kind, p); }))
+      starts.push_back(p);
+  }
+  return starts;
+}
+
+template <int N>
+class Engine {
+ public:
+  Engine(const Problem& problem) : problem_(problem), bounds_(bounds_of(problem.model)) {}
+
+  // Bounded least squares by active sets: solve; pin every parameter that crossed a bound at
+  // that bound and solve again; release a pinned parameter whose gradient points back inside.
+  Solution solve_from(const Params& start) const {
+    Solution solution{start, 0, 0, false, {}, std::vector<Pin>(N, Pin::none)};
+    int iterations = 0;
+    for (int round = 0; round < 2 * N; ++round) {
+      solve_once(solution);
+      iterations += solution.iterations;
+      bool changed = pin_crossed(solution);
+      if (!changed) changed = release_pinned(solution);
+      if (!changed) break;
+    }
+    solution.iterations = iterations;
+    return solution;
+  }
+
+  Eigen::MatrixXd jacobian(const Params& p) const {
+    const auto n = static_cast<int>(problem_.model.size());
+    Eigen::Matrix<double, Eigen::Dynamic, N, Eigen::RowMajor> j(n, N);
+    std::vector<double> residuals(problem_.model.size());
+    const double* parameters[] = {p.data()};
+    double* jacobians[] = {j.data()};
+    cost().Evaluate(parameters, residuals.data(), jacobians);
+    return j;
+  }
+
+ private:
+  SpectrumCost cost() const { return SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights); }
+
+  bool fixed(const Solution& s, std::size_t i) const { return problem_.held[i] || s.pinned[i] != Pin::none; }
+
+  // Ends a solve as soon as a free parameter leaves its plausible range, so that the
+  // active-set loop can pin it at the bound: continuing would only fit a meaningless value.
+  class StopOutsideBounds : public ceres::IterationCallback {
+   public:
+    StopOutsideBounds(const Engine& engine, const Solution& s) : engine_(engine), s_(s) {}
+    ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+      for (std::size_t i = 0; i < N; ++i)
+        if (!engine_.fixed(s_, i) &&
+            (s_.params[i] < engine_.bounds_.lower[i] || s_.params[i] > engine_.bounds_.upper[i]))
+          return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+      return ceres::SOLVER_CONTINUE;
+    }
+
+   private:
+    const Engine& engine_;
+    const Solution& s_;
+  };
+
+  // One Levenberg-Marquardt solve in the solver's box (the cost refuses what lies outside it),
+  // fixed parameters held. Bounds are kept
+  // by the active-set loop rather than by Ceres's projection, whose trust region shrinks step
+  // after step while a parameter creeps along an active bound: tens of iterations instead of a
+  // handful.
+  void solve_once(Solution& s) const {
+    ceres::Problem::Options problem_options;
+    problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+    problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    auto* cost = new SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights,
+                                  Box{bounds_.solver_lower, bounds_.solver_upper});
+    double* p = s.params.data();
+    problem.AddResidualBlock(cost, nullptr, p);
+    std::vector<int> constant;
+    for (int i = 0; i < N; ++i)
+      if (fixed(s, static_cast<std::size_t>(i))) constant.push_back(i);
+    if (constant.size() == static_cast<std::size_t>(N)) {
+      s.cost = 0.5 * weighted_sum_of_squares(problem_, s.params, 1);
+      s.iterations = 0;
+      s.converged = true;
+      s.message = "every parameter held";
+      return;
+    }
+    if (!constant.empty()) problem.SetManifold(p, new ceres::SubsetManifold(N, constant));
+
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::DENSE_QR;
+    options.logging_type = ceres::SILENT;
+    options.max_num_iterations = 100;
+    options.function_tolerance = 1e-7;
+    options.gradient_tolerance = 1e-12;
+    options.parameter_tolerance = 1e-8;
+    options.num_threads = 1;
+    StopOutsideBounds stop(*this, s);
+    options.callbacks.push_back(&stop);
+    options.update_state_every_iteration = true;
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    s.cost = summary.final_cost;
+    s.iterations = static_cast<int>(summary.iterations.size());
+    s.converged = summary.termination_type == ceres::CONVERGENCE;
+    s.message = summary.BriefReport();
+  }
+
+  bool pin_crossed(Solution& s) const {
+    bool changed = false;
+    for (std::size_t i = 0; i < N; ++i) {
+      if (fixed(s, i)) continue;
+      if (s.params[i] < bounds_.lower[i]) s.params[i] = bounds_.lower[i], s.pinned[i] = Pin::lower, changed = true;
+      else if (s.params[i] > bounds_.upper[i]) s.params[i] = bounds_.upper[i], s.pinned[i] = Pin::upper, changed = true;
+    }
+    return changed;
+  }
+
+  // d(cost)/d(p_i): where it points back inside for a pinned parameter, the fit would improve
+  // by letting that parameter move again.
+  bool release_pinned(Solution& s) const {
+    if (std::ranges::none_of(s.pinned, [](Pin pin) { return pin != Pin::none; })) return false;
+    const auto n = problem_.model.size();
+    std::vector<double> residuals(n), j(n * N);
+    const double* parameters[] = {s.params.data()};
+    double* jacobians[] = {j.data()};
+    cost().Evaluate(parameters, residuals.data(), jacobians);
+    bool changed = false;
+    for (std::size_t i = 0; i < N; ++i) {
+      if (s.pinned[i] == Pin::none) continue;
+      double gradient = 0;
+      for (std::size_t r = 0; r < n; ++r) gradient += residuals[r] * j[r * N + i];
+      if ((s.pinned[i] == Pin::lower && gradient < 0) || (s.pinned[i] == Pin::upper && gradient > 0))
+        s.pinned[i] = Pin::none, changed = true;
+    }
+    return changed;
+  }
+
+  const Problem& problem_;
+  Bounds bounds_;
+};
+
+// What to restart from when absorbers end at zero: in dark skin melanin can stand in for blood
+// in a second, worse basin with haemoglobin at zero, which no start near it leaves.
+constexpr double kRestartAbsorber = 3;
+
+// The absorbers whose zero prompts that restart: every one of the paper's; the extended model's
+// haemoglobin alone, since its bilirubin at zero (common in real skin) is no such basin and a
+// restart for it would double the cost of most fits for nothing.
+bool restarts_at_zero(ModelKind kind, std::size_t i) {
+  if (kind == ModelKind::paper) return model_spec(kind).params[i].absorber;
+  return i == static_cast<std::size_t>(kTotalHemoglobin);
+}
+
+template <int N>
+Solution solve_with(const Problem& problem) {
+  const Engine<N> engine(problem);
+  Solution best;
+  best.cost = std::numeric_limits<double>::infinity();
+  for (const Params& start : coarse_starts(problem, model_spec(problem.model.kind()).starts)) {
+    Solution s = engine.solve_from(start);
+    if (s.cost < best.cost) best = std::move(s);
+  }
+  const auto params = model_spec(problem.model.kind()).params;
+  bool restart = false;
+  Params reseeded = best.params;
+  for (std::size_t i = 0; i < N; ++i)
+    if (restarts_at_zero(problem.model.kind(), i) && !problem.held[i] && reseeded[i] == params[i].lower) {
+      reseeded[i] = kRestartAbsorber;
+      restart = true;
+    }
+  if (restart) {
+    Solution s = engine.solve_from(reseeded);
+    s.iterations += best.iterations;
+    if (s.cost < best.cost) best = std::move(s);
+  }
+  return best;
+}
+
+}  // namespace
+
+Solution solve(const Problem& problem) {
+  return problem.model.kind() == ModelKind::paper ? solve_with<kPaperParamCount>(problem)
+                                                  : solve_with<kExtendedParamCount>(problem);
+}
+
+Eigen::MatrixXd jacobian(const Problem& problem, const Params& p) {
+  return problem.model.kind() == ModelKind::paper ? Engine<kPaperParamCount>(problem).jacobian(p)
+                                                  : Engine<kExtendedParamCount>(problem).jacobian(p);
+}
+
+}  // namespace skinspec::detail
