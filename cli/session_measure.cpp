@@ -17,7 +17,7 @@ namespace {
 
 using nlohmann::json;
 
-struct MeasureArgs {
+struct SessionMeasureArgs {
   long long session = 0;
   std::string kind;
   int count = 1;
@@ -126,7 +126,7 @@ void print_result(const json& job, const json& fit) {
     for (const auto& w : result["warnings"]) std::cout << "warning: " << w.get<std::string>() << '\n';
 }
 
-void run_measure(const ServerArgs& server, const MeasureArgs& args) {
+void run_measure(const ServerArgs& server, const SessionMeasureArgs& args) {
   const auto client = server.client();
   json body = {{"kind", args.kind}, {"count", args.count}};
   if (!args.label.empty()) body["label"] = args.label;
@@ -152,7 +152,7 @@ void run_measure(const ServerArgs& server, const MeasureArgs& args) {
 }  // namespace
 
 void add_session_measure_command(CLI::App& session, const std::shared_ptr<ServerArgs>& server) {
-  auto args = std::make_shared<MeasureArgs>();
+  auto args = std::make_shared<SessionMeasureArgs>();
   auto* measure = session.add_subcommand("measure", "measure the white standard or the skin, and wait for the result");
   measure->add_option("SESSION_ID", args->session, "session id")->required()->check(CLI::PositiveNumber);
   measure->add_option("--kind", args->kind, "white or sample")->required()->check(CLI::IsMember({"white", "sample"}));

@@ -20,11 +20,6 @@
 #include "skinspec/api/server.hpp"
 #include "support/http_client.hpp"
 
-// UBSan checks the type of a polymorphic object by probing its vtable's memory through a pipe,
-// which cannot be opened while this test holds every descriptor: each type not checked before
-// would be reported as invalid. Its other checks, and AddressSanitizer, stay on.
-extern "C" const char* __ubsan_default_options() { return "suppressions=" SKINSPEC_UBSAN_NO_VPTR; }
-
 namespace skinspec::api {
 namespace {
 

@@ -11,25 +11,25 @@
 
 namespace skinspec::records {
 
-using nlohmann::json;
+using Json = nlohmann::json;
 
 namespace {
 
-json optional_id(const std::optional<store::Id>& id) { return id ? json(*id) : json(); }
+Json optional_id(const std::optional<store::Id>& id) { return id ? Json(*id) : Json(); }
 
-json samples(const store::SpectralSamples& s) {
-  if (s.empty()) return json();
+Json samples(const store::SpectralSamples& s) {
+  if (s.empty()) return Json();
   return {{"wavelength_nm", s.wavelength_nm}, {"values", s.values}};
 }
 
 // The store keeps these as JSON text (a CHECK constraint on the newer columns); text from
 // before that, such as an old free-text configuration, is shown as a string.
-json embedded(const std::string& text) {
-  json value = json::parse(text, nullptr, false);
-  return value.is_discarded() ? json(text) : value;
+Json embedded(const std::string& text) {
+  Json value = Json::parse(text, nullptr, false);
+  return value.is_discarded() ? Json(text) : value;
 }
 
-json quality(int code, const std::string& text) { return {{"code", code}, {"text", text}}; }
+Json quality(int code, const std::string& text) { return {{"code", code}, {"text", text}}; }
 
 std::string base64(std::string_view bytes) {
   static constexpr std::string_view kDigits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -55,7 +55,7 @@ std::string json_time(store::Time time) {
                      clock.minutes().count(), clock.seconds().count(), clock.subseconds().count());
 }
 
-json to_json(const store::Instrument& i) {
+Json to_json(const store::Instrument& i) {
   return {{"id", i.id},
           {"model", i.model},
           {"serial_number", i.serial_number},
@@ -65,7 +65,7 @@ json to_json(const store::Instrument& i) {
           {"last_seen_at", json_time(i.last_seen_at)}};
 }
 
-json to_json(const store::WhiteStandard& s) {
+Json to_json(const store::WhiteStandard& s) {
   return {{"id", s.id},
           {"name", s.name},
           {"certificate", s.certificate},
@@ -74,7 +74,7 @@ json to_json(const store::WhiteStandard& s) {
           {"created_at", json_time(s.created_at)}};
 }
 
-json to_json(const store::Session& s) {
+Json to_json(const store::Session& s) {
   return {{"id", s.id},
           {"subject", s.subject},
           {"site", s.site},
@@ -85,10 +85,10 @@ json to_json(const store::Session& s) {
           {"state", store::to_string(s.state)},
           {"created_at", json_time(s.created_at)},
           {"updated_at", json_time(s.updated_at)},
-          {"ended_at", s.ended_at ? json(json_time(*s.ended_at)) : json()}};
+          {"ended_at", s.ended_at ? Json(json_time(*s.ended_at)) : Json()}};
 }
 
-json to_json(const store::Measurement& m, std::optional<store::Id> latest_fit_id) {
+Json to_json(const store::Measurement& m, std::optional<store::Id> latest_fit_id) {
   return {{"id", m.id},
           {"session_id", m.session_id},
           {"kind", store::to_string(m.kind)},
@@ -113,7 +113,7 @@ json to_json(const store::Measurement& m, std::optional<store::Id> latest_fit_id
           {"fit_id", optional_id(latest_fit_id)}};
 }
 
-json to_json(const store::RejectedReading& r) {
+Json to_json(const store::RejectedReading& r) {
   return {{"id", r.id},
           {"session_id", r.session_id},
           {"job_id", optional_id(r.job_id)},
@@ -126,11 +126,11 @@ json to_json(const store::RejectedReading& r) {
           {"created_at", json_time(r.created_at)}};
 }
 
-json to_json(const store::Fit& f) {
+Json to_json(const store::Fit& f) {
   const auto result = to_fit_result(f);
   // A store of this schema version holds only fits this version wrote or migrated.
   if (!result) throw std::runtime_error(result.error());
-  json out = fit_to_json("measurement-" + std::to_string(f.measurement_id), *result);
+  Json out = fit_to_json("measurement-" + std::to_string(f.measurement_id), *result);
   out["id"] = f.id;
   out["measurement_id"] = f.measurement_id;
   out["samples_ignored"] = f.samples_ignored;
