@@ -294,7 +294,7 @@ TEST(SimulatorPr6xx, ServesPsychopysPr655Sequence) {
 
 // Psychtoolbox's PR670 toolbox: every byte written alone, CR only where it belongs.
 TEST(SimulatorPr6xx, ServesPsychtoolboxsPr670ByteByByte) {
-  MeterRig rig(white_for(Model::pr670), options_for(Model::pr670, {"*:fast-loss=1"}));
+  MeterRig rig(white_for(Model::pr670), options_for(Model::pr670));
   drivers::Transport& link = *rig.host();
   send_paced(link, "Q");
   send_paced(link, "PHOTO");
@@ -325,12 +325,12 @@ TEST(SimulatorPr6xx, ServesPsychtoolboxsPr670ByteByByte) {
 // ---- Faults ----------------------------------------------------------------------------------
 
 TEST(SimulatorPr6xx, FastLossKeepsOnlyTheFirstByteOfAWholeString) {
-  MeterRig rig(white_for(Model::pr655), options_for(Model::pr655, {"*:fast-loss=20"}));
+  MeterRig rig(white_for(Model::pr655), options_for(Model::pr655, {"*:fast-loss=10"}));
   drivers::Transport& link = *rig.host();
   const auto send_slowly = [&](std::string_view bytes) {
     for (const char c : bytes) {
       (void)link.write(std::string_view(&c, 1), drivers::deadline_in(std::chrono::seconds(1)));
-      std::this_thread::sleep_for(std::chrono::milliseconds(30));
+      std::this_thread::sleep_for(std::chrono::milliseconds(60));
     }
   };
   EXPECT_EQ(ask_expecting_silence(link, "PHOTO"), "") << "only the P survives";
