@@ -49,9 +49,8 @@ MeterOptions options_for(Model model, std::vector<std::string> faults = {}) {
 
 // A meter of `model` already in remote mode.
 struct Remote {
-  explicit Remote(Model model, std::vector<std::string> faults = {}, MeterOptions options = {},
-                  bool use_options = false)
-      : rig(white_for(model), use_options ? options : options_for(model, std::move(faults))) {
+  explicit Remote(Model model, std::vector<std::string> faults = {})
+      : rig(white_for(model), options_for(model, std::move(faults))) {
     EXPECT_EQ(ask(link(), "PHOTO"), p6::kBanner);
   }
   drivers::Transport& link() { return *rig.host(); }
