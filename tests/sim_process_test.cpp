@@ -228,6 +228,32 @@ TEST(SimProcess, MeasureOverTcpGivesTwoReadingsOfTheForearmFile) {
   EXPECT_EQ(terminate(sim).exit_status, 0);
 }
 
+// A newer model over TCP: silent until PHOTO, its banner, identity and 2 nm spectrum, and Q.
+TEST(SimProcess, Pr670OverTcpEntersRemoteModeAndMeasures) {
+  Simulator sim = start_simulator({"--model", "pr670", "--time-scale", "0", "--reflectance", kForearm});
+  auto client = RawClient::connect_tcp(sim.port);
+  ASSERT_TRUE(client);
+  ASSERT_TRUE(client->send("D111\r"));
+  EXPECT_EQ(client->receive_all(300ms), "") << "silent outside remote mode";
+  ASSERT_TRUE(client->send("PHOTO"));
+  EXPECT_EQ(client->receive_until("MODE", 5s), " REMOTE MODE");
+  ASSERT_TRUE(client->send("D111\r"));
+  EXPECT_EQ(client->receive_until("\r\n", 5s), "00000,PR-670\r\n");
+  ASSERT_TRUE(client->send("D120\r"));
+  EXPECT_EQ(client->receive_until("\r\n", 5s), "00000,201,0.00,380,780,2,256,7,247\r\n");
+  ASSERT_TRUE(client->send("SE0\r"));
+  EXPECT_EQ(client->receive_until("\r\n", 5s), "0000\r\n");
+  ASSERT_TRUE(client->send("M5\r"));
+  const std::string spectrum = client->receive_until("780,", 10s) + client->receive_until("\r\n", 5s);
+  EXPECT_THAT(spectrum, ::testing::StartsWith("00000,0,"));
+  EXPECT_THAT(spectrum, HasSubstr("\r\n382,"));
+  EXPECT_EQ(std::count(spectrum.begin(), spectrum.end(), '\n'), 202);
+  ASSERT_TRUE(client->send("Q"));
+  ASSERT_TRUE(client->send("D111\r"));
+  EXPECT_EQ(client->receive_all(300ms), "") << "local again after Q";
+  EXPECT_TRUE(sim.process->wait_for_stderr("command Q: remote mode left", 5s)) << sim.process->err();
+}
+
 TEST(SimProcess, StateCarriesOverFromOneClientToTheNext) {
   auto sim = start_simulator({"--time-scale", "0", "--reflectance", kForearm, "--serial", "60900001"});
   std::vector<double> luminances;

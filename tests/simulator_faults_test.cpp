@@ -53,9 +53,9 @@ TEST(FaultSpec, PrintsBackToAnEquivalentSpec) {
 TEST(FaultSpec, RefusesMalformedSpecsSayingWhy) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"d5", "expected COMMAND:FAULT"},
-      {"x5:truncate", "'x5' is not a PR-650 command"},
-      {"s1:truncate", "'s1' is not a PR-650 command"},
-      {":truncate", "is not a PR-650 command"},
+      {"x5:truncate", "'x5' is not a meter command"},
+      {"s1:truncate", "'s1' is not a meter command"},
+      {":truncate", "is not a meter command"},
       {"d5:trunc", "unknown fault 'trunc' (known: no-answer, late, truncate"},
       {"d5:", "no fault named"},
       {"m0:quality", "'quality' needs a value"},

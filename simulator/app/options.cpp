@@ -36,7 +36,39 @@ struct RawOptions {
   std::string exponent;
   std::string replay_order = "in-order";
   bool fresh_on_low_light = false;
+  std::string model;
+  std::string banner;
+  std::string error_style;
+  std::string d120;
 };
+
+std::string model_ids() {
+  std::string out;
+  for (const auto& row : drivers::all_profiles()) out += (out.empty() ? "" : "|") + std::string(row.id);
+  return out;
+}
+
+// --model and the newer models' wire overrides.
+std::expected<void, std::string> finish_model(const RawOptions& raw, simulator::SimulatorConfig& config) {
+  auto& wire = config.meter.wire;
+  if (!raw.model.empty()) {
+    config.model = drivers::model_from_id(raw.model);
+    if (!config.model) return std::unexpected(fmt::format("--model '{}': expected one of {}", raw.model, model_ids()));
+  }
+  const bool newer = config.model && drivers::profile(*config.model).caps.remote_keyword;
+  const bool overridden = !raw.banner.empty() || !raw.error_style.empty() || !raw.d120.empty() || !wire.d111.empty() ||
+                          wire.status_digits || wire.exponent_digits;
+  if (overridden && !newer)
+    return std::unexpected(
+        "--banner, --error-style, --status-digits, --exponent-digits, --d111 and --d120 need a newer --model "
+        "(pr655 or later)");
+  if (!raw.banner.empty()) wire.banner = raw.banner == "crlf" ? drivers::BannerEnd::crlf : drivers::BannerEnd::none;
+  if (!raw.error_style.empty()) wire.padded_errors = raw.error_style == "padded";
+  wire.d120_manual = raw.d120 == "manual";
+  if (!wire.d111.empty() && !std::ranges::all_of(wire.d111, [](char c) { return c >= 0x20 && c < 0x7f && c != ','; }))
+    return std::unexpected(fmt::format("--d111 '{}': printable characters without commas", wire.d111));
+  return {};
+}
 
 // The options that need more than CLI11's checks, into `options`.
 std::expected<void, std::string> finish(const RawOptions& raw, AppOptions& options) {
@@ -58,7 +90,8 @@ std::expected<void, std::string> finish(const RawOptions& raw, AppOptions& optio
   meter.replay_order = raw.replay_order == "by-command" ? simulator::MeterOptions::ReplayOrder::by_command
                                                         : simulator::MeterOptions::ReplayOrder::in_order;
   meter.stale_on_low_light = !raw.fresh_on_low_light;
-  if (!valid_serial(meter.serial_number))
+  if (auto model = finish_model(raw, config); !model) return std::unexpected(model.error());
+  if (!meter.serial_number.empty() && !valid_serial(meter.serial_number))
     return std::unexpected(fmt::format("--serial '{}': expected 1-32 letters and digits", meter.serial_number));
   if (!(meter.noise >= 0)) return std::unexpected(fmt::format("--noise {}: must not be negative", meter.noise));
   return {};
@@ -73,7 +106,8 @@ std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
   auto& meter = config.meter;
 
   CLI::App app{
-      "skinspec-sim: a simulated Photo Research PR-650 on a TCP port or a pseudo-terminal.\n"
+      "skinspec-sim: a simulated Photo Research meter (PR-650 by default, --model for the newer ones)\n"
+      "on a TCP port or a pseudo-terminal.\n"
       "Prints 'listening on HOST:PORT' and/or 'pty PATH', then serves one client at a time until\n"
       "SIGTERM or SIGINT; SIGHUP power-cycles the meter. Readings come from --replay, --radiance or\n"
       "--reflectance (with --white and --illuminant); with none, from a white standard.",
@@ -138,9 +172,27 @@ std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
   app.add_option("--noise", meter.noise, "relative standard deviation of each spectral value")
       ->type_name("R")
       ->capture_default_str();
-  app.add_option("--serial", meter.serial_number, "the serial number D110 reports")
-      ->type_name("NUMBER")
-      ->capture_default_str();
+  app.add_option("--model", raw.model, "the meter simulated (default pr650; a replay: its recorded model)")
+      ->type_name(model_ids());
+  app.add_option("--serial", meter.serial_number, "the serial number D110 reports (default: the model's)")
+      ->type_name("NUMBER");
+  app.add_option("--banner", raw.banner, "newer models: what follows ' REMOTE MODE' (default none)")
+      ->type_name("none|crlf")
+      ->check(CLI::IsMember({"none", "crlf"}));
+  app.add_option("--error-style", raw.error_style, "newer models: errors as -8 (short) or -0008 (padded)")
+      ->type_name("short|padded")
+      ->check(CLI::IsMember({"short", "padded"}));
+  app.add_option("--status-digits", meter.wire.status_digits, "newer models: digits of a data reply's status")
+      ->type_name("4|5")
+      ->check(CLI::IsMember({4, 5}));
+  app.add_option("--exponent-digits", meter.wire.exponent_digits, "newer models: exponent digits of D5 data lines")
+      ->type_name("2|3")
+      ->check(CLI::IsMember({2, 3}));
+  app.add_option("--d111", meter.wire.d111, "newer models: the model name D111 reports (default: the model's)")
+      ->type_name("TEXT");
+  app.add_option("--d120", raw.d120, "newer models: 'manual' prints the manuals' D120 example (201 points, 2 nm)")
+      ->type_name("manual")
+      ->check(CLI::IsMember({"manual"}));
   app.add_option("--header", raw.header, "spectral report header layout: h1 or h2 (default h1)")
       ->type_name("h1|h2")
       ->check(CLI::IsMember({"h1", "h2", "H1", "H2"}));

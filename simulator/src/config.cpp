@@ -36,8 +36,10 @@ std::expected<void, std::string> add_reflectance(std::vector<Scene>& scenes, con
   return {};
 }
 
-std::expected<Synthesis, std::string> synthesis_of(const SimulatorConfig& config) {
-  auto colour = ColourData::load(directory_reader(find_data_dir()));
+// Scenes on the model's grid: each source resampled from its own wavelengths.
+std::expected<Synthesis, std::string> synthesis_of(const SimulatorConfig& config, drivers::Model model) {
+  const std::vector<double> grid = wavelengths(*drivers::profile(model).simulator_grid);
+  auto colour = ColourData::load(directory_reader(find_data_dir()), grid);
   if (!colour) return std::unexpected(fmt::format("colour tables: {}", colour.error()));
   auto lamp = lamp_of(config, *colour);
   if (!lamp) return std::unexpected(lamp.error());
@@ -51,12 +53,12 @@ std::expected<Synthesis, std::string> synthesis_of(const SimulatorConfig& config
   if (!config.radiance_file.empty()) {
     auto bytes = read_file(config.radiance_file);
     if (!bytes) return std::unexpected(bytes.error());
-    auto scenes = radiance_scenes(*bytes, config.radiance_file);
+    auto scenes = radiance_scenes(*bytes, config.radiance_file, grid);
     if (!scenes) return std::unexpected(scenes.error());
     synthesis.scenes.insert(synthesis.scenes.end(), scenes->begin(), scenes->end());
   }
   if (synthesis.scenes.empty()) {
-    auto flat = Spectrum::create({380, 780}, {kWhiteStandardReflectance, kWhiteStandardReflectance});
+    auto flat = Spectrum::create({grid.front(), grid.back()}, {kWhiteStandardReflectance, kWhiteStandardReflectance});
     synthesis.scenes.push_back(
         scene_under_lamp(fmt::format("white standard under {}", lamp->name), *flat, *lamp, colour->observer));
   }
@@ -85,9 +87,15 @@ std::expected<std::unique_ptr<SimulatedMeter>, std::string> make_simulated_meter
     if (!bytes) return std::unexpected(bytes.error());
     auto recording = parse_recording(*bytes, config.replay_file);
     if (!recording) return std::unexpected(recording.error());
+    const drivers::Model recorded = recording->header.model;
+    if (config.model && *config.model != recorded)
+      return std::unexpected(fmt::format("{} is a recording of a {}, not of a {}", config.replay_file,
+                                         drivers::profile(recorded).name, drivers::profile(*config.model).name));
+    options.model = recorded;
     return std::make_unique<SimulatedMeter>(std::move(*recording), std::move(options));
   }
-  auto synthesis = synthesis_of(config);
+  options.model = config.model.value_or(drivers::Model::pr650);
+  auto synthesis = synthesis_of(config, options.model);
   if (!synthesis) return std::unexpected(synthesis.error());
   return std::make_unique<SimulatedMeter>(std::move(*synthesis), std::move(options));
 }

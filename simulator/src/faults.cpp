@@ -19,7 +19,7 @@ struct FaultName {
   std::string_view name;
 };
 
-constexpr std::array<FaultName, 13> kFaultNames{{
+constexpr std::array<FaultName, 17> kFaultNames{{
     {FaultKind::no_answer, "no-answer"},
     {FaultKind::late, "late"},
     {FaultKind::truncate, "truncate"},
@@ -33,6 +33,10 @@ constexpr std::array<FaultName, 13> kFaultNames{{
     {FaultKind::reboot, "reboot"},
     {FaultKind::exponent, "exponent"},
     {FaultKind::header, "header"},
+    {FaultKind::fast_loss, "fast-loss"},
+    {FaultKind::glue, "glue"},
+    {FaultKind::error, "error"},
+    {FaultKind::busy, "busy"},
 }};
 
 std::string known_names() {
@@ -87,6 +91,7 @@ std::expected<void, std::string> read_value(Fault& fault, std::string_view name,
   switch (fault.kind) {
     case FaultKind::no_answer:
     case FaultKind::reboot:
+    case FaultKind::glue:
       if (value) return std::unexpected(fmt::format("'{}' takes no value", name));
       return {};
     case FaultKind::late: {
@@ -111,6 +116,12 @@ std::expected<void, std::string> read_value(Fault& fault, std::string_view name,
       return integer_in(0, 99, true);
     case FaultKind::stale:
       return integer_in(0, 99, false);
+    case FaultKind::fast_loss:
+      return integer_in(1, 10000, true);
+    case FaultKind::error:
+      return integer_in(-99999, -1, true);
+    case FaultKind::busy:
+      return integer_in(1, 10000, false);
     case FaultKind::exponent:
       if (!value) return {};
       if (*value != "e" && *value != "E")
@@ -140,10 +151,13 @@ Fault make_fault(FaultKind kind, double amount = -1) {
   return fault;
 }
 
-// "*", a command letter, or a letter with its numeric code (only B, M and D have one).
+constexpr std::array<std::string_view, 9> kWordCommands{"photo", "q", "se", "ss", "sk", "sn", "sh", "sf", "su"};
+
+// "*", a command letter, a letter with its numeric code (only B, M and D have one), or one of
+// the newer meters' keywords and two-letter setups.
 bool valid_command(std::string_view command) {
-  if (command == "*") return true;
-  if (command.empty() || std::string_view("bsfmde").find(command.front()) == std::string_view::npos) return false;
+  if (command == "*" || std::ranges::find(kWordCommands, command) != kWordCommands.end()) return true;
+  if (command.empty() || std::string_view("bsfmdeitpav").find(command.front()) == std::string_view::npos) return false;
   const std::string_view code = command.substr(1);
   if (code.empty()) return true;
   if (std::string_view("bmd").find(command.front()) == std::string_view::npos) return false;
@@ -168,7 +182,7 @@ std::string Fault::to_string() const {
     default:
       break;
   }
-  if (amount < 0) return std::string(name);
+  if (amount < 0 && kind != FaultKind::error) return std::string(name);  // error's value is negative
   return fmt::format("{}={}", name, amount);
 }
 
@@ -193,6 +207,8 @@ std::expected<Fault, std::string> parse_fault(std::string_view text) {
 
 bool FaultSpec::matches(std::string_view key) const {
   if (command == "*") return true;
+  // A keyword is named in full: "p" (the poll) does not name PHOTO.
+  if (key == "photo") return command == key;
   if (command.size() == 1) return !key.empty() && key.front() == command.front();
   return key == command;
 }
@@ -213,8 +229,8 @@ std::expected<FaultSpec, std::string> parse_fault_spec(std::string_view text) {
   result.command = lower(trim(spec.substr(0, colon)));
   if (!valid_command(result.command))
     return fail(
-        fmt::format("'{}' is not a PR-650 command: use *, a letter (b s f m d e) or a letter with its code "
-                    "(m0, d5, d110)",
+        fmt::format("'{}' is not a meter command: use *, a letter (b s f m d e i t p a v), a letter with its "
+                    "code (m0, d5, d110), a setup (se ss sk sn sh sf su), photo or q",
                     result.command));
   std::string_view rest = spec.substr(colon + 1);
   if (const auto at = rest.rfind('@'); at != std::string_view::npos) {

@@ -182,7 +182,7 @@ Outcome Instrument::respond(const Command& command, std::vector<Fault>& faults) 
     case 'E':
       if (parameters.empty()) {
         Reply reply;
-        reply.echo_on = true;
+        reply.echo = true;
         return {reply, {"echo on"}, {}};
       }
       break;
@@ -276,7 +276,8 @@ Outcome Instrument::measure(int report_code, std::vector<Fault>& faults) {
 std::optional<std::string> Instrument::report(int code) const {
   switch (code) {
     case 110:
-      return pp::format_serial_number_reply(options_.serial_number);
+      return pp::format_serial_number_reply(
+          options_.serial_number.empty() ? drivers::profile(drivers::Model::pr650).serial : options_.serial_number);
     case 120:
       return pp::format_spectral_configuration_reply({pp::kSpectralPoints, 8.0, 380, 780, 4});
     case 201:
@@ -296,28 +297,10 @@ std::optional<std::string> Instrument::report(int code) const {
     case 3:
     case 4:
     case 6: {
-      const Photometry p = photometry(buffer_.values, observer_);
-      const double unit = buffer_.si_units ? 1.0 : 1.0 / kCandelaPerFootlambert;
       pp::ColorimetricReport report;
       report.report = code;
       report.quality = buffer_.quality;
-      switch (code) {
-        case 1:
-          report.values = {p.Y * unit, p.x, p.y};
-          break;
-        case 2:
-          report.values = {p.X * unit, p.Y * unit, p.Z * unit};
-          break;
-        case 3:
-          report.values = {p.Y * unit, p.u, p.v};
-          break;
-        case 4:
-          report.values = {p.Y * unit, p.cct, p.duv};
-          break;
-        default:
-          report.values = {p.Y * unit, p.x, p.y, p.u, p.v};
-          break;
-      }
+      report.values = colour_report_values(photometry(buffer_.values, observer_), code, buffer_.si_units);
       return pp::format_colorimetric_reply(report, options_.style);
     }
     default:

@@ -1,5 +1,6 @@
-// The simulated meter's wire: line framing, the power-on window, echo, faults on the bytes of
-// each reply, and pacing. What a command means is the responder's business.
+// The simulated meter's wire: framing (framing.hpp), the PR-650's power-on window or the newer
+// meters' remote mode, echo, faults on the bytes of each reply, and pacing. What a command
+// means is the responder's business.
 
 #include "skinspec/simulator/meter.hpp"
 
@@ -12,8 +13,10 @@
 #include <thread>
 #include <utility>
 
+#include "framing.hpp"
 #include "reply_faults.hpp"
 #include "responder.hpp"
+#include "skinspec/drivers/pr6xx_protocol.hpp"
 
 namespace skinspec::simulator {
 
@@ -24,8 +27,7 @@ using ServeEnd = SimulatedMeter::ServeEnd;
 
 namespace {
 
-constexpr auto kPoll = 20ms;           // how often serve() looks at `stop`
-constexpr std::size_t kMaxLine = 256;  // longer lines overflow the meter's input buffer
+constexpr auto kPoll = 20ms;  // how often serve() looks at `stop`
 constexpr double kDefaultLateMs = 1000;
 constexpr auto kWriteTimeout = 5s;
 
@@ -75,6 +77,17 @@ std::size_t cut_point(const Fault& fault, std::size_t size) {
   return std::min(size, static_cast<std::size_t>(fault.amount));
 }
 
+bool has(const std::vector<Fault>& faults, FaultKind kind) {
+  return std::ranges::any_of(faults, [&](const Fault& f) { return f.kind == kind; });
+}
+
+std::optional<detail::FastLoss> fast_loss_of(const FaultPlan& plan) {
+  for (const FaultSpec& spec : plan.specs())
+    if (spec.fault.kind == FaultKind::fast_loss)
+      return detail::FastLoss(std::chrono::milliseconds(static_cast<int>(spec.fault.amount)));
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::string_view to_string(Mode mode) {
@@ -103,23 +116,38 @@ std::string_view to_string(ServeEnd end) {
 
 struct SimulatedMeter::Impl {
   MeterOptions options;
+  bool newer;  // PHOTO and Q rather than the power-on window
   std::unique_ptr<detail::Responder> responder;
+  std::unique_ptr<detail::Framer> framer;
+  std::optional<detail::FastLoss> fast_loss;
   std::mt19937_64 rng;  // the bytes of garbage and bit flips, random lines
 
   mutable std::mutex mutex;  // everything below, and the responder
   Mode mode = Mode::boot;
   Clock::time_point powered_on = Clock::now();
   bool echo = false;
+  std::string held_banner;  // the glue fault: sent in front of the next reply
   std::size_t commands = 0;
   std::vector<std::string> problems;
 
-  Impl(MeterOptions o) : options(std::move(o)), rng(options.seed ^ 0x5eed) {}
+  Impl(MeterOptions o)
+      : options(std::move(o)),
+        newer(drivers::profile(options.model).caps.remote_keyword),
+        framer(newer ? detail::make_remote_framer() : detail::make_line_framer()),
+        fast_loss(fast_loss_of(options.faults)),
+        rng(options.seed ^ 0x5eed),
+        mode(power_on_mode()) {}
 
   void log(std::string_view text) const {
     if (options.log) options.log(text);
   }
+  Mode power_on_mode() const { return newer ? Mode::local : Mode::boot; }
   Mode current_mode() const;  // with the mutex held
-  std::optional<Outgoing> take_command(std::string_view line);
+  std::optional<Outgoing> take_frame(const detail::Frame& frame);
+  std::optional<Outgoing> take_line(std::string_view line);
+  std::optional<Outgoing> take_photo();
+  std::optional<Outgoing> take_quit();
+  std::optional<Outgoing> answer(const detail::Command& command, std::vector<Fault>& faults);
   std::optional<Outgoing> take_unprompted();
   Outgoing outgoing(detail::Reply reply, const std::vector<Fault>& faults);
   std::optional<ServeEnd> transmit(drivers::Transport& link, const std::atomic<bool>& stop, const Outgoing& out);
@@ -130,9 +158,25 @@ Mode SimulatedMeter::Impl::current_mode() const {
   return mode;
 }
 
-// What a complete command line makes the meter send, if anything.
-std::optional<Outgoing> SimulatedMeter::Impl::take_command(std::string_view line) {
-  const detail::Command command = detail::parse_command(line);
+// What a frame makes the meter send, if anything.
+std::optional<Outgoing> SimulatedMeter::Impl::take_frame(const detail::Frame& frame) {
+  using Kind = detail::Frame::Kind;
+  switch (frame.kind) {
+    case Kind::overflow:
+      log("input line too long for the meter's buffer: dropped");
+      return std::nullopt;
+    case Kind::photo:
+      return take_photo();
+    case Kind::quit:
+      return take_quit();
+    case Kind::line:
+      break;
+  }
+  return take_line(frame.text);
+}
+
+std::optional<Outgoing> SimulatedMeter::Impl::take_line(std::string_view line) {
+  const detail::Command command = newer ? detail::parse_remote_command(line) : detail::parse_command(line);
   std::lock_guard lock(mutex);
   ++commands;
   if (mode == Mode::boot) {
@@ -144,18 +188,57 @@ std::optional<Outgoing> SimulatedMeter::Impl::take_command(std::string_view line
 
   std::vector<Fault> faults = options.faults.next(command.key);
   for (const auto& fault : faults) log(fmt::format("fault {} on '{}'", fault.to_string(), command.text));
-  const auto has = [&](FaultKind kind) {
-    return std::ranges::any_of(faults, [&](const Fault& f) { return f.kind == kind; });
-  };
-  if (has(FaultKind::no_answer)) return std::nullopt;
-  if (has(FaultKind::reboot)) {
+  if (has(faults, FaultKind::no_answer)) return std::nullopt;
+  if (has(faults, FaultKind::reboot)) {
     mode = Mode::local;
     echo = false;
+    held_banner.clear();
     responder->power_cycle();
-    log("rebooted: local mode, silent until power-cycled");
+    log(newer ? "rebooted: local mode, waiting for PHOTO" : "rebooted: local mode, silent until power-cycled");
     return std::nullopt;
   }
+  return answer(command, faults);
+}
 
+// PHOTO enters remote mode and is answered with the banner, the first time only.
+std::optional<Outgoing> SimulatedMeter::Impl::take_photo() {
+  const detail::Command command = detail::parse_remote_command(drivers::pr6xx::kRemoteKeyword);
+  std::lock_guard lock(mutex);
+  ++commands;
+  if (mode == Mode::remote) {
+    log("PHOTO ignored: already in remote mode");
+    responder->skipped(command);
+    return std::nullopt;
+  }
+  std::vector<Fault> faults = options.faults.next(command.key);
+  for (const auto& fault : faults) log(fmt::format("fault {} on 'PHOTO'", fault.to_string()));
+  if (has(faults, FaultKind::no_answer)) return std::nullopt;
+  mode = Mode::remote;
+  log("command PHOTO: remote mode");
+  auto out = answer(command, faults);
+  if (out && has(faults, FaultKind::glue)) {
+    held_banner = std::move(out->bytes);
+    return std::nullopt;
+  }
+  return out;
+}
+
+// Q leaves remote mode, without a reply.
+std::optional<Outgoing> SimulatedMeter::Impl::take_quit() {
+  const detail::Command command = detail::parse_remote_command(drivers::pr6xx::kQuit);
+  std::lock_guard lock(mutex);
+  ++commands;
+  std::vector<Fault> faults = options.faults.next(command.key);
+  for (const auto& fault : faults) log(fmt::format("fault {} on 'Q'", fault.to_string()));
+  if (has(faults, FaultKind::no_answer)) return std::nullopt;
+  mode = Mode::local;
+  held_banner.clear();
+  log("command Q: remote mode left");
+  return answer(command, faults);
+}
+
+// The responder's answer, through the faults that act on its bytes.
+std::optional<Outgoing> SimulatedMeter::Impl::answer(const detail::Command& command, std::vector<Fault>& faults) {
   detail::Outcome outcome = responder->respond(command, faults);
   for (const auto& note : outcome.notes) log(note);
   for (auto& problem : outcome.problems) {
@@ -168,8 +251,13 @@ std::optional<Outgoing> SimulatedMeter::Impl::take_command(std::string_view line
     prompt_only.prompt = true;
     return prompt_only;
   }
-  if (outcome.reply->echo_on) echo = true;
-  return outgoing(std::move(*outcome.reply), faults);
+  if (outcome.reply->echo) echo = *outcome.reply->echo;
+  Outgoing out = outgoing(std::move(*outcome.reply), faults);
+  if (!held_banner.empty() && !out.bytes.empty()) {
+    log("the held banner goes out in front of this reply");
+    out.bytes.insert(0, std::exchange(held_banner, {}));
+  }
+  return out;
 }
 
 std::optional<Outgoing> SimulatedMeter::Impl::take_unprompted() {
@@ -222,6 +310,10 @@ Outgoing SimulatedMeter::Impl::outgoing(detail::Reply reply, const std::vector<F
       case FaultKind::disconnect:
       case FaultKind::no_answer:
       case FaultKind::reboot:
+      case FaultKind::fast_loss:
+      case FaultKind::glue:
+      case FaultKind::error:
+      case FaultKind::busy:
         break;
     }
   }
@@ -258,10 +350,19 @@ std::optional<ServeEnd> SimulatedMeter::Impl::transmit(drivers::Transport& link,
   return std::nullopt;
 }
 
+namespace {
+// A recording speaks for the model it was recorded from.
+MeterOptions for_source(MeterOptions options, const ReadingSource& source) {
+  if (const auto* recording = std::get_if<Recording>(&source)) options.model = recording->header.model;
+  return options;
+}
+}  // namespace
+
 SimulatedMeter::SimulatedMeter(ReadingSource source, MeterOptions options)
-    : impl_(std::make_unique<Impl>(std::move(options))) {
+    : impl_(std::make_unique<Impl>(for_source(std::move(options), source))) {
   if (auto* synthesis = std::get_if<Synthesis>(&source)) {
-    impl_->responder = detail::make_instrument(std::move(*synthesis), impl_->options);
+    impl_->responder = impl_->newer ? detail::make_remote_instrument(std::move(*synthesis), impl_->options)
+                                    : detail::make_instrument(std::move(*synthesis), impl_->options);
   } else {
     impl_->responder = detail::make_replayer(std::move(std::get<Recording>(source)), impl_->options);
   }
@@ -273,7 +374,6 @@ SimulatedMeter::ServeEnd SimulatedMeter::serve(drivers::Transport& link, const s
   Impl& m = *impl_;
   if (auto out = m.take_unprompted())
     if (auto end = m.transmit(link, stop, *out)) return *end;
-  std::string line;
   char buffer[512];
   while (!stop) {
     auto n = link.read(buffer, sizeof buffer, drivers::deadline_in(kPoll));
@@ -283,31 +383,35 @@ SimulatedMeter::ServeEnd SimulatedMeter::serve(drivers::Transport& link, const s
       if (n.error().kind == Kind::interrupted) return ServeEnd::stopped;
       return ServeEnd::closed;
     }
+    std::string_view received(buffer, *n);
+    std::string survived;
+    if (m.fast_loss) {
+      survived = m.fast_loss->filter(received, Clock::now());
+      if (survived.size() < received.size())
+        m.log(fmt::format("fault fast-loss: {} of {} bytes lost", received.size() - survived.size(), received.size()));
+      received = survived;
+    }
     std::string echoed;
-    for (std::size_t i = 0; i < *n; ++i) {
-      const char c = buffer[i];
+    for (const char c : received) {
+      bool remote = false;
       {
         std::lock_guard lock(m.mutex);
-        if (m.echo && m.mode == Mode::remote) echoed += c;
+        remote = m.current_mode() == Mode::remote;
+        if (m.echo && remote) echoed += c;
       }
-      if (c != '\r' && c != '\n') {
-        line += c;
-        if (line.size() > kMaxLine) {
-          m.log(fmt::format("input line longer than {} bytes dropped", kMaxLine));
-          line.clear();
-        }
-        continue;
-      }
+      auto frame = m.framer->push(c, m.newer ? remote : true);
+      if (!frame) continue;
       // The echo of a command goes out before its reply.
       if (!echoed.empty() && !link.write(std::exchange(echoed, {}), drivers::deadline_in(kWriteTimeout)))
         return ServeEnd::closed;
-      if (line.empty()) continue;  // the LF of a CR LF, or a blank line
-      auto out = m.take_command(std::exchange(line, {}));
+      auto out = m.take_frame(*frame);
       if (!out) continue;
       if (auto end = m.transmit(link, stop, *out)) return *end;
       if (auto more = m.take_unprompted())
         if (auto end = m.transmit(link, stop, *more)) return *end;
     }
+    if (const auto ignored = m.framer->take_ignored())
+      m.log(fmt::format("{} bytes ignored outside remote mode", ignored));
     if (!echoed.empty() && !link.write(echoed, drivers::deadline_in(kWriteTimeout))) return ServeEnd::closed;
   }
   return ServeEnd::stopped;
@@ -315,11 +419,12 @@ SimulatedMeter::ServeEnd SimulatedMeter::serve(drivers::Transport& link, const s
 
 void SimulatedMeter::power_cycle() {
   std::lock_guard lock(impl_->mutex);
-  impl_->mode = Mode::boot;
+  impl_->mode = impl_->power_on_mode();
   impl_->powered_on = Clock::now();
   impl_->echo = false;
+  impl_->held_banner.clear();
   impl_->responder->power_cycle();
-  impl_->log("power-cycled: power-on window open");
+  impl_->log(impl_->newer ? "power-cycled: local mode" : "power-cycled: power-on window open");
 }
 
 SimulatedMeter::Mode SimulatedMeter::mode() const {

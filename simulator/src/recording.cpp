@@ -80,20 +80,31 @@ std::expected<double, std::string> time_field(const Json& object, const char* ke
 }
 
 std::expected<RecordingHeader, std::string> parse_header(const Json& object, const Located& at) {
-  static const std::vector<std::string> kKeys = {"format",        "version",        "captured", "by",  "description",
-                                                 "boot_window_s", "header_variant", "exp_char", "echo"};
+  static const std::vector<std::string> kKeys = {"format",      "version",       "model",          "captured", "by",
+                                                 "description", "boot_window_s", "header_variant", "exp_char", "echo"};
   const auto format = object.find("format");
-  if (format == object.end() || !format->is_string() || format->get<std::string>() != kRecordingFormat)
+  const bool v2 = format != object.end() && format->is_string() && format->get<std::string>() == kRecordingFormat;
+  const bool v1 = format != object.end() && format->is_string() && format->get<std::string>() == kRecordingFormatV1;
+  if (!v1 && !v2)
     return at(fmt::format("the first line must be the header {{\"format\":\"{}\",\"version\":{},...}}",
                           kRecordingFormat, kRecordingVersion));
   for (const auto& [key, value] : object.items())
     if (std::ranges::find(kKeys, key) == kKeys.end()) return at(fmt::format("unknown header field \"{}\"", key));
   const auto version = object.find("version");
   if (version == object.end() || !version->is_number_integer()) return at("the header has no integer \"version\"");
-  if (version->get<int>() != kRecordingVersion)
-    return at(fmt::format("version {} is not one this reader knows (it reads version {})", version->get<int>(),
-                          kRecordingVersion));
+  const int expected_version = v2 ? kRecordingVersion : 1;
+  if (version->get<int>() != expected_version)
+    return at(fmt::format("version {} is not one this reader knows (it reads version {} of \"{}\")",
+                          version->get<int>(), expected_version, format->get<std::string>()));
   RecordingHeader header;
+  const auto model = object.find("model");
+  if (v2 && model == object.end()) return at("a version 2 header must name the \"model\"");
+  if (v1 && model != object.end()) return at("a version 1 header has no \"model\": it is a PR-650 session");
+  if (model != object.end()) {
+    const auto known = model->is_string() ? drivers::model_from_id(model->get<std::string>()) : std::nullopt;
+    if (!known) return at(fmt::format("\"model\" {} is not a model skinspec knows (pr650, pr655, ...)", model->dump()));
+    header.model = *known;
+  }
   const auto text = [&](const char* key, std::string& into) -> std::expected<void, std::string> {
     const auto it = object.find(key);
     if (it == object.end()) return {};
@@ -212,6 +223,7 @@ std::string format_recording(const Recording& recording) {
   Json header;
   header["format"] = kRecordingFormat;
   header["version"] = kRecordingVersion;
+  header["model"] = drivers::profile(h.model).id;
   header["captured"] = h.captured;
   header["by"] = h.by;
   if (!h.description.empty()) header["description"] = h.description;

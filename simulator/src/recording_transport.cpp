@@ -2,13 +2,20 @@
 
 #include <cmath>
 
+#include "skinspec/drivers/pr6xx_protocol.hpp"
+
 namespace skinspec::simulator {
 
 namespace {
 
 using Millis = std::chrono::duration<double, std::milli>;
 
-bool ends_command(std::string_view tx) { return !tx.empty() && (tx.back() == '\n' || tx.back() == '\r'); }
+bool ends_line(std::string_view tx) { return !tx.empty() && (tx.back() == '\n' || tx.back() == '\r'); }
+
+// The PR-650 knows no keywords: "PHOTO" there is only the start of a line.
+bool ends_command(std::string_view tx, drivers::Model model) {
+  return drivers::profile(model).caps.remote_keyword ? drivers::pr6xx::command_complete(tx) : ends_line(tx);
+}
 
 double rounded_ms(drivers::Clock::duration d, double scale) {
   const double ms = Millis(d).count() / (scale > 0 ? scale : 1);
@@ -51,7 +58,7 @@ std::expected<void, drivers::TransportError> RecordingTransport::write(std::stri
   const auto now = drivers::Clock::now();
   auto& exchanges = recording_.exchanges;
   // A command may be written in pieces; anything after a terminator or a reply is a new one.
-  if (exchanges.empty() || !exchanges.back().rx.empty() || ends_command(exchanges.back().tx)) {
+  if (exchanges.empty() || !exchanges.back().rx.empty() || ends_command(exchanges.back().tx, recording_.header.model)) {
     exchanges.emplace_back().tx = bytes;
     timing_.push_back({now, now, now, 0, 0});
   } else {

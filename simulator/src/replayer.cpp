@@ -51,6 +51,7 @@ class Replayer final : public Responder {
 
   Outcome respond(const Command& command, std::vector<Fault>& faults) override;
   std::optional<Reply> unprompted() override;
+  void skipped(const Command& command) override;
   void power_cycle() override { forced_quality_.reset(); }
   std::size_t measurements() const override { return measurements_; }
 
@@ -118,6 +119,14 @@ Outcome Replayer::respond(const Command& command, std::vector<Fault>& faults) {
   if (bytes.empty()) return out;  // recorded silence
   out.reply = reply_of(std::move(bytes), exchange);
   return out;
+}
+
+// The recorded silence after a command the meter ignored is used up, so that the exchanges
+// after it still line up.
+void Replayer::skipped(const Command& command) {
+  std::string problem;
+  const auto index = find(command, problem);
+  if (index && recording_.exchanges[*index].rx.empty()) used_[*index] = true;
 }
 
 std::optional<Reply> Replayer::unprompted() {

@@ -18,9 +18,9 @@ namespace {
 constexpr std::string_view kCmfFile = "colour/cie1931_2deg_cmf.csv";
 constexpr std::string_view kIlluminantFile = "colour/cie_illuminants.csv";
 
-std::vector<double> sampled(std::span<const double> xs, std::span<const double> ys) {
+std::vector<double> sampled(std::span<const double> xs, std::span<const double> ys, std::span<const double> grid) {
   std::vector<double> out;
-  for (const double nm : native_grid()) out.push_back(interpolate(xs, ys, nm));
+  for (const double nm : grid) out.push_back(interpolate(xs, ys, nm));
   return out;
 }
 
@@ -28,7 +28,7 @@ struct Tristimulus {
   double x = 0, y = 0, z = 0;
 };
 
-// The meter sums at its own 4 nm step.
+// The meter sums at its own step.
 Tristimulus tristimulus(std::span<const double> radiance, const Observer& observer) {
   Tristimulus t;
   for (std::size_t i = 0; i < radiance.size() && i < observer.ybar.size(); ++i) {
@@ -36,7 +36,7 @@ Tristimulus tristimulus(std::span<const double> radiance, const Observer& observ
     t.y += radiance[i] * observer.ybar[i];
     t.z += radiance[i] * observer.zbar[i];
   }
-  const double k = kKm * pp::kStepNm;
+  const double k = kKm * observer.step_nm();
   return {t.x * k, t.y * k, t.z * k};
 }
 
@@ -47,11 +47,11 @@ std::pair<double, double> uv1960(const Tristimulus& t) {
   return {4 * t.x / d, 6 * t.y / d};
 }
 
-// Planck's law for a blackbody at `kelvin` on the native grid (relative units suffice for uv).
-std::vector<double> blackbody(double kelvin) {
+// Planck's law for a blackbody at `kelvin` on the grid (relative units suffice for uv).
+std::vector<double> blackbody(double kelvin, std::span<const double> grid) {
   constexpr double c2 = 1.4388e-2;  // m K
   std::vector<double> out;
-  for (const double nm : native_grid()) {
+  for (const double nm : grid) {
     const double m = nm * 1e-9;
     out.push_back(1.0 / (std::pow(m, 5) * std::expm1(c2 / (m * kelvin))) * 1e-30);
   }
@@ -84,13 +84,27 @@ const std::vector<double>& native_grid() {
   return grid;
 }
 
-std::expected<Observer, std::string> Observer::from_table(const Table& cmf) {
+std::vector<double> wavelengths(const drivers::Grid& grid) {
+  std::vector<double> out;
+  for (int i = 0; i < grid.points; ++i) out.push_back(grid.first_nm + grid.step_nm * i);
+  return out;
+}
+
+std::expected<Observer, std::string> Observer::from_table(const Table& cmf, std::span<const double> grid) {
   for (const std::string_view column : {"wavelength_nm", "xbar", "ybar", "zbar"})
     if (!cmf.has_column(column)) return std::unexpected(fmt::format("{}: missing column '{}'", cmf.source(), column));
   const auto nm = cmf.column("wavelength_nm");
-  if (nm.empty() || nm.front() > pp::kFirstNm || nm.back() < native_grid().back())
-    return std::unexpected(fmt::format("{}: the observer does not cover 380-780 nm", cmf.source()));
-  return Observer{sampled(nm, cmf.column("xbar")), sampled(nm, cmf.column("ybar")), sampled(nm, cmf.column("zbar"))};
+  if (grid.empty() || nm.empty() || nm.front() > grid.front())
+    return std::unexpected(
+        fmt::format("{}: the observer does not start by {} nm", cmf.source(), grid.empty() ? 0.0 : grid.front()));
+  // Beyond its last row (830 nm) the observer sees nothing: zeros, not the last row held.
+  const auto seen = [&](std::string_view column) {
+    std::vector<double> values = sampled(nm, cmf.column(column), grid);
+    for (std::size_t i = 0; i < grid.size(); ++i)
+      if (grid[i] > nm.back()) values[i] = 0;
+    return values;
+  };
+  return Observer{seen("xbar"), seen("ybar"), seen("zbar"), {grid.begin(), grid.end()}};
 }
 
 Photometry photometry(std::span<const double> radiance, const Observer& observer) {
@@ -109,9 +123,25 @@ Photometry photometry(std::span<const double> radiance, const Observer& observer
   // McCamy's cubic in the slope from the epicentre (0.3320, 0.1858); good for 2000-12500 K.
   const double n = (p.x - 0.3320) / (0.1858 - p.y);
   p.cct = std::clamp(((449 * n + 3525) * n + 6823.3) * n + 5520.33, 1000.0, 100000.0);
-  const auto [ub, vb] = uv1960(tristimulus(blackbody(p.cct), observer));
+  const auto [ub, vb] = uv1960(tristimulus(blackbody(p.cct, observer.nm), observer));
   p.duv = std::copysign(std::hypot(u - ub, v - vb), v - vb);
   return p;
+}
+
+std::vector<double> colour_report_values(const Photometry& p, int report, bool si_units) {
+  const double unit = si_units ? 1.0 : 1.0 / kCandelaPerFootlambert;
+  switch (report) {
+    case 1:
+      return {p.Y * unit, p.x, p.y};
+    case 2:
+      return {p.X * unit, p.Y * unit, p.Z * unit};
+    case 3:
+      return {p.Y * unit, p.u, p.v};
+    case 4:
+      return {p.Y * unit, p.cct, p.duv};
+    default:
+      return {p.Y * unit, p.x, p.y, p.u, p.v};
+  }
 }
 
 std::expected<Spectrum, std::string> ColourData::illuminant(std::string_view name) const {
@@ -120,7 +150,7 @@ std::expected<Spectrum, std::string> ColourData::illuminant(std::string_view nam
   return std::unexpected(fmt::format("unknown illuminant '{}' (known: D65, A, or a spectra CSV file)", name));
 }
 
-std::expected<ColourData, std::string> ColourData::load(const DataReader& read) {
+std::expected<ColourData, std::string> ColourData::load(const DataReader& read, std::span<const double> grid) {
   const auto load_table = [&](std::string_view file,
                               std::span<const std::string_view> columns) -> std::expected<Table, std::string> {
     auto bytes = read(file);
@@ -135,7 +165,7 @@ std::expected<ColourData, std::string> ColourData::load(const DataReader& read) 
   if (!cmf) return std::unexpected(cmf.error());
   auto illuminants = load_table(kIlluminantFile, kIlluminantColumns);
   if (!illuminants) return std::unexpected(illuminants.error());
-  auto observer = Observer::from_table(*cmf);
+  auto observer = Observer::from_table(*cmf, grid);
   if (!observer) return std::unexpected(observer.error());
   auto d65 = table_column(*illuminants, "D65");
   if (!d65) return std::unexpected(d65.error());
@@ -144,8 +174,9 @@ std::expected<ColourData, std::string> ColourData::load(const DataReader& read) 
   return ColourData{std::move(*observer), std::move(*d65), std::move(*a)};
 }
 
-std::expected<Scene, std::string> scene_from_radiance(std::string name, const Spectrum& radiance) {
-  const Spectrum on_grid = radiance.resampled(native_grid());
+std::expected<Scene, std::string> scene_from_radiance(std::string name, const Spectrum& radiance,
+                                                      std::span<const double> grid) {
+  const Spectrum on_grid = radiance.resampled(grid);
   if (std::ranges::any_of(on_grid.values(), [](double v) { return v < 0; }))
     return std::unexpected(fmt::format("radiance '{}' has negative values", name));
   const auto values = on_grid.values();
@@ -156,25 +187,26 @@ std::expected<Scene, std::string> scene_from_radiance(std::string name, const Sp
 }
 
 Scene scene_under_lamp(std::string name, const Spectrum& reflectance, const Lamp& lamp, const Observer& observer) {
-  const Spectrum power = lamp.power.resampled(native_grid());
-  const Spectrum r = reflectance.resampled(native_grid());
+  const Spectrum power = lamp.power.resampled(observer.nm);
+  const Spectrum r = reflectance.resampled(observer.nm);
   const double white = tristimulus(power.values(), observer).y;
   const double k = white > 0 ? lamp.white_luminance / white : 0;
   Scene scene;
   scene.name = std::move(name);
-  for (std::size_t i = 0; i < native_grid().size(); ++i)
+  for (std::size_t i = 0; i < observer.nm.size(); ++i)
     scene.radiance.push_back(std::max(0.0, r.values()[i]) * power.values()[i] * k);
   return scene;
 }
 
-std::expected<std::vector<Scene>, std::string> radiance_scenes(std::string_view csv, std::string_view source) {
+std::expected<std::vector<Scene>, std::string> radiance_scenes(std::string_view csv, std::string_view source,
+                                                               std::span<const double> grid) {
   SpectraLimits limits;
   limits.max_value = std::numeric_limits<double>::max();
   auto spectra = read_spectra(csv, source, limits);
   if (!spectra) return std::unexpected(spectra.error());
   std::vector<Scene> scenes;
   for (const auto& [name, spectrum] : *spectra) {
-    auto scene = scene_from_radiance(name, spectrum);
+    auto scene = scene_from_radiance(name, spectrum, grid);
     if (!scene) return std::unexpected(fmt::format("{}: {}", source, scene.error()));
     scenes.push_back(std::move(*scene));
   }

@@ -3,7 +3,9 @@
 // (docs/simulator.md):
 //
 //   SPEC    = COMMAND ":" FAULT [ "=" VALUE ] [ "@" N [ "+" ] ]
-//   COMMAND = "*" | a command letter (b s f m d e) | a letter with its code ("m0", "d5", "d110")
+//   COMMAND = "*" | a command letter (b s f m d e; on the newer meters also i t p a v)
+//           | a letter with its code ("m0", "d5", "d110") | a setup ("se", "ss", "sk", "sn", "sh",
+//           "sf", "su") | a keyword of the newer meters ("photo", "q")
 //
 // "d5:truncate" truncates every D5 reply, "m0:no-answer@2" swallows only the second M0,
 // "m:quality=18@3+" gives every measurement from the third on quality 18, "*:garbage" puts
@@ -35,6 +37,11 @@ enum class FaultKind {
   reboot,      // the meter restarts: silent (local mode) until power_cycle()
   exponent,    // value: "e" or "E", the exponent letter of every value in the reply
   header,      // value: "h1" or "h2", the spectral report's header layout
+  // Faults of the newer meters (PR-655 and later):
+  fast_loss,  // value: ms; a byte arriving sooner than this after the one before is lost (on "*")
+  glue,       // on photo: the banner is held back and sent in front of the next reply
+  error,      // value: a negative status; the measurement (m, t) fails with it; required
+  busy,       // value: extra "0001" answers of P before the measurement is done, default 1
 };
 
 std::string_view to_string(FaultKind kind);

@@ -1,11 +1,13 @@
 #pragma once
-// A PR-650 as a byte-level state machine, serving one client at a time over any Transport.
+// A Photo Research meter (the PR-650 or a newer model, MeterOptions::model) as a byte-level
+// state machine, serving one client at a time over any Transport.
 //
-// The meter has the state of a real one (docs/simulator.md): the power-on window (remote if a
-// command arrives within boot_window_s of power-on, silent otherwise until power_cycle()), echo
-// mode after E, the setup of the last valid S, the buffer of the last measurement that D
-// reports print, and its timing: measurements as long as their integration times, replies
-// paced at 9600 baud, everything multiplied by time_scale (0: no waiting at all).
+// The meter has the state of a real one (docs/simulator.md): on the PR-650 the power-on window
+// (remote if a command arrives within boot_window_s of power-on, silent otherwise until
+// power_cycle()), on the newer models local mode until PHOTO and again after Q; echo mode after
+// E, the setup of the last valid S, the buffer of the last measurement that D reports print,
+// and its timing: measurements as long as their integration times, replies paced at 9600 baud,
+// everything multiplied by time_scale (0: no waiting at all).
 //
 // Its readings come either from scenes (synthesis: one scene per successful measurement, the
 // last one repeating) or from a recording it replays byte for byte.
@@ -14,11 +16,13 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
 #include <vector>
 
+#include "skinspec/drivers/meter_profile.hpp"
 #include "skinspec/drivers/pr650_protocol.hpp"
 #include "skinspec/drivers/transport.hpp"
 #include "skinspec/simulator/faults.hpp"
@@ -39,11 +43,24 @@ struct SensorModel {
   double flicker_ms = 1000;      // F: measuring the flicker
 };
 
+// How a newer model's replies differ from its profile's WireStyle (docs/simulator.md), to try
+// what other firmware prints.
+struct WireOverrides {
+  std::optional<drivers::BannerEnd> banner;
+  std::optional<int> status_digits;    // of data statuses: 4 or 5
+  std::optional<bool> padded_errors;   // "-0008" rather than "-8"
+  std::optional<int> exponent_digits;  // of the spectral data lines: 2 or 3
+  std::string d111;                    // what D111 reports; empty: the profile's
+  bool d120_manual = false;            // D120 prints the manuals' example (201 points by 2 nm)
+};
+
 struct MeterOptions {
-  double boot_window_s = 5;  // real seconds, not scaled
-  double time_scale = 1;     // multiplies measurement times, reply delays and byte pacing
-  std::string serial_number = "60912345";
-  drivers::pr650::ReplyStyle style;  // header H1 or H2, exponent 'E' or 'e'
+  drivers::Model model = drivers::Model::pr650;
+  WireOverrides wire;                // newer models only
+  double boot_window_s = 5;          // real seconds, not scaled
+  double time_scale = 1;             // multiplies measurement times, reply delays and byte pacing
+  std::string serial_number;         // D110; empty: the profile's ("60912345" for the PR-650)
+  drivers::pr650::ReplyStyle style;  // PR-650: header H1 or H2, exponent 'E' or 'e'
   double noise = 0;                  // relative standard deviation of each spectral value (per average)
   std::uint64_t seed = 1;            // noise and the bytes of garbage and bit-flip faults
   bool stale_on_low_light = true;    // on quality 10 and 18 the data lines stay those of before
@@ -70,9 +87,10 @@ using ReadingSource = std::variant<Synthesis, Recording>;
 class SimulatedMeter {
  public:
   enum class Mode {
-    boot,    // powered on, waiting for a first command within the window
+    boot,    // PR-650: powered on, waiting for a first command within the window
     remote,  // answering commands
-    local,   // missed the window, or rebooted: silent until power_cycle()
+    local,   // PR-650: missed the window, or rebooted: silent until power_cycle();
+             // newer models: listening for PHOTO only
   };
   enum class ServeEnd {
     stopped,       // `stop` was set, or the link was interrupted
@@ -91,8 +109,8 @@ class SimulatedMeter {
   // the next call, as a real meter's does when its cable is plugged in again. One call at a time.
   ServeEnd serve(drivers::Transport& link, const std::atomic<bool>& stop);
 
-  // Switches the meter off and on: back to the power-on window, echo off, setup and buffer
-  // cleared. The scene under the meter stays. Safe from any thread.
+  // Switches the meter off and on: back to the power-on window (newer models: local mode),
+  // echo off, setup and buffer cleared. The scene under the meter stays. Safe from any thread.
   void power_cycle();
 
   Mode mode() const;

@@ -1,8 +1,8 @@
 #pragma once
-// Recorded PR-650 sessions: the JSON-lines format of docs/recording-format.md, and a Transport
+// Recorded meter sessions: the JSON-lines format of docs/recording-format.md, and a Transport
 // decorator that records whatever a driver sends and receives through it.
 //
-//   {"format":"skinspec-pr650-recording","version":1,"captured":"...","by":"...", ...}
+//   {"format":"skinspec-meter-recording","version":2,"model":"pr650","captured":"...","by":"...", ...}
 //   {"tx":"d5\n","rx":"00,0\r3.019E-01\r\n0380.,...","delay_ms":120,"byte_interval_ms":1.04}
 //
 // Bytes are kept exactly: every byte of tx and rx is one character U+0000-U+00FF of the JSON
@@ -16,13 +16,16 @@
 #include <string_view>
 #include <vector>
 
+#include "skinspec/drivers/meter_profile.hpp"
 #include "skinspec/drivers/transport.hpp"
 #include "skinspec/simulator/faults.hpp"
 
 namespace skinspec::simulator {
 
-inline constexpr std::string_view kRecordingFormat = "skinspec-pr650-recording";
-inline constexpr int kRecordingVersion = 1;
+inline constexpr std::string_view kRecordingFormat = "skinspec-meter-recording";
+inline constexpr int kRecordingVersion = 2;
+// Version 1, still read: PR-650 sessions only.
+inline constexpr std::string_view kRecordingFormatV1 = "skinspec-pr650-recording";
 // One byte at 9600 baud, 8N1: ten bits.
 inline constexpr double kLineByteIntervalMs = 10000.0 / 9600.0;
 
@@ -35,6 +38,7 @@ struct RecordingHeader {
   std::optional<std::string> header_variant;  // "H1" or "H2"
   std::optional<char> exponent;               // 'E' or 'e'
   std::optional<bool> echo;
+  drivers::Model model = drivers::Model::pr650;  // "model"; version 1 files are PR-650 sessions
 };
 
 struct Exchange {
@@ -63,8 +67,8 @@ struct RecordingOptions {
 };
 
 // Passes everything to `inner` and records the traffic as exchanges. A write after the previous
-// command's terminator starts a new exchange; what is read (and what flush_input() discards,
-// which the meter did send) belongs to the current one. Thread-safe.
+// command is whole (its terminator; on the newer models also PHOTO or Q) starts a new exchange; what is read (and what
+// flush_input() discards, which the meter did send) belongs to the current one. Thread-safe.
 class RecordingTransport final : public drivers::Transport {
  public:
   RecordingTransport(std::unique_ptr<drivers::Transport> inner, RecordingHeader header, RecordingOptions options = {});

@@ -1,5 +1,5 @@
 #pragma once
-// Building a simulated PR-650 from what a user names: the one header a program needs.
+// Building a simulated meter from what a user names: the one header a program needs.
 //
 //   SimulatorConfig config;
 //   config.reflectance_files = {"skin.csv"};
@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <expected>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,7 +34,9 @@ struct SimulatorConfig {
   double fault_rate = 0;                       // random faults: probability per command
   int fault_gap = 0;                           // commands spared after a random fault
   std::uint64_t seed = 1;                      // random faults and noise
-  MeterOptions meter;                          // its `faults` and `seed` are set from the above
+  // The model simulated; none: a replay's recorded model, else the PR-650.
+  std::optional<drivers::Model> model;
+  MeterOptions meter;  // its `model`, `faults` and `seed` are set from the above
 };
 
 // Reads the files (and the colour tables of the data directory for synthesis); an error
