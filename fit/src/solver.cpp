@@ -1,13 +1,13 @@
 #include "solver.hpp"
 
-#include <ceres/ceres.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 
-#include "spectrum_cost.hpp"
+#include "levenberg_marquardt.hpp"
+#include "spectrum_residuals.hpp"
 
 namespace skinspec::detail {
 
@@ -115,81 +115,47 @@ class Engine {
   }
 
   Eigen::MatrixXd jacobian(const Params& p) const {
-    const auto n = static_cast<int>(problem_.model.size());
-    Eigen::Matrix<double, Eigen::Dynamic, N, Eigen::RowMajor> j(n, N);
-    std::vector<double> residuals(problem_.model.size());
-    const double* parameters[] = {p.data()};
-    double* jacobians[] = {j.data()};
-    cost().Evaluate(parameters, residuals.data(), jacobians);
+    const auto n = static_cast<Eigen::Index>(problem_.model.size());
+    Eigen::Matrix<double, Eigen::Dynamic, N> j(n, N);
+    Eigen::VectorXd residuals(n);
+    residuals_of().evaluate(p.data(), residuals.data(), j.data());
     return j;
   }
 
  private:
-  SpectrumCost cost() const { return SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights); }
+  SpectrumResiduals residuals_of() const {
+    return SpectrumResiduals(problem_.model, problem_.measured, problem_.sqrt_weights);
+  }
 
   bool fixed(const Solution& s, std::size_t i) const { return problem_.held[i] || s.pinned[i] != Pin::none; }
 
-  // Ends a solve as soon as a free parameter leaves its plausible range, so that the
-  // active-set loop can pin it at the bound: continuing would only fit a meaningless value.
-  class StopOutsideBounds : public ceres::IterationCallback {
-   public:
-    StopOutsideBounds(const Engine& engine, const Solution& s) : engine_(engine), s_(s) {}
-    ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
-      for (std::size_t i = 0; i < N; ++i)
-        if (!engine_.fixed(s_, i) &&
-            (s_.params[i] < engine_.bounds_.lower[i] || s_.params[i] > engine_.bounds_.upper[i]))
-          return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
-      return ceres::SOLVER_CONTINUE;
-    }
-
-   private:
-    const Engine& engine_;
-    const Solution& s_;
-  };
-
-  // One Levenberg-Marquardt solve in the solver's box (the cost refuses what lies outside it),
-  // fixed parameters held. Bounds are kept
-  // by the active-set loop rather than by Ceres's projection, whose trust region shrinks step
-  // after step while a parameter creeps along an active bound: tens of iterations instead of a
-  // handful.
+  // One Levenberg-Marquardt solve in the solver's box (steps out of it are rejected), fixed
+  // parameters held, ended early when a free parameter leaves its plausible range. Bounds are
+  // kept by the active-set loop rather than by projecting steps onto them, which makes the
+  // trust region shrink step after step while a parameter creeps along an active bound: tens
+  // of iterations instead of a handful.
   void solve_once(Solution& s) const {
-    ceres::Problem::Options problem_options;
-    problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-    problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
-    ceres::Problem problem(problem_options);
-    auto* cost = new SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights,
-                                  Box{bounds_.solver_lower, bounds_.solver_upper});
-    double* p = s.params.data();
-    problem.AddResidualBlock(cost, nullptr, p);
-    std::vector<int> constant;
-    for (int i = 0; i < N; ++i)
-      if (fixed(s, static_cast<std::size_t>(i))) constant.push_back(i);
-    if (constant.size() == static_cast<std::size_t>(N)) {
+    std::array<double, N> start{};
+    std::array<bool, N> free{};
+    for (std::size_t i = 0; i < N; ++i) {
+      start[i] = s.params[i];
+      free[i] = !fixed(s, i);
+    }
+    if (std::ranges::none_of(free, std::identity{})) {
       s.cost = 0.5 * weighted_sum_of_squares(problem_, s.params, 1);
       s.iterations = 0;
       s.converged = true;
       s.message = "every parameter held";
       return;
     }
-    if (!constant.empty()) problem.SetManifold(p, new ceres::SubsetManifold(N, constant));
-
-    ceres::Solver::Options options;
-    options.linear_solver_type = ceres::DENSE_QR;
-    options.logging_type = ceres::SILENT;
-    options.max_num_iterations = 100;
-    options.function_tolerance = 1e-7;
-    options.gradient_tolerance = 1e-12;
-    options.parameter_tolerance = 1e-8;
-    options.num_threads = 1;
-    StopOutsideBounds stop(*this, s);
-    options.callbacks.push_back(&stop);
-    options.update_state_every_iteration = true;
-    ceres::Solver::Summary summary;
-    ceres::Solve(options, &problem, &summary);
-    s.cost = summary.final_cost;
-    s.iterations = static_cast<int>(summary.iterations.size());
-    s.converged = summary.termination_type == ceres::CONVERGENCE;
-    s.message = summary.BriefReport();
+    const SpectrumResiduals residuals(problem_.model, problem_.measured, problem_.sqrt_weights,
+                                      Box{bounds_.solver_lower, bounds_.solver_upper});
+    const LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper);
+    s.params.assign(result.params.begin(), result.params.end());
+    s.cost = result.cost;
+    s.iterations = result.iterations;
+    s.converged = result.end == LmEnd::converged;
+    s.message = result.message;
   }
 
   bool pin_crossed(Solution& s) const {
@@ -206,16 +172,14 @@ class Engine {
   // by letting that parameter move again.
   bool release_pinned(Solution& s) const {
     if (std::ranges::none_of(s.pinned, [](Pin pin) { return pin != Pin::none; })) return false;
-    const auto n = problem_.model.size();
-    std::vector<double> residuals(n), j(n * N);
-    const double* parameters[] = {s.params.data()};
-    double* jacobians[] = {j.data()};
-    cost().Evaluate(parameters, residuals.data(), jacobians);
+    const auto n = static_cast<Eigen::Index>(problem_.model.size());
+    Eigen::VectorXd residuals(n);
+    Eigen::Matrix<double, Eigen::Dynamic, N> j(n, N);
+    residuals_of().evaluate(s.params.data(), residuals.data(), j.data());
     bool changed = false;
     for (std::size_t i = 0; i < N; ++i) {
       if (s.pinned[i] == Pin::none) continue;
-      double gradient = 0;
-      for (std::size_t r = 0; r < n; ++r) gradient += residuals[r] * j[r * N + i];
+      const double gradient = j.col(static_cast<Eigen::Index>(i)).dot(residuals);
       if ((s.pinned[i] == Pin::lower && gradient < 0) || (s.pinned[i] == Pin::upper && gradient > 0))
         s.pinned[i] = Pin::none, changed = true;
     }
