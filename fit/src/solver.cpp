@@ -13,9 +13,9 @@ namespace skinspec::detail {
 
 namespace {
 
-[[gnu::flatten]] double weighted_sum_of_squares(const Problem& problem, const Params& p, std::size_t stride) {
+double weighted_sum_of_squares(const Problem& problem, const Params& p) {
   double sum = 0;
-  for (std::size_t i = 0; i < problem.model.size(); i += stride) {
+  for (std::size_t i = 0; i < problem.model.size(); ++i) {
     const double r = problem.model.reflectance_at(i, p.data()) - problem.measured[i];
     sum += problem.weights[i] * r * r;
   }
@@ -69,20 +69,48 @@ double blood_of(ModelKind kind, const Params& p) {
 // Start points for the solver: a coarse log-spaced search over what shapes skin most (melanin
 // and blood), on every fourth sample. Returns the best few, best first, each with a different
 // amount of blood: dark skin has a second basin where melanin explains the blue and
-// haemoglobin drops to zero, and starts from one blood level all fall into it.
+// haemoglobin drops to zero, and starts from one blood level all fall into it. The epidermis
+// varies with melanin alone and the dermis with blood alone, so each layer is computed once per
+// level and the points of the grid only combine them.
 std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) {
   constexpr double kMelaninLevels[] = {0.25, 1, 3, 8, 20, 50, 120};
   constexpr double kBloodLevels[] = {0.25, 1, 3, 8, 20};
   constexpr double kOxygenShares[] = {0.4, 0.8};
-  const ModelKind kind = problem.model.kind();
+  constexpr std::size_t kStride = 4;
+  const SkinModel& model = problem.model;
+  const ModelKind kind = model.kind();
   const double melanin_limit = model_spec(kind).params[kMelanin].upper;
+  const auto melanin_level = [&](double m) { return std::min(m, melanin_limit); };
+
+  std::vector<ReflectanceTransmittance<double>> epidermis;
+  for (double m : kMelaninLevels) {
+    const Params p = start_point(problem, melanin_level(m), kBloodLevels[0], kOxygenShares[0]);
+    for (std::size_t i = 0; i < model.size(); i += kStride) epidermis.push_back(model.epidermis_at(i, p.data()));
+  }
+  std::vector<DermisRemittance<double>> dermis;
+  for (double blood : kBloodLevels)
+    for (double share : kOxygenShares) {
+      const Params p = start_point(problem, kMelaninLevels[0], blood, share);
+      for (std::size_t i = 0; i < model.size(); i += kStride) dermis.push_back(model.dermis_at(i, p.data()));
+    }
+
+  const std::size_t samples = epidermis.size() / std::size(kMelaninLevels);
   std::vector<std::pair<double, Params>> scored;
-  for (double m : kMelaninLevels)
-    for (double blood : kBloodLevels)
-      for (double share : kOxygenShares) {
-        const Params p = start_point(problem, std::min(m, melanin_limit), blood, share);
-        scored.emplace_back(weighted_sum_of_squares(problem, p, 4), p);
+  for (std::size_t e = 0; e < std::size(kMelaninLevels); ++e)
+    for (std::size_t d = 0; d < dermis.size() / samples; ++d) {
+      const double blood = kBloodLevels[d / std::size(kOxygenShares)];
+      const double share = kOxygenShares[d % std::size(kOxygenShares)];
+      const Params p = start_point(problem, melanin_level(kMelaninLevels[e]), blood, share);
+      double sum = 0;
+      for (std::size_t k = 0; k < samples; ++k) {
+        const std::size_t i = k * kStride;
+        const double r =
+            combined_reflectance(p[kSurfaceReflectance], epidermis[e * samples + k], dermis[d * samples + k]) -
+            problem.measured[i];
+        sum += problem.weights[i] * r * r;
       }
+      scored.emplace_back(sum, p);
+    }
   std::ranges::sort(scored, {}, &std::pair<double, Params>::first);
   std::vector<Params> starts;
   for (const auto& [score, p] : scored) {
@@ -142,7 +170,7 @@ class Engine {
       free[i] = !fixed(s, i);
     }
     if (std::ranges::none_of(free, std::identity{})) {
-      s.cost = 0.5 * weighted_sum_of_squares(problem_, s.params, 1);
+      s.cost = 0.5 * weighted_sum_of_squares(problem_, s.params);
       s.iterations = 0;
       s.converged = true;
       s.message = "every parameter held";
