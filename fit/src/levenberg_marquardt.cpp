@@ -29,7 +29,7 @@ template <int N>
 struct Point {
   std::array<double, N> p{};
   Eigen::VectorXd residuals;
-  Eigen::Matrix<double, Eigen::Dynamic, N> jacobian;
+  Eigen::MatrixXd jacobian;
   double cost = 0;
 };
 
@@ -54,14 +54,20 @@ class Minimizer {
   LmResult<N> run(const std::array<double, N>& start) {
     x_.p = start;
     if (!evaluate(x_))
-      return {start, std::numeric_limits<double>::infinity(), 0, LmEnd::failed, "the start could not be evaluated"};
+      return {start, std::numeric_limits<double>::infinity(), 0, LmEnd::failed, "the start could not be evaluated", {},
+              {}};
     const double initial_cost = x_.cost;
     choose_scaling();
     factorize();
     int iterations = 0;
     const auto [end, reason] = iterate(iterations);
-    return {x_.p, x_.cost, iterations, end,
-            fmt::format("{}; {} iterations, cost {:.6g} to {:.6g}", reason, iterations, initial_cost, x_.cost)};
+    return {x_.p,
+            x_.cost,
+            iterations,
+            end,
+            fmt::format("{}; {} iterations, cost {:.6g} to {:.6g}", reason, iterations, initial_cost, x_.cost),
+            std::move(x_.residuals),
+            std::move(x_.jacobian)};
   }
 
  private:

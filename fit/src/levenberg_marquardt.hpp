@@ -25,6 +25,9 @@ struct LmResult {
   int iterations = 0;  // steps tried, taken or not
   LmEnd end = LmEnd::failed;
   std::string message;
+  // The residuals and their Jacobian (all N columns) at params, unless the start failed.
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd jacobian;
 };
 
 // Minimises half the sum of squared `residuals` over the parameters marked `free`, from

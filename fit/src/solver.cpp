@@ -13,15 +13,6 @@ namespace skinspec::detail {
 
 namespace {
 
-double weighted_sum_of_squares(const Problem& problem, const Params& p) {
-  double sum = 0;
-  for (std::size_t i = 0; i < problem.model.size(); ++i) {
-    const double r = problem.model.reflectance_at(i, p.data()) - problem.measured[i];
-    sum += problem.weights[i] * r * r;
-  }
-  return sum;
-}
-
 // The plausible range of each parameter, and the wider box the solver may roam before the
 // active-set loop pins a parameter at the bound it crossed.
 struct Bounds {
@@ -129,7 +120,7 @@ class Engine {
   // Bounded least squares by active sets: solve; pin every parameter that crossed a bound at
   // that bound and solve again; release a pinned parameter whose gradient points back inside.
   Solution solve_from(const Params& start) const {
-    Solution solution{start, 0, 0, false, {}, std::vector<Pin>(N, Pin::none)};
+    Solution solution{start, 0, 0, false, {}, std::vector<Pin>(N, Pin::none), {}, {}};
     int iterations = 0;
     for (int round = 0; round < 2 * N; ++round) {
       solve_once(solution);
@@ -139,20 +130,19 @@ class Engine {
       if (!changed) break;
     }
     solution.iterations = iterations;
+    know_derivatives(solution);
     return solution;
   }
 
-  Eigen::MatrixXd jacobian(const Params& p) const {
-    const auto n = static_cast<Eigen::Index>(problem_.model.size());
-    Eigen::Matrix<double, Eigen::Dynamic, N> j(n, N);
-    Eigen::VectorXd residuals(n);
-    residuals_of().evaluate(p.data(), residuals.data(), j.data());
-    return j;
-  }
-
  private:
-  SpectrumResiduals residuals_of() const {
-    return SpectrumResiduals(problem_.model, problem_.measured, problem_.sqrt_weights);
+  // The residuals and Jacobian at the solution's parameters, where the solve did not leave them.
+  void know_derivatives(Solution& s) const {
+    if (s.jacobian.size() != 0) return;
+    const auto n = static_cast<Eigen::Index>(problem_.model.size());
+    s.residuals.resize(n);
+    s.jacobian.resize(n, N);
+    SpectrumResiduals(problem_.model, problem_.measured, problem_.sqrt_weights)
+        .evaluate(s.params.data(), s.residuals.data(), s.jacobian.data());
   }
 
   bool fixed(const Solution& s, std::size_t i) const { return problem_.held[i] || s.pinned[i] != Pin::none; }
@@ -170,7 +160,9 @@ class Engine {
       free[i] = !fixed(s, i);
     }
     if (std::ranges::none_of(free, std::identity{})) {
-      s.cost = 0.5 * weighted_sum_of_squares(problem_, s.params);
+      s.jacobian.resize(0, 0);
+      know_derivatives(s);
+      s.cost = 0.5 * s.residuals.squaredNorm();
       s.iterations = 0;
       s.converged = true;
       s.message = "every parameter held";
@@ -178,12 +170,14 @@ class Engine {
     }
     const SpectrumResiduals residuals(problem_.model, problem_.measured, problem_.sqrt_weights,
                                       Box{bounds_.solver_lower, bounds_.solver_upper});
-    const LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper);
+    LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper);
     s.params.assign(result.params.begin(), result.params.end());
     s.cost = result.cost;
     s.iterations = result.iterations;
     s.converged = result.end == LmEnd::converged;
     s.message = result.message;
+    s.residuals = std::move(result.residuals);
+    s.jacobian = std::move(result.jacobian);
   }
 
   bool pin_crossed(Solution& s) const {
@@ -193,6 +187,7 @@ class Engine {
       if (s.params[i] < bounds_.lower[i]) s.params[i] = bounds_.lower[i], s.pinned[i] = Pin::lower, changed = true;
       else if (s.params[i] > bounds_.upper[i]) s.params[i] = bounds_.upper[i], s.pinned[i] = Pin::upper, changed = true;
     }
+    if (changed) s.jacobian.resize(0, 0);
     return changed;
   }
 
@@ -200,14 +195,11 @@ class Engine {
   // by letting that parameter move again.
   bool release_pinned(Solution& s) const {
     if (std::ranges::none_of(s.pinned, [](Pin pin) { return pin != Pin::none; })) return false;
-    const auto n = static_cast<Eigen::Index>(problem_.model.size());
-    Eigen::VectorXd residuals(n);
-    Eigen::Matrix<double, Eigen::Dynamic, N> j(n, N);
-    residuals_of().evaluate(s.params.data(), residuals.data(), j.data());
+    know_derivatives(s);
     bool changed = false;
     for (std::size_t i = 0; i < N; ++i) {
       if (s.pinned[i] == Pin::none) continue;
-      const double gradient = j.col(static_cast<Eigen::Index>(i)).dot(residuals);
+      const double gradient = s.jacobian.col(static_cast<Eigen::Index>(i)).dot(s.residuals);
       if ((s.pinned[i] == Pin::lower && gradient < 0) || (s.pinned[i] == Pin::upper && gradient > 0))
         s.pinned[i] = Pin::none, changed = true;
     }
@@ -260,11 +252,6 @@ Solution solve_with(const Problem& problem) {
 Solution solve(const Problem& problem) {
   return problem.model.kind() == ModelKind::paper ? solve_with<kPaperParamCount>(problem)
                                                   : solve_with<kExtendedParamCount>(problem);
-}
-
-Eigen::MatrixXd jacobian(const Problem& problem, const Params& p) {
-  return problem.model.kind() == ModelKind::paper ? Engine<kPaperParamCount>(problem).jacobian(p)
-                                                  : Engine<kExtendedParamCount>(problem).jacobian(p);
 }
 
 }  // namespace skinspec::detail
