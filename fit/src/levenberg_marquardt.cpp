@@ -1,12 +1,12 @@
 #include "levenberg_marquardt.hpp"
 
-#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
 
 #include "skinspec/fit/model_spec.hpp"
+#include "small_qr.hpp"
 
 namespace skinspec::detail {
 
@@ -46,8 +46,7 @@ class Minimizer {
       point->residuals.resize(rows);
       point->jacobian.resize(rows, N);
     }
-    scaled_.resize(rows, k_);
-    qr_ = Eigen::HouseholderQR<Eigen::MatrixXd>(rows, k_);
+    r_.resize(rows, k_);
     qtr_.resize(rows);
   }
 
@@ -71,9 +70,6 @@ class Minimizer {
   }
 
  private:
-  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 2 * N, N>;
-  using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 2 * N, 1>;
-
   std::pair<LmEnd, const char*> iterate(int& iterations) {
     double radius = kInitialRadius, shrink = 2;
     for (;;) {
@@ -117,19 +113,18 @@ class Minimizer {
     for (int j = 0; j < k_; ++j) scale_[j] = 1.0 / (1.0 + x_.jacobian.col(free_[j]).norm());
   }
 
-  // The QR factorisation of the scaled free columns at x, Q^T r, the damping's diagonal and the
-  // gradient's largest component: what every step from x needs.
+  // R of the QR factorisation of the scaled free columns at x, Q^T r, the damping's diagonal
+  // and the gradient's largest component: what every step from x needs.
   void factorize() {
     gradient_max_ = 0;
     for (int j = 0; j < k_; ++j) {
       const auto column = x_.jacobian.col(free_[j]);
-      scaled_.col(j) = scale_[j] * column;
-      diagonal_[j] = std::clamp(scaled_.col(j).squaredNorm(), kMinDiagonal, kMaxDiagonal);
+      r_.col(j) = scale_[j] * column;
+      diagonal_[j] = std::clamp(r_.col(j).squaredNorm(), kMinDiagonal, kMaxDiagonal);
       gradient_max_ = std::max(gradient_max_, std::abs(column.dot(x_.residuals)));
     }
-    qr_.compute(scaled_);
     qtr_ = x_.residuals;
-    qtr_.applyOnTheLeft(qr_.householderQ().transpose());
+    triangularize(r_.data(), static_cast<int>(r_.rows()), k_, qtr_.data());
   }
 
   // The damped Gauss-Newton step at x for this radius, min |J s + r|^2 + |D s|^2 / radius in
@@ -137,18 +132,22 @@ class Minimizer {
   // promises no decrease. Sets the candidate point and the cost decrease the linear model
   // predicts.
   bool step(double radius, double& predicted) {
-    Small a = Small::Zero(2 * k_, k_);
-    a.topRows(k_) = qr_.matrixQR().topRows(k_).template triangularView<Eigen::Upper>();
-    for (int j = 0; j < k_; ++j) a(k_ + j, j) = std::sqrt(diagonal_[j] / radius);
-    SmallVector b = SmallVector::Zero(2 * k_);
-    b.head(k_) = -qtr_.head(k_);
-    const Eigen::HouseholderQR<Small> small(a);
-    const SmallVector s = small.solve(b);
-    if (!s.allFinite()) return false;
+    const int rows = 2 * k_;  // R over the damping's diagonal
+    std::array<double, 2 * N * N> a{};
+    std::array<double, 2 * N> s{};
+    for (int j = 0; j < k_; ++j) {
+      for (int i = 0; i <= j; ++i) a[j * rows + i] = r_(i, j);
+      a[j * rows + k_ + j] = std::sqrt(diagonal_[j] / radius);
+      s[j] = -qtr_[j];
+    }
+    triangularize(a.data(), rows, k_, s.data());
+    solve_upper(a.data(), rows, k_, s.data());
+    if (!std::all_of(s.begin(), s.begin() + k_, [](double v) { return std::isfinite(v); })) return false;
     // J s = Q R s: the linear model's change of the residuals, in Q's basis.
     predicted = 0;
     for (int i = 0; i < k_; ++i) {
-      const double rs = qr_.matrixQR().row(i).segment(i, k_ - i).dot(s.segment(i, k_ - i));
+      double rs = 0;
+      for (int l = i; l < k_; ++l) rs += r_(i, l) * s[l];
       predicted -= rs * (qtr_[i] + 0.5 * rs);
     }
     if (!(predicted > 0)) return false;
@@ -185,8 +184,7 @@ class Minimizer {
   std::array<double, N> scale_{}, diagonal_{};
   double gradient_max_ = 0;
   Point<N> x_, candidate_;
-  Eigen::MatrixXd scaled_;
-  Eigen::HouseholderQR<Eigen::MatrixXd> qr_;
+  Eigen::MatrixXd r_;  // the scaled free columns, then R in their upper triangle
   Eigen::VectorXd qtr_;
 };
 
