@@ -218,6 +218,34 @@ double ordinary_dermis_K(std::size_t i) {
   return o.Kd[i] + 3.0 * o.Kh[i] + 1.0 * o.Kdh[i] + 1.0 * o.Kb[i];
 }
 
+// The fit's coarse search computes each layer once per level of what it varies and combines
+// them: that holds only while the epidermis depends on melanin alone and the dermis on
+// neither melanin nor Rs, in every model.
+TEST(SkinModel, EachLayerDependsOnlyOnItsOwnParameters) {
+  for (const ModelKind kind : kModelKinds) {
+    const SkinOptics& optics = shipped_optics(kind);
+    const SkinModel model(optics, *optics.site("forearm"), Spectrum::uniform_grid(380, 780, 4), true);
+    const Params base = default_params(kind);
+    const auto specs = model_spec(kind).params;
+    for (std::size_t changed = 0; changed < base.size(); ++changed) {
+      Params p = base;
+      p[changed] = specs[changed].lower + 0.3 * (specs[changed].upper - specs[changed].lower);
+      ASSERT_NE(p[changed], base[changed]) << specs[changed].name;
+      const bool epidermal = changed == kMelanin, surface = changed == kSurfaceReflectance;
+      bool epidermis_changed = false, dermis_changed = false;
+      for (std::size_t i = 0; i < model.size(); ++i) {
+        const auto epidermis = model.epidermis_at(i, p.data()), epidermis_before = model.epidermis_at(i, base.data());
+        const auto dermis = model.dermis_at(i, p.data()), dermis_before = model.dermis_at(i, base.data());
+        epidermis_changed |= epidermis.r != epidermis_before.r || epidermis.t != epidermis_before.t;
+        dermis_changed |= dermis.total != dermis_before.total || dermis.kept != dermis_before.kept;
+        EXPECT_EQ(model.reflectance_at(i, p.data()), combined_reflectance(p[kSurfaceReflectance], epidermis, dermis));
+      }
+      EXPECT_EQ(epidermis_changed, epidermal) << to_string(kind) << " " << specs[changed].name;
+      EXPECT_EQ(dermis_changed, !epidermal && !surface) << to_string(kind) << " " << specs[changed].name;
+    }
+  }
+}
+
 TEST(LateralLoss, IsZeroWithoutARadius) {
   const auto& o = textbook_optics().optics();
   const std::size_t i = table_index(550);

@@ -36,10 +36,14 @@ json params_schema() {
   return {{"type", "object"}, {"properties", props}};
 }
 
-json model_schema() {
+// A skin model's name; `with_default` false where the default is not the service's but the
+// session's (a refit).
+json model_schema(bool with_default = true) {
   json models = json::array();
   for (const auto model : kModelKinds) models.push_back(std::string(to_string(model)));
-  return {{"type", "string"}, {"enum", models}, {"default", std::string(to_string(kDefaultModel))}};
+  json schema = {{"type", "string"}, {"enum", models}};
+  if (with_default) schema["default"] = std::string(to_string(kDefaultModel));
+  return schema;
 }
 
 // What the spectrum determined (docs/model.md, "What the spectrum determines").
@@ -186,7 +190,9 @@ json schemas() {
        {{"type", "object"},
         {"additionalProperties", false},
         {"properties",
-         {{"site", {{"type", "string"}}}, {"model", model_schema()}, {"lateral_diffusion", {{"type", "boolean"}}}}}}},
+         {{"site", {{"type", "string"}}},
+          {"model", model_schema(false)},
+          {"lateral_diffusion", {{"type", "boolean"}}}}}}},
       {"WhiteStandardCreate",
        {{"type", "object"},
         {"required", {"name", "wavelength_nm", "reflectance"}},

@@ -414,7 +414,12 @@ struct Router::Handlers {
       fail(ErrorKind::conflict, "no_reflectance", "measurement " + std::to_string(m.id) + " has no reflectance to fit");
     const auto session = value(db.session(m.session_id));
     FitOptions options;
-    options.model = model_of(body, parse_model_kind(session.model).value_or(kDefaultModel));
+    const auto session_model = parse_model_kind(session.model);
+    if (!session_model && !body.contains("model"))
+      fail(ErrorKind::unprocessable, "unknown_model",
+           "session " + std::to_string(session.id) + "'s model '" + session.model +
+               "' is not one this version knows; give \"model\"");
+    options.model = model_of(body, session_model.value_or(kDefaultModel));
     options.site = detail::optional_string(body, "site", 64).value_or(session.site);
     checked_site(c, options.site);
     options.lateral_diffusion = detail::optional_bool(body, "lateral_diffusion").value_or(true);

@@ -147,8 +147,8 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   result.converged = best.converged;
   result.solver_message = best.message;
   result.fitted = model.reflectance(best.params);
-  auto uncertainty = detail::assess_uncertainty(options.model, detail::jacobian(problem, best.params), best.cost,
-                                                best.params, problem.held, best.pinned);
+  auto uncertainty =
+      detail::assess_uncertainty(options.model, best.jacobian, best.cost, best.params, problem.held, best.pinned);
   result.standard_error = std::move(uncertainty.standard_error);
   result.correlation = std::move(uncertainty.correlation);
   result.determination = std::move(uncertainty.determination);

@@ -38,11 +38,9 @@ LayerJet from_dermis(const DermisJet& x) {
 [[gnu::flatten]] LayerJet under_surface(const Geometry& g, double epidermis_S, double epidermis_K, double dermis_K,
                                         double dermis_S) {
   const auto epidermis = kubelka_layer(EpidermisJet(epidermis_K, 0), epidermis_S, g.site.epidermis_mm);
-  const DermisJet K(dermis_K, 0), S(dermis_S, 1);
-  const DermisJet dermis_total = dermis_over_white(kubelka_layer(K, S, g.site.dermis_mm));
-  const DermisJet kept = 1.0 - lateral_loss(K, S, g.lateral_radius_mm);
+  const auto dermis = dermis_remittance(DermisJet(dermis_K, 0), DermisJet(dermis_S, 1), g);
   return combined_reflectance(LayerJet(0.0), {from_epidermis(epidermis.r), from_epidermis(epidermis.t)},
-                              from_dermis(dermis_total), from_dermis(kept));
+                              {from_dermis(dermis.total), from_dermis(dermis.kept)});
 }
 
 double paper(const SkinModel& model, std::size_t i, const double* p, double* gradient) {

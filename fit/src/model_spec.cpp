@@ -79,7 +79,6 @@ constexpr ModelSpec kSpecs[] = {
 
 static_assert(std::size(kPaperParams) == kPaperParamCount);
 static_assert(std::size(kExtendedParams) == kExtendedParamCount);
-static_assert(kPaperParamCount <= kMaxParamCount && kExtendedParamCount <= kMaxParamCount);
 
 }  // namespace
 

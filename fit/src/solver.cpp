@@ -1,26 +1,17 @@
 #include "solver.hpp"
 
-#include <ceres/ceres.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 
-#include "spectrum_cost.hpp"
+#include "levenberg_marquardt.hpp"
+#include "spectrum_residuals.hpp"
 
 namespace skinspec::detail {
 
 namespace {
-
-[[gnu::flatten]] double weighted_sum_of_squares(const Problem& problem, const Params& p, std::size_t stride) {
-  double sum = 0;
-  for (std::size_t i = 0; i < problem.model.size(); i += stride) {
-    const double r = problem.model.reflectance_at(i, p.data()) - problem.measured[i];
-    sum += problem.weights[i] * r * r;
-  }
-  return sum;
-}
 
 // The plausible range of each parameter, and the wider box the solver may roam before the
 // active-set loop pins a parameter at the bound it crossed.
@@ -69,20 +60,48 @@ double blood_of(ModelKind kind, const Params& p) {
 // Start points for the solver: a coarse log-spaced search over what shapes skin most (melanin
 // and blood), on every fourth sample. Returns the best few, best first, each with a different
 // amount of blood: dark skin has a second basin where melanin explains the blue and
-// haemoglobin drops to zero, and starts from one blood level all fall into it.
+// haemoglobin drops to zero, and starts from one blood level all fall into it. The epidermis
+// varies with melanin alone and the dermis with blood alone, so each layer is computed once per
+// level and the points of the grid only combine them.
 std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) {
   constexpr double kMelaninLevels[] = {0.25, 1, 3, 8, 20, 50, 120};
   constexpr double kBloodLevels[] = {0.25, 1, 3, 8, 20};
   constexpr double kOxygenShares[] = {0.4, 0.8};
-  const ModelKind kind = problem.model.kind();
+  constexpr std::size_t kStride = 4;
+  const SkinModel& model = problem.model;
+  const ModelKind kind = model.kind();
   const double melanin_limit = model_spec(kind).params[kMelanin].upper;
+  const auto melanin_level = [&](double m) { return std::min(m, melanin_limit); };
+
+  std::vector<ReflectanceTransmittance<double>> epidermis;
+  for (double m : kMelaninLevels) {
+    const Params p = start_point(problem, melanin_level(m), kBloodLevels[0], kOxygenShares[0]);
+    for (std::size_t i = 0; i < model.size(); i += kStride) epidermis.push_back(model.epidermis_at(i, p.data()));
+  }
+  std::vector<DermisRemittance<double>> dermis;
+  for (double blood : kBloodLevels)
+    for (double share : kOxygenShares) {
+      const Params p = start_point(problem, kMelaninLevels[0], blood, share);
+      for (std::size_t i = 0; i < model.size(); i += kStride) dermis.push_back(model.dermis_at(i, p.data()));
+    }
+
+  const std::size_t samples = epidermis.size() / std::size(kMelaninLevels);
   std::vector<std::pair<double, Params>> scored;
-  for (double m : kMelaninLevels)
-    for (double blood : kBloodLevels)
-      for (double share : kOxygenShares) {
-        const Params p = start_point(problem, std::min(m, melanin_limit), blood, share);
-        scored.emplace_back(weighted_sum_of_squares(problem, p, 4), p);
+  for (std::size_t e = 0; e < std::size(kMelaninLevels); ++e)
+    for (std::size_t d = 0; d < dermis.size() / samples; ++d) {
+      const double blood = kBloodLevels[d / std::size(kOxygenShares)];
+      const double share = kOxygenShares[d % std::size(kOxygenShares)];
+      const Params p = start_point(problem, melanin_level(kMelaninLevels[e]), blood, share);
+      double sum = 0;
+      for (std::size_t k = 0; k < samples; ++k) {
+        const std::size_t i = k * kStride;
+        const double r =
+            combined_reflectance(p[kSurfaceReflectance], epidermis[e * samples + k], dermis[d * samples + k]) -
+            problem.measured[i];
+        sum += problem.weights[i] * r * r;
       }
+      scored.emplace_back(sum, p);
+    }
   std::ranges::sort(scored, {}, &std::pair<double, Params>::first);
   std::vector<Params> starts;
   for (const auto& [score, p] : scored) {
@@ -101,7 +120,7 @@ class Engine {
   // Bounded least squares by active sets: solve; pin every parameter that crossed a bound at
   // that bound and solve again; release a pinned parameter whose gradient points back inside.
   Solution solve_from(const Params& start) const {
-    Solution solution{start, 0, 0, false, {}, std::vector<Pin>(N, Pin::none)};
+    Solution solution{start, 0, 0, false, {}, std::vector<Pin>(N, Pin::none), {}, {}};
     int iterations = 0;
     for (int round = 0; round < 2 * N; ++round) {
       solve_once(solution);
@@ -111,85 +130,54 @@ class Engine {
       if (!changed) break;
     }
     solution.iterations = iterations;
+    know_derivatives(solution);
     return solution;
   }
 
-  Eigen::MatrixXd jacobian(const Params& p) const {
-    const auto n = static_cast<int>(problem_.model.size());
-    Eigen::Matrix<double, Eigen::Dynamic, N, Eigen::RowMajor> j(n, N);
-    std::vector<double> residuals(problem_.model.size());
-    const double* parameters[] = {p.data()};
-    double* jacobians[] = {j.data()};
-    cost().Evaluate(parameters, residuals.data(), jacobians);
-    return j;
-  }
-
  private:
-  SpectrumCost cost() const { return SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights); }
+  // The residuals and Jacobian at the solution's parameters, where the solve did not leave them.
+  void know_derivatives(Solution& s) const {
+    if (s.jacobian.size() != 0) return;
+    const auto n = static_cast<Eigen::Index>(problem_.model.size());
+    s.residuals.resize(n);
+    s.jacobian.resize(n, N);
+    SpectrumResiduals(problem_.model, problem_.measured, problem_.sqrt_weights)
+        .evaluate(s.params.data(), s.residuals.data(), s.jacobian.data());
+  }
 
   bool fixed(const Solution& s, std::size_t i) const { return problem_.held[i] || s.pinned[i] != Pin::none; }
 
-  // Ends a solve as soon as a free parameter leaves its plausible range, so that the
-  // active-set loop can pin it at the bound: continuing would only fit a meaningless value.
-  class StopOutsideBounds : public ceres::IterationCallback {
-   public:
-    StopOutsideBounds(const Engine& engine, const Solution& s) : engine_(engine), s_(s) {}
-    ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
-      for (std::size_t i = 0; i < N; ++i)
-        if (!engine_.fixed(s_, i) &&
-            (s_.params[i] < engine_.bounds_.lower[i] || s_.params[i] > engine_.bounds_.upper[i]))
-          return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
-      return ceres::SOLVER_CONTINUE;
-    }
-
-   private:
-    const Engine& engine_;
-    const Solution& s_;
-  };
-
-  // One Levenberg-Marquardt solve in the solver's box (the cost refuses what lies outside it),
-  // fixed parameters held. Bounds are kept
-  // by the active-set loop rather than by Ceres's projection, whose trust region shrinks step
-  // after step while a parameter creeps along an active bound: tens of iterations instead of a
-  // handful.
+  // One Levenberg-Marquardt solve in the solver's box (steps out of it are rejected), fixed
+  // parameters held, ended early when a free parameter leaves its plausible range. Bounds are
+  // kept by the active-set loop rather than by projecting steps onto them, which makes the
+  // trust region shrink step after step while a parameter creeps along an active bound: tens
+  // of iterations instead of a handful.
   void solve_once(Solution& s) const {
-    ceres::Problem::Options problem_options;
-    problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-    problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
-    ceres::Problem problem(problem_options);
-    auto* cost = new SpectrumCost(problem_.model, problem_.measured, problem_.sqrt_weights,
-                                  Box{bounds_.solver_lower, bounds_.solver_upper});
-    double* p = s.params.data();
-    problem.AddResidualBlock(cost, nullptr, p);
-    std::vector<int> constant;
-    for (int i = 0; i < N; ++i)
-      if (fixed(s, static_cast<std::size_t>(i))) constant.push_back(i);
-    if (constant.size() == static_cast<std::size_t>(N)) {
-      s.cost = 0.5 * weighted_sum_of_squares(problem_, s.params, 1);
+    std::array<double, N> start{};
+    std::array<bool, N> free{};
+    for (std::size_t i = 0; i < N; ++i) {
+      start[i] = s.params[i];
+      free[i] = !fixed(s, i);
+    }
+    if (std::ranges::none_of(free, std::identity{})) {
+      s.jacobian.resize(0, 0);
+      know_derivatives(s);
+      s.cost = 0.5 * s.residuals.squaredNorm();
       s.iterations = 0;
       s.converged = true;
       s.message = "every parameter held";
       return;
     }
-    if (!constant.empty()) problem.SetManifold(p, new ceres::SubsetManifold(N, constant));
-
-    ceres::Solver::Options options;
-    options.linear_solver_type = ceres::DENSE_QR;
-    options.logging_type = ceres::SILENT;
-    options.max_num_iterations = 100;
-    options.function_tolerance = 1e-7;
-    options.gradient_tolerance = 1e-12;
-    options.parameter_tolerance = 1e-8;
-    options.num_threads = 1;
-    StopOutsideBounds stop(*this, s);
-    options.callbacks.push_back(&stop);
-    options.update_state_every_iteration = true;
-    ceres::Solver::Summary summary;
-    ceres::Solve(options, &problem, &summary);
-    s.cost = summary.final_cost;
-    s.iterations = static_cast<int>(summary.iterations.size());
-    s.converged = summary.termination_type == ceres::CONVERGENCE;
-    s.message = summary.BriefReport();
+    const SpectrumResiduals residuals(problem_.model, problem_.measured, problem_.sqrt_weights,
+                                      Box{bounds_.solver_lower, bounds_.solver_upper});
+    LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper);
+    s.params.assign(result.params.begin(), result.params.end());
+    s.cost = result.cost;
+    s.iterations = result.iterations;
+    s.converged = result.end == LmEnd::converged;
+    s.message = result.message;
+    s.residuals = std::move(result.residuals);
+    s.jacobian = std::move(result.jacobian);
   }
 
   bool pin_crossed(Solution& s) const {
@@ -199,6 +187,7 @@ class Engine {
       if (s.params[i] < bounds_.lower[i]) s.params[i] = bounds_.lower[i], s.pinned[i] = Pin::lower, changed = true;
       else if (s.params[i] > bounds_.upper[i]) s.params[i] = bounds_.upper[i], s.pinned[i] = Pin::upper, changed = true;
     }
+    if (changed) s.jacobian.resize(0, 0);
     return changed;
   }
 
@@ -206,16 +195,11 @@ class Engine {
   // by letting that parameter move again.
   bool release_pinned(Solution& s) const {
     if (std::ranges::none_of(s.pinned, [](Pin pin) { return pin != Pin::none; })) return false;
-    const auto n = problem_.model.size();
-    std::vector<double> residuals(n), j(n * N);
-    const double* parameters[] = {s.params.data()};
-    double* jacobians[] = {j.data()};
-    cost().Evaluate(parameters, residuals.data(), jacobians);
+    know_derivatives(s);
     bool changed = false;
     for (std::size_t i = 0; i < N; ++i) {
       if (s.pinned[i] == Pin::none) continue;
-      double gradient = 0;
-      for (std::size_t r = 0; r < n; ++r) gradient += residuals[r] * j[r * N + i];
+      const double gradient = s.jacobian.col(static_cast<Eigen::Index>(i)).dot(s.residuals);
       if ((s.pinned[i] == Pin::lower && gradient < 0) || (s.pinned[i] == Pin::upper && gradient > 0))
         s.pinned[i] = Pin::none, changed = true;
     }
@@ -268,11 +252,6 @@ Solution solve_with(const Problem& problem) {
 Solution solve(const Problem& problem) {
   return problem.model.kind() == ModelKind::paper ? solve_with<kPaperParamCount>(problem)
                                                   : solve_with<kExtendedParamCount>(problem);
-}
-
-Eigen::MatrixXd jacobian(const Problem& problem, const Params& p) {
-  return problem.model.kind() == ModelKind::paper ? Engine<kPaperParamCount>(problem).jacobian(p)
-                                                  : Engine<kExtendedParamCount>(problem).jacobian(p);
 }
 
 }  // namespace skinspec::detail

@@ -30,13 +30,14 @@ struct Solution {
   bool converged = false;
   std::string message;
   std::vector<Pin> pinned;
+  // The weighted residuals and their Jacobian (rows samples, columns parameters) at params;
+  // empty while not known.
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd jacobian;
 };
 
-// The best solution from the coarse search's two best starts, refined once more from a
-// restart when an absorber ends at zero.
+// The best solution from the coarse search's best starts, refined once more from a restart
+// when an absorber ends at zero; with its residuals and Jacobian.
 Solution solve(const Problem& problem);
-
-// d residual_i / d p_j at p: rows are samples, columns parameters.
-Eigen::MatrixXd jacobian(const Problem& problem, const Params& p);
 
 }  // namespace skinspec::detail

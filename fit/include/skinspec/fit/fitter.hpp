@@ -1,6 +1,6 @@
 #pragma once
-// Least-squares fit of a skin model's parameters to a measured reflectance spectrum (Ceres,
-// bounded Levenberg-Marquardt from the best points of a coarse search), with standard errors
+// Least-squares fit of a skin model's parameters to a measured reflectance spectrum (a bounded
+// Levenberg-Marquardt of its own from the best points of a coarse search), with standard errors
 // and correlations from the covariance, a judgement of what the spectrum determines, and
 // colorimetric judgement of the fit.
 

@@ -32,7 +32,8 @@ struct ReflectanceTransmittance {
 
 // Kubelka's reflectance and transmittance of a layer of absorption K, scattering S and
 // thickness D: R = 1/(a + b coth C), T = b/(a sinh C + b cosh C), C = D b S. Written with
-// e^(-2C) so that thick layers tend to R = a - b instead of overflowing cosh.
+// e^(-C) and its square e^(-2C) (one exponential, the costliest part of the model), so that
+// thick layers tend to R = a - b instead of overflowing cosh.
 template <typename T, typename S>
 ReflectanceTransmittance<T> kubelka_layer(const T& K, const S& scattering, double D) {
   using std::exp;
@@ -41,9 +42,10 @@ ReflectanceTransmittance<T> kubelka_layer(const T& K, const S& scattering, doubl
   const T a = 1.0 + k;
   const T b = sqrt(k * (k + 2.0));  // sqrt(a^2 - 1) without cancellation for small k
   const T c = D * scattering * b;
-  const T e = exp(-2.0 * c);
+  const T e1 = exp(-c);
+  const T e = e1 * e1;
   const T denominator = a * (1.0 - e) + b * (1.0 + e);
-  return {(1.0 - e) / denominator, 2.0 * b * exp(-c) / denominator};
+  return {(1.0 - e) / denominator, 2.0 * b * e1 / denominator};
 }
 
 // Fraction of the light remitted through the dermis that leaves the skin beyond `radius_mm`
@@ -88,50 +90,55 @@ T dermis_over_white(const ReflectanceTransmittance<T>& dermis) {
   return dermis.r + dermis.t * dermis.t / (1.0 - dermis.r);
 }
 
-// Eq. 1's layers combined: surface reflection rs, then the epidermis over the dermis
-// (`dermis_total`), of which the share `kept` of what it remits reaches the instrument.
+// What the dermis over a white hypodermis remits (`total`), and the share of it that reaches
+// the instrument (`kept`: less what lateral diffusion carries out of the measured spot).
 template <typename T>
-T combined_reflectance(const T& rs, const ReflectanceTransmittance<T>& epidermis, const T& dermis_total,
-                       const T& kept) {
-  const T through_dermis = epidermis.t * epidermis.t * dermis_total / (1.0 - epidermis.r * dermis_total);
-  return (1.0 - rs) * (epidermis.r + kept * through_dermis) + rs;
-}
+struct DermisRemittance {
+  T total, kept;
+};
 
-// Eq. 1's layers: surface reflection rs, then the epidermis over the dermis over a white
-// hypodermis, less what lateral diffusion carries out of the measured spot.
 template <typename T, typename S>
-T layered_reflectance(const T& rs, const T& epidermis_K, double epidermis_S, const T& dermis_K, const S& dermis_S,
-                      const Site& site, double lateral_radius_mm) {
-  const auto epidermis = kubelka_layer(epidermis_K, epidermis_S, site.epidermis_mm);
-  const auto dermis = kubelka_layer(dermis_K, dermis_S, site.dermis_mm);
-  const T kept = 1.0 - lateral_loss(dermis_K, dermis_S, lateral_radius_mm);
-  return combined_reflectance(rs, epidermis, dermis_over_white(dermis), kept);
+DermisRemittance<T> dermis_remittance(const T& K, const S& scattering, const Geometry& g) {
+  return {dermis_over_white(kubelka_layer(K, scattering, g.site.dermis_mm)),
+          1.0 - lateral_loss(K, scattering, g.lateral_radius_mm)};
 }
 
-// Eq. 1 as the paper writes it: p holds Rs and the four pigment weights (Param order).
+// Eq. 1's layers combined: surface reflection rs, then the epidermis over the dermis.
 template <typename T>
-T paper_reflectance(const OpticsAt& o, const Geometry& g, const T* p) {
+T combined_reflectance(const T& rs, const ReflectanceTransmittance<T>& epidermis, const DermisRemittance<T>& dermis) {
+  const T through_dermis = epidermis.t * epidermis.t * dermis.total / (1.0 - epidermis.r * dermis.total);
+  return (1.0 - rs) * (epidermis.r + dermis.kept * through_dermis) + rs;
+}
+
+// The epidermis of either model: melanin over the baseline absorption (p in either model's
+// order; melanin sits at the same index in both). The extended model's melanin and baseline
+// absorption carry the tuned corrections already (SkinOptics::optics()).
+template <typename T>
+ReflectanceTransmittance<T> epidermis_layer(const OpticsAt& o, const Geometry& g, const T* p) {
   const T epidermis_K = o.Ke + p[kMelanin] * o.Km;
+  return kubelka_layer(epidermis_K, o.Se, g.site.epidermis_mm);
+}
+
+// The paper's dermis: its three absorbers' weights in p (Param order).
+template <typename T>
+DermisRemittance<T> paper_dermis(const OpticsAt& o, const Geometry& g, const T* p) {
   const T dermis_K = o.Kd + p[kOxyhemoglobin] * o.Kh + p[kDeoxyhemoglobin] * o.Kdh + p[kBilirubin] * o.Kb;
-  return layered_reflectance(p[kSurfaceReflectance], epidermis_K, o.Se, dermis_K, o.Sd, g.site, g.lateral_radius_mm);
+  return dermis_remittance(dermis_K, o.Sd, g);
 }
 
-// The extended model (ExtendedParam order): blood as total haemoglobin and its oxygen
+// The extended model's dermis (ExtendedParam order): blood as total haemoglobin and its oxygen
 // saturation, packed in vessels, and the dermis's reduced scattering a power law
-// mu_s' = A (lambda / 620 nm)^-b with A and b free. Its melanin and baseline absorption carry the
-// tuned corrections already (SkinOptics::optics()).
+// mu_s' = A (lambda / 620 nm)^-b with A and b free.
 template <typename T>
-T extended_reflectance(const OpticsAt& o, const Geometry& g, const T* p) {
+DermisRemittance<T> extended_dermis(const OpticsAt& o, const Geometry& g, const T* p) {
   using std::exp;
-  const T epidermis_K = o.Ke + p[kMelanin] * o.Km;
   const T saturation = p[kOxygenSaturation];
   const T blood_K = saturation * o.Kh + (1.0 - saturation) * o.Kdh;  // weight 1: kReferenceBloodFraction of blood
   const T packed_K = blood_K * vessel_packaging(blood_K / (2.0 * kReferenceBloodFraction), g.vessel_radius_mm);
   const T dermis_K = o.Kd + p[kTotalHemoglobin] * packed_K + p[kBilirubin] * o.Kb;
   const T dermis_S =
       kScatteringPerTransport * p[kDermisScattering] * exp(-p[kDermisScatteringPower] * o.log_scattering_ratio);
-  return layered_reflectance(p[kSurfaceReflectance], epidermis_K, o.Se, dermis_K, dermis_S, g.site,
-                             g.lateral_radius_mm);
+  return dermis_remittance(dermis_K, dermis_S, g);
 }
 
 // The model on one wavelength grid for one site.
@@ -150,11 +157,21 @@ class SkinModel {
   ModelKind kind() const { return kind_; }
   std::size_t param_count() const { return model_spec(kind_).params.size(); }
 
-  // p holds param_count() values in the order of the model's ParamSpec table.
+  // Eq. 1 at sample i: surface reflection, then the epidermis over the dermis. p holds
+  // param_count() values in the order of the model's ParamSpec table.
   template <typename T>
   T reflectance_at(std::size_t i, const T* p) const {
-    return kind_ == ModelKind::paper ? paper_reflectance(at_[i], geometry_, p)
-                                     : extended_reflectance(at_[i], geometry_, p);
+    return combined_reflectance(T(p[kSurfaceReflectance]), epidermis_at(i, p), dermis_at(i, p));
+  }
+  // The two layers at sample i apart, for a search over points that share one of them: the
+  // epidermis depends on melanin alone, the dermis on every parameter but melanin and Rs.
+  template <typename T>
+  ReflectanceTransmittance<T> epidermis_at(std::size_t i, const T* p) const {
+    return epidermis_layer(at_[i], geometry_, p);
+  }
+  template <typename T>
+  DermisRemittance<T> dermis_at(std::size_t i, const T* p) const {
+    return kind_ == ModelKind::paper ? paper_dermis(at_[i], geometry_, p) : extended_dermis(at_[i], geometry_, p);
   }
   // The reflectance at sample i and, when `gradient` is not null, its derivative with respect
   // to each of the param_count() parameters, exactly (model_gradient.cpp).

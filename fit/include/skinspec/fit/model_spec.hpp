@@ -4,6 +4,7 @@
 // differs between the models reads these tables; only the equations themselves (model.hpp)
 // are written per model. docs/model.md explains every entry.
 
+#include <algorithm>
 #include <array>
 #include <optional>
 #include <span>
@@ -43,7 +44,7 @@ enum ExtendedParam : int {
 };
 inline constexpr int kExtendedParamCount = 7;
 // The most parameters any model has.
-inline constexpr std::size_t kMaxParamCount = 7;
+inline constexpr std::size_t kMaxParamCount = std::max(kPaperParamCount, kExtendedParamCount);
 
 struct ParamSpec {
   std::string_view name;

@@ -1,0 +1,208 @@
+#include "levenberg_marquardt.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+
+#include "skinspec/fit/model_spec.hpp"
+#include "small_qr.hpp"
+
+namespace skinspec::detail {
+
+namespace {
+
+constexpr int kMaxIterations = 100;
+constexpr double kFunctionTolerance = 1e-7;   // of the cost
+constexpr double kParameterTolerance = 1e-8;  // of |p|
+constexpr double kGradientTolerance = 1e-12;
+// The trust region: its first radius (nearly Gauss-Newton), its limits, and the least share of
+// the decrease the linear model promised that a step must deliver to be taken.
+constexpr double kInitialRadius = 1e4, kMaxRadius = 1e16, kMinRadius = 1e-32;
+constexpr double kMinStepQuality = 1e-3;
+// Limits of the damping's diagonal (the scaled columns' squared norms): a column that vanishes
+// still gets damped.
+constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32;
+
+// The residuals and their Jacobian at one point.
+template <int N>
+struct Point {
+  std::array<double, N> p{};
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd jacobian;
+  double cost = 0;
+};
+
+template <int N>
+class Minimizer {
+ public:
+  Minimizer(const SpectrumResiduals& residuals, const std::array<bool, N>& free, const Params& plausible_lower,
+            const Params& plausible_upper)
+      : f_(residuals), plausible_lower_(plausible_lower), plausible_upper_(plausible_upper) {
+    for (int i = 0; i < N; ++i)
+      if (free[static_cast<std::size_t>(i)]) free_[k_++] = i;
+    const auto rows = static_cast<Eigen::Index>(residuals.size());
+    for (Point<N>* point : {&x_, &candidate_}) {
+      point->residuals.resize(rows);
+      point->jacobian.resize(rows, N);
+    }
+    r_.resize(rows, k_);
+    qtr_.resize(rows);
+  }
+
+  LmResult<N> run(const std::array<double, N>& start) {
+    x_.p = start;
+    if (!evaluate(x_))
+      return {start, std::numeric_limits<double>::infinity(), 0, LmEnd::failed, "the start could not be evaluated", {},
+              {}};
+    const double initial_cost = x_.cost;
+    choose_scaling();
+    factorize();
+    int iterations = 0;
+    const auto [end, reason] = iterate(iterations);
+    return {x_.p,
+            x_.cost,
+            iterations,
+            end,
+            fmt::format("{}; {} iterations, cost {:.6g} to {:.6g}", reason, iterations, initial_cost, x_.cost),
+            std::move(x_.residuals),
+            std::move(x_.jacobian)};
+  }
+
+ private:
+  std::pair<LmEnd, const char*> iterate(int& iterations) {
+    double radius = kInitialRadius, shrink = 2;
+    for (;;) {
+      if (left_plausible_range()) return {LmEnd::left_bounds, "a parameter left its plausible range"};
+      if (iterations >= kMaxIterations) return {LmEnd::out_of_iterations, "no convergence"};
+      if (gradient_max_ <= kGradientTolerance) return {LmEnd::converged, "converged: gradient tolerance"};
+      if (radius <= kMinRadius) return {LmEnd::converged, "converged: trust region tolerance"};
+      ++iterations;
+      double predicted = 0;
+      if (!step(radius, predicted)) {
+        radius /= shrink, shrink *= 2;
+        continue;
+      }
+      if (step_norm() <= kParameterTolerance * (norm(x_.p) + kParameterTolerance))
+        return {LmEnd::converged, "converged: parameter tolerance"};
+      const double candidate_cost = evaluate(candidate_) ? candidate_.cost : std::numeric_limits<double>::max();
+      if (std::abs(x_.cost - candidate_cost) <= kFunctionTolerance * x_.cost)
+        return {LmEnd::converged, "converged: function tolerance"};
+      const double quality = (x_.cost - candidate_cost) / predicted;
+      if (quality <= kMinStepQuality) {
+        radius /= shrink, shrink *= 2;
+        continue;
+      }
+      std::swap(x_, candidate_);
+      factorize();
+      radius = std::min(kMaxRadius, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * quality - 1.0, 3)));
+      shrink = 2;
+    }
+  }
+
+  bool evaluate(Point<N>& point) const {
+    if (!f_.evaluate(point.p.data(), point.residuals.data(), point.jacobian.data())) return false;
+    point.cost = 0.5 * point.residuals.squaredNorm();
+    return std::isfinite(point.cost) && point.jacobian.allFinite();
+  }
+
+  // Each free column divided by 1 + its norm at the start, so that parameters of very
+  // different scales are damped alike; fixed for the solve, as the trust region's radius is
+  // measured in these units.
+  void choose_scaling() {
+    for (int j = 0; j < k_; ++j) scale_[j] = 1.0 / (1.0 + x_.jacobian.col(free_[j]).norm());
+  }
+
+  // R of the QR factorisation of the scaled free columns at x, Q^T r, the damping's diagonal
+  // and the gradient's largest component: what every step from x needs.
+  void factorize() {
+    gradient_max_ = 0;
+    for (int j = 0; j < k_; ++j) {
+      const auto column = x_.jacobian.col(free_[j]);
+      r_.col(j) = scale_[j] * column;
+      diagonal_[j] = std::clamp(r_.col(j).squaredNorm(), kMinDiagonal, kMaxDiagonal);
+      gradient_max_ = std::max(gradient_max_, std::abs(column.dot(x_.residuals)));
+    }
+    qtr_ = x_.residuals;
+    triangularize(r_.data(), static_cast<int>(r_.rows()), k_, qtr_.data());
+  }
+
+  // The damped Gauss-Newton step at x for this radius, min |J s + r|^2 + |D s|^2 / radius in
+  // scaled units, from R of J = QR rather than from J itself; false when it is not finite or
+  // promises no decrease. Sets the candidate point and the cost decrease the linear model
+  // predicts.
+  bool step(double radius, double& predicted) {
+    const int rows = 2 * k_;  // R over the damping's diagonal
+    std::array<double, 2 * N * N> a{};
+    std::array<double, 2 * N> s{};
+    for (int j = 0; j < k_; ++j) {
+      for (int i = 0; i <= j; ++i) a[j * rows + i] = r_(i, j);
+      a[j * rows + k_ + j] = std::sqrt(diagonal_[j] / radius);
+      s[j] = -qtr_[j];
+    }
+    triangularize(a.data(), rows, k_, s.data());
+    solve_upper(a.data(), rows, k_, s.data());
+    if (!std::all_of(s.begin(), s.begin() + k_, [](double v) { return std::isfinite(v); })) return false;
+    // J s = Q R s: the linear model's change of the residuals, in Q's basis.
+    predicted = 0;
+    for (int i = 0; i < k_; ++i) {
+      double rs = 0;
+      for (int l = i; l < k_; ++l) rs += r_(i, l) * s[l];
+      predicted -= rs * (qtr_[i] + 0.5 * rs);
+    }
+    if (!(predicted > 0)) return false;
+    candidate_.p = x_.p;
+    for (int j = 0; j < k_; ++j) candidate_.p[free_[j]] += scale_[j] * s[j];
+    return true;
+  }
+
+  double step_norm() const {
+    double sum = 0;
+    for (int i = 0; i < N; ++i) sum += (candidate_.p[i] - x_.p[i]) * (candidate_.p[i] - x_.p[i]);
+    return std::sqrt(sum);
+  }
+
+  static double norm(const std::array<double, N>& p) {
+    double sum = 0;
+    for (const double v : p) sum += v * v;
+    return std::sqrt(sum);
+  }
+
+  bool left_plausible_range() const {
+    for (int j = 0; j < k_; ++j) {
+      const auto i = static_cast<std::size_t>(free_[j]);
+      if (x_.p[i] < plausible_lower_[i] || x_.p[i] > plausible_upper_[i]) return true;
+    }
+    return false;
+  }
+
+  const SpectrumResiduals& f_;
+  const Params& plausible_lower_;
+  const Params& plausible_upper_;
+  std::array<int, N> free_{};  // the free parameters' indices, k_ of them
+  int k_ = 0;
+  std::array<double, N> scale_{}, diagonal_{};
+  double gradient_max_ = 0;
+  Point<N> x_, candidate_;
+  Eigen::MatrixXd r_;  // the scaled free columns, then R in their upper triangle
+  Eigen::VectorXd qtr_;
+};
+
+}  // namespace
+
+template <int N>
+LmResult<N> levenberg_marquardt(const SpectrumResiduals& residuals, const std::array<double, N>& start,
+                                const std::array<bool, N>& free, const Params& plausible_lower,
+                                const Params& plausible_upper) {
+  return Minimizer<N>(residuals, free, plausible_lower, plausible_upper).run(start);
+}
+
+template LmResult<kPaperParamCount> levenberg_marquardt<kPaperParamCount>(const SpectrumResiduals&,
+                                                                          const std::array<double, kPaperParamCount>&,
+                                                                          const std::array<bool, kPaperParamCount>&,
+                                                                          const Params&, const Params&);
+template LmResult<kExtendedParamCount> levenberg_marquardt<kExtendedParamCount>(
+    const SpectrumResiduals&, const std::array<double, kExtendedParamCount>&,
+    const std::array<bool, kExtendedParamCount>&, const Params&, const Params&);
+
+}  // namespace skinspec::detail

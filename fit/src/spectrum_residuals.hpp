@@ -1,0 +1,41 @@
+#pragma once
+// The fit's residuals sqrt(w_i) (model_i(p) - measured_i) and their Jacobian (private to fit/),
+// from the model's own derivatives (SkinModel::reflectance_and_gradient).
+
+#include <optional>
+#include <vector>
+
+#include "skinspec/fit/model.hpp"
+
+namespace skinspec::detail {
+
+// Parameters outside the box [lower, upper] are refused (the evaluation fails), so that a
+// Levenberg-Marquardt step out of it is simply rejected and the trust region shrinks. A
+// projection onto the box would search along it instead, evaluating the Jacobian about twice
+// per iteration.
+struct Box {
+  const Params& lower;
+  const Params& upper;
+};
+
+class SpectrumResiduals {
+ public:
+  SpectrumResiduals(const SkinModel& model, const std::vector<double>& measured,
+                    const std::vector<double>& sqrt_weights, std::optional<Box> box = std::nullopt);
+
+  std::size_t size() const { return model_.size(); }
+  std::size_t param_count() const { return model_.param_count(); }
+
+  // The residuals at p and, when `jacobian` is not null, d residual_i / d p_k at
+  // jacobian[k * size() + i] (column-major); false, with nothing written, where p lies outside
+  // the box.
+  bool evaluate(const double* p, double* residuals, double* jacobian) const;
+
+ private:
+  const SkinModel& model_;
+  const std::vector<double>& measured_;
+  const std::vector<double>& sqrt_weights_;
+  std::optional<Box> box_;
+};
+
+}  // namespace skinspec::detail
