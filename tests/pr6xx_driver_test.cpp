@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <functional>
 #include <mutex>
 #include <thread>
@@ -343,6 +344,51 @@ TEST(Pr6xxDriver, ATruncatedM5IsReadAgainWithD5) {
   ASSERT_TRUE(reading) << reading.error().message;
   EXPECT_EQ(reading->radiance.size(), 201u);
   EXPECT_EQ(reading->attempts, 1) << "the meter measured once";
+}
+
+TEST(Pr6xxDriver, PacingKeepsEveryByteOfAMeterThatLosesFastOnes) {
+  // The meter loses a byte that follows the one before within 20 ms.
+  RemoteOptions unpaced = fast_remote();
+  Bench lossy(Model::pr670, {"*:fast-loss=20"}, unpaced);
+  auto refused = lossy.driver->connect();
+  ASSERT_FALSE(refused) << "whole strings lose all but their first byte";
+  EXPECT_EQ(refused.error().kind, K::no_contact);
+
+  RemoteOptions paced = fast_remote();
+  paced.pacing = std::nullopt;  // the profile's 50 ms
+  Bench bench(Model::pr670, {"*:fast-loss=20"}, paced);
+  auto connected = bench.driver->connect();
+  ASSERT_TRUE(connected) << connected.error().message;
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->radiance.size(), 201u);
+}
+
+TEST(Pr6xxDriver, ACancelledM5IsDrainedBeforeTheNextMeasurement) {
+  MeterOptions meter = meter_options(Model::pr670);
+  meter.time_scale = 1;
+  RemoteOptions options = fast_remote();
+  options.timing.reply = 3s;
+  options.timing.line_bytes_per_second = 960;
+  options.timing.measurement_overhead = 3s;  // the meter's own overhead, unscaled
+  Bench bench(Model::pr670, {}, options, std::move(meter));
+  ASSERT_TRUE(bench.driver->connect());
+  std::atomic<bool> returned{false};
+  std::thread canceller([&] {
+    while (bench.written().find("M5\r") == std::string::npos && !returned) std::this_thread::sleep_for(5ms);
+    std::this_thread::sleep_for(100ms);
+    bench.driver->cancel();
+  });
+  auto cancelled = bench.driver->measure({.integration_ms = 1000});
+  returned = true;
+  canceller.join();
+  ASSERT_FALSE(cancelled);
+  EXPECT_EQ(cancelled.error().kind, K::cancelled);
+  // The cancelled M5's spectrum arrives late; it must not be taken for a reply to what follows.
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->radiance.size(), 201u);
+  EXPECT_EQ(reading->integration_ms, 100);
 }
 
 // ---- Leaving remote mode ---------------------------------------------------------------------

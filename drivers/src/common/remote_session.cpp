@@ -92,8 +92,9 @@ std::expected<void, InstrumentError> Session::open(std::chrono::milliseconds mod
   return {};
 }
 
-// One byte at a time: the meters lose bytes that follow each other too closely (the makers'
-// and field drivers wait 50 ms between bytes). The wait yields to cancel().
+// One byte at a time, never two within `pacing` of each other, across commands too: the
+// meters lose a byte that follows the one before too closely (the makers' and the field's
+// drivers wait 50 ms between bytes). The wait yields to cancel().
 std::expected<void, InstrumentError> Session::write_paced(std::string_view command) {
   if (pacing_ <= 0ms) {
     if (auto written = transport_.write(command, deadline_in(timing_.reply)); !written)
@@ -101,9 +102,11 @@ std::expected<void, InstrumentError> Session::write_paced(std::string_view comma
     return {};
   }
   for (std::size_t i = 0; i < command.size(); ++i) {
+    const auto wait = std::chrono::ceil<std::chrono::milliseconds>(last_byte_ + pacing_ - Clock::now());
+    if (wait > 0ms && !pause(wait)) return fail(InstrumentError::Kind::cancelled, "cancelled");
     if (auto written = transport_.write(command.substr(i, 1), deadline_in(timing_.reply)); !written)
       return std::unexpected(link_error(written.error(), command));
-    if (i + 1 < command.size() && !pause(pacing_)) return fail(InstrumentError::Kind::cancelled, "cancelled");
+    last_byte_ = Clock::now();
   }
   return {};
 }
@@ -154,7 +157,7 @@ std::expected<Reply, InstrumentError> Session::transact_despite_cancel(std::stri
 void Session::drain(std::chrono::milliseconds idle, std::chrono::milliseconds limit) {
   char buffer[512];
   const Deadline end = deadline_in(limit);
-  Deadline next = deadline_in(std::min(idle, limit));
+  Deadline next = end;  // the first byte may take all of `limit`, then the reply streams
   while (transport_.read(buffer, sizeof buffer, std::min(next, end))) next = deadline_in(idle);
 }
 
@@ -221,7 +224,9 @@ std::expected<bool, InstrumentError> Session::enter_remote() {
 void Session::quit() {
   if (!remote_ || !transport_.is_open()) return;
   transport_.clear_interrupt();
-  (void)transport_.write(p6::kQuit, deadline_in(1s));
+  const bool was = cancelled_.exchange(false);  // the pacing wait must not be cut short
+  (void)write_paced(p6::kQuit);
+  cancelled_ = was;
   remote_ = false;
 }
 

@@ -56,7 +56,7 @@ class Session {
   template <typename Parse>
   auto ask(std::string_view command, const Rule& rule, std::string_view what, Parse parse)
       -> std::expected<typename decltype(parse(std::string_view()))::value_type, InstrumentError>;
-  // Reads and drops whatever arrives until `idle` of silence (at most `limit`).
+  // Reads and drops a reply that may still come within `limit`, until `idle` of silence after it.
   void drain(std::chrono::milliseconds idle, std::chrono::milliseconds limit);
   // Waits, cut short by cancel(); false when cancelled.
   bool pause(std::chrono::milliseconds how_long);
@@ -78,6 +78,7 @@ class Session {
   std::chrono::milliseconds pacing_;
   RemoteTiming timing_;
   bool remote_ = false;
+  Clock::time_point last_byte_{};  // when the last byte went out, for the pacing
   std::atomic<bool> cancelled_{false};
   std::atomic<std::uint64_t> replies_{0};
   std::mutex pause_mutex_;
