@@ -149,6 +149,39 @@ TEST(Pr6xxDriver, AFamilyMismatchIsRefusedWhenTheDriverIsMade) {
   EXPECT_THROW(Pr7xx(Model::pr670, make_memory_pair("x").first), std::invalid_argument);
 }
 
+TEST(Pr6xxDriver, D111MustNotNameAnotherModel) {
+  MeterOptions other = meter_options(Model::pr670);
+  other.wire.d111 = "PR-740";
+  Bench contradicted(Model::pr670, {}, fast_remote(), std::move(other));
+  ASSERT_TRUE(contradicted.driver->connect());
+  auto refused = contradicted.driver->identify();
+  ASSERT_FALSE(refused);
+  EXPECT_THAT(refused.error().message, HasSubstr("'PR-740', not a PR-670"));
+
+  MeterOptions unknown = meter_options(Model::pr670);
+  unknown.wire.d111 = "PR-810";
+  Bench bench(Model::pr670, {}, fast_remote(), std::move(unknown));
+  ASSERT_TRUE(bench.driver->connect());
+  auto identity = bench.driver->identify();
+  ASSERT_TRUE(identity) << identity.error().message;
+  EXPECT_EQ(identity->reported_model, "PR-810");
+  EXPECT_THAT(identity->warnings, ::testing::ElementsAre(HasSubstr("unknown-model")));
+}
+
+TEST(Pr6xxDriver, TheSpectrumMustLieOnD120sGrid) {
+  // D120 prints the manuals' example (201 points by 2 nm), the PR-730 measures 401 by 1 nm.
+  MeterOptions manual = meter_options(Model::pr730);
+  manual.wire.d120_manual = true;
+  Bench bench(Model::pr730, {}, fast_remote(), std::move(manual));
+  ASSERT_TRUE(bench.driver->connect());
+  auto identity = bench.driver->identify();
+  ASSERT_TRUE(identity);
+  EXPECT_EQ(identity->grid, (Grid{380, 780, 2, 201}));
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, K::protocol) << reading.error().message;
+}
+
 // ---- Measuring -------------------------------------------------------------------------------
 
 TEST(Pr6xxDriver, MeasuresTheSourceOnTheMetersGrid) {
@@ -320,6 +353,7 @@ TEST(Pr6xxDriver, ABannerGluedToTheNextReplyIsTakenAsRemoteMode) {
   ASSERT_TRUE(identity) << identity.error().message;
   EXPECT_EQ(identity->reported_model, "PR-730/735");
   EXPECT_THAT(identity->warnings, ::testing::ElementsAre(HasSubstr("banner-glued")));
+  EXPECT_EQ(bench.driver->identify()->warnings, identity->warnings) << "the same once more";
   auto reading = bench.driver->measure({.integration_ms = 100});
   ASSERT_TRUE(reading) << reading.error().message;
   EXPECT_EQ(reading->radiance.size(), 401u);

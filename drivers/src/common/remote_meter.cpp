@@ -71,9 +71,9 @@ std::expected<void, InstrumentError> RemoteMeter::connect() {
   if (auto opened = session_->open(options_.modem_settle); !opened) return opened;
   auto glued = session_->enter_remote();
   if (!glued) return std::unexpected(glued.error());
-  identity_ = {};
+  connect_warnings_.clear();
   if (*glued)
-    identity_.warnings.push_back("banner-glued: the meter sent ' REMOTE MODE' only in front of its next reply");
+    connect_warnings_.push_back("banner-glued: the meter sent ' REMOTE MODE' only in front of its next reply");
   connected_ = true;
   return {};
 }
@@ -101,7 +101,8 @@ std::expected<Identity, InstrumentError> RemoteMeter::identify() {
 // only says which answers are documented.
 std::expected<Identity, InstrumentError> RemoteMeter::query_identity() {
   const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
-  Identity identity = identity_;
+  Identity identity;
+  identity.warnings = connect_warnings_;
   identity.family = profile_.family;
   identity.model = profile_.model;
   auto text = [&](int code, std::string_view what) -> std::expected<std::string, InstrumentError> {

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "skinspec/drivers/instrument.hpp"
 #include "skinspec/drivers/meter_profile.hpp"
@@ -87,6 +88,7 @@ class RemoteMeter : public Instrument {
   RemoteOptions options_;
   std::unique_ptr<remote::Session> session_;
   Identity identity_;
+  std::vector<std::string> connect_warnings_;  // how remote mode was entered, for every identity
   bool identified_ = false;
   std::atomic<bool> connected_{false};
   // The setups the meter holds on this connection: each is sent only when it changes.
