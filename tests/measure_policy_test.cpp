@@ -63,7 +63,9 @@ TEST(StoreRecordsTest, SettingsNameWhatWasAskedAndWhatTheMeterDid) {
 }
 
 TEST(StoreRecordsTest, TheInstrumentKeepsTheConfigurationTheMeterReported) {
-  const drivers::Identity identity{"60912345", {201, 5.0, 360, 830, 2.5}};
+  drivers::Identity identity;
+  identity.serial_number = "60912345";
+  identity.configuration = {201, 5.0, 360, 830, 2.5};
   const auto record = instrument_record(identity, "usb:0403:6001");
   EXPECT_EQ(record.model, "PR-650");
   EXPECT_EQ(record.serial_number, "60912345");

@@ -12,26 +12,6 @@ namespace skinspec::drivers {
 namespace pp = pr650;
 using namespace std::chrono_literals;
 
-std::string_view to_string(InstrumentError::Kind kind) {
-  switch (kind) {
-    case InstrumentError::Kind::no_contact:
-      return "no_contact";
-    case InstrumentError::Kind::lost:
-      return "lost";
-    case InstrumentError::Kind::protocol:
-      return "protocol";
-    case InstrumentError::Kind::bad_reading:
-      return "bad_reading";
-    case InstrumentError::Kind::rejected:
-      return "rejected";
-    case InstrumentError::Kind::cancelled:
-      return "cancelled";
-    case InstrumentError::Kind::transport:
-      return "transport";
-  }
-  return "unknown";
-}
-
 namespace {
 
 constexpr int kMaxIntegrationMs = 6000, kMinIntegrationMs = 10;
@@ -282,6 +262,11 @@ std::expected<Identity, InstrumentError> Pr650::identify() {
                     });
   if (!config) return std::unexpected(config.error());
   identity.configuration = *config;
+  identity.family = Family::pr650;
+  identity.model = Model::pr650;
+  identity.reported_model = "PR-650";
+  identity.grid = Grid{static_cast<int>(config->first_nm), static_cast<int>(config->last_nm),
+                       static_cast<int>(config->step_nm), config->points};
   return identity;
 }
 

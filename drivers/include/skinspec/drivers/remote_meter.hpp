@@ -1,0 +1,100 @@
+#pragma once
+// What the drivers of the newer meters (PR-655/670/680: pr6xx.hpp; PR-7xx: pr7xx.hpp) share:
+// remote mode entered with PHOTO and always left with Q, identification by D111/D110/D114/D120,
+// setups sent only when they change, and the error policy for a failed measurement. How a
+// measurement is taken differs by family; everything that differs by model is MeterProfile data.
+
+#include <atomic>
+#include <chrono>
+#include <expected>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "skinspec/drivers/instrument.hpp"
+#include "skinspec/drivers/meter_profile.hpp"
+#include "skinspec/drivers/pr6xx_protocol.hpp"
+#include "skinspec/drivers/remote_options.hpp"
+#include "skinspec/drivers/transport.hpp"
+
+namespace skinspec::drivers {
+
+namespace remote {
+class Session;
+}
+
+class RemoteMeter : public Instrument {
+ public:
+  ~RemoteMeter() override;
+  RemoteMeter(const RemoteMeter&) = delete;
+  RemoteMeter& operator=(const RemoteMeter&) = delete;
+
+  std::expected<void, InstrumentError> connect() override;
+  void disconnect() override;
+  bool connected() const override { return connected_; }
+  bool link_closed() override;
+  std::uint64_t replies_received() const override;
+  std::expected<Identity, InstrumentError> identify() override;
+  std::expected<Reading, InstrumentError> measure(const MeasureOptions& options) override;
+  void cancel() override;
+  std::string describe() const override { return transport_->describe(); }
+  const std::string& serial_number() const override { return identity_.serial_number; }
+
+  const MeterProfile& profile() const { return profile_; }
+
+ protected:
+  RemoteMeter(Family family, Model model, std::unique_ptr<Transport> transport, RemoteOptions options);
+
+  // One measurement's spectral report, whose status may be one of the meter's error codes;
+  // `remeasured` when it never answered and was taken again.
+  struct Spectrum {
+    pr6xx::SpectralReport report;
+    std::string raw;
+    bool remeasured = false;
+  };
+  // A measurement that ended with the meter's error `code`, without data.
+  static Spectrum failed_with(int code) {
+    Spectrum spectrum;
+    spectrum.report.status = {code, 0};
+    return spectrum;
+  }
+  virtual std::expected<Spectrum, InstrumentError> take_spectrum(int exposure_ms, int cycles) = 0;
+
+  remote::Session& session() { return *session_; }
+  const RemoteOptions& options() const { return options_; }
+  const Grid& grid() const { return identity_.grid; }
+  // How long a measurement may take: a dark and a light exposure per cycle, plus overhead;
+  // adaptive exposure may use the longest the model allows.
+  std::chrono::milliseconds measurement_time(int exposure_ms, int cycles) const;
+  // The cap on a whole reply of `points` data lines (0: one line), from the line rate.
+  std::chrono::milliseconds whole_reply(int points) const;
+  // A cancelled measurement whose reply may still come within `limit`: drained before the next.
+  void measurement_pending(std::chrono::milliseconds limit) { pending_ = limit; }
+  // A spectral report (M5/D5) asked again once where `ask_again`, parsed against D120's grid.
+  std::expected<Spectrum, InstrumentError> read_spectrum(std::string_view command, std::chrono::milliseconds first_byte,
+                                                         bool ask_again);
+
+ private:
+  std::expected<Identity, InstrumentError> query_identity();
+  std::expected<void, InstrumentError> check(const MeasureOptions& options) const;
+  std::expected<std::string, InstrumentError> configure(const MeasureOptions& options, int exposure_ms, bool sync_on);
+  std::expected<void, InstrumentError> setup(std::optional<std::string>& last, const std::string& command);
+  std::expected<void, InstrumentError> read_colorimetry(Reading& reading, bool si_units);
+
+  std::unique_ptr<Transport> transport_;
+  const MeterProfile& profile_;
+  RemoteOptions options_;
+  std::unique_ptr<remote::Session> session_;
+  Identity identity_;
+  std::vector<std::string> connect_warnings_;  // how remote mode was entered, for every identity
+  bool identified_ = false;
+  std::atomic<bool> connected_{false};
+  // The setups the meter holds on this connection: each is sent only when it changes.
+  std::optional<std::string> units_, exposure_, averages_, sync_mode_;
+  std::chrono::milliseconds pending_{0};
+  std::mutex call_mutex_;  // one call on the wire at a time
+};
+
+}  // namespace skinspec::drivers

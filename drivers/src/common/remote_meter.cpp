@@ -1,0 +1,299 @@
+#include "skinspec/drivers/remote_meter.hpp"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <algorithm>
+#include <stdexcept>
+#include <variant>
+
+#include "common/remote_failures.hpp"
+#include "common/remote_session.hpp"
+
+namespace skinspec::drivers {
+
+namespace p6 = pr6xx;
+using namespace std::chrono_literals;
+using remote::Rule;
+
+namespace {
+
+constexpr int kMaxAttempts = 5;  // measurements per reading, as for the PR-650
+constexpr int kMaxAverages = 99;
+
+std::unexpected<InstrumentError> fail(InstrumentError::Kind kind, std::string message, int code = -1,
+                                      std::string raw = {}) {
+  return std::unexpected(InstrumentError{kind, std::move(message), code, std::move(raw)});
+}
+
+// The manuals disagree on the units field of the reports (0-3 by quantity, or 11-14/111-114;
+// the simulator prints 1 for SI), so the units are those the driver set up: radiance, since
+// skinspec measures through the telescope, in SI or in the meter's English units.
+std::string photometric_units(bool si) { return si ? "cd/m2" : "fL"; }
+constexpr std::string_view kSpectralUnits = "W/(sr m2 nm)";
+
+}  // namespace
+
+RemoteMeter::RemoteMeter(Family family, Model model, std::unique_ptr<Transport> transport, RemoteOptions options)
+    : transport_(std::move(transport)), profile_(drivers::profile(model)), options_(options) {
+  if (profile_.family != family)
+    throw std::invalid_argument(fmt::format("{} is a meter of family {}, not {}", profile_.name,
+                                            to_string(profile_.family), to_string(family)));
+  session_ = std::make_unique<remote::Session>(*transport_, profile_.name, options_.pacing.value_or(profile_.pacing),
+                                               options_.timing);
+}
+
+RemoteMeter::~RemoteMeter() { disconnect(); }
+
+void RemoteMeter::cancel() { session_->cancel(); }
+
+std::uint64_t RemoteMeter::replies_received() const { return session_->replies(); }
+
+void RemoteMeter::disconnect() {
+  std::lock_guard lock(call_mutex_);
+  session_->quit();
+  if (transport_->is_open()) transport_->close();
+  connected_ = false;
+}
+
+bool RemoteMeter::link_closed() {
+  std::unique_lock lock(call_mutex_, std::try_to_lock);
+  if (!lock) return false;
+  return !transport_->is_open() || transport_->peer_closed();
+}
+
+std::expected<void, InstrumentError> RemoteMeter::connect() {
+  std::lock_guard lock(call_mutex_);
+  connected_ = false;
+  identified_ = false;
+  units_.reset(), exposure_.reset(), averages_.reset(), sync_mode_.reset();
+  session_->reset_cancel();
+  if (auto opened = session_->open(options_.modem_settle); !opened) return opened;
+  auto glued = session_->enter_remote();
+  if (!glued) return std::unexpected(glued.error());
+  connect_warnings_.clear();
+  if (*glued)
+    connect_warnings_.push_back("banner-glued: the meter sent ' REMOTE MODE' only in front of its next reply");
+  connected_ = true;
+  return {};
+}
+
+std::chrono::milliseconds RemoteMeter::whole_reply(int points) const {
+  const double bytes = 64.0 + 16.0 * points;  // a data line is at most "1080,1.234e-003\r\n"
+  return options_.timing.idle +
+         std::chrono::milliseconds(static_cast<long>(1000 * bytes / options_.timing.line_bytes_per_second));
+}
+
+std::chrono::milliseconds RemoteMeter::measurement_time(int exposure_ms, int cycles) const {
+  const int longest =
+      profile_.exposure.max_extended_ms > 0 ? profile_.exposure.max_extended_ms : profile_.exposure.max_ms;
+  const int per_exposure = exposure_ms > 0 ? exposure_ms : longest;
+  return std::chrono::milliseconds(static_cast<long>(cycles) * 2 * per_exposure) + options_.timing.measurement_overhead;
+}
+
+std::expected<Identity, InstrumentError> RemoteMeter::identify() {
+  std::lock_guard lock(call_mutex_);
+  session_->reset_cancel();
+  return query_identity();
+}
+
+// D111, D110, D114, D120. D120's grid is the one every spectrum must lie on; the profile's grid
+// only says which answers are documented.
+std::expected<Identity, InstrumentError> RemoteMeter::query_identity() {
+  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
+  Identity identity;
+  identity.warnings = connect_warnings_;
+  identity.family = profile_.family;
+  identity.model = profile_.model;
+  auto text = [&](int code, std::string_view what) -> std::expected<std::string, InstrumentError> {
+    auto report = session_->ask(p6::format_report(code, options_.style), rule, what, p6::parse_text_report);
+    if (!report) return std::unexpected(report.error());
+    if (report->status.code != 0)
+      return fail(InstrumentError::Kind::protocol,
+                  fmt::format("{}: the {} answered {}", what, profile_.name, p6::error_message(report->status.code)));
+    return report->text;
+  };
+  auto model = text(111, "model name");
+  if (!model) return std::unexpected(model.error());
+  identity.reported_model = *model;
+  const ModelMatch match = match_reported_model(*model);
+  if (!match.candidates.empty() && std::ranges::find(match.candidates, profile_.model) == match.candidates.end())
+    return fail(InstrumentError::Kind::protocol,
+                fmt::format("the meter says it is a '{}', not a {}", *model, profile_.name));
+  if (match.candidates.empty())
+    identity.warnings.push_back(
+        fmt::format("unknown-model: the meter reports '{}', measured as a {}", *model, profile_.name));
+  auto serial = text(110, "serial number");
+  if (!serial) return std::unexpected(serial.error());
+  identity.serial_number = *serial;
+  auto firmware = text(114, "firmware version");
+  if (!firmware) return std::unexpected(firmware.error());
+  identity.firmware = *firmware;
+  auto configuration = session_->ask(p6::format_report(120, options_.style), rule, "hardware configuration",
+                                     p6::parse_hardware_configuration);
+  if (!configuration) return std::unexpected(configuration.error());
+  if (configuration->status.code != 0)
+    return fail(InstrumentError::Kind::protocol,
+                fmt::format("hardware configuration: the {} answered {}", profile_.name,
+                            p6::error_message(configuration->status.code)));
+  identity.grid = configuration->grid;
+  identity.configuration = {
+      configuration->grid.points, configuration->bandwidth_nm, static_cast<double>(configuration->grid.first_nm),
+      static_cast<double>(configuration->grid.last_nm), static_cast<double>(configuration->grid.step_nm)};
+  identity_ = identity;
+  identified_ = true;
+  return identity;
+}
+
+// Out-of-range options are refused before a byte is sent, naming the model's range.
+std::expected<void, InstrumentError> RemoteMeter::check(const MeasureOptions& options) const {
+  const ExposureRange& range = profile_.exposure;
+  if (options.integration_ms != 0 && (options.integration_ms < range.min_ms || options.integration_ms > range.max_ms))
+    return fail(InstrumentError::Kind::rejected,
+                fmt::format("exposure {} ms: the {} takes {}-{} ms, or 0 for adaptive", options.integration_ms,
+                            profile_.name, range.min_ms, range.max_ms));
+  if (options.averages < 1 || options.averages > kMaxAverages)
+    return fail(InstrumentError::Kind::rejected,
+                fmt::format("{} averages: the {} takes 1-{}", options.averages, profile_.name, kMaxAverages));
+  return {};
+}
+
+std::expected<void, InstrumentError> RemoteMeter::setup(std::optional<std::string>& last, const std::string& command) {
+  if (last == command) return {};
+  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
+  auto status = session_->ask(command, rule, "setup reply", p6::parse_status);
+  if (!status) return std::unexpected(status.error());
+  if (status->code != 0) {
+    last.reset();
+    return fail(InstrumentError::Kind::rejected,
+                fmt::format("the {} refused '{}': {}; its documented exposure range is {}-{} ms", profile_.name,
+                            remote::printable(command), p6::error_message(status->code), profile_.exposure.min_ms,
+                            profile_.exposure.max_ms),
+                status->code);
+  }
+  last = command;
+  return {};
+}
+
+// Units, exposure, averages and sync, each sent only when it differs from what the meter holds.
+// Returns how the sync was set, for the reading.
+std::expected<std::string, InstrumentError> RemoteMeter::configure(const MeasureOptions& options, int exposure_ms,
+                                                                   bool sync_on) {
+  const p6::CommandStyle& style = options_.style;
+  if (auto ok = setup(units_, p6::format_units(options.si_units, style)); !ok) return std::unexpected(ok.error());
+  if (auto ok = setup(exposure_, p6::format_exposure(exposure_ms, style)); !ok) return std::unexpected(ok.error());
+  if (auto ok = setup(averages_, p6::format_averages(options.averages, style)); !ok) return std::unexpected(ok.error());
+  std::string described = "off";
+  p6::SyncMode mode = p6::SyncMode::none;
+  if (sync_on) {
+    const Rule rule{p6::ReplyShape::line, 0, options_.timing.flicker, options_.timing.idle, whole_reply(0), true};
+    auto flicker = session_->ask(p6::format_flicker(style), rule, "flicker reply", p6::parse_flicker);
+    if (!flicker) return std::unexpected(flicker.error());
+    if (flicker->status.code == 0 && flicker->hz) {
+      mode = p6::SyncMode::automatic;
+      described = fmt::format("automatic ({:.2f} Hz)", *flicker->hz);
+    } else {
+      described = "off (no flicker found)";
+    }
+  }
+  if (auto ok = setup(sync_mode_, p6::format_sync_mode(mode, style)); !ok) return std::unexpected(ok.error());
+  return described;
+}
+
+std::expected<RemoteMeter::Spectrum, InstrumentError> RemoteMeter::read_spectrum(std::string_view command,
+                                                                                 std::chrono::milliseconds first_byte,
+                                                                                 bool ask_again) {
+  const Rule rule{p6::ReplyShape::spectral,   grid().points, first_byte, options_.timing.idle,
+                  whole_reply(grid().points), ask_again};
+  Spectrum spectrum;
+  const Grid expected = grid();
+  auto report = session_->ask(command, rule, "spectral report", [&](std::string_view bytes) {
+    spectrum.raw = std::string(bytes);
+    return p6::parse_spectral(bytes, expected);
+  });
+  if (!report) return std::unexpected(report.error());
+  spectrum.report = std::move(*report);
+  return spectrum;
+}
+
+std::expected<void, InstrumentError> RemoteMeter::read_colorimetry(Reading& reading, bool si_units) {
+  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
+  for (const int code : {1, 2}) {
+    std::string raw;
+    auto report = session_->ask(p6::format_report(code, options_.style), rule, fmt::format("report {}", code),
+                                [&](std::string_view bytes) {
+                                  raw = std::string(bytes);
+                                  return p6::parse_colorimetric(code, bytes);
+                                });
+    if (!report) return std::unexpected(report.error());
+    if (report->status.code != 0 || report->values.size() < 3)
+      return fail(InstrumentError::Kind::protocol,
+                  fmt::format("report {} after a good measurement: {}", code, p6::error_message(report->status.code)),
+                  -1, raw);
+    reading.raw_reply += raw;
+    if (code == 1) {
+      reading.luminance = report->values[0], reading.x = report->values[1], reading.y = report->values[2];
+      reading.luminance_units = photometric_units(si_units);
+    } else {
+      reading.xyz = {report->values[0], report->values[1], report->values[2]};
+    }
+  }
+  return {};
+}
+
+// Measures until the meter gives a good spectrum or the error policy (remote_failures.hpp)
+// gives up. A failed measurement's spectrum is never used: the next attempt or the error.
+std::expected<Reading, InstrumentError> RemoteMeter::measure(const MeasureOptions& options) {
+  std::lock_guard lock(call_mutex_);
+  session_->reset_cancel();
+  if (!connected_) return fail(InstrumentError::Kind::lost, fmt::format("the {} is not connected", profile_.name));
+  if (auto ok = check(options); !ok) return std::unexpected(ok.error());
+  if (!identified_)
+    if (auto identity = query_identity(); !identity) return std::unexpected(identity.error());
+  if (pending_ > 0ms) {
+    session_->drain(options_.timing.idle, pending_);
+    pending_ = 0ms;
+  }
+  Reading reading;
+  reading.started = std::chrono::system_clock::now();
+  reading.integration_ms = options.integration_ms;
+  reading.averages = options.averages;
+  reading.serial_number = identity_.serial_number;
+  remote::AttemptState state{options.integration_ms, options.sync == MeasureOptions::Sync::automatic,
+                             options.adjust_integration};
+  int measurements = 0;
+  for (int attempt = 1; attempt <= kMaxAttempts; ++attempt) {
+    auto sync = configure(options, state.exposure_ms, state.sync_on);
+    if (!sync) return std::unexpected(sync.error());
+    auto spectrum = take_spectrum(state.exposure_ms, options.averages);
+    if (!spectrum) return std::unexpected(spectrum.error());
+    measurements += spectrum->remeasured ? 2 : 1;
+    reading.attempts = measurements;
+    if (spectrum->remeasured) reading.warnings.push_back("remeasured: a measurement never answered and was made again");
+    const p6::SpectralReport& report = spectrum->report;
+    if (report.status.code != 0) {
+      auto next = remote::after_failure(report.status.code, state, profile_, spectrum->raw);
+      if (auto* error = std::get_if<InstrumentError>(&next)) return std::unexpected(std::move(*error));
+      reading.warnings.push_back(std::get<remote::MeasureAgain>(next).warning);
+      continue;
+    }
+    if (std::ranges::all_of(report.values, [](double v) { return v == 0; }))
+      return fail(InstrumentError::Kind::bad_reading, "the meter returned a spectrum of zeros", 0, spectrum->raw);
+    reading.quality = "OK";
+    reading.sync = *sync;
+    reading.integration_ms = state.exposure_ms;
+    reading.units_code = report.units;
+    reading.units = kSpectralUnits;
+    reading.wavelength_nm.assign(report.wavelength_nm.begin(), report.wavelength_nm.end());
+    reading.radiance = report.values;
+    reading.integrated = report.integrated;
+    reading.raw_reply = spectrum->raw;
+    if (auto ok = read_colorimetry(reading, options.si_units); !ok) return std::unexpected(ok.error());
+    reading.finished = std::chrono::system_clock::now();
+    return reading;
+  }
+  return fail(InstrumentError::Kind::bad_reading,
+              fmt::format("no good measurement in {} attempts: {}", kMaxAttempts, fmt::join(reading.warnings, "; ")));
+}
+
+}  // namespace skinspec::drivers

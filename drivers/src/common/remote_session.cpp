@@ -1,0 +1,233 @@
+#include "common/remote_session.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <optional>
+#include <thread>
+
+namespace skinspec::drivers::remote {
+
+namespace p6 = pr6xx;
+using namespace std::chrono_literals;
+
+namespace {
+
+std::unexpected<InstrumentError> fail(InstrumentError::Kind kind, std::string message, std::string raw = {}) {
+  return std::unexpected(InstrumentError{kind, std::move(message), -1, std::move(raw)});
+}
+
+std::string seconds(std::chrono::milliseconds t) {
+  return fmt::format("{:.3g} s", static_cast<double>(t.count()) / 1000);
+}
+
+}  // namespace
+
+std::string printable(std::string_view command) {
+  std::string out(command);
+  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+  return out;
+}
+
+Session::Session(Transport& transport, std::string_view meter_name, std::chrono::milliseconds pacing,
+                 const RemoteTiming& timing)
+    : transport_(transport), name_(meter_name), pacing_(pacing), timing_(timing) {}
+
+void Session::cancel() {
+  {
+    std::lock_guard lock(pause_mutex_);
+    cancelled_ = true;
+  }
+  pause_cv_.notify_all();
+  transport_.interrupt();
+}
+
+void Session::reset_cancel() {
+  cancelled_ = false;
+  transport_.clear_interrupt();
+}
+
+bool Session::pause(std::chrono::milliseconds how_long) {
+  std::unique_lock lock(pause_mutex_);
+  return !pause_cv_.wait_for(lock, how_long, [this] { return cancelled_.load(); });
+}
+
+InstrumentError Session::link_error(const TransportError& error, std::string_view command) const {
+  using K = TransportError::Kind;
+  if (error.kind == K::interrupted || cancelled_) return {InstrumentError::Kind::cancelled, "cancelled", -1, {}};
+  if (error.kind == K::timeout)
+    return {InstrumentError::Kind::lost,
+            fmt::format("the {} on {} did not take '{}' in time; is it still on and connected?", name_,
+                        transport_.describe(), printable(command)),
+            -1,
+            {}};
+  return {
+      InstrumentError::Kind::lost,
+      fmt::format("lost the {} on {} during '{}': {}", name_, transport_.describe(), printable(command), error.message),
+      -1,
+      {}};
+}
+
+InstrumentError Session::unanswered(std::string_view command, const Reply& reply) const {
+  if (reply.end == ReplyEnd::cut)
+    return {InstrumentError::Kind::protocol,
+            fmt::format("the reply to '{}' stopped after {} bytes", printable(command), reply.bytes.size()), -1,
+            reply.bytes};
+  return {InstrumentError::Kind::lost,
+          fmt::format("the {} on {} did not answer '{}'; is it still on and connected?", name_, transport_.describe(),
+                      printable(command)),
+          -1,
+          {}};
+}
+
+std::expected<void, InstrumentError> Session::open(std::chrono::milliseconds modem_settle) {
+  if (!transport_.is_open())
+    if (auto opened = transport_.open(); !opened)
+      return fail(InstrumentError::Kind::transport,
+                  fmt::format("cannot open {}: {}", transport_.describe(), opened.error().message));
+  (void)transport_.set_modem_lines(false, false);
+  std::this_thread::sleep_for(std::min<std::chrono::milliseconds>(modem_settle, 100ms));
+  (void)transport_.set_modem_lines(true, true);
+  std::this_thread::sleep_for(modem_settle);
+  return {};
+}
+
+// One byte at a time, never two within `pacing` of each other, across commands too: the
+// meters lose a byte that follows the one before too closely (the makers' and the field's
+// drivers wait 50 ms between bytes). The wait yields to cancel().
+std::expected<void, InstrumentError> Session::write_paced(std::string_view command) {
+  if (pacing_ <= 0ms) {
+    if (auto written = transport_.write(command, deadline_in(timing_.reply)); !written)
+      return std::unexpected(link_error(written.error(), command));
+    return {};
+  }
+  for (std::size_t i = 0; i < command.size(); ++i) {
+    const auto wait = std::chrono::ceil<std::chrono::milliseconds>(last_byte_ + pacing_ - Clock::now());
+    if (wait > 0ms && !pause(wait)) return fail(InstrumentError::Kind::cancelled, "cancelled");
+    if (auto written = transport_.write(command.substr(i, 1), deadline_in(timing_.reply)); !written)
+      return std::unexpected(link_error(written.error(), command));
+    last_byte_ = Clock::now();
+  }
+  return {};
+}
+
+// A command and the wait for its reply: the first byte within the rule's time, then no pause
+// longer than `idle` until reply_size() says it is whole. A banner in front of the reply (the
+// meter holds it back until the next reply) and an echo are not part of it.
+std::expected<Reply, InstrumentError> Session::transact(std::string_view command, const Rule& rule, bool flush) {
+  if (cancelled_) return fail(InstrumentError::Kind::cancelled, "cancelled");
+  if (flush)
+    if (auto flushed = transport_.flush_input(); !flushed) return std::unexpected(link_error(flushed.error(), command));
+  if (auto written = write_paced(command); !written) return std::unexpected(written.error());
+  const std::string_view echo = std::string_view(command).substr(0, printable(command).size());
+  std::string received;
+  Deadline next = deadline_in(rule.first_byte);
+  std::optional<Deadline> whole;
+  char buffer[512];
+  for (;;) {
+    const p6::BannerSplit split = p6::split_banner(received);
+    const std::string_view reply =
+        split.found == p6::BannerSplit::Found::partial ? std::string_view() : p6::strip_echo(split.rest, echo);
+    if (const std::size_t size = p6::reply_size(rule.shape, reply, rule.points); size > 0)
+      return Reply{ReplyEnd::complete, std::string(reply.substr(0, size))};
+    auto n = transport_.read(buffer, sizeof buffer, whole ? std::min(next, *whole) : next);
+    if (!n) {
+      if (n.error().kind != TransportError::Kind::timeout) return std::unexpected(link_error(n.error(), command));
+      if (reply.empty()) return Reply{ReplyEnd::silent, {}};
+      if (rule.shape == p6::ReplyShape::listing) return Reply{ReplyEnd::complete, std::string(reply)};
+      return Reply{ReplyEnd::cut, std::string(reply)};
+    }
+    received.append(buffer, *n);
+    if (!whole) {
+      whole = deadline_in(rule.whole);
+      ++replies_;
+    }
+    next = deadline_in(rule.idle);
+  }
+}
+
+std::expected<Reply, InstrumentError> Session::transact_despite_cancel(std::string_view command, const Rule& rule) {
+  const bool was = cancelled_.exchange(false);
+  transport_.clear_interrupt();
+  auto reply = transact(command, rule);
+  if (was) cancelled_ = true;
+  return reply;
+}
+
+void Session::drain(std::chrono::milliseconds idle, std::chrono::milliseconds limit) {
+  char buffer[512];
+  const Deadline end = deadline_in(limit);
+  Deadline next = end;  // the first byte may take all of `limit`, then the reply streams
+  while (transport_.read(buffer, sizeof buffer, std::min(next, end))) next = deadline_in(idle);
+}
+
+// What came after PHOTO: the banner whole, other bytes, or nothing (an empty string).
+std::expected<std::string, InstrumentError> Session::read_banner(std::chrono::milliseconds first_byte) {
+  std::string received;
+  Deadline next = deadline_in(first_byte);
+  char buffer[256];
+  for (;;) {
+    const auto found = p6::split_banner(received).found;
+    if (found == p6::BannerSplit::Found::whole) return received;
+    auto n = transport_.read(buffer, sizeof buffer, next);
+    if (!n) {
+      if (n.error().kind != TransportError::Kind::timeout) return std::unexpected(link_error(n.error(), "PHOTO"));
+      return received;
+    }
+    received.append(buffer, *n);
+    next = deadline_in(timing_.idle);
+  }
+}
+
+std::expected<bool, InstrumentError> Session::enter_remote() {
+  // Q first: a meter that a crashed program left in remote mode ignores PHOTO.
+  if (auto flushed = transport_.flush_input(); !flushed) return std::unexpected(link_error(flushed.error(), "Q"));
+  if (auto q = write_paced(p6::kQuit); !q) return std::unexpected(q.error());
+  if (!pause(timing_.quit_pause)) return fail(InstrumentError::Kind::cancelled, "cancelled");
+  const Rule confirm{p6::ReplyShape::line, 0, timing_.confirm, timing_.idle, timing_.reply, false};
+  for (int attempt = 1; attempt <= 2; ++attempt) {
+    (void)transport_.flush_input();
+    if (auto photo = write_paced(p6::kRemoteKeyword); !photo) return std::unexpected(photo.error());
+    auto answer = read_banner(timing_.banner);
+    if (!answer) return std::unexpected(answer.error());
+    if (p6::split_banner(*answer).found == p6::BannerSplit::Found::whole) {
+      ++replies_;
+      remote_ = true;
+      return false;
+    }
+    if (!answer->empty())
+      return fail(InstrumentError::Kind::protocol,
+                  fmt::format("the meter on {} answered PHOTO with '{}', not ' REMOTE MODE': not a {} in its "
+                              "normal state (a PR-650, or a meter in echo mode?)",
+                              transport_.describe(), *answer, name_),
+                  *answer);
+    // Some meters hold the banner back until the next reply: without a flush, D111 shows it.
+    auto reply = transact(p6::format_report(111), confirm, false);
+    if (!reply) return std::unexpected(reply.error());
+    if (reply->end == ReplyEnd::complete)
+      if (auto text = p6::parse_text_report(reply->bytes); text && text->status.code == 0) {
+        remote_ = true;
+        return true;
+      }
+    if (attempt == 1) {
+      if (auto q = write_paced(p6::kQuit); !q) return std::unexpected(q.error());
+      if (!pause(timing_.retry_pause)) return fail(InstrumentError::Kind::cancelled, "cancelled");
+    }
+  }
+  return fail(InstrumentError::Kind::no_contact,
+              fmt::format("no answer from a {} on {} to PHOTO, twice within {}. The meter needs Power Saving off, "
+                          "the USB cable, and no other program holding the port; if it still refuses, switch it "
+                          "off and on",
+                          name_, transport_.describe(), seconds(timing_.banner + timing_.confirm)));
+}
+
+void Session::quit() {
+  if (!remote_ || !transport_.is_open()) return;
+  transport_.clear_interrupt();
+  const bool was = cancelled_.exchange(false);  // the pacing wait must not be cut short
+  (void)write_paced(p6::kQuit);
+  cancelled_ = was;
+  remote_ = false;
+}
+
+}  // namespace skinspec::drivers::remote

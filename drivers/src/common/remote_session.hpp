@@ -1,0 +1,115 @@
+#pragma once
+// One connection to a newer meter (PR-655 and later) in remote mode: commands written a byte at
+// a time at the profile's pace, stale bytes flushed before each, every reply freed of a glued
+// " REMOTE MODE" banner and of any echo before it is measured and parsed. PHOTO enters remote
+// mode (after a Q, for a meter a crashed program left remote), Q leaves it. Pr6xx and Pr7xx
+// share it; the PR-650 speaks differently (pr650/driver.cpp).
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <expected>
+#include <mutex>
+#include <string>
+#include <string_view>
+
+#include "skinspec/drivers/instrument.hpp"
+#include "skinspec/drivers/remote_options.hpp"
+#include "skinspec/drivers/transport.hpp"
+
+namespace skinspec::drivers::remote {
+
+// How long one reply may take and what to do when it is lost or damaged.
+struct Rule {
+  pr6xx::ReplyShape shape = pr6xx::ReplyShape::line;
+  int points = 0;                           // data lines of a spectral reply (D120's count)
+  std::chrono::milliseconds first_byte{0};  // from the command's last byte to the reply's first
+  std::chrono::milliseconds idle{0};
+  std::chrono::milliseconds whole{0};  // from the first byte to the last
+  bool ask_again = true;               // setups and reports change nothing: a lost one is asked again once
+};
+
+enum class ReplyEnd { complete, silent, cut };
+struct Reply {
+  ReplyEnd end = ReplyEnd::silent;
+  std::string bytes;  // banner and echo removed
+};
+
+class Session {
+ public:
+  Session(Transport& transport, std::string_view meter_name, std::chrono::milliseconds pacing,
+          const RemoteTiming& timing);
+
+  // Opens the port and wiggles DTR/RTS as the makers' software does.
+  std::expected<void, InstrumentError> open(std::chrono::milliseconds modem_settle);
+  // Q, PHOTO, and the banner or a confirming D111; a second PHOTO after Q and a pause if both
+  // were silent. Returns whether the banner came glued to the D111's reply.
+  std::expected<bool, InstrumentError> enter_remote();
+  // Q when remote: the meter's screen stays locked otherwise. Works after cancel().
+  void quit();
+  bool remote() const { return remote_; }
+
+  std::expected<Reply, InstrumentError> transact(std::string_view command, const Rule& rule, bool flush = true);
+  // The same, even when cancel() was called: for the abort that a cancel itself sends.
+  std::expected<Reply, InstrumentError> transact_despite_cancel(std::string_view command, const Rule& rule);
+  // A reply parsed, asked again once where the rule says so when lost, cut short or garbled.
+  template <typename Parse>
+  auto ask(std::string_view command, const Rule& rule, std::string_view what, Parse parse)
+      -> std::expected<typename decltype(parse(std::string_view()))::value_type, InstrumentError>;
+  // Reads and drops a reply that may still come within `limit`, until `idle` of silence after it.
+  void drain(std::chrono::milliseconds idle, std::chrono::milliseconds limit);
+  // Waits, cut short by cancel(); false when cancelled.
+  bool pause(std::chrono::milliseconds how_long);
+
+  void cancel();
+  void reset_cancel();
+  bool cancelled() const { return cancelled_; }
+  std::uint64_t replies() const { return replies_; }
+
+  InstrumentError unanswered(std::string_view command, const Reply& reply) const;
+  InstrumentError link_error(const TransportError& error, std::string_view command) const;
+
+ private:
+  std::expected<void, InstrumentError> write_paced(std::string_view command);
+  std::expected<std::string, InstrumentError> read_banner(std::chrono::milliseconds first_byte);
+
+  Transport& transport_;
+  std::string name_;
+  std::chrono::milliseconds pacing_;
+  RemoteTiming timing_;
+  bool remote_ = false;
+  Clock::time_point last_byte_{};  // when the last byte went out, for the pacing
+  std::atomic<bool> cancelled_{false};
+  std::atomic<std::uint64_t> replies_{0};
+  std::mutex pause_mutex_;
+  std::condition_variable pause_cv_;
+};
+
+// A command as logs and messages show it: without its line end.
+std::string printable(std::string_view command);
+
+template <typename Parse>
+auto Session::ask(std::string_view command, const Rule& rule, std::string_view what, Parse parse)
+    -> std::expected<typename decltype(parse(std::string_view()))::value_type, InstrumentError> {
+  InstrumentError failure{InstrumentError::Kind::protocol, "", -1, {}};
+  const int tries = rule.ask_again ? 2 : 1;
+  for (int attempt = 1; attempt <= tries; ++attempt) {
+    Rule this_try = rule;
+    if (attempt > 1) this_try.first_byte *= 2;  // a reply that was only late arrives now
+    auto reply = transact(command, this_try);
+    if (!reply) return std::unexpected(reply.error());
+    if (reply->end != ReplyEnd::complete) {
+      failure = unanswered(command, *reply);
+      // The rest of a reply that stopped may still be on its way: not a reply to the next try.
+      if (reply->end == ReplyEnd::cut) drain(rule.idle, rule.whole);
+      continue;
+    }
+    auto parsed = parse(reply->bytes);
+    if (parsed) return *parsed;
+    failure = {InstrumentError::Kind::protocol, std::string(what) + ": " + parsed.error().message, -1, reply->bytes};
+  }
+  if (tries > 1) failure.message += " (asked twice)";
+  return std::unexpected(failure);
+}
+
+}  // namespace skinspec::drivers::remote

@@ -1,0 +1,25 @@
+#include "skinspec/drivers/instrument.hpp"
+
+namespace skinspec::drivers {
+
+std::string_view to_string(InstrumentError::Kind kind) {
+  switch (kind) {
+    case InstrumentError::Kind::no_contact:
+      return "no_contact";
+    case InstrumentError::Kind::lost:
+      return "lost";
+    case InstrumentError::Kind::protocol:
+      return "protocol";
+    case InstrumentError::Kind::bad_reading:
+      return "bad_reading";
+    case InstrumentError::Kind::rejected:
+      return "rejected";
+    case InstrumentError::Kind::cancelled:
+      return "cancelled";
+    case InstrumentError::Kind::transport:
+      return "transport";
+  }
+  return "unknown";
+}
+
+}  // namespace skinspec::drivers

@@ -1,0 +1,479 @@
+// The drivers of the PR-655/670/680 (Pr6xx) and the PR-7xx (Pr7xx) against the simulated
+// meters in process: remote mode in and out, identification, measurement on the meter's own
+// grid, the error policy for every error code the simulator can produce, and the faults of the
+// newer meters (a lost PHOTO, a glued banner, a truncated spectrum, a cancelled measurement).
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <functional>
+#include <mutex>
+#include <thread>
+
+#include "skinspec/drivers/pr6xx.hpp"
+#include "skinspec/drivers/pr7xx.hpp"
+#include "support/simulator_rig.hpp"
+
+namespace skinspec::drivers {
+namespace {
+
+using namespace std::chrono_literals;
+using simulator::MeterOptions;
+using testing::fast_remote;
+using ::testing::HasSubstr;
+using testing::MeterRig;
+using K = InstrumentError::Kind;
+
+// A transport that passes everything through and keeps what the driver wrote, so that a test
+// can see the commands on the wire (the simulator logs only modes, faults and measurements).
+class Tap final : public Transport {
+ public:
+  explicit Tap(std::unique_ptr<Transport> inner) : inner_(std::move(inner)) {}
+  std::expected<void, TransportError> open() override { return inner_->open(); }
+  void close() override { inner_->close(); }
+  bool is_open() const override { return inner_->is_open(); }
+  std::expected<void, TransportError> flush_input() override { return inner_->flush_input(); }
+  std::expected<void, TransportError> write(std::string_view bytes, Deadline deadline) override {
+    {
+      std::lock_guard lock(*mutex_);
+      *written_ += bytes;
+    }
+    return inner_->write(bytes, deadline);
+  }
+  std::expected<std::size_t, TransportError> read(char* buffer, std::size_t size, Deadline deadline) override {
+    return inner_->read(buffer, size, deadline);
+  }
+  std::expected<void, TransportError> set_modem_lines(bool dtr, bool rts) override {
+    return inner_->set_modem_lines(dtr, rts);
+  }
+  void interrupt() override { inner_->interrupt(); }
+  void clear_interrupt() override { inner_->clear_interrupt(); }
+  std::string describe() const override { return inner_->describe(); }
+
+  // What was written, readable after the driver (and this tap) is gone.
+  std::function<std::string()> written() const {
+    return [mutex = mutex_, written = written_] {
+      std::lock_guard lock(*mutex);
+      return *written;
+    };
+  }
+
+ private:
+  std::unique_ptr<Transport> inner_;
+  std::shared_ptr<std::mutex> mutex_ = std::make_shared<std::mutex>();
+  std::shared_ptr<std::string> written_ = std::make_shared<std::string>();
+};
+
+// A white standard under D65 on `model`'s grid; `flicker_hz` 0 is a steady lamp.
+simulator::Scene white_on(Model model, double flicker_hz = 60) {
+  const auto grid = simulator::wavelengths(*profile(model).simulator_grid);
+  auto colour = simulator::ColourData::load(directory_reader(SKINSPEC_TEST_DATA_DIR), grid);
+  const simulator::Lamp lamp{"D65", colour->d65, 100};
+  simulator::Scene scene = simulator::scene_under_lamp("white standard", *Spectrum::create({380, 780}, {0.99, 0.99}),
+                                                       lamp, colour->observer);
+  scene.flicker_hz = flicker_hz;
+  return scene;
+}
+
+simulator::Synthesis synthesis_of(Model model, const simulator::Scene& scene) {
+  const auto grid = simulator::wavelengths(*profile(model).simulator_grid);
+  auto colour = simulator::ColourData::load(directory_reader(SKINSPEC_TEST_DATA_DIR), grid);
+  return simulator::Synthesis{colour->observer, {scene}};
+}
+
+MeterOptions meter_options(Model model, std::vector<std::string> faults = {}) {
+  MeterOptions options = testing::fast_meter();
+  options.model = model;
+  options.faults = *simulator::FaultPlan::parse(faults);
+  return options;
+}
+
+// A simulated meter of `model` and a driver of its family on the other end of the link.
+struct Bench {
+  Bench(Model model, std::vector<std::string> faults = {}, RemoteOptions options = fast_remote(),
+        MeterOptions meter = {}, double flicker_hz = 60)
+      : scene(white_on(model, flicker_hz)),
+        rig(synthesis_of(model, scene), meter.model == model ? std::move(meter) : meter_options(model, faults)) {
+    auto tap = std::make_unique<Tap>(rig.take_host());
+    written = tap->written();
+    if (profile(model).family == Family::pr6xx) driver = std::make_unique<Pr6xx>(model, std::move(tap), options);
+    else driver = std::make_unique<Pr7xx>(model, std::move(tap), options);
+  }
+  bool logged(std::string_view line) const {
+    const auto log = rig.log();
+    return std::ranges::any_of(log, [&](const std::string& l) { return l == line; });
+  }
+  simulator::Scene scene;
+  MeterRig rig;
+  std::function<std::string()> written;
+  std::unique_ptr<RemoteMeter> driver;
+};
+
+// ---- Connect and identify ------------------------------------------------------------------
+
+TEST(Pr6xxDriver, ConnectsAndIdentifiesEachFamilyOnItsGrid) {
+  struct Case {
+    Model model;
+    int points, step_nm;
+    std::optional<std::chrono::milliseconds> pacing;
+  };
+  // The PR-655 with the profile's own 50 ms pacing between bytes, the others unpaced.
+  for (const Case c :
+       {Case{Model::pr655, 101, 4, std::nullopt}, Case{Model::pr670, 201, 2, 0ms}, Case{Model::pr730, 401, 1, 0ms}}) {
+    RemoteOptions options = fast_remote();
+    options.pacing = c.pacing;
+    Bench bench(c.model, {}, options);
+    const auto& row = profile(c.model);
+    ASSERT_TRUE(bench.driver->connect()) << row.id;
+    EXPECT_TRUE(bench.logged("command PHOTO: remote mode")) << row.id;
+    auto identity = bench.driver->identify();
+    ASSERT_TRUE(identity) << row.id << ": " << identity.error().message;
+    EXPECT_EQ(identity->model, c.model);
+    EXPECT_EQ(identity->family, row.family);
+    EXPECT_EQ(identity->reported_model, row.d111);
+    EXPECT_EQ(identity->serial_number, row.serial);
+    EXPECT_EQ(identity->firmware, "2.22D");
+    EXPECT_EQ(identity->grid, (Grid{380, 780, c.step_nm, c.points})) << row.id;
+    EXPECT_EQ(identity->configuration.points, c.points);
+    EXPECT_TRUE(identity->warnings.empty());
+    EXPECT_TRUE(bench.written().starts_with("QPHOTOD111\r")) << row.id << ": Q first, then PHOTO";
+  }
+}
+
+TEST(Pr6xxDriver, AFamilyMismatchIsRefusedWhenTheDriverIsMade) {
+  EXPECT_THROW(Pr6xx(Model::pr730, make_memory_pair("x").first), std::invalid_argument);
+  EXPECT_THROW(Pr7xx(Model::pr670, make_memory_pair("x").first), std::invalid_argument);
+}
+
+TEST(Pr6xxDriver, D111MustNotNameAnotherModel) {
+  MeterOptions other = meter_options(Model::pr670);
+  other.wire.d111 = "PR-740";
+  Bench contradicted(Model::pr670, {}, fast_remote(), std::move(other));
+  ASSERT_TRUE(contradicted.driver->connect());
+  auto refused = contradicted.driver->identify();
+  ASSERT_FALSE(refused);
+  EXPECT_THAT(refused.error().message, HasSubstr("'PR-740', not a PR-670"));
+
+  MeterOptions unknown = meter_options(Model::pr670);
+  unknown.wire.d111 = "PR-810";
+  Bench bench(Model::pr670, {}, fast_remote(), std::move(unknown));
+  ASSERT_TRUE(bench.driver->connect());
+  auto identity = bench.driver->identify();
+  ASSERT_TRUE(identity) << identity.error().message;
+  EXPECT_EQ(identity->reported_model, "PR-810");
+  EXPECT_THAT(identity->warnings, ::testing::ElementsAre(HasSubstr("unknown-model")));
+}
+
+TEST(Pr6xxDriver, TheSpectrumMustLieOnD120sGrid) {
+  // D120 prints the manuals' example (201 points by 2 nm), the PR-730 measures 401 by 1 nm.
+  MeterOptions manual = meter_options(Model::pr730);
+  manual.wire.d120_manual = true;
+  Bench bench(Model::pr730, {}, fast_remote(), std::move(manual));
+  ASSERT_TRUE(bench.driver->connect());
+  auto identity = bench.driver->identify();
+  ASSERT_TRUE(identity);
+  EXPECT_EQ(identity->grid, (Grid{380, 780, 2, 201}));
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, K::protocol) << reading.error().message;
+}
+
+// ---- Measuring -------------------------------------------------------------------------------
+
+TEST(Pr6xxDriver, MeasuresTheSourceOnTheMetersGrid) {
+  for (const Model model : {Model::pr655, Model::pr670, Model::pr730}) {
+    Bench bench(model);
+    const auto& row = profile(model);
+    ASSERT_TRUE(bench.driver->connect());
+    auto reading = bench.driver->measure({.integration_ms = 100});
+    ASSERT_TRUE(reading) << row.id << ": " << reading.error().message;
+    const Grid grid = *row.simulator_grid;
+    ASSERT_EQ(reading->wavelength_nm.size(), static_cast<std::size_t>(grid.points)) << row.id;
+    for (int i = 0; i < grid.points; ++i)
+      EXPECT_EQ(reading->wavelength_nm[i], grid.first_nm + i * grid.step_nm) << row.id;
+    ASSERT_EQ(reading->radiance.size(), bench.scene.radiance.size());
+    for (std::size_t i = 0; i < reading->radiance.size(); ++i)
+      EXPECT_NEAR(reading->radiance[i], bench.scene.radiance[i], 1e-3 * bench.scene.radiance[i] + 1e-12)
+          << row.id << " at " << reading->wavelength_nm[i] << " nm";
+    EXPECT_NEAR(reading->x, 0.3127, 0.002) << row.id;  // a white under D65
+    EXPECT_NEAR(reading->y, 0.3290, 0.002) << row.id;
+    EXPECT_NEAR(reading->luminance, 99, 1) << row.id;  // SU1: cd/m2
+    EXPECT_EQ(reading->luminance_units, "cd/m2");
+    EXPECT_EQ(reading->attempts, 1);
+    EXPECT_EQ(reading->serial_number, row.serial);
+  }
+}
+
+TEST(Pr6xxDriver, SetupsAreSentOnlyWhenTheyChange) {
+  Bench bench(Model::pr670);
+  ASSERT_TRUE(bench.driver->connect());
+  ASSERT_TRUE(bench.driver->measure({.integration_ms = 100}));
+  ASSERT_TRUE(bench.driver->measure({.integration_ms = 100}));
+  ASSERT_TRUE(bench.driver->measure({.integration_ms = 200}));
+  const std::string written = bench.written();
+  auto count = [&](std::string_view what) {
+    std::size_t n = 0;
+    for (auto at = written.find(what); at != std::string::npos; at = written.find(what, at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count("SE00100\r"), 1u);
+  EXPECT_EQ(count("SE00200\r"), 1u);
+  EXPECT_EQ(count("SU1\r"), 1u);
+  EXPECT_EQ(count("M5\r"), 3u);
+}
+
+TEST(Pr6xxDriver, OutOfRangeOptionsAreRejectedBeforeAnyByte) {
+  Bench bench(Model::pr670);
+  ASSERT_TRUE(bench.driver->connect());
+  const std::string before = bench.written();
+  auto reading = bench.driver->measure({.integration_ms = 3});
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, K::rejected);
+  EXPECT_THAT(reading.error().message, HasSubstr("6-6000 ms"));
+  EXPECT_FALSE(bench.driver->measure({.integration_ms = 100, .averages = 100}));
+  EXPECT_EQ(bench.written(), before);
+}
+
+// ---- The error policy -------------------------------------------------------------------------
+
+struct CodeCase {
+  int code;
+  InstrumentError::Kind kind;
+  std::string_view message;
+};
+
+const std::vector<CodeCase> kEveryCode = {
+    {-1, K::bad_reading, "unstable source: light not constant"},
+    {-2, K::bad_reading, "overload"},
+    {-3, K::bad_reading, "cannot sync"},
+    {-4, K::bad_reading, "adaptive exposure timed out"},
+    {-8, K::bad_reading, "too dark"},
+    {-9, K::bad_reading, "cannot sync"},
+    {-10, K::bad_reading, "cannot sync"},
+    {-12, K::bad_reading, "adaptive exposure timed out"},
+    {-1000, K::protocol, "refused the measurement"},
+    {-1010, K::protocol, "refused the measurement"},
+    {-1035, K::protocol, "refused the measurement"},
+    {-2000, K::protocol, "has no measurement"},
+    {-77, K::bad_reading, "unknown error code -77"},
+};
+
+TEST(Pr6xxDriver, EveryMeterErrorCodeBecomesItsKindAndNeverAReading) {
+  for (const auto& [model, key] : {std::pair{Model::pr670, "m5"}, std::pair{Model::pr730, "t"}})
+    for (const CodeCase& c : kEveryCode) {
+      Bench bench(model, {fmt::format("{}:error={}", key, c.code)});
+      ASSERT_TRUE(bench.driver->connect());
+      auto reading = bench.driver->measure({.integration_ms = 100});
+      ASSERT_FALSE(reading) << profile(model).id << " " << c.code;
+      EXPECT_EQ(reading.error().kind, c.kind) << profile(model).id << " " << c.code << ": " << reading.error().message;
+      EXPECT_THAT(reading.error().message, HasSubstr(c.message)) << c.code;
+      EXPECT_EQ(reading.error().quality_code, c.code);
+    }
+}
+
+TEST(Pr6xxDriver, ASyncFailureIsMeasuredOnceMoreWithoutSync) {
+  for (const auto& [model, key] : {std::pair{Model::pr670, "m5"}, std::pair{Model::pr730, "t"}}) {
+    Bench bench(model, {fmt::format("{}:error=-10@1", key)});
+    ASSERT_TRUE(bench.driver->connect());
+    auto reading = bench.driver->measure({.integration_ms = 100, .sync = MeasureOptions::Sync::automatic});
+    ASSERT_TRUE(reading) << reading.error().message;
+    EXPECT_EQ(reading->attempts, 2);
+    ASSERT_EQ(reading->warnings.size(), 1u);
+    EXPECT_THAT(reading->warnings[0], HasSubstr("sync-off:"));
+    const std::string written = bench.written();
+    EXPECT_LT(written.find("SS1\r"), written.find("SS0\r")) << "sync on, then off";
+  }
+}
+
+TEST(Pr6xxDriver, ASyncFailureWithoutSyncIsNotRetried) {
+  Bench bench(Model::pr670, {"m5:error=-10@1"});
+  ASSERT_TRUE(bench.driver->connect());
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, K::bad_reading);
+}
+
+TEST(Pr6xxDriver, TooDarkDoublesAFixedExposureWhenAllowed) {
+  Bench bench(Model::pr670, {"m5:error=-8@1"});
+  ASSERT_TRUE(bench.driver->connect());
+  auto reading = bench.driver->measure({.integration_ms = 100, .adjust_integration = true});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->integration_ms, 200);
+  EXPECT_THAT(reading->warnings, ::testing::ElementsAre(HasSubstr("exposure: too dark at 100 ms")));
+}
+
+TEST(Pr6xxDriver, AnUnstableSourceIsMeasuredOnceMore) {
+  Bench bench(Model::pr730, {"t:error=-12@1"});
+  ASSERT_TRUE(bench.driver->connect());
+  auto reading = bench.driver->measure({});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->attempts, 2);
+}
+
+TEST(Pr6xxDriver, AFailedMeasurementAfterAGoodOneGivesNoStaleSpectrum) {
+  for (const auto& [model, key] : {std::pair{Model::pr670, "m5"}, std::pair{Model::pr730, "t"}}) {
+    Bench bench(model, {fmt::format("{}:error=-8@2+", key)});
+    ASSERT_TRUE(bench.driver->connect());
+    ASSERT_TRUE(bench.driver->measure({.integration_ms = 100}));
+    auto second = bench.driver->measure({.integration_ms = 100});
+    ASSERT_FALSE(second) << profile(model).id;
+    EXPECT_EQ(second.error().kind, K::bad_reading);
+    EXPECT_EQ(second.error().quality_code, -8);
+  }
+}
+
+// ---- Faults on the wire ----------------------------------------------------------------------
+
+TEST(Pr6xxDriver, ALostPhotoIsSentAgainAfterQ) {
+  Bench bench(Model::pr670, {"photo:no-answer@1"});
+  ASSERT_TRUE(bench.driver->connect());
+  EXPECT_TRUE(bench.written().starts_with("QPHOTOD111\rQPHOTO")) << bench.written();
+  EXPECT_TRUE(bench.logged("command PHOTO: remote mode"));
+  auto identity = bench.driver->identify();
+  ASSERT_TRUE(identity);
+  EXPECT_EQ(identity->reported_model, "PR-670");
+}
+
+TEST(Pr6xxDriver, AMeterThatNeverAnswersPhotoIsNoContact) {
+  Bench bench(Model::pr670, {"photo:no-answer"});
+  auto connected = bench.driver->connect();
+  ASSERT_FALSE(connected);
+  EXPECT_EQ(connected.error().kind, K::no_contact);
+  EXPECT_THAT(connected.error().message, HasSubstr("Power Saving off"));
+}
+
+TEST(Pr6xxDriver, ABannerGluedToTheNextReplyIsTakenAsRemoteMode) {
+  Bench bench(Model::pr730, {"photo:glue"});
+  ASSERT_TRUE(bench.driver->connect());
+  auto identity = bench.driver->identify();
+  ASSERT_TRUE(identity) << identity.error().message;
+  EXPECT_EQ(identity->reported_model, "PR-730/735");
+  EXPECT_THAT(identity->warnings, ::testing::ElementsAre(HasSubstr("banner-glued")));
+  EXPECT_EQ(bench.driver->identify()->warnings, identity->warnings) << "the same once more";
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->radiance.size(), 401u);
+}
+
+TEST(Pr6xxDriver, ATruncatedSpectrumIsAProtocolErrorNotAReading) {
+  for (const auto& [model, faults] :
+       {std::pair{Model::pr670, std::vector<std::string>{"m5:truncate=300", "d5:truncate=300"}},
+        std::pair{Model::pr730, std::vector<std::string>{"d5:truncate=300"}}}) {
+    Bench bench(model, faults);
+    ASSERT_TRUE(bench.driver->connect());
+    auto reading = bench.driver->measure({.integration_ms = 100});
+    ASSERT_FALSE(reading) << profile(model).id;
+    EXPECT_EQ(reading.error().kind, K::protocol) << reading.error().message;
+  }
+}
+
+TEST(Pr6xxDriver, ATruncatedM5IsReadAgainWithD5) {
+  Bench bench(Model::pr670, {"m5:truncate=300"});
+  ASSERT_TRUE(bench.driver->connect());
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->radiance.size(), 201u);
+  EXPECT_EQ(reading->attempts, 1) << "the meter measured once";
+}
+
+TEST(Pr6xxDriver, PacingKeepsEveryByteOfAMeterThatLosesFastOnes) {
+  // The meter loses a byte that follows the one before within 20 ms.
+  RemoteOptions unpaced = fast_remote();
+  Bench lossy(Model::pr670, {"*:fast-loss=20"}, unpaced);
+  auto refused = lossy.driver->connect();
+  ASSERT_FALSE(refused) << "whole strings lose all but their first byte";
+  EXPECT_EQ(refused.error().kind, K::no_contact);
+
+  RemoteOptions paced = fast_remote();
+  paced.pacing = std::nullopt;  // the profile's 50 ms
+  Bench bench(Model::pr670, {"*:fast-loss=20"}, paced);
+  auto connected = bench.driver->connect();
+  ASSERT_TRUE(connected) << connected.error().message;
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->radiance.size(), 201u);
+}
+
+TEST(Pr6xxDriver, ACancelledM5IsDrainedBeforeTheNextMeasurement) {
+  MeterOptions meter = meter_options(Model::pr670);
+  meter.time_scale = 1;
+  RemoteOptions options = fast_remote();
+  options.timing.reply = 3s;
+  options.timing.line_bytes_per_second = 960;
+  options.timing.measurement_overhead = 3s;  // the meter's own overhead, unscaled
+  Bench bench(Model::pr670, {}, options, std::move(meter));
+  ASSERT_TRUE(bench.driver->connect());
+  std::atomic<bool> returned{false};
+  std::thread canceller([&] {
+    while (bench.written().find("M5\r") == std::string::npos && !returned) std::this_thread::sleep_for(5ms);
+    std::this_thread::sleep_for(100ms);
+    bench.driver->cancel();
+  });
+  auto cancelled = bench.driver->measure({.integration_ms = 1000});
+  returned = true;
+  canceller.join();
+  ASSERT_FALSE(cancelled);
+  EXPECT_EQ(cancelled.error().kind, K::cancelled);
+  // The cancelled M5's spectrum arrives late; it must not be taken for a reply to what follows.
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->radiance.size(), 201u);
+  EXPECT_EQ(reading->integration_ms, 100);
+}
+
+// ---- Leaving remote mode ---------------------------------------------------------------------
+
+TEST(Pr6xxDriver, DisconnectAndDestructionSendQ) {
+  {
+    Bench bench(Model::pr670);
+    ASSERT_TRUE(bench.driver->connect());
+    EXPECT_FALSE(bench.logged("command Q: remote mode left"));
+    bench.driver->disconnect();
+    EXPECT_TRUE(bench.written().ends_with("Q"));
+    bench.rig.wait_for_end(200ms);
+    EXPECT_TRUE(bench.logged("command Q: remote mode left"));
+  }
+  {
+    Bench bench(Model::pr730);
+    ASSERT_TRUE(bench.driver->connect());
+    ASSERT_TRUE(bench.driver->measure({.integration_ms = 100}));
+    bench.driver.reset();
+    EXPECT_TRUE(bench.written().ends_with("Q"));
+    bench.rig.wait_for_end(200ms);
+    EXPECT_TRUE(bench.logged("command Q: remote mode left"));
+  }
+}
+
+TEST(Pr6xxDriver, APr7xxMeasurementCancelledMidwayIsAborted) {
+  MeterOptions meter = meter_options(Model::pr730);
+  meter.time_scale = 1;  // a 2 x 120 s measurement really takes that long
+  RemoteOptions options = fast_remote();
+  options.timing.reply = 3s;  // the meter's own reply times and line rate, unscaled
+  options.timing.line_bytes_per_second = 960;
+  Bench bench(Model::pr730, {}, options, std::move(meter));
+  ASSERT_TRUE(bench.driver->connect());
+  std::atomic<bool> returned{false};
+  std::thread canceller([&] {
+    // Cancel once the meter has been polled while busy.
+    while (bench.written().find("P\r") == std::string::npos && !returned) std::this_thread::sleep_for(5ms);
+    std::this_thread::sleep_for(50ms);
+    bench.driver->cancel();
+  });
+  const auto start = std::chrono::steady_clock::now();
+  auto reading = bench.driver->measure({.integration_ms = 120000});
+  returned = true;
+  canceller.join();
+  ASSERT_FALSE(reading);
+  EXPECT_EQ(reading.error().kind, K::cancelled) << reading.error().message;
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 5s);
+  const std::string written = bench.written();
+  EXPECT_TRUE(written.ends_with("A\r")) << written.substr(written.size() > 40 ? written.size() - 40 : 0);
+  EXPECT_EQ(written.find('Q', 1), std::string::npos) << "still remote after an abort";
+}
+
+}  // namespace
+}  // namespace skinspec::drivers
