@@ -398,6 +398,18 @@ TEST(FitInput, SpectrumCoveringOnly400To700IsAccepted) {
   EXPECT_TRUE(recovered(*fit, kOrdinarySkin)) << describe(fit->params);
 }
 
+// Four samples cannot determine the model's parameters: the fit still ends, with finite
+// values, and does not claim to know what it cannot.
+TEST(FitInput, FewerSamplesThanParametersGiveAFitThatDeterminesLess) {
+  FitOptions options = options_for();
+  options.lateral_diffusion = false;
+  const auto fit = fitter().fit(spectrum({400, 500, 600, 700}, {0.3, 0.35, 0.5, 0.6}), options);
+  ASSERT_TRUE(fit.has_value()) << fit.error();
+  ASSERT_GT(fit->params.size(), 4u);
+  EXPECT_TRUE(std::ranges::all_of(fit->params, [](double v) { return std::isfinite(v); })) << describe(fit->params);
+  EXPECT_TRUE(std::ranges::any_of(fit->determination, [](const auto& d) { return !d.determined(); }));
+}
+
 TEST(FitInput, UnknownSiteIsAnErrorListingTheKnownOnes) {
   FitOptions options = options_for();
   options.site = "elbow";

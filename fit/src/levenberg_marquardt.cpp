@@ -46,8 +46,10 @@ class Minimizer {
       point->residuals.resize(rows);
       point->jacobian.resize(rows, N);
     }
-    r_.resize(rows, k_);
-    qtr_.resize(rows);
+    // At least as many rows as free columns, the extra ones zero: a spectrum of fewer samples
+    // than free parameters still gets a square R, whose damping keeps the steps finite.
+    r_.setZero(std::max<Eigen::Index>(rows, k_), k_);
+    qtr_.setZero(r_.rows());
   }
 
   LmResult<N> run(const std::array<double, N>& start) {
@@ -119,11 +121,13 @@ class Minimizer {
     gradient_max_ = 0;
     for (int j = 0; j < k_; ++j) {
       const auto column = x_.jacobian.col(free_[j]);
-      r_.col(j) = scale_[j] * column;
+      r_.col(j).head(column.size()) = scale_[j] * column;
+      r_.col(j).tail(r_.rows() - column.size()).setZero();
       diagonal_[j] = std::clamp(r_.col(j).squaredNorm(), kMinDiagonal, kMaxDiagonal);
       gradient_max_ = std::max(gradient_max_, std::abs(column.dot(x_.residuals)));
     }
-    qtr_ = x_.residuals;
+    qtr_.head(x_.residuals.size()) = x_.residuals;
+    qtr_.tail(qtr_.size() - x_.residuals.size()).setZero();
     triangularize(r_.data(), static_cast<int>(r_.rows()), k_, qtr_.data());
   }
 
