@@ -80,6 +80,8 @@ store::JobError job_error(const drivers::InstrumentError& error) {
         return Code::cancelled;
       case Kind::transport:
         return Code::transport;
+      case Kind::identification:
+        return Code::identification;
     }
     return Code::internal;
   }();

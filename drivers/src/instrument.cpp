@@ -18,6 +18,8 @@ std::string_view to_string(InstrumentError::Kind kind) {
       return "cancelled";
     case InstrumentError::Kind::transport:
       return "transport";
+    case InstrumentError::Kind::identification:
+      return "identification";
   }
   return "unknown";
 }

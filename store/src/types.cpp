@@ -40,7 +40,7 @@ constexpr std::array<std::pair<JobState, std::string_view>, 5> kJobStates = {{
     {JobState::cancelled, "cancelled"},
 }};
 
-constexpr std::array<std::pair<JobErrorCode, std::string_view>, 14> kJobErrorCodes = {{
+constexpr std::array<std::pair<JobErrorCode, std::string_view>, 15> kJobErrorCodes = {{
     {JobErrorCode::cancelled, "cancelled"},
     {JobErrorCode::stopped, "stopped"},
     {JobErrorCode::interrupted, "interrupted"},
@@ -50,6 +50,7 @@ constexpr std::array<std::pair<JobErrorCode, std::string_view>, 14> kJobErrorCod
     {JobErrorCode::bad_reading, "bad_reading"},
     {JobErrorCode::rejected, "rejected"},
     {JobErrorCode::transport, "transport"},
+    {JobErrorCode::identification, "identification"},
     {JobErrorCode::no_white, "no_white"},
     {JobErrorCode::white_mismatch, "white_mismatch"},
     {JobErrorCode::white_dark, "white_dark"},

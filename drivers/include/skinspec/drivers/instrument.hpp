@@ -25,7 +25,8 @@ struct InstrumentError {
     bad_reading,  // the meter measured but its quality code makes the reading unusable
     rejected,     // the meter refused a setup
     cancelled,
-    transport,  // the port or host could not be opened
+    transport,       // the port or host could not be opened
+    identification,  // something answered, but not as the meter that was asked for (or any skinspec knows)
   };
   Kind kind;
   std::string message;

@@ -179,6 +179,7 @@ enum class JobErrorCode {
   bad_reading,     // too many readings with a quality code that makes them unusable
   rejected,        // the instrument refused a setting
   transport,       // the port or host could not be opened
+  identification,  // another meter than --model names answered, or one skinspec does not know
   no_white,        // a sample asked for before the session's first white reference
   white_mismatch,  // the white reference was measured on another grid
   white_dark,      // the white reference has no signal at some wavelength
