@@ -10,7 +10,20 @@ using nlohmann::json;
 
 namespace {
 
-bool is_usb_adapter(const drivers::PortInfo& port) { return port.vendor_id && port.product_id; }
+bool is_usb_device(const drivers::PortInfo& port) { return port.vendor_id && port.product_id; }
+
+// What `auto` takes first: a meter of the documented product id, then one of another Photo
+// Research product id, then an RS-232 adapter of the known ones, then any USB serial device.
+enum class AutoRank { meter, unverified_meter, known_adapter, other_usb_device };
+
+AutoRank auto_rank(const drivers::PortInfo& port) {
+  const auto known = drivers::classify_port(port);
+  if (!known) return AutoRank::other_usb_device;
+  if (known->kind == drivers::UsbDeviceKind::rs232_adapter) return AutoRank::known_adapter;
+  return known->product_id ? AutoRank::meter : AutoRank::unverified_meter;
+}
+
+json text_or_null(std::optional<std::string_view> text) { return text ? json(std::string(*text)) : json(nullptr); }
 
 drivers::ConnectionUri serial_uri(const std::string& path) {
   drivers::ConnectionUri uri;
@@ -21,19 +34,21 @@ drivers::ConnectionUri serial_uri(const std::string& path) {
 
 }  // namespace
 
-std::optional<drivers::PortInfo> first_usb_adapter(std::vector<drivers::PortInfo> ports) {
-  std::sort(ports.begin(), ports.end(), [](const auto& a, const auto& b) { return a.path < b.path; });
-  const auto it = std::find_if(ports.begin(), ports.end(), is_usb_adapter);
-  if (it == ports.end()) return std::nullopt;
-  return *it;
+std::optional<drivers::PortInfo> auto_device(std::vector<drivers::PortInfo> ports) {
+  std::erase_if(ports, [](const auto& port) { return !is_usb_device(port); });
+  const auto first = std::ranges::min_element(ports, [](const auto& a, const auto& b) {
+    return std::pair(auto_rank(a), a.path) < std::pair(auto_rank(b), b.path);
+  });
+  if (first == ports.end()) return std::nullopt;
+  return *first;
 }
 
 std::expected<ResolvedDevice, std::string> resolve_device(const std::string& device) {
   if (device == "auto") {
-    const auto adapter = first_usb_adapter(drivers::list_ports());
-    if (!adapter) return std::unexpected("no USB serial adapter found");
-    return ResolvedDevice{serial_uri(adapter->path),
-                          UsbIdentity{*adapter->vendor_id, *adapter->product_id, adapter->serial_number}};
+    const auto chosen = auto_device(drivers::list_ports());
+    if (!chosen) return std::unexpected("no USB serial adapter found, and no Photo Research meter on USB");
+    return ResolvedDevice{serial_uri(chosen->path),
+                          UsbIdentity{*chosen->vendor_id, *chosen->product_id, chosen->serial_number}};
   }
   auto uri = drivers::parse_connection_uri(device);
   if (!uri) return std::unexpected("--device '" + device + "': " + uri.error());
@@ -57,18 +72,21 @@ json ports_json(const std::vector<drivers::PortInfo>& ports) {
   json list = json::array();
   for (const auto& port : ports) {
     json usb = nullptr;
-    std::string uri = "serial:" + port.path;
-    if (is_usb_adapter(port)) {
+    if (is_usb_device(port)) {
+      const auto known = drivers::classify_port(port);
       usb = {{"vid", fmt::format("{:04x}", *port.vendor_id)},
              {"pid", fmt::format("{:04x}", *port.product_id)},
              {"serial", port.serial_number},
              {"manufacturer", port.manufacturer},
-             {"product", port.product}};
-      uri = fmt::format("usb:{:04x}:{:04x}{}", *port.vendor_id, *port.product_id,
-                        port.serial_number.empty() ? std::string() : ":" + port.serial_number);
+             {"product", port.product},
+             {"device_kind", text_or_null(known.transform([](const auto& k) { return drivers::to_string(k.kind); }))},
+             {"device_description", text_or_null(known.transform([](const auto& k) { return k.description; }))}};
     }
-    list.push_back(
-        {{"uri", uri}, {"name", port.path}, {"description", port.description}, {"transport", port.kind}, {"usb", usb}});
+    list.push_back({{"uri", drivers::stable_uri(port)},
+                    {"name", port.path},
+                    {"description", port.description},
+                    {"transport", port.kind},
+                    {"usb", usb}});
   }
   return {{"ports", list}};
 }

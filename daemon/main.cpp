@@ -111,7 +111,8 @@ int main(int argc, char** argv) {
   app.add_option("--db", o.db, "SQLite database file, created when missing")->capture_default_str();
   app.add_option(
       "--device", o.device,
-      "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (the first USB serial adapter)");
+      "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (a Photo Research meter on USB, "
+      "else the first USB serial adapter)");
   app.add_option("--reconnect-initial-ms", o.reconnect_initial_ms,
                  "wait after the first failed connection attempt; doubles on each failure")
       ->check(CLI::Range(1, 3600000))

@@ -88,13 +88,18 @@ json instrument_schema() {
 }
 
 json port_list_schema() {
-  const json usb = {{"type", json::array({"object", "null"})},
-                    {"properties",
-                     {{"vid", {{"type", "string"}}},
-                      {"pid", {{"type", "string"}}},
-                      {"serial", {{"type", "string"}}},
-                      {"manufacturer", {{"type", "string"}}},
-                      {"product", {{"type", "string"}}}}}};
+  const json usb = {
+      {"type", json::array({"object", "null"})},
+      {"properties",
+       {{"vid", {{"type", "string"}}},
+        {"pid", {{"type", "string"}}},
+        {"serial", {{"type", "string"}}},
+        {"manufacturer", {{"type", "string"}}},
+        {"product", {{"type", "string"}}},
+        {"device_kind",
+         {{"type", json::array({"string", "null"})},
+          {"description", "photo-research-meter, rs232-adapter, or null for a device skinspec does not know"}}},
+        {"device_description", {{"type", json::array({"string", "null"})}}}}}};
   const json port = {{"type", "object"},
                      {"properties",
                       {{"uri", {{"type", "string"}}},

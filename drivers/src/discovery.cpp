@@ -10,6 +10,7 @@
 #include <algorithm>
 
 #include "discovery/usb_devices.hpp"
+#include "skinspec/drivers/transport.hpp"
 
 namespace skinspec::drivers {
 
@@ -80,15 +81,17 @@ std::string usb_id(unsigned short vendor_id, unsigned short product_id) {
   return fmt::format("{:04x}:{:04x}", vendor_id, product_id);
 }
 
-std::string adapter_name(const PortInfo& port) {
+// "180b:0524 serial '60912345' (Photo Research meter) on /dev/ttyACM0"
+std::string device_name(const PortInfo& port) {
   std::string name = usb_id(port.vendor_id.value_or(0), port.product_id.value_or(0));
   if (!port.serial_number.empty()) name += fmt::format(" serial '{}'", port.serial_number);
+  if (const auto known = classify_port(port)) name += fmt::format(" ({})", known->description);
   return fmt::format("{} on {}", name, port.path);
 }
 
-std::string adapter_list(const std::vector<PortInfo>& adapters) {
+std::string device_list(const std::vector<PortInfo>& devices) {
   std::vector<std::string> names;
-  for (const auto& adapter : adapters) names.push_back(adapter_name(adapter));
+  for (const auto& device : devices) names.push_back(device_name(device));
   return fmt::format("{}", fmt::join(names, ", "));
 }
 
@@ -109,31 +112,45 @@ std::vector<PortInfo> list_ports() {
   return ports;
 }
 
-// Without a serial number two identical adapters cannot be told apart; guessing could talk
+std::string stable_uri(const PortInfo& port) {
+  ConnectionUri uri;
+  if (port.vendor_id && port.product_id) {
+    uri.scheme = ConnectionUri::Scheme::usb;
+    uri.vendor_id = *port.vendor_id;
+    uri.product_id = *port.product_id;
+    uri.usb_serial = port.serial_number;
+  } else {
+    uri.path = port.path;
+  }
+  return uri.to_string();
+}
+
+// Without a serial number two identical devices cannot be told apart; guessing could talk
 // to the wrong instrument, so that is an error too.
 std::expected<std::string, std::string> find_usb_port(unsigned short vendor_id, unsigned short product_id,
                                                       const std::string& serial_number) {
-  std::vector<PortInfo> adapters, matches;
+  std::vector<PortInfo> present, matches;
   for (auto& port : list_ports()) {
     if (port.kind != "usb" || !port.vendor_id) continue;
     const bool same = port.vendor_id == vendor_id && port.product_id == product_id &&
                       (serial_number.empty() || port.serial_number == serial_number);
     if (same) matches.push_back(port);
-    adapters.push_back(std::move(port));
+    present.push_back(std::move(port));
   }
   if (matches.size() == 1) return matches.front().path;
   std::string wanted = usb_id(vendor_id, product_id);
+  if (const auto known = classify_usb_device(vendor_id, product_id)) wanted += fmt::format(" ({})", known->description);
   if (!serial_number.empty()) wanted += fmt::format(" with serial number '{}'", serial_number);
   if (matches.size() > 1)
     return std::unexpected(
-        fmt::format("{} USB serial adapters {} are connected ({}); add the serial number "
+        fmt::format("{} USB serial devices {} are connected ({}); add the serial number "
                     "(usb:VID:PID:SERIAL) or name the port (serial:PATH)",
-                    matches.size(), wanted, adapter_list(matches)));
-  if (adapters.empty())
+                    matches.size(), wanted, device_list(matches)));
+  if (present.empty())
     return std::unexpected(
-        fmt::format("no USB serial adapter {} is connected; no USB serial adapters are present", wanted));
+        fmt::format("no USB serial device {} is connected; no USB serial devices are present", wanted));
   return std::unexpected(
-      fmt::format("no USB serial adapter {} is connected; present: {}", wanted, adapter_list(adapters)));
+      fmt::format("no USB serial device {} is connected; present: {}", wanted, device_list(present)));
 }
 
 }  // namespace skinspec::drivers

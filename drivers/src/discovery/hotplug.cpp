@@ -1,8 +1,9 @@
-// Noticing USB adapters come and go. With libusb hot-plug, events are delivered as the kernel
-// reports them and cover every USB device. Where libusb cannot
-// start or has no hot-plug (containers, no udev), the monitor compares the USB serial ports
-// libserialport lists every poll interval instead; that sees only serial adapters, the only
-// devices a caller here cares about. Devices present at start are not reported.
+// Noticing USB adapters and meters come and go. With libusb hot-plug, events are delivered as
+// the kernel reports them and cover every USB device. Where libusb cannot start or has no
+// hot-plug (containers, no udev), the monitor compares the USB serial ports libserialport lists
+// every poll interval instead; that sees only USB serial devices (RS-232 adapters and the newer
+// meters' own CDC-ACM ports), the only devices a caller here cares about. Devices present at
+// start are not reported.
 
 #include <fmt/format.h>
 
@@ -44,7 +45,7 @@ class MonitorThread {
 
 // ---- Polling ----------------------------------------------------------------------------
 
-// The USB serial adapters present, by a key that changes when an adapter is replaced.
+// The USB serial devices present, by a key that changes when a device is replaced.
 std::map<std::string, UsbDeviceEvent> usb_serial_adapters() {
   std::map<std::string, UsbDeviceEvent> adapters;
   for (const auto& port : list_ports()) {
