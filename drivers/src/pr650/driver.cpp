@@ -7,6 +7,9 @@
 #include <thread>
 #include <utility>
 
+#include "common/text.hpp"
+#include "skinspec/drivers/identification.hpp"
+
 namespace skinspec::drivers {
 
 namespace pp = pr650;
@@ -220,25 +223,51 @@ std::expected<void, InstrumentError> Pr650::connect() {
   std::this_thread::sleep_for(std::min<std::chrono::milliseconds>(options_.modem_settle, 100ms));
   (void)transport_->set_modem_lines(true, true);
   std::this_thread::sleep_for(options_.modem_settle);
+  return make_contact(options_.contact_attempts, false);
+}
 
+std::expected<void, InstrumentError> Pr650::contact(int attempts, bool end_stray_line) {
+  std::lock_guard lock(call_mutex_);
+  connected_ = false;
+  if (!transport_->is_open()) return fail(InstrumentError::Kind::transport, "the port is not open");
+  return make_contact(attempts, end_stray_line);
+}
+
+std::expected<void, InstrumentError> Pr650::make_contact(int attempts, bool end_stray_line) {
   const std::string ping = pp::format_backlight(3, options_.style);
   const pp::ExchangeRule contact = rule({pp::CommandKind::contact});
-  for (int attempt = 1; attempt <= options_.contact_attempts; ++attempt) {
+  std::string noise;  // the last answer that was no PR-650's, for the caller to judge
+  for (int attempt = 1; attempt <= attempts; ++attempt) {
+    if (end_stray_line)
+      if (auto ended = transport_->write(std::string(1, options_.style.terminator), deadline_in(contact.first_byte));
+          !ended)
+        return std::unexpected(link_error(ended.error(), ping));
     // Silence is the meter outside its power-on window, garbage the line at power-on: ask
     // again. Anything else (cancel, a failed link) ends the attempt.
     auto reply = transact(ping, contact);
     if (!reply) return std::unexpected(reply.error());
-    if (reply->end != ReplyEnd::complete) continue;
-    if (auto status = pp::parse_status(reply->bytes); status && *status == 0) {
-      connected_ = true;
-      return {};
+    if (reply->end == ReplyEnd::silent) continue;
+    using identification::ContactAnswer;
+    switch (reply->end == ReplyEnd::complete ? identification::classify_contact(reply->bytes) : ContactAnswer::other) {
+      case ContactAnswer::pr650:
+        connected_ = true;
+        return {};
+      case ContactAnswer::newer_meter:
+        return fail(InstrumentError::Kind::identification,
+                    fmt::format("a PR-6xx/7xx answered on {} ({} to '{}'), not a PR-650: use --model auto",
+                                transport_->describe(), detail::quoted(reply->bytes), printable(ping)),
+                    -1, reply->bytes);
+      case ContactAnswer::other:
+        noise = reply->bytes;
+        break;
     }
   }
   return fail(InstrumentError::Kind::no_contact,
               fmt::format("no answer from a PR-650 on {} after {} attempts. The meter accepts remote control only "
                           "within about 5 s of being switched on: switch it off, switch it on, and connect at once "
                           "(and check that the cable's switch is at 'ctrlr')",
-                          transport_->describe(), options_.contact_attempts));
+                          transport_->describe(), attempts),
+              -1, noise);
 }
 
 std::expected<Identity, InstrumentError> Pr650::identify() {

@@ -44,6 +44,10 @@ class RemoteMeter : public Instrument {
 
   const MeterProfile& profile() const { return profile_; }
 
+  // Takes the meter as connected, on a port where identification (open_instrument.hpp) has
+  // just entered remote mode: no second Q and PHOTO. `banner_glued` as identification found it.
+  void adopt_remote_mode(bool banner_glued);
+
  protected:
   RemoteMeter(Family family, Model model, std::unique_ptr<Transport> transport, RemoteOptions options);
 
@@ -77,6 +81,15 @@ class RemoteMeter : public Instrument {
                                                          bool ask_again);
 
  private:
+  // What D111 says, against the profile this driver measures with.
+  struct ReportedModel {
+    std::string text;            // empty when the meter did not say
+    std::optional<Model> model;  // the profile's; none for a model skinspec does not know
+    std::optional<std::string> warning;
+  };
+  std::expected<ReportedModel, InstrumentError> ask_model();
+  void forget_connection();
+  void note_entry(bool banner_glued);
   std::expected<Identity, InstrumentError> query_identity();
   std::expected<void, InstrumentError> check(const MeasureOptions& options) const;
   std::expected<std::string, InstrumentError> configure(const MeasureOptions& options, int exposure_ms, bool sync_on);
