@@ -24,7 +24,8 @@ std::string ModelChoice::to_string() const { return forced ? std::string(profile
 InstrumentOptions instrument_options_for(const ConnectionUri& uri) {
   InstrumentOptions options;
   options.pr650 = driver_options_for(uri);
-  options.remote.style.terminator = '\r';
+  if (uri.terminator) options.remote.style.terminator = *uri.terminator;
+  if (uri.pacing_ms) options.remote.pacing = std::chrono::milliseconds(*uri.pacing_ms);
   if (uri.scheme != ConnectionUri::Scheme::tcp && uri.baud > 0)
     options.remote.timing.line_bytes_per_second = uri.baud / 10.0;
   return options;

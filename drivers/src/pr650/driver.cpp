@@ -73,7 +73,7 @@ InstrumentError garbled(std::string_view what, const pp::ProtocolError& error, s
 
 DriverOptions driver_options_for(const ConnectionUri& uri) {
   DriverOptions options;
-  options.style.terminator = uri.terminator;
+  if (uri.terminator) options.style.terminator = *uri.terminator;
   if (uri.scheme != ConnectionUri::Scheme::tcp && uri.baud > 0) options.timing.line_bytes_per_second = uri.baud / 10.0;
   return options;
 }
