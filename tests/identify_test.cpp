@@ -22,41 +22,14 @@ using simulator::MeterOptions;
 using ::testing::HasSubstr;
 using testing::meter_options;
 using K = InstrumentError::Kind;
-
-InstrumentOptions fast_options() {
-  InstrumentOptions options;
-  options.pr650 = testing::fast_driver();
-  options.remote = testing::fast_remote();
-  return options;
-}
+using Bench = testing::InstrumentBench;
+using testing::fast_options;
 
 std::size_t count(std::string_view text, std::string_view what) {
   std::size_t n = 0;
   for (auto at = text.find(what); at != std::string_view::npos; at = text.find(what, at + 1)) ++n;
   return n;
 }
-
-// A simulated meter of `model` and the instrument make_instrument gives for `choice` on the
-// other end of the link; `before` may talk to the meter first, as another program would.
-struct Bench {
-  Bench(Model model, ModelChoice choice = {}, std::optional<MeterOptions> meter = {},
-        const std::function<void(Transport&)>& before = {}, InstrumentOptions options = fast_options())
-      : scene(testing::white_on(model)),
-        rig(testing::synthesis_of(model, scene), meter ? std::move(*meter) : meter_options(model)) {
-    if (before) before(*rig.host());
-    auto tap = std::make_unique<testing::WireTap>(rig.take_host());
-    written = tap->written();
-    instrument = make_instrument(std::move(tap), choice, options);
-  }
-  std::size_t logged(std::string_view line) const {
-    const auto log = rig.log();
-    return static_cast<std::size_t>(std::ranges::count(log, std::string(line)));
-  }
-  simulator::Scene scene;
-  testing::MeterRig rig;
-  std::function<std::string()> written;
-  std::unique_ptr<Instrument> instrument;
-};
 
 ModelChoice forced(Model model) { return ModelChoice{model}; }
 

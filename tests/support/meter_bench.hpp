@@ -1,14 +1,18 @@
 #pragma once
 // What the driver tests of every family share: a white standard on a model's own grid, the
-// simulated meter's options for a model, and a transport that keeps what the driver wrote.
+// simulated meter's options for a model, a transport that keeps what the driver wrote, and a
+// simulated meter with the instrument make_instrument gives for it.
 
+#include <algorithm>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <mutex>
 #include <string>
 #include <vector>
 
 #include "skinspec/drivers/meter_profile.hpp"
+#include "skinspec/drivers/open_instrument.hpp"
 #include "skinspec/drivers/transport.hpp"
 #include "support/simulator_rig.hpp"
 
@@ -79,5 +83,36 @@ inline simulator::MeterOptions meter_options(drivers::Model model, std::vector<s
   options.faults = *simulator::FaultPlan::parse(faults);
   return options;
 }
+
+inline drivers::InstrumentOptions fast_options() {
+  drivers::InstrumentOptions options;
+  options.pr650 = fast_driver();
+  options.remote = fast_remote();
+  return options;
+}
+
+// A simulated meter of `model` and the instrument make_instrument gives for `choice` on the
+// other end of the link; `before` may talk to the meter first, as another program would.
+struct InstrumentBench {
+  InstrumentBench(drivers::Model model, drivers::ModelChoice choice = {},
+                  std::optional<simulator::MeterOptions> meter = {},
+                  const std::function<void(drivers::Transport&)>& before = {},
+                  drivers::InstrumentOptions options = fast_options(), double flicker_hz = 60)
+      : scene(white_on(model, flicker_hz)),
+        rig(synthesis_of(model, scene), meter ? std::move(*meter) : meter_options(model)) {
+    if (before) before(*rig.host());
+    auto tap = std::make_unique<WireTap>(rig.take_host());
+    written = tap->written();
+    instrument = drivers::make_instrument(std::move(tap), choice, options);
+  }
+  std::size_t logged(std::string_view line) const {
+    const auto log = rig.log();
+    return static_cast<std::size_t>(std::ranges::count(log, std::string(line)));
+  }
+  simulator::Scene scene;
+  MeterRig rig;
+  std::function<std::string()> written;
+  std::unique_ptr<drivers::Instrument> instrument;
+};
 
 }  // namespace skinspec::testing

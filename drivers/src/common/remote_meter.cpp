@@ -19,7 +19,6 @@ using remote::Rule;
 namespace {
 
 constexpr int kMaxAttempts = 5;  // measurements per reading, as for the PR-650
-constexpr int kMaxAverages = 99;
 
 std::unexpected<InstrumentError> fail(InstrumentError::Kind kind, std::string message, int code = -1,
                                       std::string raw = {}) {
@@ -65,7 +64,8 @@ bool RemoteMeter::link_closed() {
 void RemoteMeter::forget_connection() {
   connected_ = false;
   identified_ = false;
-  units_.reset(), exposure_.reset(), averages_.reset(), sync_mode_.reset();
+  units_.reset(), exposure_.reset(), averages_.reset(), sync_mode_.reset(), sync_frequency_.reset();
+  sensitivity_.reset(), aperture_.reset(), apertures_.reset();
   session_->reset_cancel();
   connect_warnings_.clear();
 }
@@ -184,61 +184,6 @@ std::expected<Identity, InstrumentError> RemoteMeter::query_identity() {
   return identity;
 }
 
-// Out-of-range options are refused before a byte is sent, naming the model's range.
-std::expected<void, InstrumentError> RemoteMeter::check(const MeasureOptions& options) const {
-  const ExposureRange& range = profile_.exposure;
-  if (options.integration_ms != 0 && (options.integration_ms < range.min_ms || options.integration_ms > range.max_ms))
-    return fail(InstrumentError::Kind::rejected,
-                fmt::format("exposure {} ms: the {} takes {}-{} ms, or 0 for adaptive", options.integration_ms,
-                            profile_.name, range.min_ms, range.max_ms));
-  if (options.averages < 1 || options.averages > kMaxAverages)
-    return fail(InstrumentError::Kind::rejected,
-                fmt::format("{} averages: the {} takes 1-{}", options.averages, profile_.name, kMaxAverages));
-  return {};
-}
-
-std::expected<void, InstrumentError> RemoteMeter::setup(std::optional<std::string>& last, const std::string& command) {
-  if (last == command) return {};
-  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
-  auto status = session_->ask(command, rule, "setup reply", p6::parse_status);
-  if (!status) return std::unexpected(status.error());
-  if (status->code != 0) {
-    last.reset();
-    return fail(InstrumentError::Kind::rejected,
-                fmt::format("the {} refused '{}': {}; its documented exposure range is {}-{} ms", profile_.name,
-                            remote::printable(command), p6::error_message(status->code), profile_.exposure.min_ms,
-                            profile_.exposure.max_ms),
-                status->code);
-  }
-  last = command;
-  return {};
-}
-
-// Units, exposure, averages and sync, each sent only when it differs from what the meter holds.
-// Returns how the sync was set, for the reading.
-std::expected<std::string, InstrumentError> RemoteMeter::configure(const MeasureOptions& options, int exposure_ms,
-                                                                   bool sync_on) {
-  const p6::CommandStyle& style = options_.style;
-  if (auto ok = setup(units_, p6::format_units(options.si_units, style)); !ok) return std::unexpected(ok.error());
-  if (auto ok = setup(exposure_, p6::format_exposure(exposure_ms, style)); !ok) return std::unexpected(ok.error());
-  if (auto ok = setup(averages_, p6::format_averages(options.averages, style)); !ok) return std::unexpected(ok.error());
-  std::string described = "off";
-  p6::SyncMode mode = p6::SyncMode::none;
-  if (sync_on) {
-    const Rule rule{p6::ReplyShape::line, 0, options_.timing.flicker, options_.timing.idle, whole_reply(0), true};
-    auto flicker = session_->ask(p6::format_flicker(style), rule, "flicker reply", p6::parse_flicker);
-    if (!flicker) return std::unexpected(flicker.error());
-    if (flicker->status.code == 0 && flicker->hz) {
-      mode = p6::SyncMode::automatic;
-      described = fmt::format("automatic ({:.2f} Hz)", *flicker->hz);
-    } else {
-      described = "off (no flicker found)";
-    }
-  }
-  if (auto ok = setup(sync_mode_, p6::format_sync_mode(mode, style)); !ok) return std::unexpected(ok.error());
-  return described;
-}
-
 std::expected<RemoteMeter::Spectrum, InstrumentError> RemoteMeter::read_spectrum(std::string_view command,
                                                                                  std::chrono::milliseconds first_byte,
                                                                                  bool ask_again) {
@@ -298,8 +243,8 @@ std::expected<Reading, InstrumentError> RemoteMeter::measure(const MeasureOption
   reading.integration_ms = options.integration_ms;
   reading.averages = options.averages;
   reading.serial_number = identity_.serial_number;
-  remote::AttemptState state{options.integration_ms, options.sync == MeasureOptions::Sync::automatic,
-                             options.adjust_integration};
+  remote::AttemptState state{options.integration_ms, options.sync != MeasureOptions::Sync::off,
+                             options.adjust_integration, longest_exposure_ms(options)};
   int measurements = 0;
   for (int attempt = 1; attempt <= kMaxAttempts; ++attempt) {
     auto sync = configure(options, state.exposure_ms, state.sync_on);

@@ -64,7 +64,8 @@ class AutoInstrument final : public Instrument {
     std::lock_guard lock(state_mutex_);
     return driver_;
   }
-  // Lets the driver of an earlier connection go (it leaves remote mode) and closes the link.
+  // Lets the driver of an earlier connection go: it leaves remote mode; the link stays open, as
+  // each driver's own connect() keeps it.
   void drop_driver();
 
   std::unique_ptr<Transport> link_;
@@ -85,7 +86,6 @@ void AutoInstrument::drop_driver() {
     if (old) replies_before_ += old->replies_received();
   }
   if (old) old->disconnect();
-  if (link_->is_open()) link_->close();
 }
 
 void AutoInstrument::disconnect() {

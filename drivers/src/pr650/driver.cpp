@@ -53,6 +53,31 @@ std::string photometric_units(int code, bool si) {
   }
 }
 
+std::string describe_sync(pp::Setup::Sync sync, double hz) {
+  switch (sync) {
+    case pp::Setup::Sync::none:
+      return "off";
+    case pp::Setup::Sync::last_measured:
+      return fmt::format("last measured frequency ({:.2f} Hz)", hz);
+    case pp::Setup::Sync::frequency:
+      return fmt::format("{:g} Hz (user)", hz);
+  }
+  return "off";
+}
+
+// What only the newer meters offer, and a sync frequency outside the PR-650's range, refused
+// before a byte is sent.
+std::optional<std::string> unsupported(const MeasureOptions& options) {
+  const MeterProfile& row = profile(Model::pr650);
+  if (options.extended_sensitivity) return "the PR-650 has no extended sensitivity";
+  if (!options.aperture.empty()) return fmt::format("the PR-650 has no apertures to choose ('{}')", options.aperture);
+  if (options.sync == MeasureOptions::Sync::frequency &&
+      !(options.sync_hz >= row.sync_min_hz && options.sync_hz <= row.sync_max_hz))
+    return fmt::format("sync frequency {:g} Hz: the PR-650 syncs to {}-{} Hz", options.sync_hz, row.sync_min_hz,
+                       row.sync_max_hz);
+  return std::nullopt;
+}
+
 std::string seconds(std::chrono::milliseconds t) {
   return fmt::format("{:.3g} s", static_cast<double>(t.count()) / 1000);
 }
@@ -320,6 +345,10 @@ std::expected<void, InstrumentError> Pr650::send_setup(const pp::Setup& setup) {
 // cannot be read even when asked again, is measured unsynced.
 std::expected<pp::Setup::Sync, InstrumentError> Pr650::choose_sync(const MeasureOptions& options, double& hz) {
   if (options.sync == MeasureOptions::Sync::off) return pp::Setup::Sync::none;
+  if (options.sync == MeasureOptions::Sync::frequency) {
+    hz = options.sync_hz;
+    return pp::Setup::Sync::frequency;
+  }
   auto flicker = ask(pp::format_flicker(options_.style), rule({pp::CommandKind::flicker}),
                      [](const std::string& reply) -> std::expected<pp::FlickerReply, InstrumentError> {
                        auto parsed = pp::parse_flicker(reply);
@@ -417,6 +446,7 @@ std::expected<Reading, InstrumentError> Pr650::measure_once(const MeasureOptions
   if (!sync) return std::unexpected(sync.error());
   pp::Setup setup;
   setup.sync = *sync;
+  setup.sync_hz = sync_hz;
   setup.integration_ms = integration_ms;
   setup.averages = options.averages;
   setup.si_units = options.si_units;
@@ -450,7 +480,7 @@ std::expected<Reading, InstrumentError> Pr650::measure_once(const MeasureOptions
   reading.units = spectral_units(report.units);
   reading.integration_ms = integration_ms;
   reading.averages = options.averages;
-  reading.sync = *sync == pp::Setup::Sync::none ? "off" : fmt::format("last measured frequency ({:.2f} Hz)", sync_hz);
+  reading.sync = describe_sync(*sync, sync_hz);
   reading.wavelength_nm = std::move(report.wavelength_nm);
   reading.radiance = std::move(report.values);
   reading.integrated = report.integrated;
@@ -468,6 +498,7 @@ std::expected<Reading, InstrumentError> Pr650::measure(const MeasureOptions& opt
                 fmt::format("integration time {} ms is outside 10-6000 ms", options.integration_ms));
   if (options.averages < 1 || options.averages > 99)
     return fail(InstrumentError::Kind::rejected, fmt::format("{} averages is outside 1-99", options.averages));
+  if (auto refusal = unsupported(options)) return fail(InstrumentError::Kind::rejected, std::move(*refusal));
   if (!connected_) return fail(InstrumentError::Kind::lost, "not connected to the PR-650");
   if (auto drained = drain_pending_measurement(); !drained) return std::unexpected(drained.error());
 
