@@ -71,7 +71,7 @@ void run_measure(const MeasureArgs& args) {
   auto transport = drivers::make_transport(*uri);
   if (!transport) throw Failure{kInstrumentError, transport.error()};
   drivers::DriverOptions options;
-  options.style.terminator = uri->terminator;
+  options.style.terminator = uri->terminator.value_or(options.style.terminator);
   drivers::Pr650 meter(std::move(*transport), options);
   if (auto connected = meter.connect(); !connected) throw instrument_failure(connected.error());
   if (auto identity = meter.identify(); !identity) throw instrument_failure(identity.error());

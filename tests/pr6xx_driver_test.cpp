@@ -16,7 +16,7 @@
 
 #include "skinspec/drivers/pr6xx.hpp"
 #include "skinspec/drivers/pr7xx.hpp"
-#include "support/simulator_rig.hpp"
+#include "support/meter_bench.hpp"
 
 namespace skinspec::drivers {
 namespace {
@@ -25,72 +25,12 @@ using namespace std::chrono_literals;
 using simulator::MeterOptions;
 using testing::fast_remote;
 using ::testing::HasSubstr;
+using testing::meter_options;
 using testing::MeterRig;
+using testing::synthesis_of;
+using testing::white_on;
+using Tap = testing::WireTap;
 using K = InstrumentError::Kind;
-
-// A transport that passes everything through and keeps what the driver wrote, so that a test
-// can see the commands on the wire (the simulator logs only modes, faults and measurements).
-class Tap final : public Transport {
- public:
-  explicit Tap(std::unique_ptr<Transport> inner) : inner_(std::move(inner)) {}
-  std::expected<void, TransportError> open() override { return inner_->open(); }
-  void close() override { inner_->close(); }
-  bool is_open() const override { return inner_->is_open(); }
-  std::expected<void, TransportError> flush_input() override { return inner_->flush_input(); }
-  std::expected<void, TransportError> write(std::string_view bytes, Deadline deadline) override {
-    {
-      std::lock_guard lock(*mutex_);
-      *written_ += bytes;
-    }
-    return inner_->write(bytes, deadline);
-  }
-  std::expected<std::size_t, TransportError> read(char* buffer, std::size_t size, Deadline deadline) override {
-    return inner_->read(buffer, size, deadline);
-  }
-  std::expected<void, TransportError> set_modem_lines(bool dtr, bool rts) override {
-    return inner_->set_modem_lines(dtr, rts);
-  }
-  void interrupt() override { inner_->interrupt(); }
-  void clear_interrupt() override { inner_->clear_interrupt(); }
-  std::string describe() const override { return inner_->describe(); }
-
-  // What was written, readable after the driver (and this tap) is gone.
-  std::function<std::string()> written() const {
-    return [mutex = mutex_, written = written_] {
-      std::lock_guard lock(*mutex);
-      return *written;
-    };
-  }
-
- private:
-  std::unique_ptr<Transport> inner_;
-  std::shared_ptr<std::mutex> mutex_ = std::make_shared<std::mutex>();
-  std::shared_ptr<std::string> written_ = std::make_shared<std::string>();
-};
-
-// A white standard under D65 on `model`'s grid; `flicker_hz` 0 is a steady lamp.
-simulator::Scene white_on(Model model, double flicker_hz = 60) {
-  const auto grid = simulator::wavelengths(*profile(model).simulator_grid);
-  auto colour = simulator::ColourData::load(directory_reader(SKINSPEC_TEST_DATA_DIR), grid);
-  const simulator::Lamp lamp{"D65", colour->d65, 100};
-  simulator::Scene scene = simulator::scene_under_lamp("white standard", *Spectrum::create({380, 780}, {0.99, 0.99}),
-                                                       lamp, colour->observer);
-  scene.flicker_hz = flicker_hz;
-  return scene;
-}
-
-simulator::Synthesis synthesis_of(Model model, const simulator::Scene& scene) {
-  const auto grid = simulator::wavelengths(*profile(model).simulator_grid);
-  auto colour = simulator::ColourData::load(directory_reader(SKINSPEC_TEST_DATA_DIR), grid);
-  return simulator::Synthesis{colour->observer, {scene}};
-}
-
-MeterOptions meter_options(Model model, std::vector<std::string> faults = {}) {
-  MeterOptions options = testing::fast_meter();
-  options.model = model;
-  options.faults = *simulator::FaultPlan::parse(faults);
-  return options;
-}
 
 // A simulated meter of `model` and a driver of its family on the other end of the link.
 struct Bench {
@@ -153,10 +93,12 @@ TEST(Pr6xxDriver, D111MustNotNameAnotherModel) {
   MeterOptions other = meter_options(Model::pr670);
   other.wire.d111 = "PR-740";
   Bench contradicted(Model::pr670, {}, fast_remote(), std::move(other));
-  ASSERT_TRUE(contradicted.driver->connect());
-  auto refused = contradicted.driver->identify();
+  auto refused = contradicted.driver->connect();
   ASSERT_FALSE(refused);
-  EXPECT_THAT(refused.error().message, HasSubstr("'PR-740', not a PR-670"));
+  EXPECT_EQ(refused.error().kind, K::identification);
+  EXPECT_THAT(refused.error().message,
+              HasSubstr("--model pr670 asks for a PR-670, but the meter says it is a 'PR-740'"));
+  EXPECT_TRUE(contradicted.written().ends_with("D111\rQ")) << "remote mode left at once";
 
   MeterOptions unknown = meter_options(Model::pr670);
   unknown.wire.d111 = "PR-810";
@@ -165,7 +107,10 @@ TEST(Pr6xxDriver, D111MustNotNameAnotherModel) {
   auto identity = bench.driver->identify();
   ASSERT_TRUE(identity) << identity.error().message;
   EXPECT_EQ(identity->reported_model, "PR-810");
+  EXPECT_EQ(identity->model, std::nullopt) << "no model skinspec knows";
+  EXPECT_EQ(identity->family, Family::pr6xx);
   EXPECT_THAT(identity->warnings, ::testing::ElementsAre(HasSubstr("unknown-model")));
+  EXPECT_TRUE(bench.driver->measure({.integration_ms = 100})) << "measured as the PR-670 it was told it is";
 }
 
 TEST(Pr6xxDriver, TheSpectrumMustLieOnD120sGrid) {

@@ -18,6 +18,7 @@
 
 #include "skinspec/drivers/discovery.hpp"
 #include "skinspec/drivers/memory_transport.hpp"
+#include "skinspec/drivers/open_instrument.hpp"
 #include "skinspec/drivers/transport.hpp"
 #include "support/process.hpp"
 
@@ -65,7 +66,8 @@ TEST(ConnectionUri, SerialDefaultsToThePR650LineSettings) {
   EXPECT_EQ(uri.path, "/dev/ttyUSB0");
   EXPECT_EQ(uri.baud, 9600u);
   EXPECT_EQ(uri.flow, ConnectionUri::Flow::none);
-  EXPECT_EQ(uri.terminator, '\n');
+  EXPECT_EQ(uri.terminator, std::nullopt) << "each family's own";
+  EXPECT_EQ(uri.pacing_ms, std::nullopt) << "each model's own";
 }
 
 TEST(ConnectionUri, SerialOptions) {
@@ -76,6 +78,9 @@ TEST(ConnectionUri, SerialOptions) {
   EXPECT_EQ(uri.terminator, '\r');
   EXPECT_EQ(parse("serial:/dev/ttyS1?flow=xonxoff").flow, ConnectionUri::Flow::xonxoff);
   EXPECT_EQ(parse("serial:/dev/ttyS1?terminator=lf").terminator, '\n');
+  EXPECT_EQ(parse("serial:/dev/ttyS1?pacing_ms=0").pacing_ms, 0);
+  EXPECT_EQ(parse("usb:180b:0524?pacing_ms=75&terminator=LF").pacing_ms, 75);
+  EXPECT_EQ(parse("usb:180b:0524?pacing_ms=1000").pacing_ms, 1000);
 }
 
 TEST(ConnectionUri, TcpHostsAndPorts) {
@@ -87,6 +92,7 @@ TEST(ConnectionUri, TcpHostsAndPorts) {
   EXPECT_EQ(parse("tcp:[::1]:4001").port, 4001);
   EXPECT_EQ(parse("tcp:lab-server.local:65535?terminator=cr").host, "lab-server.local");
   EXPECT_EQ(parse("tcp:lab-server.local:65535?terminator=cr").terminator, '\r');
+  EXPECT_EQ(parse("tcp:lab-server.local:4001?pacing_ms=50").pacing_ms, 50) << "a serial server relays bytes as written";
 }
 
 TEST(ConnectionUri, UsbIdsAreHex) {
@@ -105,10 +111,29 @@ TEST(ConnectionUri, UsbIdsAreHex) {
 TEST(ConnectionUri, PrintsBackWhatItParsed) {
   for (const char* text :
        {"serial:/dev/ttyUSB0", "serial:/dev/ttyS0?baud=19200&flow=xonxoff&terminator=cr", "tcp:127.0.0.1:4001",
-        "tcp:[::1]:4001?terminator=cr", "usb:067b:2303", "usb:0403:6001:FT1234?flow=rtscts"})
+        "tcp:[::1]:4001?terminator=cr", "usb:067b:2303", "usb:0403:6001:FT1234?flow=rtscts",
+        "serial:/dev/x?terminator=lf", "tcp:127.0.0.1:4001?terminator=lf&pacing_ms=0", "usb:180b:0524?pacing_ms=50"})
     EXPECT_EQ(parse(text).to_string(), text);
   EXPECT_EQ(parse("usb:67B:2303").to_string(), "usb:067b:2303");
-  EXPECT_EQ(parse("serial:/dev/x?baud=9600&terminator=lf").to_string(), "serial:/dev/x");
+  EXPECT_EQ(parse("serial:/dev/x?baud=9600&flow=none").to_string(), "serial:/dev/x");
+  EXPECT_EQ(parse("serial:/dev/x?pacing_ms=20&terminator=cr").to_string(), "serial:/dev/x?terminator=cr&pacing_ms=20");
+}
+
+TEST(ConnectionUri, AnUnsetTerminatorIsEachFamilysOwnAndASetOneIsEveryones) {
+  const auto defaults = instrument_options_for(parse("serial:/dev/ttyUSB0"));
+  EXPECT_EQ(defaults.pr650.style.terminator, '\n');
+  EXPECT_EQ(defaults.remote.style.terminator, '\r');
+  EXPECT_EQ(defaults.remote.pacing, std::nullopt);
+  for (const auto& [text, terminator] :
+       {std::pair{"serial:/dev/x?terminator=lf", '\n'}, std::pair{"tcp:127.0.0.1:4001?terminator=cr", '\r'}}) {
+    const auto options = instrument_options_for(parse(text));
+    EXPECT_EQ(options.pr650.style.terminator, terminator) << text;
+    EXPECT_EQ(options.remote.style.terminator, terminator) << text;
+  }
+  EXPECT_EQ(instrument_options_for(parse("usb:180b:0524?pacing_ms=0")).remote.pacing, 0ms);
+  EXPECT_EQ(instrument_options_for(parse("usb:180b:0524?pacing_ms=80")).remote.pacing, 80ms);
+  EXPECT_EQ(instrument_options_for(parse("serial:/dev/x?baud=19200")).remote.timing.line_bytes_per_second, 1920);
+  EXPECT_EQ(instrument_options_for(parse("tcp:127.0.0.1:4001")).remote.timing.line_bytes_per_second, 960);
 }
 
 struct BadUri {
@@ -144,6 +169,9 @@ INSTANTIATE_TEST_SUITE_P(
                       BadUri{"serial:/dev/x?baud=", "empty value"}, BadUri{"serial:/dev/x?baud=fast", "baud 'fast'"},
                       BadUri{"serial:/dev/x?baud=0", "baud '0'"}, BadUri{"serial:/dev/x?flow=dtrdsr", "flow 'dtrdsr'"},
                       BadUri{"serial:/dev/x?terminator=crlf", "terminator 'crlf'"},
+                      BadUri{"serial:/dev/x?pacing_ms=-1", "pacing_ms '-1'"},
+                      BadUri{"tcp:host:1?pacing_ms=1001", "pacing_ms '1001' is not a whole number from 0 to 1000"},
+                      BadUri{"serial:/dev/x?pacing_ms=50ms", "pacing_ms '50ms'"},
                       BadUri{"serial:/dev/x?baud=9600&", "stray"}, BadUri{"serial:/dev/x?", "stray"}));
 
 TEST(TransportErrorKind, HasNames) {

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "identify/auto_instrument.hpp"
+#include "identify/family_driver.hpp"
 #include "skinspec/drivers/pr6xx.hpp"
 #include "skinspec/drivers/pr7xx.hpp"
 
@@ -22,24 +24,33 @@ std::string ModelChoice::to_string() const { return forced ? std::string(profile
 InstrumentOptions instrument_options_for(const ConnectionUri& uri) {
   InstrumentOptions options;
   options.pr650 = driver_options_for(uri);
-  options.remote.style.terminator = '\r';
+  if (uri.terminator) options.remote.style.terminator = *uri.terminator;
+  if (uri.pacing_ms) options.remote.pacing = std::chrono::milliseconds(*uri.pacing_ms);
   if (uri.scheme != ConnectionUri::Scheme::tcp && uri.baud > 0)
     options.remote.timing.line_bytes_per_second = uri.baud / 10.0;
   return options;
 }
 
+namespace identify {
+
+std::unique_ptr<RemoteMeter> make_remote_meter(Model model, std::unique_ptr<Transport> transport,
+                                               const RemoteOptions& options) {
+  if (profile(model).family == Family::pr7xx) return std::make_unique<Pr7xx>(model, std::move(transport), options);
+  return std::make_unique<Pr6xx>(model, std::move(transport), options);
+}
+
+std::unique_ptr<Instrument> make_family_driver(Model model, std::unique_ptr<Transport> transport,
+                                               const InstrumentOptions& options) {
+  if (profile(model).family == Family::pr650) return std::make_unique<Pr650>(std::move(transport), options.pr650);
+  return make_remote_meter(model, std::move(transport), options.remote);
+}
+
+}  // namespace identify
+
 std::unique_ptr<Instrument> make_instrument(std::unique_ptr<Transport> transport, ModelChoice choice,
                                             InstrumentOptions options) {
-  const Model model = choice.forced.value_or(Model::pr650);
-  switch (profile(model).family) {
-    case Family::pr650:
-      return std::make_unique<Pr650>(std::move(transport), options.pr650);
-    case Family::pr6xx:
-      return std::make_unique<Pr6xx>(model, std::move(transport), options.remote);
-    case Family::pr7xx:
-      return std::make_unique<Pr7xx>(model, std::move(transport), options.remote);
-  }
-  return nullptr;
+  if (!choice.forced) return identify::make_auto_instrument(std::move(transport), std::move(options));
+  return identify::make_family_driver(*choice.forced, std::move(transport), options);
 }
 
 }  // namespace skinspec::drivers

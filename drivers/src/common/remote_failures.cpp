@@ -34,9 +34,9 @@ std::variant<MeasureAgain, InstrumentError> after_failure(int code, AttemptState
   switch (p6::classify(code)) {
     case p6::ErrorClass::too_dark:
       // Never a spectrum of zeros, as some drivers in the field return for weak light.
-      if (fixed && state.adjust_exposure && state.exposure_ms < profile.exposure.max_ms) {
+      if (fixed && state.adjust_exposure && state.exposure_ms < state.max_exposure_ms) {
         const int before = state.exposure_ms;
-        state.exposure_ms = std::min(2 * before, profile.exposure.max_ms);
+        state.exposure_ms = std::min(2 * before, state.max_exposure_ms);
         return MeasureAgain{
             fmt::format("exposure: too dark at {} ms; measured again at {} ms", before, state.exposure_ms)};
       }

@@ -16,6 +16,7 @@ struct AttemptState {
   int exposure_ms = 0;  // 0: adaptive
   bool sync_on = false;
   bool adjust_exposure = false;
+  int max_exposure_ms = 0;        // the longest exposure of the sensitivity in use
   bool sync_retried = false;      // a sync failure is measured again once, without sync
   bool unstable_retried = false;  // an unstable source is measured again once
 };

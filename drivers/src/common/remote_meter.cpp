@@ -19,7 +19,6 @@ using remote::Rule;
 namespace {
 
 constexpr int kMaxAttempts = 5;  // measurements per reading, as for the PR-650
-constexpr int kMaxAverages = 99;
 
 std::unexpected<InstrumentError> fail(InstrumentError::Kind kind, std::string message, int code = -1,
                                       std::string raw = {}) {
@@ -40,7 +39,7 @@ RemoteMeter::RemoteMeter(Family family, Model model, std::unique_ptr<Transport> 
     throw std::invalid_argument(fmt::format("{} is a meter of family {}, not {}", profile_.name,
                                             to_string(profile_.family), to_string(family)));
   session_ = std::make_unique<remote::Session>(*transport_, profile_.name, options_.pacing.value_or(profile_.pacing),
-                                               options_.timing);
+                                               options_.timing, options_.style);
 }
 
 RemoteMeter::~RemoteMeter() { disconnect(); }
@@ -62,26 +61,72 @@ bool RemoteMeter::link_closed() {
   return !transport_->is_open() || transport_->peer_closed();
 }
 
-std::expected<void, InstrumentError> RemoteMeter::connect() {
-  std::lock_guard lock(call_mutex_);
+void RemoteMeter::forget_connection() {
   connected_ = false;
   identified_ = false;
-  units_.reset(), exposure_.reset(), averages_.reset(), sync_mode_.reset();
+  units_.reset(), exposure_.reset(), averages_.reset(), sync_mode_.reset(), sync_frequency_.reset();
+  sensitivity_.reset(), aperture_.reset(), apertures_.reset();
   session_->reset_cancel();
+  connect_warnings_.clear();
+}
+
+std::expected<void, InstrumentError> RemoteMeter::connect() {
+  std::lock_guard lock(call_mutex_);
+  forget_connection();
   if (auto opened = session_->open(options_.modem_settle); !opened) return opened;
   auto glued = session_->enter_remote();
   if (!glued) return std::unexpected(glued.error());
-  connect_warnings_.clear();
-  if (*glued)
-    connect_warnings_.push_back("banner-glued: the meter sent ' REMOTE MODE' only in front of its next reply");
-  connected_ = true;
+  if (auto reported = ask_model(); !reported) {
+    session_->quit();  // the meter's screen would stay locked
+    return std::unexpected(reported.error());
+  }
+  note_entry(*glued);
   return {};
 }
 
+void RemoteMeter::adopt_remote_mode(bool banner_glued) {
+  std::lock_guard lock(call_mutex_);
+  forget_connection();
+  session_->assume_remote();
+  note_entry(banner_glued);
+}
+
+void RemoteMeter::note_entry(bool banner_glued) {
+  if (banner_glued)
+    connect_warnings_.push_back("banner-glued: the meter sent ' REMOTE MODE' only in front of its next reply");
+  connected_ = true;
+}
+
+// D111 against the profile: another model skinspec knows is an identification error; a model
+// it does not know, or no answer, is measured as the profile says, with a warning.
+std::expected<RemoteMeter::ReportedModel, InstrumentError> RemoteMeter::ask_model() {
+  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
+  auto report = session_->ask(p6::format_report(111, options_.style), rule, "model name", p6::parse_text_report);
+  if (!report && report.error().kind != InstrumentError::Kind::protocol &&
+      report.error().kind != InstrumentError::Kind::lost)
+    return std::unexpected(report.error());
+  if (!report || report->status.code != 0)
+    return ReportedModel{
+        {},
+        profile_.model,
+        fmt::format("no-model: the meter did not report its model ({}); measured as a {} because --model says so",
+                    report ? p6::error_message(report->status.code) : report.error().message, profile_.name)};
+  const ModelMatch match = match_reported_model(report->text);
+  if (match.candidates.empty())
+    return ReportedModel{report->text, std::nullopt,
+                         fmt::format("unknown-model: the meter reports '{}', which skinspec does not know; measured "
+                                     "as a {} because --model says so",
+                                     report->text, profile_.name)};
+  if (std::ranges::find(match.candidates, profile_.model) == match.candidates.end())
+    return fail(InstrumentError::Kind::identification,
+                fmt::format("--model {} asks for a {}, but the meter says it is a '{}'; use --model auto or the "
+                            "model it reports",
+                            profile_.id, profile_.name, report->text));
+  return ReportedModel{report->text, profile_.model, {}};
+}
+
 std::chrono::milliseconds RemoteMeter::whole_reply(int points) const {
-  const double bytes = 64.0 + 16.0 * points;  // a data line is at most "1080,1.234e-003\r\n"
-  return options_.timing.idle +
-         std::chrono::milliseconds(static_cast<long>(1000 * bytes / options_.timing.line_bytes_per_second));
+  return remote::whole_reply(options_.timing, points);
 }
 
 std::chrono::milliseconds RemoteMeter::measurement_time(int exposure_ms, int cycles) const {
@@ -104,7 +149,6 @@ std::expected<Identity, InstrumentError> RemoteMeter::query_identity() {
   Identity identity;
   identity.warnings = connect_warnings_;
   identity.family = profile_.family;
-  identity.model = profile_.model;
   auto text = [&](int code, std::string_view what) -> std::expected<std::string, InstrumentError> {
     auto report = session_->ask(p6::format_report(code, options_.style), rule, what, p6::parse_text_report);
     if (!report) return std::unexpected(report.error());
@@ -113,16 +157,11 @@ std::expected<Identity, InstrumentError> RemoteMeter::query_identity() {
                   fmt::format("{}: the {} answered {}", what, profile_.name, p6::error_message(report->status.code)));
     return report->text;
   };
-  auto model = text(111, "model name");
-  if (!model) return std::unexpected(model.error());
-  identity.reported_model = *model;
-  const ModelMatch match = match_reported_model(*model);
-  if (!match.candidates.empty() && std::ranges::find(match.candidates, profile_.model) == match.candidates.end())
-    return fail(InstrumentError::Kind::protocol,
-                fmt::format("the meter says it is a '{}', not a {}", *model, profile_.name));
-  if (match.candidates.empty())
-    identity.warnings.push_back(
-        fmt::format("unknown-model: the meter reports '{}', measured as a {}", *model, profile_.name));
+  auto reported = ask_model();
+  if (!reported) return std::unexpected(reported.error());
+  identity.reported_model = reported->text;
+  identity.model = reported->model;
+  if (reported->warning) identity.warnings.push_back(*reported->warning);
   auto serial = text(110, "serial number");
   if (!serial) return std::unexpected(serial.error());
   identity.serial_number = *serial;
@@ -143,61 +182,6 @@ std::expected<Identity, InstrumentError> RemoteMeter::query_identity() {
   identity_ = identity;
   identified_ = true;
   return identity;
-}
-
-// Out-of-range options are refused before a byte is sent, naming the model's range.
-std::expected<void, InstrumentError> RemoteMeter::check(const MeasureOptions& options) const {
-  const ExposureRange& range = profile_.exposure;
-  if (options.integration_ms != 0 && (options.integration_ms < range.min_ms || options.integration_ms > range.max_ms))
-    return fail(InstrumentError::Kind::rejected,
-                fmt::format("exposure {} ms: the {} takes {}-{} ms, or 0 for adaptive", options.integration_ms,
-                            profile_.name, range.min_ms, range.max_ms));
-  if (options.averages < 1 || options.averages > kMaxAverages)
-    return fail(InstrumentError::Kind::rejected,
-                fmt::format("{} averages: the {} takes 1-{}", options.averages, profile_.name, kMaxAverages));
-  return {};
-}
-
-std::expected<void, InstrumentError> RemoteMeter::setup(std::optional<std::string>& last, const std::string& command) {
-  if (last == command) return {};
-  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
-  auto status = session_->ask(command, rule, "setup reply", p6::parse_status);
-  if (!status) return std::unexpected(status.error());
-  if (status->code != 0) {
-    last.reset();
-    return fail(InstrumentError::Kind::rejected,
-                fmt::format("the {} refused '{}': {}; its documented exposure range is {}-{} ms", profile_.name,
-                            remote::printable(command), p6::error_message(status->code), profile_.exposure.min_ms,
-                            profile_.exposure.max_ms),
-                status->code);
-  }
-  last = command;
-  return {};
-}
-
-// Units, exposure, averages and sync, each sent only when it differs from what the meter holds.
-// Returns how the sync was set, for the reading.
-std::expected<std::string, InstrumentError> RemoteMeter::configure(const MeasureOptions& options, int exposure_ms,
-                                                                   bool sync_on) {
-  const p6::CommandStyle& style = options_.style;
-  if (auto ok = setup(units_, p6::format_units(options.si_units, style)); !ok) return std::unexpected(ok.error());
-  if (auto ok = setup(exposure_, p6::format_exposure(exposure_ms, style)); !ok) return std::unexpected(ok.error());
-  if (auto ok = setup(averages_, p6::format_averages(options.averages, style)); !ok) return std::unexpected(ok.error());
-  std::string described = "off";
-  p6::SyncMode mode = p6::SyncMode::none;
-  if (sync_on) {
-    const Rule rule{p6::ReplyShape::line, 0, options_.timing.flicker, options_.timing.idle, whole_reply(0), true};
-    auto flicker = session_->ask(p6::format_flicker(style), rule, "flicker reply", p6::parse_flicker);
-    if (!flicker) return std::unexpected(flicker.error());
-    if (flicker->status.code == 0 && flicker->hz) {
-      mode = p6::SyncMode::automatic;
-      described = fmt::format("automatic ({:.2f} Hz)", *flicker->hz);
-    } else {
-      described = "off (no flicker found)";
-    }
-  }
-  if (auto ok = setup(sync_mode_, p6::format_sync_mode(mode, style)); !ok) return std::unexpected(ok.error());
-  return described;
 }
 
 std::expected<RemoteMeter::Spectrum, InstrumentError> RemoteMeter::read_spectrum(std::string_view command,
@@ -259,8 +243,8 @@ std::expected<Reading, InstrumentError> RemoteMeter::measure(const MeasureOption
   reading.integration_ms = options.integration_ms;
   reading.averages = options.averages;
   reading.serial_number = identity_.serial_number;
-  remote::AttemptState state{options.integration_ms, options.sync == MeasureOptions::Sync::automatic,
-                             options.adjust_integration};
+  remote::AttemptState state{options.integration_ms, options.sync != MeasureOptions::Sync::off,
+                             options.adjust_integration, longest_exposure_ms(options)};
   int measurements = 0;
   for (int attempt = 1; attempt <= kMaxAttempts; ++attempt) {
     auto sync = configure(options, state.exposure_ms, state.sync_on);

@@ -6,6 +6,9 @@
 #include <optional>
 #include <thread>
 
+#include "common/text.hpp"
+#include "skinspec/drivers/identification.hpp"
+
 namespace skinspec::drivers::remote {
 
 namespace p6 = pr6xx;
@@ -29,9 +32,14 @@ std::string printable(std::string_view command) {
   return out;
 }
 
+std::chrono::milliseconds whole_reply(const RemoteTiming& timing, int points) {
+  const double bytes = 64.0 + 16.0 * points;  // a data line is at most "1080,1.234e-003\r\n"
+  return timing.idle + std::chrono::milliseconds(static_cast<long>(1000 * bytes / timing.line_bytes_per_second));
+}
+
 Session::Session(Transport& transport, std::string_view meter_name, std::chrono::milliseconds pacing,
-                 const RemoteTiming& timing)
-    : transport_(transport), name_(meter_name), pacing_(pacing), timing_(timing) {}
+                 const RemoteTiming& timing, const pr6xx::CommandStyle& style)
+    : transport_(transport), name_(meter_name), pacing_(pacing), timing_(timing), style_(style) {}
 
 void Session::cancel() {
   {
@@ -195,20 +203,29 @@ std::expected<bool, InstrumentError> Session::enter_remote() {
       remote_ = true;
       return false;
     }
-    if (!answer->empty())
-      return fail(InstrumentError::Kind::protocol,
-                  fmt::format("the meter on {} answered PHOTO with '{}', not ' REMOTE MODE': not a {} in its "
-                              "normal state (a PR-650, or a meter in echo mode?)",
-                              transport_.describe(), *answer, name_),
-                  *answer);
+    if (!answer->empty()) {
+      if (identification::classify_photo(*answer) != identification::PhotoAnswer::newer_meter)
+        return std::unexpected(not_remote_mode("PHOTO", *answer));
+      ++replies_;
+      remote_ = true;
+      return true;
+    }
     // Some meters hold the banner back until the next reply: without a flush, D111 shows it.
-    auto reply = transact(p6::format_report(111), confirm, false);
+    auto reply = transact(p6::format_report(111, style_), confirm, false);
     if (!reply) return std::unexpected(reply.error());
-    if (reply->end == ReplyEnd::complete)
-      if (auto text = p6::parse_text_report(reply->bytes); text && text->status.code == 0) {
+    // A reply cut short is judged by what the second PHOTO brings.
+    switch (reply->end == ReplyEnd::cut ? identification::PhotoAnswer::silence
+                                        : identification::classify_photo(reply->bytes)) {
+      case identification::PhotoAnswer::silence:
+        break;
+      case identification::PhotoAnswer::banner:
+      case identification::PhotoAnswer::newer_meter:
         remote_ = true;
         return true;
-      }
+      case identification::PhotoAnswer::pr650:
+      case identification::PhotoAnswer::other:
+        return std::unexpected(not_remote_mode("D111", reply->bytes));
+    }
     if (attempt == 1) {
       if (auto q = write_paced(p6::kQuit); !q) return std::unexpected(q.error());
       if (!pause(timing_.retry_pause)) return fail(InstrumentError::Kind::cancelled, "cancelled");
@@ -219,6 +236,21 @@ std::expected<bool, InstrumentError> Session::enter_remote() {
                           "the USB cable, and no other program holding the port; if it still refuses, switch it "
                           "off and on",
                           name_, transport_.describe(), seconds(timing_.banner + timing_.confirm)));
+}
+
+// The meter answered, but not as a newer meter does: a PR-650 (in echo mode, it sends back
+// what it gets) or something else.
+InstrumentError Session::not_remote_mode(std::string_view command, std::string_view answer) const {
+  if (identification::classify_photo(answer) == identification::PhotoAnswer::pr650)
+    return {InstrumentError::Kind::identification,
+            fmt::format("a PR-650 answered {} on {} ({}: it echoed the command, as a PR-650 in echo mode does), "
+                        "not a {}; use --model pr650 or auto",
+                        command, transport_.describe(), detail::quoted(answer), name_),
+            -1, std::string(answer)};
+  return {InstrumentError::Kind::identification,
+          fmt::format("the device on {} answered {} with {}, which no {} sends: not a Photo Research meter?", command,
+                      transport_.describe(), detail::quoted(answer), name_),
+          -1, std::string(answer)};
 }
 
 void Session::quit() {

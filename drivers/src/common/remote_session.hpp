@@ -38,13 +38,16 @@ struct Reply {
 class Session {
  public:
   Session(Transport& transport, std::string_view meter_name, std::chrono::milliseconds pacing,
-          const RemoteTiming& timing);
+          const RemoteTiming& timing, const pr6xx::CommandStyle& style);
 
   // Opens the port and wiggles DTR/RTS as the makers' software does.
   std::expected<void, InstrumentError> open(std::chrono::milliseconds modem_settle);
   // Q, PHOTO, and the banner or a confirming D111; a second PHOTO after Q and a pause if both
-  // were silent. Returns whether the banner came glued to the D111's reply.
+  // were silent. Returns whether the banner came glued to the D111's reply. An answer no newer
+  // meter gives (a PR-650's echo, other bytes) is an `identification` error.
   std::expected<bool, InstrumentError> enter_remote();
+  // Takes the meter as remote: another session on the same link entered remote mode.
+  void assume_remote() { remote_ = true; }
   // Q when remote: the meter's screen stays locked otherwise. Works after cancel().
   void quit();
   bool remote() const { return remote_; }
@@ -72,11 +75,13 @@ class Session {
  private:
   std::expected<void, InstrumentError> write_paced(std::string_view command);
   std::expected<std::string, InstrumentError> read_banner(std::chrono::milliseconds first_byte);
+  InstrumentError not_remote_mode(std::string_view command, std::string_view answer) const;
 
   Transport& transport_;
   std::string name_;
   std::chrono::milliseconds pacing_;
   RemoteTiming timing_;
+  pr6xx::CommandStyle style_;
   bool remote_ = false;
   Clock::time_point last_byte_{};  // when the last byte went out, for the pacing
   std::atomic<bool> cancelled_{false};
@@ -87,6 +92,9 @@ class Session {
 
 // A command as logs and messages show it: without its line end.
 std::string printable(std::string_view command);
+
+// The cap on a whole reply of `points` data lines (0: one line), from the line rate.
+std::chrono::milliseconds whole_reply(const RemoteTiming& timing, int points);
 
 template <typename Parse>
 auto Session::ask(std::string_view command, const Rule& rule, std::string_view what, Parse parse)

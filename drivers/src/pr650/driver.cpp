@@ -7,6 +7,9 @@
 #include <thread>
 #include <utility>
 
+#include "common/text.hpp"
+#include "skinspec/drivers/identification.hpp"
+
 namespace skinspec::drivers {
 
 namespace pp = pr650;
@@ -50,6 +53,31 @@ std::string photometric_units(int code, bool si) {
   }
 }
 
+std::string describe_sync(pp::Setup::Sync sync, double hz) {
+  switch (sync) {
+    case pp::Setup::Sync::none:
+      return "off";
+    case pp::Setup::Sync::last_measured:
+      return fmt::format("last measured frequency ({:.2f} Hz)", hz);
+    case pp::Setup::Sync::frequency:
+      return fmt::format("{:g} Hz (user)", hz);
+  }
+  return "off";
+}
+
+// What only the newer meters offer, and a sync frequency outside the PR-650's range, refused
+// before a byte is sent.
+std::optional<std::string> unsupported(const MeasureOptions& options) {
+  const MeterProfile& row = profile(Model::pr650);
+  if (options.extended_sensitivity) return "the PR-650 has no extended sensitivity";
+  if (!options.aperture.empty()) return fmt::format("the PR-650 has no apertures to choose ('{}')", options.aperture);
+  if (options.sync == MeasureOptions::Sync::frequency &&
+      !(options.sync_hz >= row.sync_min_hz && options.sync_hz <= row.sync_max_hz))
+    return fmt::format("sync frequency {:g} Hz: the PR-650 syncs to {}-{} Hz", options.sync_hz, row.sync_min_hz,
+                       row.sync_max_hz);
+  return std::nullopt;
+}
+
 std::string seconds(std::chrono::milliseconds t) {
   return fmt::format("{:.3g} s", static_cast<double>(t.count()) / 1000);
 }
@@ -70,7 +98,7 @@ InstrumentError garbled(std::string_view what, const pp::ProtocolError& error, s
 
 DriverOptions driver_options_for(const ConnectionUri& uri) {
   DriverOptions options;
-  options.style.terminator = uri.terminator;
+  if (uri.terminator) options.style.terminator = *uri.terminator;
   if (uri.scheme != ConnectionUri::Scheme::tcp && uri.baud > 0) options.timing.line_bytes_per_second = uri.baud / 10.0;
   return options;
 }
@@ -220,25 +248,51 @@ std::expected<void, InstrumentError> Pr650::connect() {
   std::this_thread::sleep_for(std::min<std::chrono::milliseconds>(options_.modem_settle, 100ms));
   (void)transport_->set_modem_lines(true, true);
   std::this_thread::sleep_for(options_.modem_settle);
+  return make_contact(options_.contact_attempts, false);
+}
 
+std::expected<void, InstrumentError> Pr650::contact(int attempts, bool end_stray_line) {
+  std::lock_guard lock(call_mutex_);
+  connected_ = false;
+  if (!transport_->is_open()) return fail(InstrumentError::Kind::transport, "the port is not open");
+  return make_contact(attempts, end_stray_line);
+}
+
+std::expected<void, InstrumentError> Pr650::make_contact(int attempts, bool end_stray_line) {
   const std::string ping = pp::format_backlight(3, options_.style);
   const pp::ExchangeRule contact = rule({pp::CommandKind::contact});
-  for (int attempt = 1; attempt <= options_.contact_attempts; ++attempt) {
+  std::string noise;  // the last answer that was no PR-650's, for the caller to judge
+  for (int attempt = 1; attempt <= attempts; ++attempt) {
+    if (end_stray_line)
+      if (auto ended = transport_->write(std::string(1, options_.style.terminator), deadline_in(contact.first_byte));
+          !ended)
+        return std::unexpected(link_error(ended.error(), ping));
     // Silence is the meter outside its power-on window, garbage the line at power-on: ask
     // again. Anything else (cancel, a failed link) ends the attempt.
     auto reply = transact(ping, contact);
     if (!reply) return std::unexpected(reply.error());
-    if (reply->end != ReplyEnd::complete) continue;
-    if (auto status = pp::parse_status(reply->bytes); status && *status == 0) {
-      connected_ = true;
-      return {};
+    if (reply->end == ReplyEnd::silent) continue;
+    using identification::ContactAnswer;
+    switch (reply->end == ReplyEnd::complete ? identification::classify_contact(reply->bytes) : ContactAnswer::other) {
+      case ContactAnswer::pr650:
+        connected_ = true;
+        return {};
+      case ContactAnswer::newer_meter:
+        return fail(InstrumentError::Kind::identification,
+                    fmt::format("a PR-6xx/7xx answered on {} ({} to '{}'), not a PR-650: use --model auto",
+                                transport_->describe(), detail::quoted(reply->bytes), printable(ping)),
+                    -1, reply->bytes);
+      case ContactAnswer::other:
+        noise = reply->bytes;
+        break;
     }
   }
   return fail(InstrumentError::Kind::no_contact,
               fmt::format("no answer from a PR-650 on {} after {} attempts. The meter accepts remote control only "
                           "within about 5 s of being switched on: switch it off, switch it on, and connect at once "
                           "(and check that the cable's switch is at 'ctrlr')",
-                          transport_->describe(), options_.contact_attempts));
+                          transport_->describe(), attempts),
+              -1, noise);
 }
 
 std::expected<Identity, InstrumentError> Pr650::identify() {
@@ -291,6 +345,10 @@ std::expected<void, InstrumentError> Pr650::send_setup(const pp::Setup& setup) {
 // cannot be read even when asked again, is measured unsynced.
 std::expected<pp::Setup::Sync, InstrumentError> Pr650::choose_sync(const MeasureOptions& options, double& hz) {
   if (options.sync == MeasureOptions::Sync::off) return pp::Setup::Sync::none;
+  if (options.sync == MeasureOptions::Sync::frequency) {
+    hz = options.sync_hz;
+    return pp::Setup::Sync::frequency;
+  }
   auto flicker = ask(pp::format_flicker(options_.style), rule({pp::CommandKind::flicker}),
                      [](const std::string& reply) -> std::expected<pp::FlickerReply, InstrumentError> {
                        auto parsed = pp::parse_flicker(reply);
@@ -388,6 +446,7 @@ std::expected<Reading, InstrumentError> Pr650::measure_once(const MeasureOptions
   if (!sync) return std::unexpected(sync.error());
   pp::Setup setup;
   setup.sync = *sync;
+  setup.sync_hz = sync_hz;
   setup.integration_ms = integration_ms;
   setup.averages = options.averages;
   setup.si_units = options.si_units;
@@ -421,7 +480,7 @@ std::expected<Reading, InstrumentError> Pr650::measure_once(const MeasureOptions
   reading.units = spectral_units(report.units);
   reading.integration_ms = integration_ms;
   reading.averages = options.averages;
-  reading.sync = *sync == pp::Setup::Sync::none ? "off" : fmt::format("last measured frequency ({:.2f} Hz)", sync_hz);
+  reading.sync = describe_sync(*sync, sync_hz);
   reading.wavelength_nm = std::move(report.wavelength_nm);
   reading.radiance = std::move(report.values);
   reading.integrated = report.integrated;
@@ -439,6 +498,7 @@ std::expected<Reading, InstrumentError> Pr650::measure(const MeasureOptions& opt
                 fmt::format("integration time {} ms is outside 10-6000 ms", options.integration_ms));
   if (options.averages < 1 || options.averages > 99)
     return fail(InstrumentError::Kind::rejected, fmt::format("{} averages is outside 1-99", options.averages));
+  if (auto refusal = unsupported(options)) return fail(InstrumentError::Kind::rejected, std::move(*refusal));
   if (!connected_) return fail(InstrumentError::Kind::lost, "not connected to the PR-650");
   if (auto drained = drain_pending_measurement(); !drained) return std::unexpected(drained.error());
 

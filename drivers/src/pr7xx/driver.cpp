@@ -20,37 +20,26 @@ std::unexpected<InstrumentError> cancelled() {
 Pr7xx::Pr7xx(Model model, std::unique_ptr<Transport> transport, RemoteOptions options)
     : RemoteMeter(Family::pr7xx, model, std::move(transport), options) {}
 
+// T, P, A and V change the meter's state: a lost reply is not asked for again.
+remote::Rule Pr7xx::line_rule() const {
+  return {pr6xx::ReplyShape::line, 0, options().timing.reply, options().timing.idle, whole_reply(0), false};
+}
+
 // A cancelled measurement is aborted on the meter, which otherwise keeps measuring for up to
 // minutes and ignores the next commands. The meter stays in remote mode.
 std::expected<void, InstrumentError> Pr7xx::abort_measurement() {
-  const remote::Rule rule{pr6xx::ReplyShape::line, 0,    options().timing.reply, options().timing.idle,
-                          whole_reply(0),          false};
-  (void)session().transact_despite_cancel(p7::format_abort(options().style), rule);
+  (void)session().transact_despite_cancel(p7::format_abort(options().style), line_rule());
   return cancelled();
 }
 
-// T starts the measurement, P follows it (every poll_interval, until the measurement's time is
-// up), V tells its outcome and D5 reads its spectrum. V comes before D5 because a failed
-// measurement may leave the spectrum of the one before in the meter's buffer.
-std::expected<RemoteMeter::Spectrum, InstrumentError> Pr7xx::take_spectrum(int exposure_ms, int cycles) {
-  const remote::Rule rule{pr6xx::ReplyShape::line, 0,    options().timing.reply, options().timing.idle,
-                          whole_reply(0),          false};
-  auto trigger = session().transact(p7::format_trigger(options().style), rule);
-  if (!trigger) {
-    if (trigger.error().kind == InstrumentError::Kind::cancelled) return std::unexpected(abort_measurement().error());
-    return std::unexpected(trigger.error());
-  }
-  // T's own reply is undocumented: nothing, or a status; only a refusal matters.
-  if (trigger->end == remote::ReplyEnd::complete)
-    if (auto status = p7::parse_trigger(trigger->bytes); status && *status && (*status)->code < 0)
-      return failed_with((*status)->code);
-
-  const auto limit = measurement_time(exposure_ms, cycles);
+// P every poll_interval while the meter answers busy, until `limit`: the measurement's code
+// (0 or negative). cancel() aborts the measurement.
+std::expected<int, InstrumentError> Pr7xx::poll_until_done(std::chrono::milliseconds limit) {
+  const remote::Rule rule = line_rule();
   const Deadline until = deadline_in(limit);
   const std::string poll = p7::format_poll(options().style);
   int lost_in_a_row = 0;
-  std::optional<int> code;
-  while (!code) {
+  for (;;) {
     if (!session().pause(options().timing.poll_interval)) return std::unexpected(abort_measurement().error());
     if (Clock::now() > until)
       return std::unexpected(InstrumentError{
@@ -71,8 +60,45 @@ std::expected<RemoteMeter::Spectrum, InstrumentError> Pr7xx::take_spectrum(int e
       continue;
     }
     lost_in_a_row = 0;
-    if (parsed->state == p7::PollReply::State::done) code = parsed->code.value_or(0);
+    if (parsed->state == p7::PollReply::State::done) return parsed->code.value_or(0);
   }
+}
+
+// A measurement still running (one whose abort was lost, or another program's) makes the meter
+// answer busy: it is followed to its end, and its outcome is not ours.
+std::expected<void, InstrumentError> Pr7xx::wait_while_busy(std::string_view /*command*/) {
+  auto done = poll_until_done(measurement_time(0, 1));
+  if (!done) return std::unexpected(done.error());
+  return {};
+}
+
+// T starts the measurement (again, after waiting, if the meter was busy with another), P
+// follows it until its time is up, V tells its outcome and D5 reads its spectrum. V comes
+// before D5 because a failed measurement may leave the spectrum of the one before in the
+// meter's buffer.
+std::expected<RemoteMeter::Spectrum, InstrumentError> Pr7xx::take_spectrum(int exposure_ms, int cycles) {
+  const remote::Rule rule = line_rule();
+  const std::string trigger_command = p7::format_trigger(options().style);
+  for (int attempt = 1;; ++attempt) {
+    auto trigger = session().transact(trigger_command, rule);
+    if (!trigger) {
+      if (trigger.error().kind == InstrumentError::Kind::cancelled) return std::unexpected(abort_measurement().error());
+      return std::unexpected(trigger.error());
+    }
+    // T's own reply is undocumented: nothing, or a status; only a refusal or busy matters.
+    if (trigger->end != remote::ReplyEnd::complete) break;
+    auto status = p7::parse_trigger(trigger->bytes);
+    if (!status || !*status || (*status)->code == 0) break;
+    if ((*status)->code < 0) return failed_with((*status)->code);
+    if (attempt == 2)
+      return std::unexpected(InstrumentError{
+          InstrumentError::Kind::protocol,
+          fmt::format("the {} stayed busy after the measurement it was making had ended", profile().name),
+          (*status)->code, trigger->bytes});
+    if (auto idle = wait_while_busy(trigger_command); !idle) return std::unexpected(idle.error());
+  }
+  auto code = poll_until_done(measurement_time(exposure_ms, cycles));
+  if (!code) return std::unexpected(code.error());
   if (*code < 0) return failed_with(*code);
   auto outcome = session().ask(p7::format_last_error(options().style),
                                remote::Rule{rule.shape, 0, rule.first_byte, rule.idle, rule.whole, true}, "last error",

@@ -34,6 +34,7 @@ namespace {
 
 constexpr unsigned kDefaultBaud = 9600;
 constexpr unsigned kMaxBaud = 4'000'000;
+constexpr unsigned kMaxPacingMs = 1000;  // the meters want 50 ms; a second per byte is already absurd
 
 using Parsed = std::expected<ConnectionUri, std::string>;
 
@@ -94,15 +95,20 @@ std::expected<void, std::string> apply_option(ConnectionUri& uri, std::string_vi
     if (terminator == "lf") uri.terminator = '\n';
     else if (terminator == "cr") uri.terminator = '\r';
     else return std::unexpected(fmt::format("terminator '{}' is not lf or cr", value));
+  } else if (key == "pacing_ms") {
+    const auto ms = parse_decimal(value, 0, kMaxPacingMs);
+    if (!ms)
+      return std::unexpected(fmt::format("pacing_ms '{}' is not a whole number from 0 to {}", value, kMaxPacingMs));
+    uri.pacing_ms = static_cast<int>(*ms);
   }
   return {};
 }
 
 // Which query keys make sense: a TCP serial server has its line settings configured at the
-// server, so only the command terminator is ours to choose there.
+// server, so only how commands are written is ours to choose there.
 std::vector<std::string_view> allowed_keys(ConnectionUri::Scheme scheme) {
-  if (scheme == ConnectionUri::Scheme::tcp) return {"terminator"};
-  return {"baud", "flow", "terminator"};
+  if (scheme == ConnectionUri::Scheme::tcp) return {"terminator", "pacing_ms"};
+  return {"baud", "flow", "terminator", "pacing_ms"};
 }
 
 std::expected<void, std::string> parse_query(ConnectionUri& uri, std::string_view query) {
@@ -205,7 +211,8 @@ std::string query_string(const ConnectionUri& uri) {
     if (uri.flow == ConnectionUri::Flow::rtscts) options.emplace_back("flow=rtscts");
     if (uri.flow == ConnectionUri::Flow::xonxoff) options.emplace_back("flow=xonxoff");
   }
-  if (uri.terminator == '\r') options.emplace_back("terminator=cr");
+  if (uri.terminator) options.emplace_back(*uri.terminator == '\r' ? "terminator=cr" : "terminator=lf");
+  if (uri.pacing_ms) options.push_back(fmt::format("pacing_ms={}", *uri.pacing_ms));
   return options.empty() ? std::string() : fmt::format("?{}", fmt::join(options, "&"));
 }
 

@@ -48,11 +48,20 @@ struct Identity {
 };
 
 struct MeasureOptions {
-  int integration_ms = 0;                               // within the model's range, or 0 = adaptive
-  int averages = 1;                                     // 1-99
-  enum class Sync { off, automatic } sync = Sync::off;  // automatic: measure the flicker first
-  bool adjust_integration = false;                      // double on low light, halve on overload (fixed time only)
+  int integration_ms = 0;  // within the model's range, or 0 = adaptive
+  int averages = 1;        // 1-99
+  // automatic: measure the flicker first; frequency: sync to `sync_hz`.
+  enum class Sync { off, automatic, frequency } sync = Sync::off;
+  bool adjust_integration = false;  // double on low light, halve on overload (fixed time only)
   bool si_units = true;
+  // With Sync::frequency: within the model's sync range (the PR-650 40-250 Hz; the newer
+  // meters 20-400 Hz, whole hertz).
+  double sync_hz = 0;
+  // The newer meters with `caps.sensitivity`: the longer exposure range (SH1). Others refuse it.
+  bool extended_sensitivity = false;
+  // The newer meters with `caps.aperture`: an aperture by the name the meter lists (D117),
+  // such as "1/2 deg"; empty: as the meter is. Others refuse it.
+  std::string aperture = {};
 };
 
 struct Reading {
@@ -63,7 +72,7 @@ struct Reading {
   std::string luminance_units;  // "cd/m2" or "fL" ...
   int integration_ms = 0;       // as asked (0 = adaptive)
   int averages = 1;
-  std::string sync;                   // "off" or "last measured frequency (60.02 Hz)"
+  std::string sync;                   // "off", "last measured frequency (60.02 Hz)", "60 Hz (user)" ...
   std::vector<double> wavelength_nm;  // the meter's native grid (D120)
   std::vector<double> radiance;       // per nm, as the meter prints it
   double integrated = 0;

@@ -39,8 +39,12 @@ InstrumentOptions instrument_options_for(const ConnectionUri& uri);
 
 // The driver for the meter behind `transport`. Nothing is sent until connect(). With a forced
 // model it is that family's driver; connect() fails with `identification` when the meter says
-// it is another known model. With auto, connect() first finds out which family answers and
-// from then on behaves as that family's driver.
+// it is another known model, or answers as another family. With auto, every connect() first
+// finds out which family answers (the PR-650 inside its power-on window, then the newer
+// meters, then the PR-650 again), and from then on the instrument behaves as that family's
+// driver, which takes the link over as identification left it. A model skinspec does not know
+// is an `identification` error under auto; forced, it is measured as the forced model, and
+// its identity has no model and an `unknown-model:` warning.
 std::unique_ptr<Instrument> make_instrument(std::unique_ptr<Transport> transport, ModelChoice choice,
                                             InstrumentOptions options);
 

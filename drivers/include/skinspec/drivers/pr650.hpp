@@ -38,8 +38,14 @@ class Pr650 final : public Instrument {
   Pr650& operator=(const Pr650&) = delete;
 
   // Opens the port, wiggles DTR/RTS as the meter's own software does, and makes first
-  // contact (backlight command) with bounded retries.
+  // contact (backlight command) with bounded retries. A newer meter's answer is an
+  // `identification` error; a no_contact error carries the last answer that was not a
+  // PR-650's, if any, as its raw reply.
   std::expected<void, InstrumentError> connect() override;
+  // First contact as connect() makes it, on a port that is open already (identification's
+  // later attempts, open_instrument.hpp). With `end_stray_line` each attempt first sends a lone
+  // terminator, which ends whatever another family's commands left in the meter's line buffer.
+  std::expected<void, InstrumentError> contact(int attempts, bool end_stray_line);
   void disconnect() override;
   bool connected() const override { return connected_; }
   // Whether the link is known to be dead without a word on it (transport.hpp, peer_closed()):
@@ -66,6 +72,7 @@ class Pr650 final : public Instrument {
     std::string bytes;    // without any echo of the command
     std::string surplus;  // what came after a complete reply in the same read
   };
+  std::expected<void, InstrumentError> make_contact(int attempts, bool end_stray_line);
   std::expected<Reply, InstrumentError> transact(const std::string& command, const pr650::ExchangeRule& rule);
   template <typename Parse>
   auto ask(const std::string& command, const pr650::ExchangeRule& rule, Parse parse) -> decltype(parse(std::string()));

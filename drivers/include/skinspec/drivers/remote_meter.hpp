@@ -11,6 +11,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "skinspec/drivers/instrument.hpp"
@@ -44,6 +45,10 @@ class RemoteMeter : public Instrument {
 
   const MeterProfile& profile() const { return profile_; }
 
+  // Takes the meter as connected, on a port where identification (open_instrument.hpp) has
+  // just entered remote mode: no second Q and PHOTO. `banner_glued` as identification found it.
+  void adopt_remote_mode(bool banner_glued);
+
  protected:
   RemoteMeter(Family family, Model model, std::unique_ptr<Transport> transport, RemoteOptions options);
 
@@ -72,15 +77,31 @@ class RemoteMeter : public Instrument {
   std::chrono::milliseconds whole_reply(int points) const;
   // A cancelled measurement whose reply may still come within `limit`: drained before the next.
   void measurement_pending(std::chrono::milliseconds limit) { pending_ = limit; }
+  // Waits while the meter finishes a measurement, after it answered `command` with busy (1):
+  // only meters that measure in the background say so. Others: a protocol error.
+  virtual std::expected<void, InstrumentError> wait_while_busy(std::string_view command);
   // A spectral report (M5/D5) asked again once where `ask_again`, parsed against D120's grid.
   std::expected<Spectrum, InstrumentError> read_spectrum(std::string_view command, std::chrono::milliseconds first_byte,
                                                          bool ask_again);
 
  private:
+  // What D111 says, against the profile this driver measures with.
+  struct ReportedModel {
+    std::string text;            // empty when the meter did not say
+    std::optional<Model> model;  // the profile's; none for a model skinspec does not know
+    std::optional<std::string> warning;
+  };
+  std::expected<ReportedModel, InstrumentError> ask_model();
+  void forget_connection();
+  void note_entry(bool banner_glued);
   std::expected<Identity, InstrumentError> query_identity();
   std::expected<void, InstrumentError> check(const MeasureOptions& options) const;
+  int longest_exposure_ms(const MeasureOptions& options) const;
   std::expected<std::string, InstrumentError> configure(const MeasureOptions& options, int exposure_ms, bool sync_on);
-  std::expected<void, InstrumentError> setup(std::optional<std::string>& last, const std::string& command);
+  std::expected<std::string, InstrumentError> configure_sync(const MeasureOptions& options, bool sync_on);
+  std::expected<int, InstrumentError> aperture_code(const std::string& name);
+  std::expected<void, InstrumentError> setup(std::optional<std::string>& last, const std::string& command,
+                                             std::string_view range = {});
   std::expected<void, InstrumentError> read_colorimetry(Reading& reading, bool si_units);
 
   std::unique_ptr<Transport> transport_;
@@ -92,7 +113,8 @@ class RemoteMeter : public Instrument {
   bool identified_ = false;
   std::atomic<bool> connected_{false};
   // The setups the meter holds on this connection: each is sent only when it changes.
-  std::optional<std::string> units_, exposure_, averages_, sync_mode_;
+  std::optional<std::string> units_, exposure_, averages_, sync_mode_, sync_frequency_, sensitivity_, aperture_;
+  std::optional<std::vector<pr6xx::Aperture>> apertures_;  // D117, read once per connection when needed
   std::chrono::milliseconds pending_{0};
   std::mutex call_mutex_;  // one call on the wire at a time
 };

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <expected>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -61,9 +62,9 @@ class Transport {
 };
 
 // Where an instrument is, parsed from a connection URI:
-//   serial:/dev/ttyUSB0[?baud=9600&flow=none|rtscts|xonxoff&terminator=lf|cr]
-//   tcp:HOST:PORT[?terminator=lf|cr]
-//   usb:VID:PID[:SERIAL][?baud=...&terminator=...]     (VID and PID in hex)
+//   serial:/dev/ttyUSB0[?baud=9600&flow=none|rtscts|xonxoff&terminator=lf|cr&pacing_ms=N]
+//   tcp:HOST:PORT[?terminator=lf|cr&pacing_ms=N]
+//   usb:VID:PID[:SERIAL][?baud=...&terminator=...&pacing_ms=...]     (VID and PID in hex)
 struct ConnectionUri {
   enum class Scheme { serial, tcp, usb };
   Scheme scheme = Scheme::serial;
@@ -74,7 +75,12 @@ struct ConnectionUri {
   std::string usb_serial;                        // usb, optional
   unsigned baud = 9600;
   enum class Flow { none, rtscts, xonxoff } flow = Flow::none;
-  char terminator = '\n';  // what commands end with: LF (default) or CR
+  // What commands end with, for every family; unset: each family's own (LF for the PR-650,
+  // CR for the newer meters).
+  std::optional<char> terminator;
+  // The newer meters' pause between the bytes of a command (0: whole strings); unset: the
+  // model's. The PR-650 takes whole strings.
+  std::optional<int> pacing_ms;
 
   std::string to_string() const;
 };

@@ -1,0 +1,168 @@
+// How a newer meter is set up for a measurement (docs/pr6xx-protocol.md, "The drivers"):
+// options checked against the model's profile before a byte is sent, then each setup command
+// sent only when it differs from what the meter holds on this connection.
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include "common/remote_session.hpp"
+#include "skinspec/drivers/remote_meter.hpp"
+
+namespace skinspec::drivers {
+
+namespace p6 = pr6xx;
+using remote::Rule;
+
+namespace {
+
+constexpr int kMaxAverages = 99;
+constexpr int kBusy = 1;  // a PR-7xx still measuring
+
+std::unexpected<InstrumentError> rejected(std::string message, int code = -1) {
+  return std::unexpected(InstrumentError{InstrumentError::Kind::rejected, std::move(message), code, {}});
+}
+
+// "1/2 deg" as D117 lists it, however a person types it: case and blanks do not matter.
+std::string aperture_key(std::string_view name) {
+  std::string key;
+  for (const char c : name)
+    if (c != ' ') key += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return key;
+}
+
+}  // namespace
+
+int RemoteMeter::longest_exposure_ms(const MeasureOptions& options) const {
+  return options.extended_sensitivity ? profile_.exposure.max_extended_ms : profile_.exposure.max_ms;
+}
+
+// Out-of-range options, and what the model does not have, are refused before a byte is sent,
+// naming the model's range.
+std::expected<void, InstrumentError> RemoteMeter::check(const MeasureOptions& options) const {
+  const ExposureRange& range = profile_.exposure;
+  if (options.extended_sensitivity && (!profile_.caps.sensitivity || range.max_extended_ms == 0))
+    return rejected(fmt::format("the {} has no extended sensitivity (SH)", profile_.name));
+  if (!options.aperture.empty() && !profile_.caps.aperture)
+    return rejected(fmt::format("the {} has no apertures to choose (SF): '{}'", profile_.name, options.aperture));
+  const int longest = longest_exposure_ms(options);
+  if (options.integration_ms != 0 && (options.integration_ms < range.min_ms || options.integration_ms > longest))
+    return rejected(fmt::format("exposure {} ms: the {} takes {}-{} ms{}, or 0 for adaptive", options.integration_ms,
+                                profile_.name, range.min_ms, longest,
+                                options.extended_sensitivity ? " with extended sensitivity" : ""));
+  if (options.averages < 1 || options.averages > kMaxAverages)
+    return rejected(fmt::format("{} averages: the {} takes 1-{}", options.averages, profile_.name, kMaxAverages));
+  const double hz = options.sync_hz;
+  if (options.sync == MeasureOptions::Sync::frequency &&
+      !(hz >= profile_.sync_min_hz && hz <= profile_.sync_max_hz && hz == std::floor(hz)))
+    return rejected(fmt::format("sync frequency {:g} Hz: the {} syncs to whole hertz from {} to {} Hz", hz,
+                                profile_.name, profile_.sync_min_hz, profile_.sync_max_hz));
+  return {};
+}
+
+// A PR-7xx still measuring answers busy: the setup is sent again once it is done.
+std::expected<void, InstrumentError> RemoteMeter::setup(std::optional<std::string>& last, const std::string& command,
+                                                        std::string_view range) {
+  if (last == command) return {};
+  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
+  auto status = session_->ask(command, rule, "setup reply", p6::parse_status);
+  if (status && status->code == kBusy) {
+    if (auto idle = wait_while_busy(command); !idle) return idle;
+    status = session_->ask(command, rule, "setup reply", p6::parse_status);
+  }
+  if (!status) return std::unexpected(status.error());
+  if (status->code != 0) {
+    last.reset();
+    return rejected(fmt::format("the {} refused '{}': {}{}", profile_.name, remote::printable(command),
+                                p6::error_message(status->code), range),
+                    status->code);
+  }
+  last = command;
+  return {};
+}
+
+std::expected<void, InstrumentError> RemoteMeter::wait_while_busy(std::string_view command) {
+  return std::unexpected(InstrumentError{
+      InstrumentError::Kind::protocol,
+      fmt::format("the {} answered '{}' with busy, which it does not do", profile_.name, remote::printable(command)),
+      kBusy,
+      {}});
+}
+
+// The code D117 gives the aperture `name`; the list is read once per connection.
+std::expected<int, InstrumentError> RemoteMeter::aperture_code(const std::string& name) {
+  std::string unlisted;
+  if (!apertures_) {
+    const Rule rule{p6::ReplyShape::listing, 0, options_.timing.reply, options_.timing.idle, whole_reply(8), true};
+    auto listed = session_->ask(p6::format_report(117, options_.style), rule, "aperture list", p6::parse_apertures);
+    if (!listed) return std::unexpected(listed.error());
+    if (listed->status.code != 0) unlisted = fmt::format(" (D117: {})", p6::error_message(listed->status.code));
+    apertures_ = listed->status.code == 0 ? listed->apertures : std::vector<p6::Aperture>{};
+  }
+  const auto found = std::ranges::find_if(
+      *apertures_, [&](const p6::Aperture& a) { return aperture_key(a.name) == aperture_key(name); });
+  if (found != apertures_->end()) return found->code;
+  std::vector<std::string> names;
+  for (const p6::Aperture& a : *apertures_) names.push_back(fmt::format("'{}'", a.name));
+  if (names.empty()) return rejected(fmt::format("aperture '{}': the {} lists none{}", name, profile_.name, unlisted));
+  return rejected(fmt::format("aperture '{}': the {} lists {}", name, profile_.name, fmt::join(names, ", ")));
+}
+
+// Units, sensitivity, exposure, averages, aperture and sync, each sent only when it differs from
+// what the meter holds. Sensitivity comes before the exposure, whose range it sets. Returns how
+// the sync was set, for the reading.
+std::expected<std::string, InstrumentError> RemoteMeter::configure(const MeasureOptions& options, int exposure_ms,
+                                                                   bool sync_on) {
+  const p6::CommandStyle& style = options_.style;
+  if (auto ok = setup(units_, p6::format_units(options.si_units, style)); !ok) return std::unexpected(ok.error());
+  if (profile_.caps.sensitivity) {
+    const auto before = sensitivity_;
+    if (auto ok = setup(sensitivity_, p6::format_sensitivity(options.extended_sensitivity, style)); !ok)
+      return std::unexpected(ok.error());
+    if (sensitivity_ != before) exposure_.reset();  // the meter shortens an exposure the new range lacks
+  }
+  const std::string range =
+      fmt::format("; the {} takes {}-{} ms", profile_.name, profile_.exposure.min_ms, longest_exposure_ms(options));
+  if (auto ok = setup(exposure_, p6::format_exposure(exposure_ms, style), range); !ok)
+    return std::unexpected(ok.error());
+  if (auto ok = setup(averages_, p6::format_averages(options.averages, style)); !ok) return std::unexpected(ok.error());
+  if (!options.aperture.empty()) {
+    auto code = aperture_code(options.aperture);
+    if (!code) return std::unexpected(code.error());
+    if (auto ok = setup(aperture_, p6::format_aperture(*code, style)); !ok) return std::unexpected(ok.error());
+  }
+  return configure_sync(options, sync_on);
+}
+
+// Automatic sync measures the flicker first (F) and syncs when there is one; a user frequency
+// is SS3 with SK. `sync_on` false (asked for, or after the meter could not sync): SS0.
+std::expected<std::string, InstrumentError> RemoteMeter::configure_sync(const MeasureOptions& options, bool sync_on) {
+  const p6::CommandStyle& style = options_.style;
+  auto mode_is = [&](p6::SyncMode mode) { return setup(sync_mode_, p6::format_sync_mode(mode, style)); };
+  if (sync_on && options.sync == MeasureOptions::Sync::frequency) {
+    const int hz = static_cast<int>(options.sync_hz);
+    if (auto ok = mode_is(p6::SyncMode::user); !ok) return std::unexpected(ok.error());
+    if (auto ok = setup(sync_frequency_, p6::format_sync_frequency(hz, style)); !ok) return std::unexpected(ok.error());
+    return fmt::format("{} Hz (user)", hz);
+  }
+  std::string described = "off";
+  p6::SyncMode mode = p6::SyncMode::none;
+  if (sync_on) {
+    const Rule rule{p6::ReplyShape::line, 0, options_.timing.flicker, options_.timing.idle, whole_reply(0), true};
+    auto flicker = session_->ask(p6::format_flicker(style), rule, "flicker reply", p6::parse_flicker);
+    if (!flicker) return std::unexpected(flicker.error());
+    if (flicker->status.code == 0 && flicker->hz) {
+      mode = p6::SyncMode::automatic;
+      described = fmt::format("automatic ({:.2f} Hz)", *flicker->hz);
+    } else {
+      described = "off (no flicker found)";
+    }
+  }
+  if (auto ok = mode_is(mode); !ok) return std::unexpected(ok.error());
+  return described;
+}
+
+}  // namespace skinspec::drivers
