@@ -1,14 +1,24 @@
-// skinspec measure --device URI: readings from a PR-650, one JSON line each with --json.
+// skinspec measure --device URI: readings from a Photo Research meter (the model --model names,
+// or whichever answers), one JSON line each with --json.
 
 #include <fmt/format.h>
 
+#include <pthread.h>
+
+#include <algorithm>
+#include <atomic>
 #include <charconv>
 #include <chrono>
+#include <csignal>
 #include <iostream>
+#include <limits>
+#include <memory>
+#include <thread>
 #include <nlohmann/json.hpp>
 
 #include "common.hpp"
-#include "skinspec/drivers/pr650.hpp"
+#include "identity_json.hpp"
+#include "skinspec/drivers/open_instrument.hpp"
 
 namespace skinspec::cli {
 
@@ -18,6 +28,7 @@ using drivers::InstrumentError;
 
 struct MeasureArgs {
   std::string device;
+  std::string model = "auto";
   int count = 1;
   std::string integration = "adaptive";
   std::string sync = "off";
@@ -25,12 +36,35 @@ struct MeasureArgs {
   bool json = false;
 };
 
-int parse_integration(const std::string& text) {
+drivers::ModelChoice parse_model(const std::string& text) {
+  auto choice = drivers::ModelChoice::parse(text);
+  if (!choice) throw Failure{kBadInput, "--model: " + choice.error()};
+  return *choice;
+}
+
+// The exposures the meter may take: the forced model's range, or with auto the widest any model
+// has (the driver then holds the identified model to its own before sending anything).
+drivers::ExposureRange exposure_range(const drivers::ModelChoice& choice) {
+  if (choice.forced) return drivers::profile(*choice.forced).exposure;
+  drivers::ExposureRange widest{std::numeric_limits<int>::max(), 0, 0};
+  for (const auto& p : drivers::all_profiles()) {
+    widest.min_ms = std::min(widest.min_ms, p.exposure.min_ms);
+    widest.max_ms = std::max(widest.max_ms, p.exposure.max_ms);
+  }
+  return widest;
+}
+
+int parse_integration(const std::string& text, const drivers::ModelChoice& choice) {
   if (text == "adaptive") return 0;
+  const drivers::ExposureRange range = exposure_range(choice);
   int ms = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), ms);
-  if (ec != std::errc() || end != text.data() + text.size() || ms < 10 || ms > 6000)
-    throw Failure{kBadInput, "--integration-ms " + quote(text) + ": expected 10-6000 or 'adaptive'"};
+  if (ec != std::errc() || end != text.data() + text.size() || ms < range.min_ms || ms > range.max_ms)
+    throw Failure{
+        kBadInput,
+        fmt::format("--integration-ms {}: expected {}-{} ({}) or 'adaptive'", quote(text), range.min_ms, range.max_ms,
+                    choice.forced ? "the " + std::string(drivers::profile(*choice.forced).name) + "'s range"
+                                  : "what any model takes")};
   return ms;
 }
 
@@ -64,35 +98,96 @@ Failure instrument_failure(const InstrumentError& e) {
   return Failure{kInstrumentError, fmt::format("instrument error ({}): {}", drivers::to_string(e.kind), e.message)};
 }
 
-void run_measure(const MeasureArgs& args) {
-  const int integration = parse_integration(args.integration);
+// SIGINT and SIGTERM cancel the call on the wire, so that the meter is let go of in order (a
+// PR-655 or later is sent Q and leaves remote mode) rather than left with its keys locked. The
+// signals stay blocked until the program ends: a second one must not cut that short.
+class CancelOnSignal {
+ public:
+  explicit CancelOnSignal(drivers::Instrument& meter) {
+    sigemptyset(&signals_);
+    sigaddset(&signals_, SIGINT);
+    sigaddset(&signals_, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &signals_, nullptr);
+    waiter_ = std::thread([this, &meter] {
+      int signal = 0;
+      sigwait(&signals_, &signal);
+      if (done_) return;
+      received_ = signal;
+      meter.cancel();
+    });
+  }
+  ~CancelOnSignal() {
+    done_ = true;
+    pthread_kill(waiter_.native_handle(), SIGTERM);  // ends its wait if no signal did
+    waiter_.join();
+  }
+  CancelOnSignal(const CancelOnSignal&) = delete;
+  CancelOnSignal& operator=(const CancelOnSignal&) = delete;
+
+  // Throws if a signal came: nothing more is asked of the meter.
+  void check() const {
+    if (const int signal = received_)
+      throw Failure{kInstrumentError, fmt::format("instrument error (cancelled): stopped by {}",
+                                                  signal == SIGINT ? "SIGINT" : "SIGTERM")};
+  }
+
+ private:
+  sigset_t signals_{};
+  std::atomic<bool> done_{false};
+  std::atomic<int> received_{0};
+  std::thread waiter_;
+};
+
+std::unique_ptr<drivers::Instrument> open_meter(const MeasureArgs& args, drivers::ModelChoice choice) {
   auto uri = drivers::parse_connection_uri(args.device);
   if (!uri) throw Failure{kBadInput, "--device " + quote(args.device) + ": " + uri.error()};
   auto transport = drivers::make_transport(*uri);
   if (!transport) throw Failure{kInstrumentError, transport.error()};
-  drivers::DriverOptions options;
-  options.style.terminator = uri->terminator.value_or(options.style.terminator);
-  drivers::Pr650 meter(std::move(*transport), options);
-  if (auto connected = meter.connect(); !connected) throw instrument_failure(connected.error());
-  if (auto identity = meter.identify(); !identity) throw instrument_failure(identity.error());
+  return drivers::make_instrument(std::move(*transport), choice, drivers::instrument_options_for(*uri));
+}
 
+void print_reading(const MeasureArgs& args, int number, const drivers::Reading& reading,
+                   const nlohmann::json& instrument) {
+  for (const auto& warning : reading.warnings) std::cerr << fmt::format("reading {}: {}\n", number, warning);
+  if (args.json) {
+    nlohmann::json line = reading_json(reading);
+    line["instrument"] = instrument;
+    std::cout << line.dump() << '\n';
+  } else {
+    std::cout << fmt::format(
+        "reading {}: quality {:02d} ({}), luminance {:.4g} {}, x {:.4f} y {:.4f}, {} points {}-{} nm\n", number,
+        reading.quality_code, reading.quality, reading.luminance, reading.luminance_units, reading.x, reading.y,
+        reading.radiance.size(), reading.wavelength_nm.front(), reading.wavelength_nm.back());
+  }
+  std::cout.flush();
+}
+
+void run_measure(const MeasureArgs& args) {
+  const drivers::ModelChoice choice = parse_model(args.model);
   drivers::MeasureOptions measure;
-  measure.integration_ms = integration;
+  measure.integration_ms = parse_integration(args.integration, choice);
   measure.sync = args.sync == "auto" ? drivers::MeasureOptions::Sync::automatic : drivers::MeasureOptions::Sync::off;
   measure.adjust_integration = args.adjust;
+  const auto meter = open_meter(args, choice);
+  const CancelOnSignal signals(*meter);  // ends before the meter, whose disconnect sends Q
+  auto connected = meter->connect();
+  signals.check();
+  if (!connected) throw instrument_failure(connected.error());
+  const auto identity = meter->identify();
+  signals.check();
+  if (!identity) throw instrument_failure(identity.error());
+  for (const auto& warning : identity->warnings) std::cerr << fmt::format("instrument: {}\n", warning);
+  const nlohmann::json instrument = drivers::identity_json(*identity);
+  if (!args.json)
+    std::cout << fmt::format("instrument: {}, serial number {}, {}-{} nm by {} nm\n", identity->reported_model,
+                             identity->serial_number, identity->grid.first_nm, identity->grid.last_nm,
+                             identity->grid.step_nm);
   for (int i = 0; i < args.count; ++i) {
-    auto reading = meter.measure(measure);
+    signals.check();
+    auto reading = meter->measure(measure);
+    signals.check();
     if (!reading) throw instrument_failure(reading.error());
-    for (const auto& warning : reading->warnings) std::cerr << fmt::format("reading {}: {}\n", i + 1, warning);
-    if (args.json) {
-      std::cout << reading_json(*reading).dump() << '\n';
-    } else {
-      std::cout << fmt::format(
-          "reading {}: quality {:02d} ({}), luminance {:.4g} {}, x {:.4f} y {:.4f}, {} points {}-{} nm\n", i + 1,
-          reading->quality_code, reading->quality, reading->luminance, reading->luminance_units, reading->x, reading->y,
-          reading->radiance.size(), reading->wavelength_nm.front(), reading->wavelength_nm.back());
-    }
-    std::cout.flush();
+    print_reading(args, i + 1, *reading, instrument);
   }
 }
 
@@ -100,15 +195,20 @@ void run_measure(const MeasureArgs& args) {
 
 void add_measure_command(CLI::App& app) {
   auto args = std::make_shared<MeasureArgs>();
-  auto* measure = app.add_subcommand("measure", "measure with a PR-650 and print each reading");
+  auto* measure = app.add_subcommand("measure", "measure with a Photo Research meter and print each reading");
   measure
       ->add_option("--device", args->device,
                    "serial:/dev/ttyUSB0[?baud=9600&terminator=lf|cr], tcp:HOST:PORT or usb:VID:PID[:SERIAL]")
       ->required();
+  measure
+      ->add_option("--model", args->model,
+                   "the meter's model: auto (asked when connecting) or a model id such as pr650, pr670 or pr730")
+      ->capture_default_str();
   measure->add_option("--count", args->count, "number of readings")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  measure->add_option("--integration-ms", args->integration, "10-6000 ms, or adaptive")->capture_default_str();
+  measure->add_option("--integration-ms", args->integration, "exposure in ms within the model's range, or adaptive")
+      ->capture_default_str();
   measure->add_option("--sync", args->sync, "off, or auto: measure the light's flicker and sync to it")
       ->check(CLI::IsMember({"off", "auto"}))
       ->capture_default_str();

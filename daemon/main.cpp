@@ -22,6 +22,8 @@ int serve(const skinspec::daemon::Options& o) {
   using namespace skinspec;
   const auto listen = daemon::parse_listen(o.listen);
   if (!listen) return spdlog::error("event=bad_option message=\"{}\"", listen.error()), 2;
+  const auto model = drivers::ModelChoice::parse(o.model);
+  if (!model) return spdlog::error("event=bad_option message=\"--model: {}\"", model.error()), 2;
   api::RouterContext context;
   if (!o.token_file.empty()) {
     auto access = daemon::read_token_file(o.token_file);
@@ -51,7 +53,7 @@ int serve(const skinspec::daemon::Options& o) {
            2;
   std::unique_ptr<daemon::Supervisor> supervisor;
   if (!o.device.empty()) {
-    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter);
+    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, *model);
     supervisor->set_policy(o.measure);
     context.acquisition = supervisor.get();
     daemon::Supervisor::ConnectionSettings link;
@@ -59,7 +61,8 @@ int serve(const skinspec::daemon::Options& o) {
     link.check_interval = std::chrono::milliseconds(o.instrument_check_ms);
     supervisor->start_connection(std::move(link));
     supervisor->start();
-    spdlog::info("event=instrument device=\"{}\" message=\"connecting in the background\"", o.device);
+    spdlog::info("event=instrument device=\"{}\" model={} message=\"connecting in the background\"", o.device,
+                 model->to_string());
   }
 
   const api::Router router(context);
@@ -113,6 +116,9 @@ int main(int argc, char** argv) {
       "--device", o.device,
       "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (a Photo Research meter on USB, "
       "else the first USB serial adapter)");
+  app.add_option("--model", o.model,
+                 "the meter's model: auto (asked when connecting) or a model id such as pr650, pr670 or pr730")
+      ->capture_default_str();
   app.add_option("--reconnect-initial-ms", o.reconnect_initial_ms,
                  "wait after the first failed connection attempt; doubles on each failure")
       ->check(CLI::Range(1, 3600000))

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "skinspec/drivers/pr650.hpp"
+#include "skinspec/drivers/instrument.hpp"
 #include "skinspec/store/types.hpp"
 
 namespace skinspec::daemon {

@@ -26,6 +26,7 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       if (key == "listen") o.listen = v.get<std::string>();
       else if (key == "db") o.db = v.get<std::string>();
       else if (key == "device") o.device = v.get<std::string>();
+      else if (key == "model") o.model = v.get<std::string>();
       else if (key == "token_file") o.token_file = v.get<std::string>();
       else if (key == "log_level") o.log_level = v.get<std::string>();
       else if (key == "body_limit") o.body_limit = v.get<std::size_t>();

@@ -14,7 +14,8 @@ namespace skinspec::daemon {
 struct Options {
   std::string listen = "127.0.0.1:8650";
   std::string db = "skinspec.db";
-  std::string device;  // serial:, tcp:, usb: URI or "auto"; empty: no instrument
+  std::string device;          // serial:, tcp:, usb: URI or "auto"; empty: no instrument
+  std::string model = "auto";  // the meter's model (a profile id), or auto: found out when connecting
   std::string token_file;
   std::string log_level = "info";
   std::string config;

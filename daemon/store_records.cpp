@@ -2,25 +2,30 @@
 
 #include <cmath>
 
+#include "identity_json.hpp"
+#include "skinspec/drivers/pr6xx_protocol.hpp"
 #include "supervisor_common.hpp"
 
 namespace skinspec::daemon {
 
 using nlohmann::json;
 
-json spectral_configuration_json(const drivers::pr650::SpectralConfiguration& c) {
-  return {{"points", c.points},
-          {"bandwidth_nm", c.bandwidth_nm},
-          {"first_nm", c.first_nm},
-          {"last_nm", c.last_nm},
-          {"step_nm", c.step_nm}};
+json spectral_configuration_json(const drivers::Identity& identity) {
+  const json shown = drivers::identity_json(identity);
+  json configuration = {{"model", shown["model"]},
+                        {"reported_model", shown["reported_model"]},
+                        {"family", shown["family"]},
+                        {"firmware", shown["firmware"]},
+                        {"bandwidth_nm", identity.configuration.bandwidth_nm}};
+  configuration.update(shown["grid"]);
+  return configuration;
 }
 
 store::Instrument instrument_record(const drivers::Identity& identity, const std::string& connection) {
   store::Instrument instrument;
-  instrument.model = "PR-650";
+  instrument.model = identity.reported_model;
   instrument.serial_number = identity.serial_number;
-  instrument.spectral_configuration = spectral_configuration_json(identity.configuration).dump();
+  instrument.spectral_configuration = spectral_configuration_json(identity).dump();
   instrument.connection = connection;
   return instrument;
 }
@@ -68,12 +73,13 @@ std::string measurement_settings(const std::vector<drivers::Reading>& readings, 
   return settings.dump();
 }
 
-store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, int attempt,
-                                               store::Time measured_at) {
+store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, drivers::Family family,
+                                               int attempt, store::Time measured_at) {
   store::RejectedReading r;
   r.attempt = attempt;
   r.quality_code = error.quality_code;
-  r.quality = drivers::pr650::quality_message(error.quality_code);
+  r.quality = family == drivers::Family::pr650 ? drivers::pr650::quality_message(error.quality_code)
+                                               : drivers::pr6xx::error_message(error.quality_code);
   r.reason = describe(error);
   r.raw_reply = error.raw_reply;
   r.measured_at = measured_at;

@@ -9,16 +9,17 @@
 
 #include <nlohmann/json.hpp>
 
-#include "skinspec/drivers/pr650.hpp"
+#include "skinspec/drivers/instrument.hpp"
 #include "skinspec/store/types.hpp"
 
 namespace skinspec::daemon {
 
-// {"points", "bandwidth_nm", "first_nm", "last_nm", "step_nm"}: the meter's D120 reply.
-nlohmann::json spectral_configuration_json(const drivers::pr650::SpectralConfiguration& configuration);
+// {"model", "reported_model", "family", "firmware", "points", "first_nm", "last_nm", "step_nm",
+// "bandwidth_nm"}: which meter it is and the wavelength grid its D120 reply gave.
+nlohmann::json spectral_configuration_json(const drivers::Identity& identity);
 
-// The meter as the store knows it: model, serial number, the spectral configuration it
-// reported, and the --device it was reached by.
+// The meter as the store knows it: the model it reports, its serial number, the spectral
+// configuration it reported, and the --device it was reached by.
 store::Instrument instrument_record(const drivers::Identity& identity, const std::string& connection);
 
 // The readings' mean radiance, their standard deviation (more than one reading), quality,
@@ -31,9 +32,9 @@ std::expected<store::Measurement, std::string> averaged(const std::vector<driver
 std::string measurement_settings(const std::vector<drivers::Reading>& readings, int integration_ms, int count,
                                  std::size_t rejected_readings);
 
-// A reading the meter returned with a bad quality code: its code, the meter's text for it, the
-// reason as the job reports it, and its raw reply.
-store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, int attempt,
-                                               store::Time measured_at);
+// A reading the meter returned with a bad quality code: its code, the text its family's table
+// gives for it, the reason as the job reports it, and its raw reply.
+store::RejectedReading rejected_reading_record(const drivers::InstrumentError& error, drivers::Family family,
+                                               int attempt, store::Time measured_at);
 
 }  // namespace skinspec::daemon

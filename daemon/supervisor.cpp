@@ -1,6 +1,7 @@
 #include "supervisor.hpp"
 
 #include <algorithm>
+#include <utility>
 
 #include <spdlog/spdlog.h>
 
@@ -25,8 +26,8 @@ void log_unrecorded(store::Id id, const store::JobError& end, const store::Store
 
 }  // namespace
 
-Supervisor::Supervisor(std::string device, store::Store& db, const Fitter& fitter)
-    : device_(std::move(device)), db_(db), fitter_(fitter) {}
+Supervisor::Supervisor(std::string device, store::Store& db, const Fitter& fitter, drivers::ModelChoice model)
+    : device_(std::move(device)), model_(model), db_(db), fitter_(fitter) {}
 
 Supervisor::~Supervisor() { stop(); }
 
@@ -46,6 +47,7 @@ void Supervisor::stop() {
   }
   wake_.notify_all();
   if (worker_.joinable()) worker_.join();
+  release_meter();
   const auto stopped = cancellation(store::JobErrorCode::stopped);
   for (const auto& queued : left) {
     // A record left queued is failed as interrupted when the database is next opened.
@@ -54,6 +56,21 @@ void Supervisor::stop() {
     live_.erase(queued.id);
     job_changed();
   }
+}
+
+// The newer meters stay in remote mode, their keys locked, until they are sent Q: the meter is
+// disconnected here, once nothing else can use it, rather than whenever its last owner lets go.
+void Supervisor::release_meter() {
+  if (connector_.joinable()) connector_.join();  // it ends at stopping_; a connection under way was cancelled
+  std::shared_ptr<drivers::Instrument> meter;
+  {
+    std::lock_guard lock(mutex_);
+    meter = std::exchange(meter_, nullptr);
+  }
+  if (!meter) return;
+  std::lock_guard wire(wire_mutex_);
+  meter->disconnect();
+  spdlog::info("event=instrument_disconnected device=\"{}\"", device_);
 }
 
 std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id session_id,

@@ -18,7 +18,7 @@
 #include <thread>
 
 #include "skinspec/api/acquisition.hpp"
-#include "skinspec/drivers/pr650.hpp"
+#include "skinspec/drivers/open_instrument.hpp"
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/store/store.hpp"
 #include "instrument_link.hpp"
@@ -29,7 +29,8 @@ namespace skinspec::daemon {
 
 class Supervisor final : public api::Acquisition {
  public:
-  Supervisor(std::string device, store::Store& db, const Fitter& fitter);
+  // `model`: the meter --model names, or auto (found out when connecting).
+  Supervisor(std::string device, store::Store& db, const Fitter& fitter, drivers::ModelChoice model = {});
   ~Supervisor() override;
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
@@ -37,8 +38,8 @@ class Supervisor final : public api::Acquisition {
   // What jobs do with rejected readings and old or changed whites; before start().
   void set_policy(const MeasurePolicy& policy) { policy_ = policy; }
 
-  // Starts the worker thread; stop() cancels the running job, marks queued ones cancelled and
-  // joins it.
+  // Starts the worker thread; stop() cancels the running job, marks queued ones cancelled, joins
+  // it and the connector, and disconnects the meter (which leaves remote mode: Q).
   void start();
   void stop();
 
@@ -75,7 +76,7 @@ class Supervisor final : public api::Acquisition {
   // a job that fails got done (readings, rejected readings) goes to `partial`.
   Step<store::CompletedJob> execute(const store::Job& job, const api::MeasureRequest& request, nlohmann::json& partial);
   Step<void> take_readings(const store::Job& job, const api::MeasureRequest& request,
-                           std::shared_ptr<drivers::Pr650>& meter, Readings& out);
+                           std::shared_ptr<drivers::Instrument>& meter, Readings& out);
   Step<store::Id> keep_rejected(const store::Job& job, int attempt, const drivers::InstrumentError& error);
   Step<std::optional<store::Fit>> derive_sample(const store::Session& session, const store::Measurement& white,
                                                 store::Measurement& m, nlohmann::json& timing) const;
@@ -91,7 +92,7 @@ class Supervisor final : public api::Acquisition {
   // Whether the running job was asked to stop, and why (cancelled or stopped), with mutex_ held.
   bool cancel_requested() const { return cancel_running_.has_value(); }
   std::optional<drivers::InstrumentError> ensure_connected();
-  std::expected<drivers::Reading, drivers::InstrumentError> measure_reading(std::shared_ptr<drivers::Pr650>& meter,
+  std::expected<drivers::Reading, drivers::InstrumentError> measure_reading(std::shared_ptr<drivers::Instrument>& meter,
                                                                             const drivers::MeasureOptions& options,
                                                                             bool first_of_job);
   void note_instrument_error(const drivers::InstrumentError& error);
@@ -102,6 +103,7 @@ class Supervisor final : public api::Acquisition {
   void job_changed();
 
   const std::string device_;
+  const drivers::ModelChoice model_;
   store::Store& db_;
   const Fitter& fitter_;
   MeasurePolicy policy_;
@@ -145,9 +147,9 @@ class Supervisor final : public api::Acquisition {
 
   TrackedState state_;
   std::string last_error_;
-  std::string serial_number_;
+  std::optional<drivers::Identity> identity_;  // of the last meter reached
   std::optional<store::Id> instrument_id_;
-  std::shared_ptr<drivers::Pr650> meter_;
+  std::shared_ptr<drivers::Instrument> meter_;
 
  public:
   struct ConnectionSettings {
@@ -170,10 +172,14 @@ class Supervisor final : public api::Acquisition {
   std::optional<std::chrono::steady_clock::time_point> next_link_action() const;
   void connect_or_check();
   std::optional<drivers::InstrumentError> connect_holding_wire();
-  void check_holding_wire(const std::shared_ptr<drivers::Pr650>& meter);
+  void check_holding_wire(const std::shared_ptr<drivers::Instrument>& meter);
   void lose_meter(const std::string& error);  // with mutex_ held
+  // "the PR-670 on tcp:...": the meter as it said it is, for messages (mutex_ held).
+  std::string meter_on_port() const;
+  // The connector stopped and the meter disconnected, at a known point of stop().
+  void release_meter();
   void note_connect_failure(const drivers::InstrumentError& error, const std::string& port);
-  void note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
+  void note_connected(const std::shared_ptr<drivers::Instrument>& meter, const ResolvedDevice& resolved,
                       const drivers::Identity& identity);
   api::InstrumentState unreachable_state() const {
     return ever_connected_ ? api::InstrumentState::lost : api::InstrumentState::disconnected;

@@ -8,7 +8,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "skinspec/drivers/pr650.hpp"
+#include "skinspec/drivers/instrument.hpp"
 #include "skinspec/store/store.hpp"
 
 namespace skinspec::daemon {

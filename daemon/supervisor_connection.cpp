@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "identity_json.hpp"
 #include "store_records.hpp"
 #include "supervisor.hpp"
 #include "supervisor_common.hpp"
@@ -47,16 +48,26 @@ json Supervisor::instrument_status() const {
   if (!meter_ && next_attempt_ && state_ != api::InstrumentState::connecting)
     next_attempt_in_ms =
         std::max<long long>(0, std::chrono::duration_cast<milliseconds>(*next_attempt_ - SteadyClock::now()).count());
-  return {{"device", device_},
-          {"port", port_.empty() ? json(nullptr) : json(port_)},
-          {"state", std::string(api::to_string(state_.value()))},
-          {"since", api::api_time(to_store_time(state_.since()))},
-          {"last_error", last_error_.empty() ? json(nullptr) : json(last_error_)},
-          {"serial_number", serial_number_.empty() ? json(nullptr) : json(serial_number_)},
-          {"attempts", failed_attempts_},
-          {"next_attempt_in_ms", next_attempt_in_ms},
-          {"running_job", running_ ? json(*running_) : json(nullptr)},
-          {"queued", queue_.size()}};
+  json status = {{"device", device_},
+                 {"port", port_.empty() ? json(nullptr) : json(port_)},
+                 {"state", std::string(api::to_string(state_.value()))},
+                 {"since", api::api_time(to_store_time(state_.since()))},
+                 {"last_error", last_error_.empty() ? json(nullptr) : json(last_error_)},
+                 {"attempts", failed_attempts_},
+                 {"next_attempt_in_ms", next_attempt_in_ms},
+                 {"running_job", running_ ? json(*running_) : json(nullptr)},
+                 {"queued", queue_.size()}};
+  // Who the meter said it was when last reached: kept while it is lost, as its serial number
+  // tells which meter to look for.
+  status.update(identity_ ? drivers::identity_json(*identity_) : drivers::no_identity_json());
+  return status;
+}
+
+std::string Supervisor::meter_on_port() const {
+  std::string name = "meter";
+  if (identity_ && identity_->model) name = drivers::profile(*identity_->model).name;
+  else if (identity_ && !identity_->reported_model.empty()) name = identity_->reported_model;
+  return fmt::format("the {} on {}", name, port_);
 }
 
 json Supervisor::ports() const { return ports_json(drivers::list_ports()); }
@@ -90,7 +101,7 @@ std::optional<drivers::InstrumentError> Supervisor::ensure_connected() {
 // the connector's path, and measures on the new connection; a failure after the meter has
 // answered in this job, or after connecting again, is the job's.
 std::expected<drivers::Reading, drivers::InstrumentError> Supervisor::measure_reading(
-    std::shared_ptr<drivers::Pr650>& meter, const drivers::MeasureOptions& options, bool first_of_job) {
+    std::shared_ptr<drivers::Instrument>& meter, const drivers::MeasureOptions& options, bool first_of_job) {
   const std::uint64_t replies_before = meter->replies_received();
   auto reading = meter->measure(options);
   const bool never_answered = meter->replies_received() == replies_before;
@@ -118,7 +129,7 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
     std::lock_guard lock(mutex_);
     if (meter_ && meter_->connected()) {
       if (!meter_->link_closed()) return std::nullopt;
-      lose_meter(fmt::format("lost: the link to the PR-650 on {} was closed", port_));
+      lose_meter(fmt::format("lost: the link to {} was closed", meter_on_port()));
     }
     if (stopping_) return drivers::InstrumentError{Kind::cancelled, "the service is stopping", -1, {}};
     state_ = api::InstrumentState::connecting;
@@ -137,7 +148,8 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
     note_connect_failure(error, port);
     return error;
   }
-  auto meter = std::make_shared<drivers::Pr650>(std::move(*transport), drivers::driver_options_for(resolved->uri));
+  std::shared_ptr<drivers::Instrument> meter =
+      drivers::make_instrument(std::move(*transport), model_, drivers::instrument_options_for(resolved->uri));
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return drivers::InstrumentError{Kind::cancelled, "the service is stopping", -1, {}};
@@ -171,7 +183,7 @@ void Supervisor::note_connect_failure(const drivers::InstrumentError& error, con
   wake_.notify_all();
 }
 
-void Supervisor::note_connected(const std::shared_ptr<drivers::Pr650>& meter, const ResolvedDevice& resolved,
+void Supervisor::note_connected(const std::shared_ptr<drivers::Instrument>& meter, const ResolvedDevice& resolved,
                                 const drivers::Identity& identity) {
   auto id = db_.ensure_instrument(instrument_record(identity, device_));
   if (!id)
@@ -179,7 +191,7 @@ void Supervisor::note_connected(const std::shared_ptr<drivers::Pr650>& meter, co
                   store::to_string(id.error().kind), id.error().message);
   std::lock_guard lock(mutex_);
   meter_ = meter;  // again: a detach reported while connecting is outdated by this contact
-  serial_number_ = identity.serial_number;
+  identity_ = identity;
   if (id) instrument_id_ = *id;
   adapter_ = resolved.adapter;
   ever_connected_ = true;
@@ -188,7 +200,10 @@ void Supervisor::note_connected(const std::shared_ptr<drivers::Pr650>& meter, co
   next_check_ = SteadyClock::now() + link_.check_interval;
   next_hangup_look_ = SteadyClock::now() + kHangupLook;
   state_ = api::InstrumentState::connected;
-  spdlog::info("event=instrument_connected device=\"{}\" port=\"{}\" serial={}", device_, port_, serial_number_);
+  spdlog::info("event=instrument_connected device=\"{}\" port=\"{}\" model=\"{}\" serial={}", device_, port_,
+               identity.reported_model, identity.serial_number);
+  for (const auto& warning : identity.warnings)
+    spdlog::warn("event=instrument_identity serial={} warning=\"{}\"", identity.serial_number, warning);
 }
 
 // ---- In the background ------------------------------------------------------------------
@@ -232,7 +247,7 @@ std::optional<SteadyClock::time_point> Supervisor::next_link_action() const {
 
 void Supervisor::connect_or_check() {
   std::lock_guard wire(wire_mutex_);
-  std::shared_ptr<drivers::Pr650> meter;
+  std::shared_ptr<drivers::Instrument> meter;
   {
     std::lock_guard lock(mutex_);
     // A job came meanwhile: its worker connects (at once, without waiting for the backoff).
@@ -245,7 +260,7 @@ void Supervisor::connect_or_check() {
   }
   if (meter->link_closed()) {
     std::lock_guard lock(mutex_);
-    if (meter_ == meter) lose_meter(fmt::format("lost: the link to the PR-650 on {} was closed", port_));
+    if (meter_ == meter) lose_meter(fmt::format("lost: the link to {} was closed", meter_on_port()));
     return;
   }
   bool check_due = false;
@@ -259,7 +274,7 @@ void Supervisor::connect_or_check() {
 
 // An idle meter is asked for its serial number, a short exchange that changes none of its
 // settings, to notice a meter that was switched off or a link that broke while nobody measured.
-void Supervisor::check_holding_wire(const std::shared_ptr<drivers::Pr650>& meter) {
+void Supervisor::check_holding_wire(const std::shared_ptr<drivers::Instrument>& meter) {
   auto identity = meter->identify();
   {
     std::lock_guard lock(mutex_);

@@ -67,7 +67,13 @@ std::string no_white_reference(const store::Store& db, store::Id session_id) {
 
 Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int attempt,
                                                       const drivers::InstrumentError& error) {
-  store::RejectedReading r = rejected_reading_record(error, attempt, to_store_time(std::chrono::system_clock::now()));
+  drivers::Family family = drivers::Family::pr650;
+  {
+    std::lock_guard lock(mutex_);
+    if (identity_) family = identity_->family;
+  }
+  store::RejectedReading r =
+      rejected_reading_record(error, family, attempt, to_store_time(std::chrono::system_clock::now()));
   r.session_id = job.session_id.value_or(0);
   r.job_id = job.id;
   r.instrument_id = instrument_id_;
@@ -77,7 +83,7 @@ Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int
 }
 
 Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const api::MeasureRequest& request,
-                                                 std::shared_ptr<drivers::Pr650>& meter, Readings& out) {
+                                                 std::shared_ptr<drivers::Instrument>& meter, Readings& out) {
   drivers::MeasureOptions options;
   options.integration_ms = request.integration_ms;
   report_progress(api::JobPhase::measuring, 0);
@@ -178,7 +184,7 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
     note_instrument_error(*error);
     return std::unexpected(job_error(*error));
   }
-  std::shared_ptr<drivers::Pr650> meter;
+  std::shared_ptr<drivers::Instrument> meter;
   {
     std::lock_guard lock(mutex_);
     if (cancel_requested()) return std::unexpected(cancellation(*cancel_running_));

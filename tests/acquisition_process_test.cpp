@@ -23,43 +23,6 @@ using namespace std::chrono_literals;
 
 const std::string kForearm = std::string(SKINSPEC_TEST_DATA_DIR) + "/examples/forearm.csv";
 
-// The forearm file's first subject, resampled as the simulator does: linearly onto 380-780
-// nm every 4 nm, the ends held.
-std::vector<double> first_subject_on_4nm() {
-  std::ifstream in(kForearm);
-  std::vector<double> wl, r;
-  bool header = false;
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    if (!header) {
-      header = true;
-      continue;
-    }
-    std::stringstream cells(line);
-    std::string a, b;
-    std::getline(cells, a, ',');
-    std::getline(cells, b, ',');
-    wl.push_back(std::stod(a));
-    r.push_back(std::stod(b));
-  }
-  std::vector<double> out;
-  for (int w = 380; w <= 780; w += 4) {
-    if (w <= wl.front()) {
-      out.push_back(r.front());
-      continue;
-    }
-    if (w >= wl.back()) {
-      out.push_back(r.back());
-      continue;
-    }
-    std::size_t i = 1;
-    while (wl[i] < w) ++i;
-    const double t = (w - wl[i - 1]) / (wl[i] - wl[i - 1]);
-    out.push_back(r[i - 1] + t * (r[i] - r[i - 1]));
-  }
-  return out;
-}
-
 class AcquisitionTest : public ::testing::Test {
  protected:
   ScratchDirectory dir_;
@@ -102,7 +65,7 @@ TEST_F(AcquisitionTest, WhiteThenSampleStoresTheSourceReflectanceAndItsFit) {
           .json();
   EXPECT_EQ(m["kind"], "sample");
   EXPECT_EQ(m["reading_count"], 1);
-  const auto expected = first_subject_on_4nm();
+  const auto expected = first_subject_on_grid(kForearm, 380, 780, 4);
   const auto& stored = m["reflectance"]["values"];
   ASSERT_EQ(stored.size(), expected.size()) << m;
   for (std::size_t i = 0; i < expected.size(); ++i)
@@ -198,11 +161,16 @@ TEST_F(AcquisitionTest, TheStoredInstrumentConfigurationIsWhatTheMeterReports) {
   const auto identity = identify_directly(rig.sim_port);
   ASSERT_TRUE(identity) << identity.error();
   const auto& reported = identity->configuration;
-  EXPECT_EQ(stored, (json{{"points", reported.points},
+  EXPECT_EQ(stored, (json{{"model", "pr650"},
+                          {"reported_model", identity->reported_model},
+                          {"family", "pr650"},
+                          {"firmware", nullptr},  // the PR-650 has no firmware report
+                          {"points", reported.points},
                           {"bandwidth_nm", reported.bandwidth_nm},
                           {"first_nm", reported.first_nm},
                           {"last_nm", reported.last_nm},
                           {"step_nm", reported.step_nm}}));
+  EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT model FROM instruments"), identity->reported_model);
   EXPECT_EQ(stored["points"], m["radiance"]["values"].size());
   EXPECT_EQ(stored["first_nm"], m["radiance"]["wavelength_nm"].front());
   EXPECT_EQ(stored["last_nm"], m["radiance"]["wavelength_nm"].back());

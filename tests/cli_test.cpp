@@ -842,7 +842,24 @@ TEST(CliMeasure, RefusesABadDeviceUriWithStatus2) {
   const auto run = skinspec({"measure", "--device", "tcp:localhost"});
   EXPECT_EQ(run.exit_status, 2) << run.describe();
   EXPECT_THAT(run.err, ::testing::HasSubstr("--device 'tcp:localhost'"));
-  EXPECT_EQ(skinspec({"measure", "--device", "tcp:127.0.0.1:9", "--integration-ms", "5"}).exit_status, 2);
+}
+
+// An exposure outside the forced model's range, or outside every model's with auto, and a model
+// skinspec does not know are refused before anything is sent.
+TEST(CliMeasure, RefusesAnExposureOrModelItCannotUseWithStatus2) {
+  const auto pr650 = skinspec({"measure", "--device", "tcp:127.0.0.1:9", "--model", "pr650", "--integration-ms", "5"});
+  EXPECT_EQ(pr650.exit_status, 2) << pr650.describe();
+  EXPECT_THAT(pr650.err, ::testing::HasSubstr("expected 10-6000 (the PR-650's range)"));
+  const auto pr730 = skinspec({"measure", "--device", "tcp:127.0.0.1:9", "--model", "PR730", "--integration-ms", "10"});
+  EXPECT_EQ(pr730.exit_status, 2) << pr730.describe();
+  EXPECT_THAT(pr730.err, ::testing::HasSubstr("expected 12-120000 (the PR-730's range)"));
+  const auto any = skinspec({"measure", "--device", "tcp:127.0.0.1:9", "--integration-ms", "2"});
+  EXPECT_EQ(any.exit_status, 2) << any.describe();
+  EXPECT_THAT(any.err, ::testing::HasSubstr("what any model takes"));
+  const auto model = skinspec({"measure", "--device", "tcp:127.0.0.1:9", "--model", "pr999"});
+  EXPECT_EQ(model.exit_status, 2) << model.describe();
+  EXPECT_THAT(model.err, ::testing::HasSubstr("--model: unknown model 'pr999' (one of: auto, pr650"));
+  EXPECT_EQ(model.out, "");
 }
 
 TEST(CliMeasure, AnUnreachableInstrumentIsStatus3) {

@@ -349,6 +349,28 @@ TEST_F(DaemonTest, ConfigFileSetsOptionsAndFlagsWin) {
   EXPECT_EQ(bad.exit_status, 2) << bad.describe();
 }
 
+// A model skinspec does not know, as a flag or in the config file, is a bad option: exit 2 with
+// the models it knows, before any database is made.
+TEST_F(DaemonTest, AnUnknownModelIsABadOption) {
+  const auto flag = run_process(kDaemon, {"--db", dir_.file("m.db"), "--device", "tcp:127.0.0.1:9", "--model", "pr999"},
+                                {.stdin_bytes = {}, .timeout = 30s, .environment = {}});
+  EXPECT_EQ(flag.exit_status, 2) << flag.describe();
+  EXPECT_NE(flag.err.find("--model: unknown model 'pr999' (one of: auto, pr650, pr655, pr670"), std::string::npos)
+      << flag.err;
+  const std::string config = dir_.file("model.json");
+  std::ofstream(config) << R"({"model": "PR-670"})";
+  const auto configured = run_process(kDaemon, {"--db", dir_.file("m.db"), "--config", config},
+                                      {.stdin_bytes = {}, .timeout = 30s, .environment = {}});
+  EXPECT_EQ(configured.exit_status, 2) << configured.describe();
+  EXPECT_NE(configured.err.find("unknown model 'PR-670'"), std::string::npos) << configured.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_.file("m.db")));
+  std::ofstream(config) << R"({"model": 670})";
+  EXPECT_EQ(run_process(kDaemon, {"--db", dir_.file("m.db"), "--config", config},
+                        {.stdin_bytes = {}, .timeout = 30s, .environment = {}})
+                .exit_status,
+            2);
+}
+
 TEST_F(DaemonTest, SigtermFinishesTheRequestInFlight) {
   Daemon d(dir_.file("stop.db"));
   ASSERT_NE(d.port(), 0) << d.process().err();

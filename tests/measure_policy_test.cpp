@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "measure_policy.hpp"
+#include "skinspec/drivers/pr6xx_protocol.hpp"
 #include "store_records.hpp"
 
 namespace skinspec::daemon {
@@ -62,30 +63,66 @@ TEST(StoreRecordsTest, SettingsNameWhatWasAskedAndWhatTheMeterDid) {
                 {"integration_ms", 0}, {"count", 2}, {"rejected_readings", 1}, {"averages", 3}, {"sync", "off"}}));
 }
 
-TEST(StoreRecordsTest, TheInstrumentKeepsTheConfigurationTheMeterReported) {
+TEST(StoreRecordsTest, TheInstrumentKeepsTheModelAndConfigurationTheMeterReported) {
   drivers::Identity identity;
-  identity.serial_number = "60912345";
-  identity.configuration = {201, 5.0, 360, 830, 2.5};
+  identity.model = drivers::Model::pr730;
+  identity.family = drivers::Family::pr7xx;
+  identity.reported_model = "PR-730/735";
+  identity.serial_number = "73000001";
+  identity.firmware = "2.22D";
+  identity.grid = {380, 780, 1, 401};
+  identity.configuration = {401, 0.5, 380, 780, 1};
   const auto record = instrument_record(identity, "usb:0403:6001");
-  EXPECT_EQ(record.model, "PR-650");
-  EXPECT_EQ(record.serial_number, "60912345");
+  EXPECT_EQ(record.model, "PR-730/735");  // as the meter names itself
+  EXPECT_EQ(record.serial_number, "73000001");
   EXPECT_EQ(record.connection, "usb:0403:6001");
-  EXPECT_EQ(nlohmann::json::parse(record.spectral_configuration),
-            (nlohmann::json{
-                {"points", 201}, {"bandwidth_nm", 5.0}, {"first_nm", 360.0}, {"last_nm", 830.0}, {"step_nm", 2.5}}));
+  EXPECT_EQ(nlohmann::json::parse(record.spectral_configuration), (nlohmann::json{{"model", "pr730"},
+                                                                                  {"reported_model", "PR-730/735"},
+                                                                                  {"family", "pr7xx"},
+                                                                                  {"firmware", "2.22D"},
+                                                                                  {"points", 401},
+                                                                                  {"first_nm", 380},
+                                                                                  {"last_nm", 780},
+                                                                                  {"step_nm", 1},
+                                                                                  {"bandwidth_nm", 0.5}}));
+}
+
+// A PR-650 has no firmware report, and a model skinspec does not know has no model id.
+TEST(StoreRecordsTest, WhatTheMeterDidNotSayIsStoredAsNull) {
+  drivers::Identity identity;
+  identity.reported_model = "PR-650";
+  identity.serial_number = "60912345";
+  identity.grid = {380, 780, 4, 101};
+  identity.configuration = {101, 8, 380, 780, 4};
+  const auto configuration = nlohmann::json::parse(instrument_record(identity, "tcp:h:1").spectral_configuration);
+  EXPECT_TRUE(configuration["model"].is_null()) << configuration;
+  EXPECT_TRUE(configuration["firmware"].is_null()) << configuration;
+  EXPECT_EQ(configuration["family"], "pr650");
+  EXPECT_EQ(configuration["points"], 101);
+  EXPECT_EQ(configuration["bandwidth_nm"], 8.0);
 }
 
 TEST(StoreRecordsTest, ARejectedReadingKeepsItsCodeReasonAndRawReply) {
   const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "quality 19: overload", 19,
                                        "19,0\r\n"};
   const store::Time at(std::chrono::seconds(5));
-  const auto r = rejected_reading_record(error, 3, at);
+  const auto r = rejected_reading_record(error, drivers::Family::pr650, 3, at);
   EXPECT_EQ(r.attempt, 3);
   EXPECT_EQ(r.quality_code, 19);
   EXPECT_EQ(r.quality, drivers::pr650::quality_message(19));
   EXPECT_EQ(r.reason, "bad_reading: quality 19: overload");
   EXPECT_EQ(r.raw_reply, "19,0\r\n");
   EXPECT_EQ(r.measured_at, at);
+}
+
+// A newer meter's negative status is worded by its own table, not the PR-650's quality codes.
+TEST(StoreRecordsTest, ARejectedReadingOfANewerMeterIsWordedByItsFamilysTable) {
+  const drivers::InstrumentError error{drivers::InstrumentError::Kind::bad_reading, "too dark: weak light signal (-8)",
+                                       -8, "-8\r\n"};
+  const auto r = rejected_reading_record(error, drivers::Family::pr6xx, 1, store::Time{});
+  EXPECT_EQ(r.quality_code, -8);
+  EXPECT_EQ(r.quality, drivers::pr6xx::error_message(-8));
+  EXPECT_NE(r.quality, drivers::pr650::quality_message(-8));
 }
 
 TEST(MeasurePolicyTest, BandIntegratedRadianceIsTheTrapezoidSum) {

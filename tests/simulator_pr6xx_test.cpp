@@ -360,6 +360,25 @@ TEST(SimulatorPr6xx, LostPhotoAndLostQ) {
   EXPECT_EQ(rig.meter().mode(), SimulatedMeter::Mode::local);
 }
 
+// A host that sends Q during a measurement and closes its port at once (as skinspecd does when
+// it stops): the PR-670 has no abort, finishes, answers no one, and then leaves remote mode.
+TEST(SimulatorPr6xx, QSentDuringAMeasurementByAHostThatLeftStillLeavesRemoteMode) {
+  MeterOptions options = options_for(Model::pr670);
+  using namespace std::chrono_literals;
+  options.time_scale = 0.2;  // the measurement takes about 0.3 s
+  MeterRig rig(white_for(Model::pr670), options);
+  EXPECT_EQ(ask(*rig.host(), "PHOTO"), p6::kBanner);
+  drivers::Transport& host = *rig.host();
+  ASSERT_TRUE(host.write("M5\r", drivers::deadline_in(1s)));
+  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(host.write(p6::kQuit, drivers::deadline_in(1s)));
+  host.close();
+  EXPECT_EQ(rig.wait_for_end(5s), SimulatedMeter::ServeEnd::closed);
+  EXPECT_EQ(rig.meter().mode(), SimulatedMeter::Mode::local);
+  const auto log = rig.log();
+  EXPECT_NE(std::ranges::find(log, "command Q: remote mode left"), log.end()) << ::testing::PrintToString(log);
+}
+
 TEST(SimulatorPr6xx, TruncatedSpectrumAndMeasurementErrors) {
   Remote meter(Model::pr670, {"d5:truncate=100", "m5:error=-12@2", "p:error=-1"});
   EXPECT_EQ(ask(meter.link(), "M5\r").size(), 40u + 201 * 15) << "header and data lines whole";

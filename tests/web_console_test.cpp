@@ -100,7 +100,14 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   ASSERT_TRUE(browser_->wait_until("return !!document.querySelector(\"#measurements tr[data-measurement='1']\");"));
   EXPECT_TRUE(browser_->wait_until("return document.getElementById('instrument-state').textContent === 'connected';"))
       << browser_->run("return document.getElementById('instrument').textContent;");
-  EXPECT_EQ(get("/api/v1/instrument")["state"], "connected");
+  const json instrument = get("/api/v1/instrument");
+  EXPECT_EQ(instrument["state"], "connected");
+  // The meter as it named itself, and its serial number.
+  EXPECT_EQ(instrument["reported_model"], "PR-650");
+  EXPECT_EQ(browser_->run("return document.getElementById('instrument-model').textContent;"),
+            instrument["reported_model"]);
+  EXPECT_EQ(browser_->run("return document.getElementById('instrument-serial').textContent;"),
+            "S/N " + instrument["serial_number"].get<std::string>());
   browser_->run(
       "document.getElementById('count').value = '3'; document.getElementById('label').value = 'left forearm';");
   browser_->click(browser_->find("#measure-sample"));

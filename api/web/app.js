@@ -13,6 +13,7 @@ async function showInstrument() {
     const s = await api("GET", "/api/v1/instrument");
     const parts = [h("span", { class: `pill ${s.state}`, id: "instrument-state" }, s.state)];
     if (s.port || s.device) parts.push(h("span", { id: "instrument-port" }, s.port || s.device));
+    if (s.reported_model) parts.push(h("span", { id: "instrument-model", title: s.family ? `family ${s.family}` : "" }, s.reported_model));
     if (s.serial_number) parts.push(h("span", { id: "instrument-serial" }, `S/N ${s.serial_number}`));
     if (s.queued) parts.push(h("span", {}, `${s.queued} queued`));
     if (s.last_error && s.state !== "connected") parts.push(h("span", { class: "warn" }, s.last_error));

@@ -151,6 +151,7 @@ struct SimulatedMeter::Impl {
   std::optional<Outgoing> take_unprompted();
   Outgoing outgoing(detail::Reply reply, const std::vector<Fault>& faults);
   std::optional<ServeEnd> transmit(drivers::Transport& link, const std::atomic<bool>& stop, const Outgoing& out);
+  void act_on_unread(drivers::Transport& link, std::string_view unread);
 };
 
 Mode SimulatedMeter::Impl::current_mode() const {
@@ -333,6 +334,7 @@ Outgoing SimulatedMeter::Impl::outgoing(detail::Reply reply, const std::vector<F
 std::optional<ServeEnd> SimulatedMeter::Impl::transmit(drivers::Transport& link, const std::atomic<bool>& stop,
                                                        const Outgoing& out) {
   if (!wait(out.delay_ms, stop)) return ServeEnd::stopped;
+  if (link.peer_closed()) return ServeEnd::closed;  // the host left while the meter was busy
   switch (send(link, stop, out.bytes, out.interval_ms)) {
     case Sent::ok:
       break;
@@ -348,6 +350,26 @@ std::optional<ServeEnd> SimulatedMeter::Impl::transmit(drivers::Transport& link,
   }
   if (out.prompt && !link.write(">", drivers::deadline_in(kWriteTimeout))) return ServeEnd::closed;
   return std::nullopt;
+}
+
+// A host that went away while the meter measured or talked: what it had sent before is in the
+// meter's input buffer all the same, so the meter acts on it (a Q leaves remote mode) and answers
+// no one.
+void SimulatedMeter::Impl::act_on_unread(drivers::Transport& link, std::string_view unread) {
+  std::string bytes(unread);
+  char buffer[512];
+  while (auto n = link.read(buffer, sizeof buffer, drivers::deadline_in(kPoll))) {
+    if (*n == 0) break;
+    bytes.append(buffer, *n);
+  }
+  for (const char c : bytes) {
+    bool remote = false;
+    {
+      std::lock_guard lock(mutex);
+      remote = current_mode() == Mode::remote;
+    }
+    if (auto frame = framer->push(c, newer ? remote : true)) (void)take_frame(*frame);
+  }
 }
 
 namespace {
@@ -392,7 +414,8 @@ SimulatedMeter::ServeEnd SimulatedMeter::serve(drivers::Transport& link, const s
       received = survived;
     }
     std::string echoed;
-    for (const char c : received) {
+    for (std::size_t i = 0; i < received.size(); ++i) {
+      const char c = received[i];
       bool remote = false;
       {
         std::lock_guard lock(m.mutex);
@@ -406,7 +429,10 @@ SimulatedMeter::ServeEnd SimulatedMeter::serve(drivers::Transport& link, const s
         return ServeEnd::closed;
       auto out = m.take_frame(*frame);
       if (!out) continue;
-      if (auto end = m.transmit(link, stop, *out)) return *end;
+      if (auto end = m.transmit(link, stop, *out)) {
+        if (*end == ServeEnd::closed) m.act_on_unread(link, received.substr(i + 1));
+        return *end;
+      }
       if (auto more = m.take_unprompted())
         if (auto end = m.transmit(link, stop, *more)) return *end;
     }

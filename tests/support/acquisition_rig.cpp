@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <csignal>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "support/http_client.hpp"
@@ -84,6 +85,42 @@ void AcquisitionRig::restart_daemon(std::vector<std::string> extra_args) {
 void AcquisitionRig::restart_sim() {
   stop(sim);
   start_sim("127.0.0.1:" + std::to_string(sim_port));
+}
+
+std::vector<double> first_subject_on_grid(const std::string& csv_path, int first_nm, int last_nm, int step_nm) {
+  std::ifstream in(csv_path);
+  std::vector<double> wl, r;
+  bool header = false;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    if (!header) {
+      header = true;
+      continue;
+    }
+    std::stringstream cells(line);
+    std::string a, b;
+    std::getline(cells, a, ',');
+    std::getline(cells, b, ',');
+    wl.push_back(std::stod(a));
+    r.push_back(std::stod(b));
+  }
+  std::vector<double> out;
+  if (wl.empty()) return out;
+  for (int w = first_nm; w <= last_nm; w += step_nm) {
+    if (w <= wl.front()) {
+      out.push_back(r.front());
+      continue;
+    }
+    if (w >= wl.back()) {
+      out.push_back(r.back());
+      continue;
+    }
+    std::size_t i = 1;
+    while (wl[i] < w) ++i;
+    const double t = (w - wl[i - 1]) / (wl[i] - wl[i - 1]);
+    out.push_back(r[i - 1] + t * (r[i] - r[i - 1]));
+  }
+  return out;
 }
 
 long long new_session(unsigned short port, const std::string& subject) {

@@ -75,6 +75,10 @@ class AcquisitionRig {
   RigOptions options_;
 };
 
+// The first subject of a spectra CSV file (the simulator's --reflectance) as the simulator puts
+// it on a meter's grid: linearly interpolated onto first_nm..last_nm by step_nm, the ends held.
+std::vector<double> first_subject_on_grid(const std::string& csv_path, int first_nm, int last_nm, int step_nm);
+
 using Headers = std::vector<std::pair<std::string, std::string>>;
 
 // A new session on the forearm; its id (0 when refused).

@@ -1,0 +1,259 @@
+// The newer meters end to end with real processes on loopback: skinspecd and `skinspec measure`
+// driving `skinspec-sim --model ...`. A whole session on the PR-670's 2 nm and the PR-730's 1 nm
+// grid stores the source's reflectance and the meter as it identified itself; SIGTERM to either
+// program leaves remote mode (Q) whether the meter is idle or measuring; `skinspec measure
+// --json` names the meter of each family.
+
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <sstream>
+
+#include "support/acquisition_rig.hpp"
+#include "support/http_client.hpp"
+#include "support/process.hpp"
+#include "support/service_processes.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec::testing {
+namespace {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+const std::string kForearm = std::string(SKINSPEC_TEST_DATA_DIR) + "/examples/forearm.csv";
+const std::string kSkinspec = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspec";
+constexpr std::string_view kQuitLogged = "command Q: remote mode left";
+
+// What skinspecd and skinspec are told of the meter (--model): the simulated model itself.
+// Identification by the meter's own answers makes this "auto".
+std::string model_flag(const std::string& model) { return model; }
+
+// A simulated model, what it should say of itself, and the serial number it is given.
+struct Meter {
+  std::string model;           // --model of skinspec-sim
+  std::string reported_model;  // its D111
+  std::string family;
+  std::string serial;
+  int first_nm, last_nm, step_nm, points;
+};
+
+const Meter kPr650{"pr650", "PR-650", "pr650", "60954321", 380, 780, 4, 101};
+const Meter kPr670{"pr670", "PR-670", "pr6xx", "67012345", 380, 780, 2, 201};
+const Meter kPr730{"pr730", "PR-730/735", "pr7xx", "73012345", 380, 780, 1, 401};
+
+std::ostream& operator<<(std::ostream& out, const Meter& meter) { return out << meter.model; }
+std::string model_name(const ::testing::TestParamInfo<Meter>& param) { return param.param.model; }
+
+json grid_of(const Meter& m) {
+  return {{"first_nm", m.first_nm}, {"last_nm", m.last_nm}, {"step_nm", m.step_nm}, {"points", m.points}};
+}
+
+// skinspec-sim as `meter` (time scale 0 unless given) and skinspecd told its model.
+RigOptions rig_for(const ScratchDirectory& dir, const Meter& meter, const std::string& time_scale = "0") {
+  return rig_options(dir.path().string(),
+                     {"--model", meter.model, "--serial", meter.serial, "--time-scale", time_scale},
+                     {"--model", model_flag(meter.model)});
+}
+
+long long id_of(const json& job, const char* key) { return job["result"][key].get<long long>(); }
+
+// Polls GET /api/v1/instrument until the meter is connected (or 30 s pass); the last answer.
+json when_connected(unsigned short port) {
+  json status;
+  for (auto until = std::chrono::steady_clock::now() + 30s; std::chrono::steady_clock::now() < until;) {
+    status = get_json(port, "/api/v1/instrument");
+    if (status.value("state", "") == "connected") break;
+    std::this_thread::sleep_for(50ms);
+  }
+  return status;
+}
+
+// One simulated meter per test, in a scratch directory of its own.
+class MeterTest : public ::testing::TestWithParam<Meter> {
+ protected:
+  ScratchDirectory dir_;
+};
+using Pr6xxSessionTest = MeterTest;
+using Pr6xxStopTest = MeterTest;
+using MeasureCommandTest = MeterTest;
+
+// White, then samples: the stored reflectance is the simulator's source on the meter's own
+// grid, it is fitted, and the instrument is stored and shown as the meter identified itself.
+TEST_P(Pr6xxSessionTest, AWholeSessionStoresTheSourceReflectanceOnTheMetersGrid) {
+  const Meter& meter = GetParam();
+  AcquisitionRig rig(rig_for(dir_, meter));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const auto p = rig.port;
+  const long long session = new_session(p, "N1");
+  ASSERT_NE(session, 0);
+  const auto white = wait_for_job(p, submit(p, session, {{"kind", "white"}}));
+  ASSERT_EQ(white["state"], "succeeded") << white << rig.logs();
+
+  const json instrument = get_json(p, "/api/v1/instrument");
+  EXPECT_EQ(instrument["state"], "connected") << instrument;
+  EXPECT_EQ(instrument["model"], meter.model) << instrument;
+  EXPECT_EQ(instrument["reported_model"], meter.reported_model);
+  EXPECT_EQ(instrument["family"], meter.family);
+  EXPECT_EQ(instrument["serial_number"], meter.serial);
+  EXPECT_TRUE(instrument["firmware"].is_string()) << instrument;
+  EXPECT_EQ(instrument["grid"], grid_of(meter));
+  EXPECT_EQ(instrument["warnings"], json::array());
+  const json documented = get_json(p, "/openapi.json")["components"]["schemas"]["Instrument"]["properties"];
+  for (const auto& [key, value] : instrument.items()) EXPECT_TRUE(documented.contains(key)) << key;
+
+  const auto job = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  ASSERT_EQ(job["state"], "succeeded") << job << rig.logs();
+  EXPECT_EQ(job["result"]["warnings"], json::array()) << job;
+  const auto m = get_json(p, "/api/v1/measurements/" + std::to_string(id_of(job, "measurement_id")));
+  ASSERT_EQ(m["radiance"]["wavelength_nm"].size(), static_cast<std::size_t>(meter.points)) << m;
+  EXPECT_EQ(m["radiance"]["wavelength_nm"].front(), meter.first_nm);
+  EXPECT_EQ(m["radiance"]["wavelength_nm"][1], meter.first_nm + meter.step_nm);
+  EXPECT_EQ(m["radiance"]["wavelength_nm"].back(), meter.last_nm);
+  EXPECT_EQ(m["reflectance"]["wavelength_nm"], m["radiance"]["wavelength_nm"]);
+  const auto expected = first_subject_on_grid(kForearm, meter.first_nm, meter.last_nm, meter.step_nm);
+  const auto& stored = m["reflectance"]["values"];
+  ASSERT_EQ(stored.size(), expected.size()) << m;
+  // Sample and white are each printed with four significant digits: 1e-3 of the value at most.
+  for (std::size_t i = 0; i < expected.size(); ++i)
+    EXPECT_NEAR(stored[i].get<double>(), expected[i], 1e-3 * expected[i] + 1e-6)
+        << "at " << meter.first_nm + meter.step_nm * static_cast<int>(i) << " nm";
+
+  ASSERT_TRUE(job["result"]["fit_id"].is_number_integer()) << job;
+  const auto fit = get_json(p, "/api/v1/fits/" + std::to_string(id_of(job, "fit_id")));
+  EXPECT_EQ(fit["wavelength_nm"].size(), static_cast<std::size_t>(meter.points)) << fit;
+  EXPECT_EQ(fit["measured"], stored);
+  EXPECT_LT(fit["rmse"].get<double>(), 0.05) << fit;
+
+  // The instrument's record: the model as the meter names itself, its serial number, and which
+  // meter and grid it reported.
+  const std::string where =
+      " FROM instruments WHERE id = " + std::to_string(m["provenance"]["instrument_id"].get<long long>());
+  EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT model" + where), meter.reported_model);
+  EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT serial_number" + where), meter.serial);
+  const json configuration = json::parse(sqlite_text(rig.db_path(), "SELECT spectral_configuration" + where));
+  EXPECT_EQ(configuration["model"], meter.model) << configuration;
+  EXPECT_EQ(configuration["reported_model"], meter.reported_model);
+  EXPECT_EQ(configuration["family"], meter.family);
+  EXPECT_EQ(configuration["firmware"], instrument["firmware"]);
+  EXPECT_TRUE(configuration["bandwidth_nm"].is_number()) << configuration;
+  const json grid = grid_of(meter);
+  for (const auto& [key, value] : grid.items()) EXPECT_EQ(configuration[key], value) << key;
+
+  // The export reads it back as the service shows it.
+  const auto stopped = rig.stop_daemon();
+  ASSERT_TRUE(stopped.exited()) << stopped.describe();
+  const auto exported = run_process(kSkinspec, {"export", "--db", rig.db_path(), "--format", "json"});
+  ASSERT_EQ(exported.exit_status, 0) << exported.describe();
+  const json line = json::parse(exported.out.substr(0, exported.out.find('\n')));
+  ASSERT_EQ(line["instruments"].size(), 1u) << line;
+  EXPECT_EQ(line["instruments"][0]["model"], meter.reported_model);
+  EXPECT_EQ(line["instruments"][0]["spectral_configuration"], configuration);
+}
+
+INSTANTIATE_TEST_SUITE_P(NewerMeters, Pr6xxSessionTest, ::testing::Values(kPr670, kPr730), model_name);
+
+// Whether the simulator's log has the meter leaving remote mode after `after` (within `limit`).
+bool quit_logged_after(BackgroundProcess& sim, std::string_view after, std::chrono::milliseconds limit) {
+  for (auto until = std::chrono::steady_clock::now() + limit; std::chrono::steady_clock::now() < until;) {
+    const std::string log = sim.err();
+    const auto mark = log.find(after);
+    if (mark != std::string::npos && log.find(kQuitLogged, mark) != std::string::npos) return true;
+    std::this_thread::sleep_for(20ms);
+  }
+  return false;
+}
+
+// SIGTERM with the meter connected and idle: it is sent Q, leaving remote mode.
+TEST_P(Pr6xxStopTest, SigtermLeavesRemoteModeWhenIdle) {
+  const Meter& meter = GetParam();
+  AcquisitionRig rig(rig_for(dir_, meter));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  ASSERT_EQ(when_connected(rig.port)["state"], "connected") << rig.logs();
+  ASSERT_TRUE(rig.sim->wait_for_stderr("command PHOTO: remote mode", 5s)) << rig.logs();
+  EXPECT_EQ(rig.sim->err().find(kQuitLogged), std::string::npos) << "left remote mode before the test asked";
+  const auto stopped = rig.stop_daemon();
+  EXPECT_EQ(stopped.exit_status, 0) << stopped.describe();
+  EXPECT_TRUE(quit_logged_after(*rig.sim, "command PHOTO: remote mode", 10s)) << rig.logs();
+}
+
+// SIGTERM while the meter measures: the measurement is cancelled (a PR-7xx's with A; a PR-670
+// has no abort and finishes it), the job ends stopped, and Q still goes out.
+TEST_P(Pr6xxStopTest, SigtermDuringAMeasurementCancelsItAndStillLeavesRemoteMode) {
+  const Meter& meter = GetParam();
+  // At time scale 0.2 a 6 s exposure keeps the simulated meter busy for about 2.5 s.
+  AcquisitionRig rig(rig_for(dir_, meter, "0.2"));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const long long session = new_session(rig.port, "N2");
+  const auto accepted = submit(rig.port, session, {{"kind", "white"}, {"integration_ms", 6000}});
+  ASSERT_TRUE(accepted.contains("job_id")) << accepted;
+  ASSERT_TRUE(rig.sim->wait_for_stderr("measured '", 30s)) << rig.logs();
+  const auto stopped = rig.stop_daemon();
+  EXPECT_EQ(stopped.exit_status, 0) << stopped.describe();
+  EXPECT_TRUE(quit_logged_after(*rig.sim, "measured '", 20s)) << rig.logs();
+  const std::string job = std::to_string(accepted["job_id"].get<long long>());
+  EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT state FROM jobs WHERE id = " + job), "cancelled");
+  EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT json_extract(error, '$.code') FROM jobs WHERE id = " + job), "stopped");
+  EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT COUNT(*) FROM measurements"), "0");
+}
+
+INSTANTIATE_TEST_SUITE_P(NewerMeters, Pr6xxStopTest, ::testing::Values(kPr670, kPr730), model_name);
+
+std::vector<json> json_lines(const std::string& out) {
+  std::vector<json> lines;
+  std::istringstream in(out);
+  for (std::string line; std::getline(in, line);) lines.push_back(json::parse(line, nullptr, false));
+  return lines;
+}
+
+// `skinspec measure --json` names the meter with each reading: model, the model it reports,
+// serial number, firmware and grid, on which the reading lies.
+TEST_P(MeasureCommandTest, JsonReadingsNameTheMeter) {
+  const Meter& meter = GetParam();
+  auto sim = start_simulator(dir_, "127.0.0.1:0", {"--model", meter.model, "--serial", meter.serial});
+  ASSERT_NE(sim.port, 0) << sim.process->err();
+  const auto result = run_process(kSkinspec, {"measure", "--device", "tcp:127.0.0.1:" + std::to_string(sim.port),
+                                              "--model", model_flag(meter.model), "--count", "2", "--json"});
+  ASSERT_EQ(result.exit_status, 0) << result.describe() << sim.process->err();
+  const auto readings = json_lines(result.out);
+  ASSERT_EQ(readings.size(), 2u) << result.out;
+  for (const auto& reading : readings) {
+    ASSERT_TRUE(reading.is_object()) << result.out;
+    const json& instrument = reading["instrument"];
+    EXPECT_EQ(instrument["model"], meter.model) << reading.dump().substr(0, 400);
+    EXPECT_EQ(instrument["reported_model"], meter.reported_model);
+    EXPECT_EQ(instrument["family"], meter.family);
+    EXPECT_EQ(instrument["serial_number"], meter.serial);
+    EXPECT_EQ(reading["serial"], meter.serial);
+    // The PR-650 has no firmware report.
+    EXPECT_EQ(instrument["firmware"].is_string(), meter.family != "pr650") << instrument;
+    EXPECT_EQ(instrument["grid"], grid_of(meter));
+    EXPECT_EQ(reading["radiance"].size(), static_cast<std::size_t>(meter.points));
+    EXPECT_EQ(reading["wavelength_nm"].back(), meter.last_nm);
+  }
+  // A newer meter is let go of with Q when the command ends.
+  if (meter.family != "pr650") {
+    EXPECT_TRUE(sim.process->wait_for_stderr(kQuitLogged, 5s)) << sim.process->err();
+  }
+}
+
+// SIGTERM while `skinspec measure` waits for a PR-670's measurement: it stops with status 3, and
+// the meter is let go of with Q, which it acts on once the measurement is over.
+TEST(MeasureCommandSignals, SigtermDuringAMeasurementStillLeavesRemoteMode) {
+  ScratchDirectory dir;
+  auto sim = start_simulator(dir, "127.0.0.1:0", {"--model", kPr670.model}, "0.2");
+  ASSERT_NE(sim.port, 0) << sim.process->err();
+  BackgroundProcess measure(kSkinspec, {"measure", "--device", "tcp:127.0.0.1:" + std::to_string(sim.port), "--model",
+                                        model_flag(kPr670.model), "--integration-ms", "6000"});
+  ASSERT_TRUE(sim.process->wait_for_stderr("measured '", 30s)) << sim.process->err();
+  measure.send_signal(SIGTERM);
+  const auto ended = measure.wait(20s);
+  EXPECT_EQ(ended.exit_status, 3) << ended.describe();
+  EXPECT_NE(ended.err.find("stopped by SIGTERM"), std::string::npos) << ended.err;
+  EXPECT_TRUE(quit_logged_after(*sim.process, "measured '", 20s)) << sim.process->err();
+}
+
+INSTANTIATE_TEST_SUITE_P(EachFamily, MeasureCommandTest, ::testing::Values(kPr650, kPr670, kPr730), model_name);
+
+}  // namespace
+}  // namespace skinspec::testing
