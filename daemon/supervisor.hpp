@@ -148,6 +148,11 @@ class Supervisor final : public api::Acquisition {
   TrackedState state_;
   std::string last_error_;
   std::optional<drivers::Identity> identity_;  // of the last meter reached
+  // With --model auto, the model the last contact identified: tried first when connecting again,
+  // since the meter on the port is most likely the same, and probing every family of a meter
+  // that stays silent takes half a minute. Forgotten after a failed attempt, so the next one
+  // identifies afresh (another meter may have been plugged in).
+  std::optional<drivers::Model> expected_model_;
   std::optional<store::Id> instrument_id_;
   std::shared_ptr<drivers::Instrument> meter_;
 

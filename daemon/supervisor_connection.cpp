@@ -148,8 +148,13 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
     note_connect_failure(error, port);
     return error;
   }
+  drivers::ModelChoice choice = model_;
+  {
+    std::lock_guard lock(mutex_);
+    if (!choice.forced) choice.forced = expected_model_;
+  }
   std::shared_ptr<drivers::Instrument> meter =
-      drivers::make_instrument(std::move(*transport), model_, drivers::instrument_options_for(resolved->uri));
+      drivers::make_instrument(std::move(*transport), choice, drivers::instrument_options_for(resolved->uri));
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return drivers::InstrumentError{Kind::cancelled, "the service is stopping", -1, {}};
@@ -172,6 +177,7 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
 void Supervisor::note_connect_failure(const drivers::InstrumentError& error, const std::string& port) {
   std::lock_guard lock(mutex_);
   meter_.reset();
+  expected_model_.reset();
   port_ = port;
   ++failed_attempts_;
   last_error_ = describe(error);
@@ -192,6 +198,7 @@ void Supervisor::note_connected(const std::shared_ptr<drivers::Instrument>& mete
   std::lock_guard lock(mutex_);
   meter_ = meter;  // again: a detach reported while connecting is outdated by this contact
   identity_ = identity;
+  if (!model_.forced) expected_model_ = identity.model;
   if (id) instrument_id_ = *id;
   adapter_ = resolved.adapter;
   ever_connected_ = true;
@@ -275,12 +282,12 @@ void Supervisor::connect_or_check() {
 // An idle meter is asked for its serial number, a short exchange that changes none of its
 // settings, to notice a meter that was switched off or a link that broke while nobody measured.
 void Supervisor::check_holding_wire(const std::shared_ptr<drivers::Instrument>& meter) {
-  auto identity = meter->identify();
+  auto answered = meter->check();
   {
     std::lock_guard lock(mutex_);
     next_check_ = SteadyClock::now() + link_.check_interval;
   }
-  if (!identity && identity.error().kind != Kind::cancelled) note_instrument_error(identity.error());
+  if (!answered && answered.error().kind != Kind::cancelled) note_instrument_error(answered.error());
 }
 
 void Supervisor::on_usb_event(const drivers::UsbDeviceEvent& event) {
@@ -290,7 +297,7 @@ void Supervisor::on_usb_event(const drivers::UsbDeviceEvent& event) {
     if (!meter_) next_attempt_ = SteadyClock::now();
   } else if (meter_ && adapter_ && concerns(event, *adapter_)) {
     // The meter cannot be used any more; a running job fails on its own and says why.
-    lose_meter(fmt::format("lost: the USB adapter {:04x}:{:04x} of {} was unplugged", event.vendor_id, event.product_id,
+    lose_meter(fmt::format("lost: the USB device {:04x}:{:04x} of {} was unplugged", event.vendor_id, event.product_id,
                            port_));
   }
   wake_.notify_all();

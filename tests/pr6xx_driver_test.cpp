@@ -84,6 +84,18 @@ TEST(Pr6xxDriver, ConnectsAndIdentifiesEachFamilyOnItsGrid) {
   }
 }
 
+// The idle check asks for the serial number alone: the four identification reports would keep
+// a paced meter's line busy for about a second every few seconds.
+TEST(Pr6xxDriver, TheIdleCheckIsOneSerialNumberReport) {
+  Bench bench(Model::pr670);
+  ASSERT_TRUE(bench.driver->connect());
+  ASSERT_TRUE(bench.driver->identify());
+  const std::size_t before = bench.written().size();
+  const auto checked = bench.driver->check();
+  ASSERT_TRUE(checked) << checked.error().message;
+  EXPECT_EQ(bench.written().substr(before), "D110\r");
+}
+
 TEST(Pr6xxDriver, AFamilyMismatchIsRefusedWhenTheDriverIsMade) {
   EXPECT_THROW(Pr6xx(Model::pr730, make_memory_pair("x").first), std::invalid_argument);
   EXPECT_THROW(Pr7xx(Model::pr670, make_memory_pair("x").first), std::invalid_argument);

@@ -142,6 +142,25 @@ std::expected<Identity, InstrumentError> RemoteMeter::identify() {
   return query_identity();
 }
 
+std::expected<void, InstrumentError> RemoteMeter::check() {
+  std::lock_guard lock(call_mutex_);
+  session_->reset_cancel();
+  if (!identified_) {
+    if (auto identity = query_identity(); !identity) return std::unexpected(identity.error());
+    return {};
+  }
+  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
+  auto report = session_->ask(p6::format_report(110, options_.style), rule, "serial number", p6::parse_text_report);
+  if (!report) return std::unexpected(report.error());
+  if (report->status.code != 0)
+    return fail(InstrumentError::Kind::protocol, fmt::format("serial number: the {} answered {}", profile_.name,
+                                                             p6::error_message(report->status.code)));
+  if (report->text != identity_.serial_number)
+    return fail(InstrumentError::Kind::lost,
+                fmt::format("another meter answers: serial number {}, was {}", report->text, identity_.serial_number));
+  return {};
+}
+
 // D111, D110, D114, D120. D120's grid is the one every spectrum must lie on; the profile's grid
 // only says which answers are documented.
 std::expected<Identity, InstrumentError> RemoteMeter::query_identity() {

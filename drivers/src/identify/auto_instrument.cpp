@@ -42,6 +42,11 @@ class AutoInstrument final : public Instrument {
     return replies_before_ + (probe_ ? probe_->replies() : 0) + (driver_ ? driver_->replies_received() : 0);
   }
   std::expected<Identity, InstrumentError> identify() override;
+  std::expected<void, InstrumentError> check() override {
+    auto driver = current();
+    if (!driver) return std::unexpected(not_connected());
+    return driver->check();
+  }
   std::expected<Reading, InstrumentError> measure(const MeasureOptions& options) override {
     auto driver = current();
     if (!driver) return std::unexpected(not_connected());

@@ -324,6 +324,19 @@ std::expected<Identity, InstrumentError> Pr650::identify() {
   return identity;
 }
 
+std::expected<void, InstrumentError> Pr650::check() {
+  const std::string before = serial_number_;
+  auto identity = identify();
+  if (!identity) return std::unexpected(identity.error());
+  if (!before.empty() && identity->serial_number != before)
+    return std::unexpected(
+        InstrumentError{InstrumentError::Kind::lost,
+                        fmt::format("another meter answers: serial number {}, was {}", identity->serial_number, before),
+                        -1,
+                        {}});
+  return {};
+}
+
 // A refusal is asked about again too: our setups are within the meter's ranges, so a refusal
 // may be a damaged "00"; one given twice is the meter's.
 std::expected<void, InstrumentError> Pr650::send_setup(const pp::Setup& setup) {

@@ -104,6 +104,10 @@ class Instrument {
   virtual std::uint64_t replies_received() const = 0;
 
   virtual std::expected<Identity, InstrumentError> identify() = 0;
+  // Whether the identified meter still answers, with as little traffic as the family allows
+  // (a newer meter's commands go out one paced byte at a time): for noticing, while idle, a
+  // meter switched off or swapped. A different serial number than identify() found is `lost`.
+  virtual std::expected<void, InstrumentError> check() = 0;
   virtual std::expected<Reading, InstrumentError> measure(const MeasureOptions& options) = 0;
   // Ends a running call with `cancelled`. Any thread.
   virtual void cancel() = 0;

@@ -56,6 +56,8 @@ class Pr650 final : public Instrument {
   std::uint64_t replies_received() const override { return replies_; }
 
   std::expected<Identity, InstrumentError> identify() override;
+  // Its two reports are short whole-string exchanges: the check is identify() again.
+  std::expected<void, InstrumentError> check() override;
   std::expected<Reading, InstrumentError> measure(const MeasureOptions& options) override;
 
   // Ends a running call (measure, connect, identify) with `cancelled`. Any thread.

@@ -38,6 +38,8 @@ class RemoteMeter : public Instrument {
   bool link_closed() override;
   std::uint64_t replies_received() const override;
   std::expected<Identity, InstrumentError> identify() override;
+  // D110 alone: the four identification reports take about a second of paced bytes.
+  std::expected<void, InstrumentError> check() override;
   std::expected<Reading, InstrumentError> measure(const MeasureOptions& options) override;
   void cancel() override;
   std::string describe() const override { return transport_->describe(); }
