@@ -5,6 +5,7 @@
 // Inside the library a failure is thrown as Failure; the public methods return it.
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -31,6 +32,12 @@ struct Null {};
 using Param = std::variant<Null, std::int64_t, double, bool, std::string_view, Blob, Time>;
 
 enum class Dialect { sqlite, postgresql };
+
+// For maps of prepared statements looked up by their SQL text without copying it.
+struct TextHash {
+  using is_transparent = void;
+  std::size_t operator()(std::string_view text) const { return std::hash<std::string_view>{}(text); }
+};
 // A row lock taken by a SELECT where the engine has them (FOR SHARE / FOR UPDATE); SQLite has
 // one writer and needs none.
 enum class RowLock { none, share, update };

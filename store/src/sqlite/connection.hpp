@@ -74,13 +74,8 @@ class Connection final : public detail::Connection {
   Cursor& cursor(std::string_view sql, RowLock lock) override;
 
  private:
-  // Looked up by the SQL text without copying it.
-  struct TextHash {
-    using is_transparent = void;
-    std::size_t operator()(std::string_view text) const { return std::hash<std::string_view>{}(text); }
-  };
   sqlite3* db_ = nullptr;
-  std::unordered_map<std::string, std::unique_ptr<SqliteCursor>, TextHash, std::equal_to<>> cache_;
+  std::unordered_map<std::string, std::unique_ptr<SqliteCursor>, detail::TextHash, std::equal_to<>> cache_;
 };
 
 }  // namespace skinspec::store::sqlite
