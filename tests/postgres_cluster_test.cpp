@@ -3,6 +3,7 @@
 // when the test is root, and is stopped and removed even when its test program is killed.
 
 #include <gtest/gtest.h>
+#include <pwd.h>
 #include <stdlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -65,7 +66,9 @@ TEST(PostgresClusterTest, StartsWithItsRolesAndMakesSeparateDatabasesOwnedBySkin
   // Root never runs the server: PostgreSQL refuses to, so it runs as nobody.
   struct stat server {};
   ASSERT_EQ(::stat(("/proc/" + std::to_string(cluster.server_pid())).c_str(), &server), 0);
-  EXPECT_EQ(server.st_uid, ::geteuid() == 0 ? 65534u : ::geteuid());
+  const passwd* nobody = ::getpwnam("nobody");
+  ASSERT_NE(nobody, nullptr);
+  EXPECT_EQ(server.st_uid, ::geteuid() == 0 ? nobody->pw_uid : ::geteuid());
 }
 
 TEST(PostgresClusterTest, TheReaderMayNotCreateTablesAndThePasswordRoleNeedsItsPassword) {
