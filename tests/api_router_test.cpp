@@ -120,8 +120,10 @@ TEST(ApiErrors, EveryStoreErrorKindHasOneStatusAndCode) {
                                                              {K::corrupt, {500, "database_corrupt"}},
                                                              {K::newer_schema, {500, "database_schema"}},
                                                              {K::older_schema, {500, "database_schema"}},
-                                                             {K::internal, {500, "database_error"}}};
-  for (int k = 0; k <= static_cast<int>(K::internal); ++k) {
+                                                             {K::internal, {500, "database_error"}},
+                                                             {K::unreachable, {503, "database_unreachable"}},
+                                                             {K::access_denied, {500, "database_access_denied"}}};
+  for (int k = 0; k <= static_cast<int>(K::access_denied); ++k) {
     const auto kind = static_cast<K>(k);
     const auto it = expected.find(kind);
     ASSERT_NE(it, expected.end()) << store::to_string(kind);

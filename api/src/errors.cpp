@@ -95,6 +95,10 @@ ApiError from_store_error(const store::StoreError& error) {
       return as(ErrorKind::internal, "database_schema");
     case K::internal:
       return as(ErrorKind::internal, "database_error");
+    case K::unreachable:
+      return as(ErrorKind::unavailable, "database_unreachable");
+    case K::access_denied:
+      return as(ErrorKind::internal, "database_access_denied");
   }
   return as(ErrorKind::internal, "database_error");
 }

@@ -8,7 +8,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
-#include "sqlite.hpp"
+#include "db.hpp"
 
 namespace skinspec::store::detail {
 

@@ -8,14 +8,6 @@ namespace skinspec::store::detail {
 
 namespace {
 
-std::optional<Time> optional_time(const Statement& row, int column) {
-  const auto micros = row.optional_integer(column);
-  if (!micros) return std::nullopt;
-  return from_micros(*micros);
-}
-
-Time time_at(const Statement& row, int column) { return from_micros(row.integer(column)); }
-
 template <typename T>
 T parsed(std::optional<T> value, std::string_view text, std::string_view what) {
   if (!value) fail(StoreError::Kind::corrupt, fmt::format("{} '{}' is not one skinspec writes", what, text));
@@ -36,8 +28,8 @@ Instrument read_instrument(const Statement& row) {
   out.serial_number = row.text(2);
   out.spectral_configuration = row.text(3);
   out.connection = row.text(4);
-  out.created_at = time_at(row, 5);
-  out.last_seen_at = time_at(row, 6);
+  out.created_at = row.time(5);
+  out.last_seen_at = row.time(6);
   return out;
 }
 
@@ -47,7 +39,7 @@ WhiteStandard read_white_standard(const Statement& row) {
   out.name = row.text(1);
   out.certificate = row.text(2);
   out.reflectance = decode_spectrum(row.blob(3), "white_standards.reflectance");
-  out.created_at = time_at(row, 4);
+  out.created_at = row.time(4);
   return out;
 }
 
@@ -61,9 +53,9 @@ Session read_session(const Statement& row) {
   out.white_standard_id = row.optional_integer(5);
   const auto state = row.text(6);
   out.state = parsed(parse_session_state(state), state, "session state");
-  out.created_at = time_at(row, 7);
-  out.updated_at = time_at(row, 8);
-  out.ended_at = optional_time(row, 9);
+  out.created_at = row.time(7);
+  out.updated_at = row.time(8);
+  out.ended_at = row.optional_time(9);
   out.model = row.text(10);
   return out;
 }
@@ -78,7 +70,7 @@ Measurement read_measurement(const Statement& row) {
   out.instrument_id = row.optional_integer(4);
   out.white_measurement_id = row.optional_integer(5);
   out.job_id = row.optional_integer(6);
-  out.simulated = row.integer(7) != 0;
+  out.simulated = row.boolean(7);
   out.quality_code = static_cast<int>(row.integer(8));
   out.quality = row.text(9);
   out.units = row.text(10);
@@ -89,9 +81,9 @@ Measurement read_measurement(const Statement& row) {
   out.reflectance = optional_spectrum(row, 15, "measurements.reflectance");
   out.warnings = decode_text_list(row.text(16), "measurements.warnings");
   out.raw_reply = row.blob(17);
-  out.started_at = time_at(row, 18);
-  out.finished_at = time_at(row, 19);
-  out.created_at = time_at(row, 20);
+  out.started_at = row.time(18);
+  out.finished_at = row.time(19);
+  out.created_at = row.time(20);
   return out;
 }
 
@@ -107,7 +99,7 @@ Fit read_fit(const Statement& row) {
   out.max_abs_error = row.real(7);
   out.delta_e00_d65 = row.real(8);
   out.iterations = static_cast<int>(row.integer(9));
-  out.converged = row.integer(10) != 0;
+  out.converged = row.boolean(10);
   out.solver_summary = row.text(11);
   out.options = row.text(12);
   out.model_version = row.text(13);
@@ -121,7 +113,7 @@ Fit read_fit(const Statement& row) {
   out.measured = std::move(measured.values);
   out.fitted = std::move(fitted.values);
   out.samples_ignored = static_cast<int>(row.integer(18));
-  out.created_at = time_at(row, 19);
+  out.created_at = row.time(19);
   return out;
 }
 
@@ -137,9 +129,9 @@ Job read_job(const Statement& row) {
   out.state = parsed(parse_job_state(state), state, "job state");
   if (!row.is_null(7)) out.error = decode_job_error(row.text(7), "jobs.error");
   out.result = row.text(8);
-  out.created_at = time_at(row, 9);
-  out.started_at = optional_time(row, 10);
-  out.finished_at = optional_time(row, 11);
+  out.created_at = row.time(9);
+  out.started_at = row.optional_time(10);
+  out.finished_at = row.optional_time(11);
   return out;
 }
 
@@ -154,8 +146,8 @@ RejectedReading read_rejected_reading(const Statement& row) {
   out.quality = row.text(6);
   out.reason = row.text(7);
   out.raw_reply = row.blob(8);
-  out.measured_at = time_at(row, 9);
-  out.created_at = time_at(row, 10);
+  out.measured_at = row.time(9);
+  out.created_at = row.time(10);
   return out;
 }
 

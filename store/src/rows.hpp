@@ -5,7 +5,7 @@
 #include <string_view>
 
 #include "skinspec/store/types.hpp"
-#include "sqlite.hpp"
+#include "db.hpp"
 
 namespace skinspec::store::detail {
 

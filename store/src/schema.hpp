@@ -1,21 +1,37 @@
 #pragma once
-// The schema as a list of forward-only migrations; migration N takes a database from
-// user_version N-1 to N. Applied migrations are never edited: a change is a new migration.
+// The schema as one list of forward-only migrations; entry N takes a database to version N,
+// with a step written in each engine's dialect. Applied migrations are never edited: a change
+// is a new entry, written for every engine.
 
-#include <cstdint>
+#include <span>
 #include <string_view>
 
-#include "sqlite.hpp"
+#include "db.hpp"
 
 namespace skinspec::store::detail {
 
-// PRAGMA application_id of a skinspec database: "SKSP".
-inline constexpr std::int64_t kApplicationId = 0x534B5350;
+// One step in one dialect: `sql`, then the rows converted where SQL alone would not say it
+// plainly, then `after_sql`.
+struct MigrationStep {
+  std::string_view sql;
+  void (*convert_rows)(Connection&) = nullptr;
+  std::string_view after_sql = {};
+};
 
+struct Migration {
+  int version;                      // the version this entry makes
+  const MigrationStep* sqlite;      // from the version before
+  const MigrationStep* postgresql;  // from the version before; none before kPostgresqlBaseline
+};
+
+// PostgreSQL databases start at this version: its first step makes the whole schema of it.
+inline constexpr int kPostgresqlBaseline = 5;
+
+std::span<const Migration> migrations();
 int latest_schema_version();
 
-// Applies the migrations after the database's user_version up to `target`, each in its own
-// write transaction (so a crash leaves it at a whole version).
+// Applies the steps of the writer's dialect after the database's version up to `target`, each
+// in its own write transaction (so a crash leaves it at a whole version).
 void migrate(Connection& writer, int target);
 
 }  // namespace skinspec::store::detail

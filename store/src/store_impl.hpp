@@ -1,73 +1,18 @@
 #pragma once
-// What a Store holds: its writer connection (behind a mutex), its pool of read connections,
-// the lock that makes it the only writer, and the wrappers that turn a body of work into one
+// What a Store holds: its engine (the connections and what differs between engines), its
+// options and what opening found, and the wrappers that turn a body of work into one
 // transaction and a Failure into a returned StoreError.
 
-#include <sys/stat.h>
-
-#include <chrono>
-#include <condition_variable>
-#include <exception>
 #include <memory>
-#include <mutex>
-#include <optional>
 #include <string>
 #include <type_traits>
-#include <vector>
 
+#include "engine.hpp"
 #include "skinspec/store/store.hpp"
-#include "sqlite.hpp"
 
 namespace skinspec::store {
 
 namespace detail {
-
-// Read connections, opened on demand up to a maximum; a caller beyond it waits.
-class ReaderPool {
- public:
-  class Lease {
-   public:
-    Lease(ReaderPool& pool, std::unique_ptr<Connection> connection)
-        : pool_(&pool), connection_(std::move(connection)) {}
-    ~Lease() { pool_->release(std::move(connection_)); }
-    Lease(const Lease&) = delete;
-    Lease& operator=(const Lease&) = delete;
-    Connection& operator*() const { return *connection_; }
-
-   private:
-    ReaderPool* pool_;
-    std::unique_ptr<Connection> connection_;
-  };
-
-  // `filename` and `flags` as for sqlite3_open_v2 (a URI with SQLITE_OPEN_URI).
-  void configure(std::string filename, int flags, std::chrono::milliseconds busy_timeout, int max_connections);
-  Lease acquire();
-  void close();
-
- private:
-  void release(std::unique_ptr<Connection> connection);
-
-  std::string filename_;
-  int flags_ = SQLITE_OPEN_READONLY;
-  std::chrono::milliseconds busy_timeout_{0};
-  int max_ = 1;
-  std::mutex mutex_;
-  std::condition_variable returned_;
-  std::vector<std::unique_ptr<Connection>> idle_;
-  int open_ = 0;
-};
-
-// What identifies a file's content from outside: a write to it changes at least its times.
-struct FileIdentity {
-  dev_t device = 0;
-  ino_t inode = 0;
-  off_t size = 0;
-  timespec modified{};
-  timespec changed{};
-
-  static FileIdentity of(const struct stat& info);
-  bool operator==(const FileIdentity& other) const;
-};
 
 // Runs `body`, returning its value, or the StoreError it threw with `what` in front.
 template <typename F>
@@ -98,37 +43,27 @@ struct Store::Impl {
   OpenOptions options;
   int version = 0;
   RecoveryReport recovery;
-  int lock_fd = -1;  // "<path>-lock", flock()ed while this Store is the writer
-  // Read-only without a -wal file, the readers treat the file as immutable (no locks, no -shm):
-  // it is what the file was when opened, and a read fails as `busy` once it is not.
-  std::optional<detail::FileIdentity> frozen;
-
-  std::mutex writer_mutex;
-  std::unique_ptr<detail::Connection> writer;  // null when read-only
-  mutable detail::ReaderPool readers;
-
-  Impl() = default;
-  Impl(const Impl&) = delete;
-  Impl& operator=(const Impl&) = delete;
-  ~Impl();
+  std::unique_ptr<detail::Engine> engine;
 
   Time now() const;
-  // Throws `busy` when a frozen file has changed since it was opened.
-  void check_still_frozen() const;
 
-  // One write transaction around `body(writer)`, committed when it returns.
+  // One write transaction around `body(connection)`, committed when it returns. A failure
+  // that left nothing committed and may pass (a lost connection, a serialisation conflict) is
+  // tried once more.
   template <typename F>
   auto write(std::string_view what, F&& body) -> Result<std::invoke_result_t<F, detail::Connection&>> {
-    if (!writer) {
-      return std::unexpected(
-          StoreError{StoreError::Kind::read_only, std::string(what) + ": the database was opened read-only", 0});
-    }
-    std::lock_guard lock(writer_mutex);
     return detail::guarded(what, [&] {
-      detail::Transaction transaction(*writer, detail::Transaction::Kind::write);
-      auto value = body(*writer);
-      transaction.commit();
-      return value;
+      for (int attempt = 1;; ++attempt) {
+        auto connection = engine->writer();
+        try {
+          detail::Transaction transaction(*connection, detail::TransactionKind::write);
+          auto value = body(*connection);
+          transaction.commit();
+          return value;
+        } catch (const detail::Failure& failure) {
+          if (!failure.retryable || attempt == 2) throw;
+        }
+      }
     });
   }
 
@@ -136,20 +71,40 @@ struct Store::Impl {
   template <typename F>
   auto read(std::string_view what, F&& body) const -> Result<std::invoke_result_t<F, detail::Connection&>> {
     return detail::guarded(what, [&] {
-      auto lease = readers.acquire();
-      detail::Transaction transaction(*lease, detail::Transaction::Kind::read);
-      auto value = [&] {
-        try {
-          return body(*lease);
-        } catch (const detail::Failure&) {
-          check_still_frozen();  // a change under the reader explains whatever it ran into
-          throw;
-        }
-      }();
+      auto connection = engine->reader();
+      detail::Transaction transaction(*connection, detail::TransactionKind::read);
+      auto value = checked_read(body, *connection);
       transaction.commit();
-      check_still_frozen();
+      engine->after_read();
       return value;
     });
+  }
+
+  // A read whose body runs exactly one statement, which is its own snapshot: no transaction
+  // around it (one round trip fewer where the database is a server). A body that runs a second
+  // statement fails as `internal`, so a change that adds one cannot go unnoticed.
+  template <typename F>
+  auto read_one(std::string_view what, F&& body) const -> Result<std::invoke_result_t<F, detail::Connection&>> {
+    return detail::guarded(what, [&] {
+      auto connection = engine->reader();
+      const auto before = connection->statements_prepared();
+      auto value = checked_read(body, *connection);
+      if (connection->statements_prepared() - before > 1)
+        detail::fail(StoreError::Kind::internal, "a single-statement read ran more than one statement");
+      engine->after_read();
+      return value;
+    });
+  }
+
+ private:
+  template <typename F>
+  auto checked_read(F& body, detail::Connection& connection) const {
+    try {
+      return body(connection);
+    } catch (const detail::Failure&) {
+      engine->after_read();  // a change under the reader explains whatever it ran into
+      throw;
+    }
   }
 };
 

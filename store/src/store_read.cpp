@@ -1,5 +1,6 @@
-// The store's reads: each on a pooled read connection, in one read transaction, so that a
-// session and its measurements and fits come from the same snapshot.
+// The store's reads, each on a pooled read connection: a read of one statement on its own (its
+// own snapshot), a read of several in one read transaction, so that a session and its
+// measurements and fits come from the same snapshot.
 
 #include <fmt/format.h>
 
@@ -45,28 +46,28 @@ Session session_in(Connection& c, Id id) {
 }  // namespace
 
 Result<Instrument> Store::instrument(Id id) const {
-  return impl_->read("reading an instrument", [&](Connection& c) {
+  return impl_->read_one("reading an instrument", [&](Connection& c) {
     static const std::string sql = select_by_id(detail::kInstrumentColumns, "instruments");
     return one(c, sql, id, "instrument", detail::read_instrument);
   });
 }
 
 Result<std::vector<Instrument>> Store::instruments() const {
-  return impl_->read("listing instruments", [&](Connection& c) {
+  return impl_->read_one("listing instruments", [&](Connection& c) {
     static const std::string sql = fmt::format("SELECT {} FROM instruments ORDER BY id", detail::kInstrumentColumns);
     return all(c, sql, detail::read_instrument);
   });
 }
 
 Result<WhiteStandard> Store::white_standard(Id id) const {
-  return impl_->read("reading a white standard", [&](Connection& c) {
+  return impl_->read_one("reading a white standard", [&](Connection& c) {
     static const std::string sql = select_by_id(detail::kWhiteStandardColumns, "white_standards");
     return one(c, sql, id, "white standard", detail::read_white_standard);
   });
 }
 
 Result<std::vector<WhiteStandard>> Store::white_standards() const {
-  return impl_->read("listing white standards", [&](Connection& c) {
+  return impl_->read_one("listing white standards", [&](Connection& c) {
     static const std::string sql =
         fmt::format("SELECT {} FROM white_standards ORDER BY id", detail::kWhiteStandardColumns);
     return all(c, sql, detail::read_white_standard);
@@ -74,7 +75,7 @@ Result<std::vector<WhiteStandard>> Store::white_standards() const {
 }
 
 Result<Session> Store::session(Id id) const {
-  return impl_->read("reading a session", [&](Connection& c) { return session_in(c, id); });
+  return impl_->read_one("reading a session", [&](Connection& c) { return session_in(c, id); });
 }
 
 Result<SessionDetail> Store::session_detail(Id id) const {
@@ -97,23 +98,20 @@ Result<SessionDetail> Store::session_detail(Id id) const {
 }
 
 Result<SessionPage> Store::sessions(const SessionFilter& filter) const {
-  return impl_->read("listing sessions", [&](Connection& c) {
+  return impl_->read_one("listing sessions", [&](Connection& c) {
     if (filter.limit < 1 || filter.limit > 1000)
       fail(Kind::invalid_argument, fmt::format("limit {} is outside 1-1000", filter.limit));
-    // Each filter is off when its parameter is NULL. One row beyond the page says whether
-    // there is a next one.
+    // Each filter is off when its parameter is NULL (named first in each, so that its column
+    // gives the parameter its type). One row beyond the page says whether there is a next one.
     static const std::string sql = fmt::format(
-        "SELECT {} FROM sessions WHERE (?1 IS NULL OR site = ?1) AND (?2 IS NULL OR state = ?2) "
-        "AND (?3 IS NULL OR created_at >= ?3) AND (?4 IS NULL OR created_at < ?4) AND (?5 IS NULL OR id < ?5) "
+        "SELECT {} FROM sessions WHERE (site = ?1 OR ?1 IS NULL) AND (state = ?2 OR ?2 IS NULL) "
+        "AND (created_at >= ?3 OR ?3 IS NULL) AND (created_at < ?4 OR ?4 IS NULL) AND (id < ?5 OR ?5 IS NULL) "
         "ORDER BY id DESC LIMIT ?6",
         detail::kSessionColumns);
-    const auto micros = [](const std::optional<Time>& t) {
-      return t ? std::optional<std::int64_t>(detail::to_micros(*t)) : std::nullopt;
-    };
     const auto state = filter.state ? std::optional<std::string_view>(to_string(*filter.state)) : std::nullopt;
     SessionPage page;
-    page.sessions = all(c, sql, detail::read_session, filter.site, state, micros(filter.created_from),
-                        micros(filter.created_before), filter.cursor, filter.limit + 1);
+    page.sessions = all(c, sql, detail::read_session, filter.site, state, filter.created_from, filter.created_before,
+                        filter.cursor, filter.limit + 1);
     if (page.sessions.size() > static_cast<std::size_t>(filter.limit)) {
       page.sessions.pop_back();
       page.next_cursor = page.sessions.back().id;
@@ -123,7 +121,7 @@ Result<SessionPage> Store::sessions(const SessionFilter& filter) const {
 }
 
 Result<Measurement> Store::measurement(Id id) const {
-  return impl_->read("reading a measurement", [&](Connection& c) {
+  return impl_->read_one("reading a measurement", [&](Connection& c) {
     static const std::string sql = select_by_id(detail::kMeasurementColumns, "measurements");
     return one(c, sql, id, "measurement", detail::read_measurement);
   });
@@ -142,7 +140,7 @@ Result<std::optional<Measurement>> Store::latest_measurement(Id session_id, Meas
 }
 
 Result<Fit> Store::fit(Id id) const {
-  return impl_->read("reading a fit", [&](Connection& c) {
+  return impl_->read_one("reading a fit", [&](Connection& c) {
     static const std::string sql = select_by_id(detail::kFitColumns, "fits");
     return one(c, sql, id, "fit", detail::read_fit);
   });
@@ -159,21 +157,21 @@ Result<std::vector<Fit>> Store::fits_of_measurement(Id measurement_id) const {
 }
 
 Result<RejectedReading> Store::rejected_reading(Id id) const {
-  return impl_->read("reading a rejected reading", [&](Connection& c) {
+  return impl_->read_one("reading a rejected reading", [&](Connection& c) {
     static const std::string sql = select_by_id(detail::kRejectedReadingColumns, "rejected_readings");
     return one(c, sql, id, "rejected reading", detail::read_rejected_reading);
   });
 }
 
 Result<Job> Store::job(Id id) const {
-  return impl_->read("reading a job", [&](Connection& c) {
+  return impl_->read_one("reading a job", [&](Connection& c) {
     static const std::string sql = select_by_id(detail::kJobColumns, "jobs");
     return one(c, sql, id, "job", detail::read_job);
   });
 }
 
 Result<std::optional<Job>> Store::job_by_idempotency_key(const std::string& key) const {
-  return impl_->read("finding a job", [&](Connection& c) {
+  return impl_->read_one("finding a job", [&](Connection& c) {
     static const std::string sql = fmt::format("SELECT {} FROM jobs WHERE idempotency_key = ?1", detail::kJobColumns);
     auto row = c.prepare(sql);
     row.bind(key);
@@ -182,10 +180,10 @@ Result<std::optional<Job>> Store::job_by_idempotency_key(const std::string& key)
 }
 
 Result<std::vector<Job>> Store::jobs(std::optional<Id> session_id, int limit) const {
-  return impl_->read("listing jobs", [&](Connection& c) {
+  return impl_->read_one("listing jobs", [&](Connection& c) {
     if (limit < 1 || limit > 1000) fail(Kind::invalid_argument, fmt::format("limit {} is outside 1-1000", limit));
     static const std::string sql = fmt::format(
-        "SELECT {} FROM jobs WHERE (?1 IS NULL OR session_id = ?1) ORDER BY id DESC LIMIT ?2", detail::kJobColumns);
+        "SELECT {} FROM jobs WHERE (session_id = ?1 OR ?1 IS NULL) ORDER BY id DESC LIMIT ?2", detail::kJobColumns);
     return all(c, sql, detail::read_job, session_id, limit);
   });
 }

@@ -50,8 +50,16 @@ void check_fit(const Fit& f) {
   detail::check_json_object(f.options, "fit options");
 }
 
+// The id an INSERT ... RETURNING id gave.
+Id returned_id(detail::Statement& insert) {
+  if (!insert.step()) fail(Kind::internal, "an insert returned no id");
+  const Id id = insert.integer(0);
+  insert.run();
+  return id;
+}
+
 std::string session_state_of(Connection& c, Id session_id) {
-  auto stmt = c.prepare("SELECT state FROM sessions WHERE id = ?1");
+  auto stmt = c.prepare("SELECT state FROM sessions WHERE id = ?1", detail::RowLock::update);
   stmt.bind(session_id);
   if (!stmt.step()) fail(Kind::not_found, fmt::format("session {} does not exist", session_id));
   return stmt.text(0);
@@ -66,16 +74,16 @@ void require_row(Connection& c, std::string_view sql, Id id, std::string_view wh
 Id insert_fit(Connection& c, const Fit& f, Id measurement_id, Time now) {
   const auto measured = detail::encode_spectrum({f.wavelength_nm, f.measured});
   const auto fitted = detail::encode_spectrum({f.wavelength_nm, f.fitted});
-  c.prepare(
-       "INSERT INTO fits (measurement_id, site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, "
-       "iterations, converged, solver_summary, options, model_version, tables_digest, constants_digest, measured, "
-       "fitted, samples_ignored, created_at) "
-       "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)")
-      .bind(measurement_id, f.site, f.model, detail::encode_fit_params(f.params), f.assessment, f.rmse, f.max_abs_error,
-            f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options, f.model_version, f.tables_digest,
-            f.constants_digest, Blob{measured}, Blob{fitted}, f.samples_ignored, detail::to_micros(now))
-      .run();
-  return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+  return returned_id(
+      c.prepare(
+           "INSERT INTO fits (measurement_id, site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, "
+           "iterations, converged, solver_summary, options, model_version, tables_digest, constants_digest, measured, "
+           "fitted, samples_ignored, created_at) "
+           "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19) RETURNING id")
+          .bind(measurement_id, f.site, f.model, detail::encode_fit_params(f.params), f.assessment, f.rmse,
+                f.max_abs_error, f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options,
+                f.model_version, f.tables_digest, f.constants_digest, Blob{measured}, Blob{fitted}, f.samples_ignored,
+                now));
 }
 
 std::optional<Blob> optional_blob(const SpectralSamples& spectrum, const std::string& bytes) {
@@ -87,18 +95,17 @@ Id insert_measurement(Connection& c, const Measurement& m, Time now) {
   const auto radiance = detail::encode_spectrum(m.radiance);
   const auto radiance_sd = detail::encode_spectrum(m.radiance_sd);
   const auto reflectance = detail::encode_spectrum(m.reflectance);
-  c.prepare(
-       "INSERT INTO measurements (session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, "
-       "quality_code, quality, units, settings, reading_count, radiance, radiance_sd, reflectance, warnings, "
-       "raw_reply, started_at, finished_at, created_at) "
-       "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20)")
-      .bind(m.session_id, to_string(m.kind), m.label, m.instrument_id, m.white_measurement_id, m.job_id, m.simulated,
-            m.quality_code, m.quality, m.units, m.settings, m.reading_count, Blob{radiance},
-            optional_blob(m.radiance_sd, radiance_sd), optional_blob(m.reflectance, reflectance),
-            detail::encode_text_list(m.warnings), Blob{m.raw_reply}, detail::to_micros(m.started_at),
-            detail::to_micros(m.finished_at), detail::to_micros(now))
-      .run();
-  return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+  return returned_id(
+      c.prepare(
+           "INSERT INTO measurements (session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, "
+           "quality_code, quality, units, settings, reading_count, radiance, radiance_sd, reflectance, warnings, "
+           "raw_reply, started_at, finished_at, created_at) "
+           "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20) "
+           "RETURNING id")
+          .bind(m.session_id, to_string(m.kind), m.label, m.instrument_id, m.white_measurement_id, m.job_id,
+                m.simulated, m.quality_code, m.quality, m.units, m.settings, m.reading_count, Blob{radiance},
+                optional_blob(m.radiance_sd, radiance_sd), optional_blob(m.reflectance, reflectance),
+                detail::encode_text_list(m.warnings), Blob{m.raw_reply}, m.started_at, m.finished_at, now));
 }
 
 bool session_transition_allowed(SessionState from, SessionState to) {
@@ -157,7 +164,7 @@ Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
        "UPDATE jobs SET state = ?2, error = ?3, result = coalesce(?4, result), "
        "started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?5 ELSE started_at END, "
        "finished_at = CASE WHEN ?6 AND finished_at IS NULL THEN ?5 ELSE finished_at END WHERE id = ?1")
-      .bind(id, to_string(update.state), error, update.result, detail::to_micros(now), finished)
+      .bind(id, to_string(update.state), error, update.result, now, finished)
       .run();
   return job_in(c, id);
 }
@@ -168,17 +175,25 @@ RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement&
                                                Time now) {
   check_measurement(m);
   if (fit) check_fit(*fit);
-  const auto state = session_state_of(c, m.session_id);
+  // What the checks need, in one query: the session's state, the white reading's kind (NULL
+  // when there is none or it does not exist) and whether the instrument exists.
+  auto context = c.prepare(
+      "SELECT s.state, (SELECT kind FROM measurements WHERE id = ?2), (SELECT count(*) FROM instruments WHERE id = "
+      "?3) FROM sessions s WHERE s.id = ?1",
+      detail::RowLock::share);
+  context.bind(m.session_id, m.white_measurement_id, m.instrument_id);
+  if (!context.step()) fail(Kind::not_found, fmt::format("session {} does not exist", m.session_id));
+  const auto state = context.text(0);
   if (state != to_string(SessionState::open))
     fail(Kind::conflict, fmt::format("session {} is {}, not open", m.session_id, state));
   if (m.white_measurement_id) {
-    auto white = c.prepare("SELECT kind FROM measurements WHERE id = ?1");
-    white.bind(*m.white_measurement_id);
-    if (!white.step()) fail(Kind::not_found, fmt::format("measurement {} does not exist", *m.white_measurement_id));
-    if (white.text(0) != to_string(MeasurementKind::white))
+    if (context.is_null(1))
+      fail(Kind::not_found, fmt::format("measurement {} does not exist", *m.white_measurement_id));
+    if (context.text(1) != to_string(MeasurementKind::white))
       fail(Kind::conflict, fmt::format("measurement {} is not a white reading", *m.white_measurement_id));
   }
-  if (m.instrument_id) require_row(c, "SELECT 1 FROM instruments WHERE id = ?1", *m.instrument_id, "instrument");
+  if (m.instrument_id && context.integer(2) == 0)
+    fail(Kind::not_found, fmt::format("instrument {} does not exist", *m.instrument_id));
   RecordedMeasurement ids;
   ids.measurement_id = insert_measurement(c, m, now);
   if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
@@ -199,18 +214,14 @@ Result<Id> Store::ensure_instrument(const Instrument& in) {
   return impl_->write("storing an instrument", [&](Connection& c) {
     detail::check_not_empty(in.model, "the instrument's model");
     detail::check_not_empty(in.serial_number, "the instrument's serial number");
-    const auto now = detail::to_micros(impl_->now());
-    c.prepare(
-         "INSERT INTO instruments (model, serial_number, spectral_configuration, connection, created_at, "
-         "last_seen_at) VALUES (?1, ?2, ?3, ?4, ?5, ?5) "
-         "ON CONFLICT (model, serial_number) DO UPDATE SET spectral_configuration = excluded.spectral_configuration, "
-         "connection = excluded.connection, last_seen_at = excluded.last_seen_at")
-        .bind(in.model, in.serial_number, in.spectral_configuration, in.connection, now)
-        .run();
-    auto id = c.prepare("SELECT id FROM instruments WHERE model = ?1 AND serial_number = ?2");
-    id.bind(in.model, in.serial_number);
-    if (!id.step()) fail(Kind::internal, "the instrument just stored is missing");
-    return Id{id.integer(0)};
+    const auto now = impl_->now();
+    return returned_id(
+        c.prepare("INSERT INTO instruments (model, serial_number, spectral_configuration, connection, created_at, "
+                  "last_seen_at) VALUES (?1, ?2, ?3, ?4, ?5, ?5) "
+                  "ON CONFLICT (model, serial_number) DO UPDATE SET spectral_configuration = "
+                  "excluded.spectral_configuration, connection = excluded.connection, last_seen_at = "
+                  "excluded.last_seen_at RETURNING id")
+            .bind(in.model, in.serial_number, in.spectral_configuration, in.connection, now));
   });
 }
 
@@ -219,10 +230,9 @@ Result<Id> Store::add_white_standard(const WhiteStandard& standard) {
     detail::check_not_empty(standard.name, "the white standard's name");
     detail::check_spectrum(standard.reflectance, "the white standard's reflectance", false);
     const auto reflectance = detail::encode_spectrum(standard.reflectance);
-    c.prepare("INSERT INTO white_standards (name, certificate, reflectance, created_at) VALUES (?1, ?2, ?3, ?4)")
-        .bind(standard.name, standard.certificate, Blob{reflectance}, detail::to_micros(impl_->now()))
-        .run();
-    return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+    return returned_id(c.prepare("INSERT INTO white_standards (name, certificate, reflectance, created_at) "
+                                 "VALUES (?1, ?2, ?3, ?4) RETURNING id")
+                           .bind(standard.name, standard.certificate, Blob{reflectance}, impl_->now()));
   });
 }
 
@@ -233,27 +243,24 @@ Result<Id> Store::create_session(const Session& s) {
     detail::check_not_empty(s.model, "the session's model");
     if (s.white_standard_id)
       require_row(c, "SELECT 1 FROM white_standards WHERE id = ?1", *s.white_standard_id, "white standard");
-    const auto now = detail::to_micros(impl_->now());
-    c.prepare(
-         "INSERT INTO sessions (subject, site, operator_name, notes, model, white_standard_id, state, created_at, "
-         "updated_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'open', ?7, ?7)")
-        .bind(s.subject, s.site, s.operator_name, s.notes, s.model, s.white_standard_id, now)
-        .run();
-    return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+    const auto now = impl_->now();
+    return returned_id(
+        c.prepare("INSERT INTO sessions (subject, site, operator_name, notes, model, white_standard_id, state, "
+                  "created_at, updated_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'open', ?7, ?7) RETURNING id")
+            .bind(s.subject, s.site, s.operator_name, s.notes, s.model, s.white_standard_id, now));
   });
 }
 
 Result<Session> Store::update_session(Id id, const SessionUpdate& update) {
   return impl_->write(fmt::format("updating session {}", id), [&](Connection& c) {
     const auto current = *parse_session_state(session_state_of(c, id));
-    const auto now = detail::to_micros(impl_->now());
+    const auto now = impl_->now();
     if (update.state && *update.state != current) {
       if (!session_transition_allowed(current, *update.state)) {
         fail(Kind::conflict,
              fmt::format("a session that is {} cannot become {}", to_string(current), to_string(*update.state)));
       }
-      const std::optional<std::int64_t> ended =
-          *update.state == SessionState::open ? std::nullopt : std::optional<std::int64_t>(now);
+      const std::optional<Time> ended = *update.state == SessionState::open ? std::nullopt : std::optional<Time>(now);
       c.prepare("UPDATE sessions SET state = ?2, updated_at = ?3, ended_at = ?4 WHERE id = ?1")
           .bind(id, to_string(*update.state), now, ended)
           .run();
@@ -309,13 +316,12 @@ Result<Id> Store::record_rejected_reading(const RejectedReading& r) {
     require_row(c, "SELECT 1 FROM sessions WHERE id = ?1", r.session_id, "session");
     if (r.job_id) require_row(c, "SELECT 1 FROM jobs WHERE id = ?1", *r.job_id, "job");
     if (r.instrument_id) require_row(c, "SELECT 1 FROM instruments WHERE id = ?1", *r.instrument_id, "instrument");
-    c.prepare(
-         "INSERT INTO rejected_readings (session_id, job_id, instrument_id, attempt, quality_code, quality, reason, "
-         "raw_reply, measured_at, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)")
-        .bind(r.session_id, r.job_id, r.instrument_id, r.attempt, r.quality_code, r.quality, r.reason,
-              Blob{r.raw_reply}, detail::to_micros(r.measured_at), detail::to_micros(impl_->now()))
-        .run();
-    return static_cast<Id>(sqlite3_last_insert_rowid(c.handle()));
+    return returned_id(
+        c.prepare("INSERT INTO rejected_readings (session_id, job_id, instrument_id, attempt, quality_code, quality, "
+                  "reason, "
+                  "raw_reply, measured_at, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10) RETURNING id")
+            .bind(r.session_id, r.job_id, r.instrument_id, r.attempt, r.quality_code, r.quality, r.reason,
+                  Blob{r.raw_reply}, r.measured_at, impl_->now()));
   });
 }
 
@@ -334,12 +340,25 @@ Result<CreatedJob> Store::create_job(const Job& job) {
     if (job.session_id) require_row(c, "SELECT 1 FROM sessions WHERE id = ?1", *job.session_id, "session");
     const std::optional<std::string> key =
         job.idempotency_key.empty() ? std::nullopt : std::optional<std::string>(job.idempotency_key);
-    c.prepare(
-         "INSERT INTO jobs (kind, request, requested_by, session_id, idempotency_key, state, error, result, "
-         "created_at) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', NULL, ?6, ?7)")
-        .bind(job.kind, job.request, job.requested_by, job.session_id, key, job.result, detail::to_micros(impl_->now()))
-        .run();
-    return CreatedJob{job_in(c, static_cast<Id>(sqlite3_last_insert_rowid(c.handle()))), true};
+    // A job with the same key stored since the look-up above (by another writer) wins.
+    static const std::string insert = fmt::format(
+        "INSERT INTO jobs (kind, request, requested_by, session_id, idempotency_key, state, error, result, "
+        "created_at) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', NULL, ?6, ?7) ON CONFLICT (idempotency_key) DO NOTHING "
+        "RETURNING {}",
+        detail::kJobColumns);
+    {
+      auto created = c.prepare(insert);
+      created.bind(job.kind, job.request, job.requested_by, job.session_id, key, job.result, impl_->now());
+      if (created.step()) {
+        auto out = CreatedJob{detail::read_job(created), true};
+        created.run();
+        return out;
+      }
+    }
+    auto existing = c.prepare(by_key);
+    existing.bind(job.idempotency_key);
+    if (!existing.step()) fail(Kind::internal, "a job that was not stored for its key has none stored either");
+    return CreatedJob{detail::read_job(existing), false};
   });
 }
 

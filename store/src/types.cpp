@@ -58,7 +58,7 @@ constexpr std::array<std::pair<JobErrorCode, std::string_view>, 15> kJobErrorCod
     {JobErrorCode::internal, "internal"},
 }};
 
-constexpr std::array<std::pair<StoreError::Kind, std::string_view>, 11> kErrorKinds = {{
+constexpr std::array<std::pair<StoreError::Kind, std::string_view>, 13> kErrorKinds = {{
     {StoreError::Kind::invalid_argument, "invalid_argument"},
     {StoreError::Kind::not_found, "not_found"},
     {StoreError::Kind::conflict, "conflict"},
@@ -70,6 +70,8 @@ constexpr std::array<std::pair<StoreError::Kind, std::string_view>, 11> kErrorKi
     {StoreError::Kind::busy, "busy"},
     {StoreError::Kind::io, "io"},
     {StoreError::Kind::internal, "internal"},
+    {StoreError::Kind::unreachable, "unreachable"},
+    {StoreError::Kind::access_denied, "access_denied"},
 }};
 
 }  // namespace

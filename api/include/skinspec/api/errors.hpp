@@ -40,9 +40,10 @@ std::string error_body(const ApiError& error);
 // A store error as every route and the acquisition report it. What the client asked for that
 // the store refused: invalid_argument → 422 invalid_value, not_found → 404, conflict → 409.
 // The database unavailable for now (a retry after the condition clears may succeed): busy,
-// full, read_only → 503 database_busy, database_full, database_read_only. The database or
-// the program broken: io, corrupt, newer_schema, older_schema, internal → 500 database_io,
-// database_corrupt, database_schema, database_error.
+// full, read_only, unreachable → 503 database_busy, database_full, database_read_only,
+// database_unreachable. The database or the program broken: io, corrupt, newer_schema,
+// older_schema, internal, access_denied → 500 database_io, database_corrupt, database_schema,
+// database_error, database_access_denied.
 ApiError from_store_error(const store::StoreError& error);
 
 }  // namespace skinspec::api

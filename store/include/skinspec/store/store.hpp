@@ -15,6 +15,9 @@
 
 namespace skinspec::store {
 
+// The database engines a Store can run on.
+enum class Backend { sqlite, postgresql };
+
 // Which sessions count as running when a database is opened after its writer died.
 enum class RecoveryPolicy {
   sessions_with_active_jobs,  // open sessions with a queued or running job

@@ -1,5 +1,5 @@
 #pragma once
-// The records skinspec keeps: plain values with no SQLite, driver or fit types in them, so that
+// The records skinspec keeps: plain values with no database, driver or fit types in them, so that
 // the store depends on nothing of ours and the programs convert at their edge.
 //
 // Ids are assigned by the store; on insert, `id` and the `*_at` fields the store stamps are
@@ -34,11 +34,14 @@ struct StoreError {
     full,              // the disk, or the configured size limit, is full
     busy,              // another program holds the database for writing (or wrote one opened read-only)
     io,                // the operating system failed a read or write
-    internal,          // anything else SQLite reports
+    internal,          // anything else the database reports
+    unreachable,       // the database server cannot be reached, or the connection to it was lost
+    access_denied,     // the database server refused the role (its password, or no password for it)
   };
   Kind kind = Kind::internal;
   std::string message;
-  int sqlite_code = 0;  // SQLite's extended result code when it came from SQLite, else 0
+  int sqlite_code = 0;      // SQLite's extended result code when it came from SQLite, else 0
+  std::string sql_state{};  // PostgreSQL's SQLSTATE ("53100") when it came from PostgreSQL, else empty
 };
 
 std::string_view to_string(StoreError::Kind kind);

@@ -1,0 +1,360 @@
+#include "postgresql/connection.hpp"
+
+#include <fmt/format.h>
+
+#include <cctype>
+#include <limits>
+
+#include "postgresql/errors.hpp"
+
+namespace skinspec::store::postgresql {
+
+using Kind = StoreError::Kind;
+
+namespace {
+
+std::string trimmed(std::string text) {
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+  return text;
+}
+
+std::string_view type_name(TypeId type) {
+  switch (type) {
+    case TypeId::boolean:
+      return "boolean";
+    case TypeId::bytea:
+      return "bytea";
+    case TypeId::int8:
+      return "bigint";
+    case TypeId::int2:
+      return "smallint";
+    case TypeId::int4:
+      return "integer";
+    case TypeId::float4:
+      return "real";
+    case TypeId::float8:
+      return "double precision";
+    case TypeId::timestamp:
+      return "timestamp";
+    case TypeId::timestamptz:
+      return "timestamptz";
+    default:
+      return is_textual(type) ? "text" : "a type the store does not use";
+  }
+}
+
+// Notices (such as "there is no transaction in progress") are for people at a terminal.
+void ignore_notice(void*, const PGresult*) {}
+
+}  // namespace
+
+std::string postgresql_sql(std::string_view sql, RowLock lock) {
+  std::string out;
+  out.reserve(sql.size() + 12);
+  for (std::size_t i = 0; i < sql.size();) {
+    const char c = sql[i];
+    // Quoted text and identifiers ('' and "" inside them are escaped quotes) and comments
+    // are copied as they are.
+    if (c == '\'' || c == '"') {
+      const auto end = sql.find(c, i + 1);
+      const auto stop = end == std::string_view::npos ? sql.size() : end + 1;
+      out.append(sql.substr(i, stop - i));
+      i = stop;
+    } else if (sql.substr(i, 2) == "--") {
+      const auto end = sql.find('\n', i);
+      const auto stop = end == std::string_view::npos ? sql.size() : end;
+      out.append(sql.substr(i, stop - i));
+      i = stop;
+    } else if (sql.substr(i, 2) == "/*") {
+      const auto end = sql.find("*/", i + 2);
+      const auto stop = end == std::string_view::npos ? sql.size() : end + 2;
+      out.append(sql.substr(i, stop - i));
+      i = stop;
+    } else if (c == '?' && i + 1 < sql.size() && std::isdigit(static_cast<unsigned char>(sql[i + 1]))) {
+      out.push_back('$');
+      ++i;
+    } else {
+      out.push_back(c);
+      ++i;
+    }
+  }
+  if (lock == RowLock::share) out += " FOR SHARE";
+  if (lock == RowLock::update) out += " FOR UPDATE";
+  return out;
+}
+
+// ---- PgCursor ----
+
+PgCursor::PgCursor(Connection& connection, std::string name, std::string sql, std::vector<TypeId> parameter_types)
+    : connection_(&connection),
+      name_(std::move(name)),
+      sql_(std::move(sql)),
+      parameter_types_(std::move(parameter_types)),
+      values_(parameter_types_.size()),
+      nulls_(parameter_types_.size(), true) {}
+
+void PgCursor::bind(int index, const Param& value) {
+  if (index < 1 || static_cast<std::size_t>(index) > parameter_types_.size())
+    detail::fail(Kind::internal, fmt::format("{} has no parameter ${}", sql_, index));
+  const auto slot = static_cast<std::size_t>(index - 1);
+  const TypeId type = parameter_types_[slot];
+  auto& out = values_[slot];
+  out.clear();
+  nulls_[slot] = false;
+  const auto mismatch = [&](std::string_view given) {
+    detail::fail(Kind::internal,
+                 fmt::format("{}: parameter ${} is {}, and cannot take {}", sql_, index, type_name(type), given));
+  };
+  std::visit(
+      [&](const auto& v) {
+        using T = std::decay_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, detail::Null>) {
+          nulls_[slot] = true;
+        } else if constexpr (std::is_same_v<T, std::int64_t> || std::is_same_v<T, bool>) {
+          const auto number = static_cast<std::int64_t>(v);
+          if (type == TypeId::int8) {
+            put_integer(out, number, 8);
+          } else if (type == TypeId::int4 || type == TypeId::int2) {
+            const std::int64_t limit = type == TypeId::int4 ? std::numeric_limits<std::int32_t>::max()
+                                                            : std::numeric_limits<std::int16_t>::max();
+            if (number > limit || number < -limit - 1)
+              detail::fail(Kind::invalid_argument, fmt::format("{} is out of range for {}", number, type_name(type)));
+            put_integer(out, number, type == TypeId::int4 ? 4 : 2);
+          } else if (type == TypeId::boolean) {
+            out.push_back(number != 0 ? 1 : 0);
+          } else if (type == TypeId::float8) {
+            put_double(out, static_cast<double>(number));
+          } else {
+            mismatch(std::is_same_v<T, bool> ? "a boolean" : "an integer");
+          }
+        } else if constexpr (std::is_same_v<T, double>) {
+          if (type != TypeId::float8) mismatch("a floating-point number");
+          put_double(out, v);
+        } else if constexpr (std::is_same_v<T, std::string_view>) {
+          if (!is_textual(type) && type != TypeId::bytea) mismatch("text");
+          out.assign(v);
+        } else if constexpr (std::is_same_v<T, detail::Blob>) {
+          if (type != TypeId::bytea) mismatch("bytes");
+          out.assign(v.bytes);
+        } else {
+          static_assert(std::is_same_v<T, Time>);
+          if (type != TypeId::timestamptz && type != TypeId::timestamp) mismatch("a time");
+          put_time(out, v);
+        }
+      },
+      value);
+}
+
+bool PgCursor::step() {
+  if (!result_) {
+    const auto n = parameter_types_.size();
+    std::vector<const char*> values(n);
+    std::vector<int> lengths(n), formats(n, 1);
+    for (std::size_t i = 0; i < n; ++i) {
+      values[i] = nulls_[i] ? nullptr : values_[i].data();
+      lengths[i] = static_cast<int>(values_[i].size());
+    }
+    result_.reset(PQexecPrepared(connection_->handle(), name_.c_str(), static_cast<int>(n), values.data(),
+                                 lengths.data(), formats.data(), 1));
+    const auto status = result_ ? PQresultStatus(result_.get()) : PGRES_FATAL_ERROR;
+    if (status != PGRES_TUPLES_OK && status != PGRES_COMMAND_OK) {
+      auto failed = std::move(result_);
+      connection_->fail(failed.get(), sql_);
+    }
+  }
+  return ++row_ < PQntuples(result_.get());
+}
+
+std::string_view PgCursor::value(int column) const {
+  if (!result_ || row_ < 0 || row_ >= PQntuples(result_.get()) || column < 0 || column >= PQnfields(result_.get()))
+    detail::fail(Kind::internal, fmt::format("{}: no column {} in the current row", sql_, column));
+  return {PQgetvalue(result_.get(), row_, column), static_cast<std::size_t>(PQgetlength(result_.get(), row_, column))};
+}
+
+TypeId PgCursor::type(int column) const { return static_cast<TypeId>(PQftype(result_.get(), column)); }
+
+void PgCursor::cannot_read(int column, std::string_view as) const {
+  detail::fail(Kind::internal,
+               fmt::format("{}: column {} is {} and cannot be read as {}", sql_, column, type_name(type(column)), as));
+}
+
+bool PgCursor::is_null(int column) const {
+  value(column);
+  return PQgetisnull(result_.get(), row_, column) != 0;
+}
+
+std::int64_t PgCursor::integer(int column) const {
+  const auto bytes = value(column);
+  if (is_null(column)) return 0;
+  switch (type(column)) {
+    case TypeId::int8:
+    case TypeId::int4:
+    case TypeId::int2:
+    case TypeId::boolean:
+      return get_integer(bytes);
+    case TypeId::oid:
+      return static_cast<std::int64_t>(static_cast<std::uint32_t>(get_integer(bytes)));
+    default:
+      cannot_read(column, "an integer");
+  }
+}
+
+double PgCursor::real(int column) const {
+  const auto bytes = value(column);
+  if (is_null(column)) return std::numeric_limits<double>::quiet_NaN();
+  switch (type(column)) {
+    case TypeId::float8:
+    case TypeId::float4:
+      return get_double(bytes);
+    case TypeId::int8:
+    case TypeId::int4:
+    case TypeId::int2:
+      return static_cast<double>(get_integer(bytes));
+    default:
+      cannot_read(column, "a number");
+  }
+}
+
+bool PgCursor::boolean(int column) const {
+  const auto t = type(column);
+  if (t != TypeId::boolean && t != TypeId::int8 && t != TypeId::int4 && t != TypeId::int2)
+    cannot_read(column, "a boolean");
+  return integer(column) != 0;
+}
+
+std::string PgCursor::text(int column) const {
+  const auto bytes = value(column);
+  if (!is_textual(type(column))) cannot_read(column, "text");
+  return std::string(bytes);
+}
+
+std::string PgCursor::blob(int column) const {
+  const auto bytes = value(column);
+  if (type(column) != TypeId::bytea && !is_textual(type(column))) cannot_read(column, "bytes");
+  return std::string(bytes);
+}
+
+Time PgCursor::time(int column) const {
+  const auto bytes = value(column);
+  if (is_null(column)) return Time{};
+  if (type(column) != TypeId::timestamptz && type(column) != TypeId::timestamp) cannot_read(column, "a time");
+  return get_time(bytes);
+}
+
+void PgCursor::reset() noexcept {
+  result_.reset();
+  row_ = -1;
+  std::fill(nulls_.begin(), nulls_.end(), true);
+}
+
+// ---- Connection ----
+
+Connection::Connection(const Target& target, const ConnectSettings& settings) : target_(target) {
+  const auto keywords = connection_keywords(target, settings);
+  std::vector<const char*> names, values;
+  for (const auto& [name, value] : keywords) {
+    names.push_back(name.c_str());
+    values.push_back(value.c_str());
+  }
+  names.push_back(nullptr);
+  values.push_back(nullptr);
+  connection_.reset(PQconnectdbParams(names.data(), values.data(), 1));
+  if (!connection_) detail::fail(Kind::internal, "libpq could not allocate a connection");
+  if (PQstatus(handle()) == CONNECTION_OK) {
+    PQsetNoticeReceiver(handle(), ignore_notice, nullptr);
+    return;
+  }
+  const std::string why = trimmed(PQerrorMessage(handle()));
+  const std::string role = PQuser(handle()) ? PQuser(handle()) : "";
+  if (PQconnectionNeedsPassword(handle()))
+    detail::fail(Kind::access_denied,
+                 fmt::format("{}: no password for role {} in PGPASSFILE or ~/.pgpass", target_.display, role));
+  if (PQconnectionUsedPassword(handle()) && why.find("password authentication failed") != std::string::npos)
+    detail::fail(Kind::access_denied, fmt::format("{}: the server refused the password of role {} (from PGPASSFILE "
+                                                  "or ~/.pgpass)",
+                                                  target_.display, role));
+  detail::fail(Kind::unreachable, fmt::format("cannot reach the database server at {}: {}", target_.display, why));
+}
+
+void Connection::fail(const PGresult* result, std::string_view what, bool committing) const {
+  const char* state_field = result ? PQresultErrorField(result, PG_DIAG_SQLSTATE) : nullptr;
+  const std::string sql_state = state_field ? state_field : "";
+  const bool lost = broken() || connection_lost_sql_state(sql_state);
+  std::string message;
+  if (const char* primary = result ? PQresultErrorField(result, PG_DIAG_MESSAGE_PRIMARY) : nullptr) {
+    message = primary;
+    if (const char* detail = PQresultErrorField(result, PG_DIAG_MESSAGE_DETAIL))
+      message += fmt::format(" ({})", detail);
+  } else {
+    message = trimmed(PQerrorMessage(handle()));
+  }
+  StoreError error{lost ? Kind::unreachable : kind_of_sql_state(sql_state), "", 0, sql_state};
+  bool retryable = retryable_sql_state(sql_state);
+  if (lost && committing) {
+    error.message = fmt::format("the connection to {} was lost while committing; whether it was stored is unknown: {}",
+                                target_.display, message);
+  } else if (lost) {
+    error.message = fmt::format("the connection to {} was lost: {}", target_.display, message);
+    retryable = true;  // nothing of the transaction was committed
+  } else {
+    error.message = fmt::format("{} (while running {})", message, what);
+  }
+  throw detail::Failure{std::move(error), retryable};
+}
+
+Cursor& Connection::cursor(std::string_view sql, RowLock lock) {
+  auto& cache = cache_[static_cast<std::size_t>(lock)];
+  auto found = cache.find(sql);
+  if (found != cache.end()) return *found->second;
+  const auto text = postgresql_sql(sql, lock);
+  const auto name = fmt::format("s{}", cache_[0].size() + cache_[1].size() + cache_[2].size() + 1);
+  std::unique_ptr<PGresult, decltype(&PQclear)> prepared(PQprepare(handle(), name.c_str(), text.c_str(), 0, nullptr),
+                                                         &PQclear);
+  if (!prepared || PQresultStatus(prepared.get()) != PGRES_COMMAND_OK) fail(prepared.get(), text);
+  std::unique_ptr<PGresult, decltype(&PQclear)> described(PQdescribePrepared(handle(), name.c_str()), &PQclear);
+  if (!described || PQresultStatus(described.get()) != PGRES_COMMAND_OK) fail(described.get(), text);
+  std::vector<TypeId> types;
+  for (int i = 0; i < PQnparams(described.get()); ++i)
+    types.push_back(static_cast<TypeId>(PQparamtype(described.get(), i)));
+  auto owned = std::make_unique<PgCursor>(*this, name, text, std::move(types));
+  auto& cursor = *owned;
+  cache.emplace(std::string(sql), std::move(owned));
+  return cursor;
+}
+
+void Connection::run(const char* command, std::string_view what) {
+  std::unique_ptr<PGresult, decltype(&PQclear)> result(PQexec(handle(), command), &PQclear);
+  const auto status = result ? PQresultStatus(result.get()) : PGRES_FATAL_ERROR;
+  if (status != PGRES_COMMAND_OK && status != PGRES_TUPLES_OK) fail(result.get(), what);
+}
+
+void Connection::execute(std::string_view script) {
+  const std::string text(script);
+  run(text.c_str(), "a script");
+}
+
+void Connection::begin(TransactionKind kind) {
+  run(kind == TransactionKind::write ? "BEGIN" : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY", "BEGIN");
+}
+
+void Connection::commit() {
+  std::unique_ptr<PGresult, decltype(&PQclear)> result(PQexec(handle(), "COMMIT"), &PQclear);
+  if (!result || PQresultStatus(result.get()) != PGRES_COMMAND_OK) fail(result.get(), "COMMIT", true);
+  // PostgreSQL answers COMMIT of a transaction a statement failed in with ROLLBACK.
+  if (std::string_view(PQcmdStatus(result.get())) == "ROLLBACK")
+    detail::fail(Kind::internal, "the transaction had failed and was rolled back, not committed");
+}
+
+void Connection::rollback() noexcept {
+  if (!in_transaction()) return;
+  // A failure here leaves nothing to do: the server rolls back a transaction whose
+  // connection is gone, and a broken connection is not used again.
+  PQclear(PQexec(handle(), "ROLLBACK"));
+}
+
+bool Connection::in_transaction() const {
+  const auto status = PQtransactionStatus(handle());
+  return status == PQTRANS_INTRANS || status == PQTRANS_INERROR || status == PQTRANS_ACTIVE;
+}
+
+}  // namespace skinspec::store::postgresql

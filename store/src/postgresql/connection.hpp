@@ -1,0 +1,100 @@
+#pragma once
+// The store's Connection over libpq: one PGconn, its statements prepared once (named, with
+// the parameter types the server inferred) and cached by their text, parameters and results in
+// binary. The store's SQL says ?1, ?2 ...; PostgreSQL is given $1, $2 ...
+
+#include <libpq-fe.h>
+
+#include <array>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+#include "db.hpp"
+#include "postgresql/binary.hpp"
+#include "postgresql/target.hpp"
+
+namespace skinspec::store::postgresql {
+
+using detail::Cursor;
+using detail::Dialect;
+using detail::Param;
+using detail::RowLock;
+using detail::TransactionKind;
+
+// `sql` with each ?N outside quoted text and comments written $N, and `lock`'s clause appended.
+std::string postgresql_sql(std::string_view sql, RowLock lock);
+
+class Connection;
+
+class PgCursor final : public Cursor {
+ public:
+  PgCursor(Connection& connection, std::string name, std::string sql, std::vector<TypeId> parameter_types);
+
+  void bind(int index, const Param& value) override;
+  bool step() override;
+  bool is_null(int column) const override;
+  std::int64_t integer(int column) const override;
+  double real(int column) const override;
+  bool boolean(int column) const override;
+  std::string text(int column) const override;
+  std::string blob(int column) const override;
+  Time time(int column) const override;
+  void reset() noexcept override;
+
+ private:
+  std::string_view value(int column) const;
+  TypeId type(int column) const;
+  [[noreturn]] void cannot_read(int column, std::string_view as) const;
+
+  Connection* connection_;
+  std::string name_;
+  std::string sql_;  // as sent, for messages
+  std::vector<TypeId> parameter_types_;
+  std::vector<std::string> values_;
+  std::vector<bool> nulls_;
+  std::unique_ptr<PGresult, decltype(&PQclear)> result_{nullptr, &PQclear};
+  int row_ = -1;
+};
+
+class Connection final : public detail::Connection {
+ public:
+  // Connects now; throws unreachable, access_denied or invalid_argument naming the cause.
+  Connection(const Target& target, const ConnectSettings& settings);
+  ~Connection() override = default;
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+
+  Dialect dialect() const override { return Dialect::postgresql; }
+  void execute(std::string_view script) override;
+  // BEGIN (read committed; the store takes the row locks it needs), or a read-only snapshot
+  // (REPEATABLE READ READ ONLY).
+  void begin(TransactionKind kind) override;
+  void commit() override;
+  void rollback() noexcept override;
+  bool in_transaction() const override;
+
+  // Whether the connection is gone: a pool drops it rather than hand it out again.
+  bool broken() const { return PQstatus(handle()) != CONNECTION_OK; }
+  int backend_pid() const { return PQbackendPID(handle()); }
+  PGconn* handle() const { return connection_.get(); }
+
+  // Throws the failure `result` (null: the connection's own error) reports, for `what`.
+  // `committing`: it was the reply to COMMIT, so a lost connection leaves the outcome unknown.
+  [[noreturn]] void fail(const PGresult* result, std::string_view what, bool committing = false) const;
+
+ protected:
+  Cursor& cursor(std::string_view sql, RowLock lock) override;
+
+ private:
+  void run(const char* command, std::string_view what);
+
+  Target target_;
+  std::unique_ptr<PGconn, decltype(&PQfinish)> connection_{nullptr, &PQfinish};
+  // By the store's text of the statement, one map per row lock.
+  std::array<std::unordered_map<std::string, std::unique_ptr<PgCursor>, detail::TextHash, std::equal_to<>>, 3> cache_;
+};
+
+}  // namespace skinspec::store::postgresql

@@ -1,0 +1,94 @@
+#pragma once
+// The SQLite engine: one file, one writer connection behind a mutex (the advisory lock on
+// "PATH-lock" makes this Store the only writer), a pool of read connections, and what opening
+// a file involves (sqlite/open.cpp).
+
+#include <sys/stat.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "../engine.hpp"
+#include "skinspec/store/store.hpp"
+#include "sqlite/connection.hpp"
+
+namespace skinspec::store::sqlite {
+
+using detail::ConnectionLease;
+
+// Read connections, opened on demand up to a maximum; a caller beyond it waits.
+class ReaderPool final : public ConnectionLease::Owner {
+ public:
+  // `filename` and `flags` as for sqlite3_open_v2 (a URI with SQLITE_OPEN_URI).
+  void configure(std::string filename, int flags, std::chrono::milliseconds busy_timeout, int max_connections);
+  ConnectionLease acquire();
+  void give_back(detail::Connection& connection) noexcept override;
+  void close();
+
+ private:
+  std::string filename_;
+  int flags_ = SQLITE_OPEN_READONLY;
+  std::chrono::milliseconds busy_timeout_{0};
+  std::size_t max_ = 1;
+  std::mutex mutex_;
+  std::condition_variable returned_;
+  std::vector<std::unique_ptr<Connection>> open_;
+  std::vector<detail::Connection*> idle_;
+  std::size_t opening_ = 0;
+};
+
+// What identifies a file's content from outside: a write to it changes at least its times.
+struct FileIdentity {
+  dev_t device = 0;
+  ino_t inode = 0;
+  off_t size = 0;
+  timespec modified{};
+  timespec changed{};
+
+  static FileIdentity of(const struct stat& info);
+  bool operator==(const FileIdentity& other) const;
+};
+
+class SqliteEngine final : public detail::Engine, private ConnectionLease::Owner {
+ public:
+  explicit SqliteEngine(std::string path) : path_(std::move(path)) {}
+  ~SqliteEngine() override;
+  SqliteEngine(const SqliteEngine&) = delete;
+  SqliteEngine& operator=(const SqliteEngine&) = delete;
+
+  Dialect dialect() const override { return Dialect::sqlite; }
+  ConnectionLease writer() override;
+  ConnectionLease reader() override { return readers_.acquire(); }
+  // Throws `busy` when a file read as immutable has changed since it was opened.
+  void after_read() const override;
+
+  // Set while opening (sqlite/open.cpp).
+  const std::string& path() const { return path_; }
+  void set_writer(std::unique_ptr<Connection> writer, int lock_fd);
+  Connection& writer_connection() { return *writer_; }
+  void freeze(const FileIdentity& identity) { frozen_ = identity; }
+  ReaderPool& readers() { return readers_; }
+
+ private:
+  void give_back(detail::Connection& connection) noexcept override;
+
+  std::string path_;
+  int lock_fd_ = -1;  // "<path>-lock", flock()ed while this Store is the writer
+  // Read-only without a -wal file, the readers treat the file as immutable (no locks, no -shm):
+  // it is what the file was when opened, and a read fails as `busy` once it is not.
+  std::optional<FileIdentity> frozen_;
+  std::mutex writer_mutex_;
+  std::unique_ptr<Connection> writer_;  // null when read-only
+  ReaderPool readers_;
+};
+
+// Marks the sessions that were running when the last writer died as interrupted and fails the
+// jobs it left queued or running.
+RecoveryReport recover(detail::Connection& writer, RecoveryPolicy policy, Time now);
+
+}  // namespace skinspec::store::sqlite
