@@ -42,21 +42,9 @@ drivers::ModelChoice parse_model(const std::string& text) {
   return *choice;
 }
 
-// The exposures the meter may take: the forced model's range, or with auto the widest any model
-// has (the driver then holds the identified model to its own before sending anything).
-drivers::ExposureRange exposure_range(const drivers::ModelChoice& choice) {
-  if (choice.forced) return drivers::profile(*choice.forced).exposure;
-  drivers::ExposureRange widest{std::numeric_limits<int>::max(), 0, 0};
-  for (const auto& p : drivers::all_profiles()) {
-    widest.min_ms = std::min(widest.min_ms, p.exposure.min_ms);
-    widest.max_ms = std::max(widest.max_ms, p.exposure.max_ms);
-  }
-  return widest;
-}
-
 int parse_integration(const std::string& text, const drivers::ModelChoice& choice) {
   if (text == "adaptive") return 0;
-  const drivers::ExposureRange range = exposure_range(choice);
+  const drivers::ExposureRange range = drivers::exposure_range(choice);
   int ms = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), ms);
   if (ec != std::errc() || end != text.data() + text.size() || ms < range.min_ms || ms > range.max_ms)

@@ -158,8 +158,10 @@ void add_session_measure_command(CLI::App& session, const std::shared_ptr<Server
   measure->add_option("--kind", args->kind, "white or sample")->required()->check(CLI::IsMember({"white", "sample"}));
   measure->add_option("--count", args->count, "readings averaged")->check(CLI::Range(1, 100))->capture_default_str();
   measure->add_option("--label", args->label, "a label for the measurement")->check(utf8_text());
-  measure->add_option("--integration-ms", args->integration_ms, "integration time, 10-6000 ms (default: adaptive)")
-      ->check(CLI::Range(10, 6000));
+  measure
+      ->add_option("--integration-ms", args->integration_ms,
+                   "integration time in ms, within the meter's range (default: adaptive)")
+      ->check(CLI::Range(1, 3600000));
   measure->add_flag("--no-wait", args->no_wait, "print the queued job and return at once");
   add_server_options(*measure, *server);
   measure->callback([server, args] { run_measure(*server, *args); });

@@ -73,6 +73,24 @@ void Supervisor::release_meter() {
   spdlog::info("event=instrument_disconnected device=\"{}\"", device_);
 }
 
+// The identified meter's exposure range, or before a meter was reached the forced model's (any
+// model's with auto): refused when the job is posted, with the range, rather than failed later.
+std::optional<api::ApiError> Supervisor::check_exposure(int integration_ms) const {
+  if (integration_ms == 0) return std::nullopt;  // adaptive
+  drivers::ModelChoice known = model_;
+  {
+    std::lock_guard lock(mutex_);
+    if (identity_ && identity_->model) known.forced = identity_->model;
+  }
+  const drivers::ExposureRange range = drivers::exposure_range(known);
+  if (integration_ms >= range.min_ms && integration_ms <= range.max_ms) return std::nullopt;
+  const std::string whose =
+      known.forced ? "the " + std::string(drivers::profile(*known.forced).name) + "'s range" : "what any model takes";
+  return api::ApiError{
+      api::ErrorKind::unprocessable, "out_of_range",
+      fmt::format("'integration_ms' must be 0 (adaptive) or {} to {} ms ({})", range.min_ms, range.max_ms, whose)};
+}
+
 std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id session_id,
                                                                    const api::MeasureRequest& request,
                                                                    const std::string& idempotency_key) {
@@ -87,6 +105,7 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
     return std::unexpected(api::ApiError{
         api::ErrorKind::conflict, "conflict",
         "session " + std::to_string(session_id) + " is " + std::string(store::to_string(session->state))});
+  if (auto refused = check_exposure(request.integration_ms)) return std::unexpected(*refused);
   store::Job job;
   job.kind = "measure";
   job.session_id = session_id;

@@ -96,6 +96,7 @@ class Supervisor final : public api::Acquisition {
                                                                             const drivers::MeasureOptions& options,
                                                                             bool first_of_job);
   void note_instrument_error(const drivers::InstrumentError& error);
+  std::optional<api::ApiError> check_exposure(int integration_ms) const;
   // The running job's phase and readings so far, told to its followers.
   void report_progress(api::JobPhase phase, int readings_done);
   // With mutex_ held, after the job's store record was written: counts a change and wakes the

@@ -4,6 +4,7 @@
 // program leaves remote mode (Q) whether the meter is idle or measuring; `skinspec measure
 // --json` names the meter of each family.
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <csignal>
@@ -25,9 +26,9 @@ const std::string kForearm = std::string(SKINSPEC_TEST_DATA_DIR) + "/examples/fo
 const std::string kSkinspec = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspec";
 constexpr std::string_view kQuitLogged = "command Q: remote mode left";
 
-// What skinspecd and skinspec are told of the meter (--model): the simulated model itself.
-// Identification by the meter's own answers makes this "auto".
-std::string model_flag(const std::string& model) { return model; }
+// What skinspecd and skinspec are told of the meter: nothing (--model auto), so that every test
+// also shows the meter identified by its own answers.
+std::string model_flag(const std::string& /*model*/) { return "auto"; }
 
 // A simulated model, what it should say of itself, and the serial number it is given.
 struct Meter {
@@ -152,6 +153,34 @@ TEST_P(Pr6xxSessionTest, AWholeSessionStoresTheSourceReflectanceOnTheMetersGrid)
 }
 
 INSTANTIATE_TEST_SUITE_P(NewerMeters, Pr6xxSessionTest, ::testing::Values(kPr670, kPr730), model_name);
+
+// A job's exposure is held to the identified meter's range when it is posted: 20 s is too long
+// for a PR-650 (422, naming its range) and within a PR-730's, which takes it (and saturates).
+TEST(Pr6xxExposureRange, AJobsExposureIsCheckedAgainstTheIdentifiedMeter) {
+  for (const Meter& meter : {kPr650, kPr730}) {
+    ScratchDirectory dir;
+    AcquisitionRig rig(rig_for(dir, meter));
+    ASSERT_TRUE(rig.ready()) << rig.logs();
+    ASSERT_EQ(when_connected(rig.port)["state"], "connected") << meter << rig.logs();
+    const long long session = new_session(rig.port, "E1");
+    const json body = {{"kind", "white"}, {"integration_ms", 20000}};
+    if (meter.model == "pr650") {
+      const auto refused =
+          http_request(rig.port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", body.dump());
+      EXPECT_EQ(refused.status, 422) << refused.body;
+      EXPECT_THAT(refused.body, ::testing::HasSubstr("out_of_range"));
+      EXPECT_THAT(refused.body, ::testing::HasSubstr("10 to 6000 ms (the PR-650's range)"));
+      EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT COUNT(*) FROM jobs"), "0");
+    } else {
+      // Taken by the meter: 20 s on a white standard under the simulated lamp saturates it.
+      const auto job = wait_for_job(rig.port, submit(rig.port, session, body));
+      EXPECT_EQ(job["request"]["integration_ms"], 20000) << job;
+      ASSERT_EQ(job["state"], "failed") << job << rig.logs();
+      EXPECT_EQ(job["error"]["code"], "bad_reading") << job;
+      EXPECT_THAT(job["error"]["message"].get<std::string>(), ::testing::HasSubstr("overload")) << job;
+    }
+  }
+}
 
 // Whether the simulator's log has the meter leaving remote mode after `after` (within `limit`).
 bool quit_logged_after(BackgroundProcess& sim, std::string_view after, std::chrono::milliseconds limit) {

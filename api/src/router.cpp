@@ -114,9 +114,8 @@ struct Router::Handlers {
     else fail(ErrorKind::unprocessable, "invalid_value", "'kind' must be white or sample");
     request.count = integer_field(body, "count", 1, 100).value_or(1);
     request.label = detail::optional_string(body, "label", 200).value_or("");
-    request.integration_ms = integer_field(body, "integration_ms", 0, 6000).value_or(0);
-    if (request.integration_ms != 0 && request.integration_ms < 10)
-      fail(ErrorKind::unprocessable, "out_of_range", "'integration_ms' must be 0 (adaptive) or 10 to 6000");
+    // An hour at most here; the acquisition holds it to the meter's own range.
+    request.integration_ms = integer_field(body, "integration_ms", 0, 3600000).value_or(0);
     std::string key;
     if (const auto it = call.request.headers.find("idempotency-key"); it != call.request.headers.end()) {
       key = it->second;

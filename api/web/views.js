@@ -119,7 +119,7 @@ export async function sessionView(root, id) {
   const job = h("div", { class: "job", id: "job", "aria-live": "polite" });
   const count = h("input", { type: "number", name: "count", min: 1, max: 100, value: 1, id: "count" });
   const label = h("input", { name: "label", maxlength: 200, id: "label", autocomplete: "off" });
-  const integration = h("input", { type: "number", name: "integration_ms", min: 0, max: 6000, value: 0, id: "integration" });
+  const integration = h("input", { type: "number", name: "integration_ms", min: 0, max: 120000, value: 0, id: "integration" });
   const measure = (kind) => startJob(job, id, { kind, count: Number(count.value) || 1, label: label.value,
                                                 integration_ms: Number(integration.value) || 0 });
   const acquire = h("div", { class: "card acquire" },

@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <limits>
+
 #include "identify/auto_instrument.hpp"
 #include "identify/family_driver.hpp"
 #include "skinspec/drivers/pr6xx.hpp"
@@ -20,6 +23,17 @@ std::expected<ModelChoice, std::string> ModelChoice::parse(std::string_view text
 }
 
 std::string ModelChoice::to_string() const { return forced ? std::string(profile(*forced).id) : "auto"; }
+
+ExposureRange exposure_range(const ModelChoice& choice) {
+  if (choice.forced) return profile(*choice.forced).exposure;
+  ExposureRange widest{std::numeric_limits<int>::max(), 0, 0};
+  for (const auto& p : all_profiles()) {
+    widest.min_ms = std::min(widest.min_ms, p.exposure.min_ms);
+    widest.max_ms = std::max(widest.max_ms, p.exposure.max_ms);
+    widest.max_extended_ms = std::max(widest.max_extended_ms, p.exposure.max_extended_ms);
+  }
+  return widest;
+}
 
 InstrumentOptions instrument_options_for(const ConnectionUri& uri) {
   InstrumentOptions options;

@@ -27,6 +27,10 @@ struct ModelChoice {
   std::string to_string() const;  // "auto" or the profile id
 };
 
+// The exposures a meter may be asked for: the forced model's range, or with auto the widest any
+// model has (the driver then holds the identified model to its own before sending anything).
+ExposureRange exposure_range(const ModelChoice& choice);
+
 // Every driver's options, each family taking its own.
 struct InstrumentOptions {
   DriverOptions pr650;
