@@ -18,6 +18,7 @@
 
 #include "common.hpp"
 #include "identity_json.hpp"
+#include "skinspec/drivers/emergency_quit.hpp"
 #include "skinspec/drivers/open_instrument.hpp"
 
 namespace skinspec::cli {
@@ -151,6 +152,7 @@ void print_reading(const MeasureArgs& args, int number, const drivers::Reading& 
 }
 
 void run_measure(const MeasureArgs& args) {
+  drivers::install_emergency_quit();  // a meter in remote mode is sent Q even after a crash
   const drivers::ModelChoice choice = parse_model(args.model);
   drivers::MeasureOptions measure;
   measure.integration_ms = parse_integration(args.integration, choice);

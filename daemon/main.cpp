@@ -13,6 +13,7 @@
 #include "options.hpp"
 #include "supervisor.hpp"
 #include "fitter_loader.hpp"
+#include "skinspec/drivers/emergency_quit.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/version.hpp"
 
@@ -107,6 +108,8 @@ int serve(const skinspec::daemon::Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A meter in remote mode is sent Q even if this process dies of a fatal signal.
+  skinspec::drivers::install_emergency_quit();
   skinspec::daemon::Options o;
   CLI::App app{"skinspecd: stored skin spectra, sessions and fits over HTTP/JSON"};
   app.set_version_flag("--version", "skinspecd " + std::string(skinspec::kVersion));

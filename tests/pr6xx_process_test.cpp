@@ -193,17 +193,32 @@ bool quit_logged_after(BackgroundProcess& sim, std::string_view after, std::chro
   return false;
 }
 
-// SIGTERM with the meter connected and idle: it is sent Q, leaving remote mode.
-TEST_P(Pr6xxStopTest, SigtermLeavesRemoteModeWhenIdle) {
-  const Meter& meter = GetParam();
-  AcquisitionRig rig(rig_for(dir_, meter));
+// With the meter connected, idle and remote, skinspecd is ended by `signal` (`ended`: how); the
+// meter must then leave remote mode.
+void idle_daemon_ended_leaves_remote_mode(const ScratchDirectory& dir, const Meter& meter, int signal,
+                                          ProcessResult& ended) {
+  AcquisitionRig rig(rig_for(dir, meter));
   ASSERT_TRUE(rig.ready()) << rig.logs();
   ASSERT_EQ(when_connected(rig.port)["state"], "connected") << rig.logs();
   ASSERT_TRUE(rig.sim->wait_for_stderr("command PHOTO: remote mode", 5s)) << rig.logs();
   EXPECT_EQ(rig.sim->err().find(kQuitLogged), std::string::npos) << "left remote mode before the test asked";
-  const auto stopped = rig.stop_daemon();
-  EXPECT_EQ(stopped.exit_status, 0) << stopped.describe();
+  ended = rig.stop_daemon(signal);
   EXPECT_TRUE(quit_logged_after(*rig.sim, "command PHOTO: remote mode", 10s)) << rig.logs();
+}
+
+// SIGTERM with the meter connected and idle: it is sent Q, leaving remote mode.
+TEST_P(Pr6xxStopTest, SigtermLeavesRemoteModeWhenIdle) {
+  ProcessResult stopped;
+  idle_daemon_ended_leaves_remote_mode(dir_, GetParam(), SIGTERM, stopped);
+  EXPECT_EQ(stopped.exit_status, 0) << stopped.describe();
+}
+
+// A crash (SIGABRT here, as abort() or an uncaught exception gives) cannot run the driver's
+// disconnect: the fatal-signal handler writes Q to the meter's link on its way out.
+TEST_P(Pr6xxStopTest, ACrashStillLeavesRemoteMode) {
+  ProcessResult died;
+  idle_daemon_ended_leaves_remote_mode(dir_, GetParam(), SIGABRT, died);
+  EXPECT_EQ(died.signal, SIGABRT) << died.describe();
 }
 
 // SIGTERM while the meter measures: the measurement is cancelled (a PR-7xx's with A; a PR-670

@@ -72,8 +72,8 @@ void AcquisitionRig::start_daemon(const std::vector<std::string>& extra_args) {
   port = port_of(daemon->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s));
 }
 
-ProcessResult AcquisitionRig::stop_daemon() {
-  daemon->send_signal(SIGTERM);
+ProcessResult AcquisitionRig::stop_daemon(int signal) {
+  daemon->send_signal(signal);
   return daemon->wait(20s);
 }
 

@@ -3,6 +3,7 @@
 // it, each restartable (the daemon on the same database, the simulator on the same port), and
 // the few HTTP calls every acquisition test makes.
 
+#include <csignal>
 #include <chrono>
 #include <memory>
 #include <string>
@@ -57,8 +58,8 @@ class AcquisitionRig {
   std::string logs() const;
 
   std::string url() const { return "http://127.0.0.1:" + std::to_string(port); }
-  // Stops skinspecd (SIGTERM) and waits for it to end; how it ended.
-  ProcessResult stop_daemon();
+  // Stops skinspecd with `signal` and waits for it to end; how it ended.
+  ProcessResult stop_daemon(int signal = SIGTERM);
   // Starts skinspecd again on the same database (after the test stopped or killed it).
   void restart_daemon(std::vector<std::string> extra_args = {});
   // Starts skinspec-sim again on the port the daemon knows.

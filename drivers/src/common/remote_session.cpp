@@ -200,14 +200,14 @@ std::expected<bool, InstrumentError> Session::enter_remote() {
     if (!answer) return std::unexpected(answer.error());
     if (p6::split_banner(*answer).found == p6::BannerSplit::Found::whole) {
       ++replies_;
-      remote_ = true;
+      set_remote(true);
       return false;
     }
     if (!answer->empty()) {
       if (identification::classify_photo(*answer) != identification::PhotoAnswer::newer_meter)
         return std::unexpected(not_remote_mode("PHOTO", *answer));
       ++replies_;
-      remote_ = true;
+      set_remote(true);
       return true;
     }
     // Some meters hold the banner back until the next reply: without a flush, D111 shows it.
@@ -220,7 +220,7 @@ std::expected<bool, InstrumentError> Session::enter_remote() {
         break;
       case identification::PhotoAnswer::banner:
       case identification::PhotoAnswer::newer_meter:
-        remote_ = true;
+        set_remote(true);
         return true;
       case identification::PhotoAnswer::pr650:
       case identification::PhotoAnswer::other:
@@ -254,12 +254,20 @@ InstrumentError Session::not_remote_mode(std::string_view command, std::string_v
 }
 
 void Session::quit() {
-  if (!remote_ || !transport_.is_open()) return;
-  transport_.clear_interrupt();
-  const bool was = cancelled_.exchange(false);  // the pacing wait must not be cut short
-  (void)write_paced(p6::kQuit);
-  cancelled_ = was;
-  remote_ = false;
+  if (!remote_) return;
+  if (transport_.is_open()) {
+    transport_.clear_interrupt();
+    const bool was = cancelled_.exchange(false);  // the pacing wait must not be cut short
+    (void)write_paced(p6::kQuit);
+    cancelled_ = was;
+  }
+  set_remote(false);
+}
+
+void Session::set_remote(bool remote) {
+  remote_ = remote;
+  if (!remote) listing_.reset();
+  else if (!listing_) listing_.emplace(transport_.native_handle());
 }
 
 }  // namespace skinspec::drivers::remote

@@ -10,9 +10,11 @@
 #include <condition_variable>
 #include <expected>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <string_view>
 
+#include "skinspec/drivers/emergency_quit.hpp"
 #include "skinspec/drivers/instrument.hpp"
 #include "skinspec/drivers/remote_options.hpp"
 #include "skinspec/drivers/transport.hpp"
@@ -47,7 +49,7 @@ class Session {
   // meter gives (a PR-650's echo, other bytes) is an `identification` error.
   std::expected<bool, InstrumentError> enter_remote();
   // Takes the meter as remote: another session on the same link entered remote mode.
-  void assume_remote() { remote_ = true; }
+  void assume_remote() { set_remote(true); }
   // Q when remote: the meter's screen stays locked otherwise. Works after cancel().
   void quit();
   bool remote() const { return remote_; }
@@ -76,6 +78,9 @@ class Session {
   std::expected<void, InstrumentError> write_paced(std::string_view command);
   std::expected<std::string, InstrumentError> read_banner(std::chrono::milliseconds first_byte);
   InstrumentError not_remote_mode(std::string_view command, std::string_view answer) const;
+  // Remote mode entered or left, with the link on the emergency list (emergency_quit.hpp) while
+  // remote.
+  void set_remote(bool remote);
 
   Transport& transport_;
   std::string name_;
@@ -83,6 +88,7 @@ class Session {
   RemoteTiming timing_;
   pr6xx::CommandStyle style_;
   bool remote_ = false;
+  std::optional<EmergencyQuitListing> listing_;
   Clock::time_point last_byte_{};  // when the last byte went out, for the pacing
   std::atomic<bool> cancelled_{false};
   std::atomic<std::uint64_t> replies_{0};

@@ -27,6 +27,7 @@ class BorrowedTransport final : public Transport {
     return owner_.set_modem_lines(dtr, rts);
   }
   bool peer_closed() override { return owner_.peer_closed(); }
+  int native_handle() const override { return owner_.native_handle(); }
   void interrupt() override { owner_.interrupt(); }
   void clear_interrupt() override { owner_.clear_interrupt(); }
   std::string describe() const override { return owner_.describe(); }

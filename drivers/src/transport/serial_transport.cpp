@@ -149,6 +149,11 @@ class SerialTransport final : public Transport {
   }
 
   bool is_open() const override { return port_ != nullptr; }
+  int native_handle() const override {
+    int fd = -1;
+    if (port_ && sp_get_port_handle(port_.get(), &fd) == SP_OK) return fd;
+    return -1;
+  }
 
   std::expected<void, TransportError> flush_input() override {
     if (!port_) return not_open();

@@ -88,6 +88,10 @@ class TcpTransport final : public Transport {
   }
 
   bool is_open() const override { return socket_.is_open(); }
+  int native_handle() const override {
+    // native_handle() is not const in Asio, though it only reads the descriptor.
+    return socket_.is_open() ? const_cast<tcp::socket&>(socket_).native_handle() : -1;
+  }
 
   // Reads whatever the socket already holds, without waiting for more.
   std::expected<void, TransportError> flush_input() override {

@@ -57,6 +57,10 @@ class Transport {
   // Clears a pending interrupt so the transport can be used again.
   virtual void clear_interrupt() = 0;
 
+  // The open link's file descriptor, for writing to it from a signal handler
+  // (emergency_quit.hpp); -1 when closed or when the link has none.
+  virtual int native_handle() const { return -1; }
+
   // "serial:/dev/ttyUSB0", "tcp:127.0.0.1:4001", ...
   virtual std::string describe() const = 0;
 };
