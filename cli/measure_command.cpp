@@ -33,6 +33,9 @@ struct MeasureArgs {
   int count = 1;
   std::string integration = "adaptive";
   std::string sync = "off";
+  int averages = 1;
+  bool extended_sensitivity = false;
+  std::string aperture;
   bool adjust = false;
   bool json = false;
 };
@@ -43,18 +46,36 @@ drivers::ModelChoice parse_model(const std::string& text) {
   return *choice;
 }
 
-int parse_integration(const std::string& text, const drivers::ModelChoice& choice) {
+// With extended sensitivity (SH1) the longer range of the models that have it.
+int parse_integration(const std::string& text, const drivers::ModelChoice& choice, bool extended) {
   if (text == "adaptive") return 0;
   const drivers::ExposureRange range = drivers::exposure_range(choice);
+  const int longest = extended && range.max_extended_ms > 0 ? range.max_extended_ms : range.max_ms;
   int ms = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), ms);
-  if (ec != std::errc() || end != text.data() + text.size() || ms < range.min_ms || ms > range.max_ms)
+  if (ec != std::errc() || end != text.data() + text.size() || ms < range.min_ms || ms > longest)
     throw Failure{
         kBadInput,
-        fmt::format("--integration-ms {}: expected {}-{} ({}) or 'adaptive'", quote(text), range.min_ms, range.max_ms,
+        fmt::format("--integration-ms {}: expected {}-{} ({}) or 'adaptive'", quote(text), range.min_ms, longest,
                     choice.forced ? "the " + std::string(drivers::profile(*choice.forced).name) + "'s range"
                                   : "what any model takes")};
   return ms;
+}
+
+// "off", "auto" (the meter measures the flicker), or a frequency in hertz to sync to; the
+// driver holds a frequency to the model's range.
+void parse_sync(const std::string& text, drivers::MeasureOptions& options) {
+  if (text == "off") return;
+  if (text == "auto") {
+    options.sync = drivers::MeasureOptions::Sync::automatic;
+    return;
+  }
+  double hz = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), hz);
+  if (ec != std::errc() || end != text.data() + text.size() || !(hz > 0 && hz <= 1000))
+    throw Failure{kBadInput, fmt::format("--sync {}: expected off, auto or a frequency in Hz", quote(text))};
+  options.sync = drivers::MeasureOptions::Sync::frequency;
+  options.sync_hz = hz;
 }
 
 double unix_seconds(std::chrono::system_clock::time_point t) {
@@ -155,8 +176,11 @@ void run_measure(const MeasureArgs& args) {
   drivers::install_emergency_quit();  // a meter in remote mode is sent Q even after a crash
   const drivers::ModelChoice choice = parse_model(args.model);
   drivers::MeasureOptions measure;
-  measure.integration_ms = parse_integration(args.integration, choice);
-  measure.sync = args.sync == "auto" ? drivers::MeasureOptions::Sync::automatic : drivers::MeasureOptions::Sync::off;
+  measure.integration_ms = parse_integration(args.integration, choice, args.extended_sensitivity);
+  parse_sync(args.sync, measure);
+  measure.averages = args.averages;
+  measure.extended_sensitivity = args.extended_sensitivity;
+  measure.aperture = args.aperture;
   measure.adjust_integration = args.adjust;
   const auto meter = open_meter(args, choice);
   const CancelOnSignal signals(*meter);  // ends before the meter, whose disconnect sends Q
@@ -199,9 +223,18 @@ void add_measure_command(CLI::App& app) {
       ->capture_default_str();
   measure->add_option("--integration-ms", args->integration, "exposure in ms within the model's range, or adaptive")
       ->capture_default_str();
-  measure->add_option("--sync", args->sync, "off, or auto: measure the light's flicker and sync to it")
-      ->check(CLI::IsMember({"off", "auto"}))
+  measure
+      ->add_option("--sync", args->sync,
+                   "off; auto: measure the light's flicker and sync to it; or a frequency in Hz to sync to (the PR-650 "
+                   "40-250, the newer meters 20-400)")
       ->capture_default_str();
+  measure->add_option("--averages", args->averages, "measurements the meter averages into each reading")
+      ->check(CLI::Range(1, 99))
+      ->capture_default_str();
+  measure->add_flag("--extended-sensitivity", args->extended_sensitivity,
+                    "the longer exposure range (SH1) of the models that have it (PR-670, PR-680, PR-7xx)");
+  measure->add_option("--aperture", args->aperture,
+                      "an aperture by the name the meter lists, such as '1/2 deg' (PR-670, PR-680, PR-7xx)");
   measure->add_flag("--adjust-integration", args->adjust, "double the time on low light, halve it on overload");
   measure->add_flag("--json", args->json, "one JSON object per reading per line");
   measure->callback([args] { run_measure(*args); });

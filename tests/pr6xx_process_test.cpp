@@ -283,6 +283,49 @@ TEST_P(MeasureCommandTest, JsonReadingsNameTheMeter) {
 
 // SIGTERM while `skinspec measure` waits for a PR-670's measurement: it stops with status 3, and
 // the meter is let go of with Q, which it acts on once the measurement is over.
+// The newer meters' settings from the command line: a sync frequency (SS3, SK), averaging, the
+// extended exposure range (SH1) and an aperture by the name the meter lists (SF); a model
+// without them refuses before measuring, and a malformed value is bad input.
+TEST(MeasureCommandSettings, ANewerMetersSettingsReachItAndAPr650RefusesThem) {
+  ScratchDirectory dir;
+  auto pr670 = start_simulator(dir, "127.0.0.1:0", {"--model", "pr670", "--serial", kPr670.serial});
+  ASSERT_NE(pr670.port, 0) << pr670.process->err();
+  const std::string device = "tcp:127.0.0.1:" + std::to_string(pr670.port);
+  const auto result =
+      run_process(kSkinspec, {"measure", "--device", device, "--sync", "60", "--averages", "2",
+                              "--extended-sensitivity", "--integration-ms", "100", "--aperture", "1/2 deg", "--json"});
+  ASSERT_EQ(result.exit_status, 0) << result.describe() << pr670.process->err();
+  const auto readings = json_lines(result.out);
+  ASSERT_EQ(readings.size(), 1u) << result.out;
+  EXPECT_EQ(readings[0]["integration_ms"], 100) << result.out;
+  EXPECT_EQ(readings[0]["averages"], 2) << result.out;
+  EXPECT_THAT(readings[0]["sync"].get<std::string>(), ::testing::HasSubstr("60")) << result.out;
+
+  // 20 s is beyond a PR-670's normal range and within its extended one, where the meter takes
+  // it (and saturates on the simulator's bright default source).
+  const std::vector<std::string> long_exposure = {"measure", "--device",         device, "--model",
+                                                  "pr670",   "--integration-ms", "20000"};
+  const auto too_long = run_process(kSkinspec, long_exposure);
+  EXPECT_EQ(too_long.exit_status, 2) << too_long.describe();
+  EXPECT_THAT(too_long.err, ::testing::HasSubstr("expected 6-6000 (the PR-670's range)")) << too_long.describe();
+  auto extended = long_exposure;
+  extended.push_back("--extended-sensitivity");
+  const auto taken = run_process(kSkinspec, extended);
+  EXPECT_EQ(taken.exit_status, 3) << taken.describe();
+  EXPECT_THAT(taken.err, ::testing::HasSubstr("overload")) << taken.describe();
+
+  auto pr650 = start_simulator(dir, "127.0.0.1:0", {"--model", "pr650"});
+  ASSERT_NE(pr650.port, 0) << pr650.process->err();
+  const auto refused = run_process(
+      kSkinspec, {"measure", "--device", "tcp:127.0.0.1:" + std::to_string(pr650.port), "--aperture", "1/2 deg"});
+  EXPECT_EQ(refused.exit_status, 3) << refused.describe();
+  EXPECT_THAT(refused.err, ::testing::HasSubstr("no apertures")) << refused.describe();
+
+  const auto malformed = run_process(kSkinspec, {"measure", "--device", device, "--sync", "fast"});
+  EXPECT_EQ(malformed.exit_status, 2) << malformed.describe();
+  EXPECT_THAT(malformed.err, ::testing::HasSubstr("--sync 'fast'")) << malformed.describe();
+}
+
 TEST(MeasureCommandSignals, SigtermDuringAMeasurementStillLeavesRemoteMode) {
   ScratchDirectory dir;
   auto sim = start_simulator(dir, "127.0.0.1:0", {"--model", kPr670.model}, "0.2");
