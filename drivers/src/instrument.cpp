@@ -1,6 +1,15 @@
 #include "skinspec/drivers/instrument.hpp"
 
+#include <fmt/format.h>
+
 namespace skinspec::drivers {
+
+InstrumentError another_meter_answers(std::string_view serial_now, std::string_view serial_before) {
+  return {InstrumentError::Kind::lost,
+          fmt::format("another meter answers: serial number {}, was {}", serial_now, serial_before),
+          -1,
+          {}};
+}
 
 std::string_view to_string(InstrumentError::Kind kind) {
   switch (kind) {

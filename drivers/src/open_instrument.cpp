@@ -13,10 +13,10 @@
 namespace skinspec::drivers {
 
 std::expected<ModelChoice, std::string> ModelChoice::parse(std::string_view text) {
-  std::string lower;
-  for (const char c : text) lower += static_cast<char>(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
-  if (lower == "auto") return ModelChoice{};
-  if (auto model = model_from_id(lower)) return ModelChoice{*model};
+  const bool is_auto = std::ranges::equal(text, std::string_view("auto"),
+                                          [](char a, char b) { return (a | 0x20) == b; });  // ASCII, any case
+  if (is_auto) return ModelChoice{};
+  if (auto model = model_from_id(text)) return ModelChoice{*model};  // case-insensitive itself
   std::string known = "auto";
   for (const auto& p : all_profiles()) known += fmt::format(", {}", p.id);
   return std::unexpected(fmt::format("unknown model '{}' (one of: {})", text, known));

@@ -156,8 +156,7 @@ std::expected<void, InstrumentError> RemoteMeter::check() {
     return fail(InstrumentError::Kind::protocol, fmt::format("serial number: the {} answered {}", profile_.name,
                                                              p6::error_message(report->status.code)));
   if (report->text != identity_.serial_number)
-    return fail(InstrumentError::Kind::lost,
-                fmt::format("another meter answers: serial number {}, was {}", report->text, identity_.serial_number));
+    return std::unexpected(another_meter_answers(report->text, identity_.serial_number));
   return {};
 }
 

@@ -329,11 +329,7 @@ std::expected<void, InstrumentError> Pr650::check() {
   auto identity = identify();
   if (!identity) return std::unexpected(identity.error());
   if (!before.empty() && identity->serial_number != before)
-    return std::unexpected(
-        InstrumentError{InstrumentError::Kind::lost,
-                        fmt::format("another meter answers: serial number {}, was {}", identity->serial_number, before),
-                        -1,
-                        {}});
+    return std::unexpected(another_meter_answers(identity->serial_number, before));
   return {};
 }
 

@@ -36,6 +36,10 @@ struct InstrumentError {
 
 std::string_view to_string(InstrumentError::Kind kind);
 
+// What check() returns when the meter on the link answers with another serial number than the
+// one identified: `lost`, as the meter that was identified is gone.
+InstrumentError another_meter_answers(std::string_view serial_now, std::string_view serial_before);
+
 struct Identity {
   std::string serial_number;                   // D110
   pr650::SpectralConfiguration configuration;  // D120, as the PR-650 driver has always given it
