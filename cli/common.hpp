@@ -54,6 +54,7 @@ void add_tune_command(CLI::App& app);
 void add_ports_command(CLI::App& app);
 void add_measure_command(CLI::App& app);
 void add_export_command(CLI::App& app);
+void add_migrate_db_command(CLI::App& app);
 void add_session_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_figures_command(CLI::App& app);

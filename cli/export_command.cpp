@@ -1,4 +1,4 @@
-// skinspec export --db PATH [--session ID] [--format csv|json]: stored spectra and fits.
+// skinspec export --db PATH|URI [--session ID] [--format csv|json]: stored spectra and fits.
 
 #include <iostream>
 #include <sstream>
@@ -19,8 +19,9 @@ struct ExportArgs {
 // Whatever the store reports (a missing, foreign, damaged, newer or older file, an unknown
 // session, a read that fails) is about the file the user named: bad input, naming it.
 Failure store_failure(const std::string& path, const store::StoreError& error) {
-  const bool names_the_file = error.message.find(path) != std::string::npos;
-  return Failure{kBadInput, names_the_file ? error.message : path + ": " + error.message};
+  const auto shown = store::display_target(path);
+  const bool names_the_file = error.message.find(shown) != std::string::npos;
+  return Failure{kBadInput, names_the_file ? error.message : shown + ": " + error.message};
 }
 
 // Only reads: a file that is not a current skinspec database is refused, never converted.
@@ -60,7 +61,7 @@ void run_export(const ExportArgs& args) {
 void add_export_command(CLI::App& app) {
   auto args = std::make_shared<ExportArgs>();
   auto* command = app.add_subcommand("export", "write the stored spectra and fits of one session or all");
-  command->add_option("--db", args->db, "the skinspec database file (only read)")->required();
+  command->add_option("--db", args->db, "the skinspec database, a file or a postgresql:// URI (only read)")->required();
   command->add_option("--session", args->session, "the session id (default: every session)");
   command->add_option("--format", args->format, "csv (one row per wavelength) or json (one line per session)")
       ->check(CLI::IsMember({"csv", "json"}))

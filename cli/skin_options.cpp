@@ -29,23 +29,24 @@ render::Skin skin_from_fit_json(const std::string& path) {
   const auto fail = [&](const std::string& why) {
     return Failure{kBadInput, fmt::format("{}:{}: {}", name, number, why)};
   };
-  const auto json = nlohmann::json::parse(line, nullptr, false);
-  if (json.is_discarded() || !json.is_object()) throw fail("not a JSON object as `skinspec fit` prints");
-  if (!json.contains("site") || !json["site"].is_string()) throw fail("no \"site\" text");
-  if (!json.contains("params") || !json["params"].is_object()) throw fail("no \"params\" object");
+  const auto document = nlohmann::json::parse(line, nullptr, false);
+  if (document.is_discarded() || !document.is_object()) throw fail("not a JSON object as `skinspec fit` prints");
+  if (!document.contains("site") || !document["site"].is_string()) throw fail("no \"site\" text");
+  if (!document.contains("params") || !document["params"].is_object()) throw fail("no \"params\" object");
   render::Skin skin;
   skin.model = ModelKind::paper;
-  if (json.contains("model")) {
-    const auto model = json["model"].is_string() ? parse_model_kind(json["model"].get<std::string>()) : std::nullopt;
+  if (document.contains("model")) {
+    const auto model =
+        document["model"].is_string() ? parse_model_kind(document["model"].get<std::string>()) : std::nullopt;
     if (!model) throw fail("\"model\" must be one of " + model_names());
     skin.model = *model;
   }
-  const auto site = fitter().optics(skin.model).site(json["site"].get<std::string>());
+  const auto site = fitter().optics(skin.model).site(document["site"].get<std::string>());
   if (!site) throw fail(site.error());
   skin.site = *site;
   for (const ParamSpec& spec : model_spec(skin.model).params) {
     const std::string key(spec.name);
-    const auto& value = json["params"].contains(key) ? json["params"][key] : nlohmann::json();
+    const auto& value = document["params"].contains(key) ? document["params"][key] : nlohmann::json();
     if (!value.is_number()) throw fail("params." + key + " is missing or not a number");
     skin.params.push_back(value.get<double>());
   }

@@ -40,9 +40,9 @@ int serve(const skinspec::daemon::Options& o) {
   if (!fitter) return spdlog::error("event=model_load_failed message=\"{}\"", fitter.error()), 1;
   auto db = store::Store::open(o.db);
   if (!db)
-    return spdlog::error("event=db_open_failed path=\"{}\" kind={} message=\"{}\"", o.db,
+    return spdlog::error("event=db_open_failed db=\"{}\" kind={} message=\"{}\"", store::display_target(o.db),
                          store::to_string(db.error().kind), db.error().message),
-           1;
+           store::is_bad_target(db.error().kind) ? 2 : 1;
   if (!db->recovery().interrupted_sessions.empty())
     spdlog::warn("event=recovered interrupted_sessions={}", db->recovery().interrupted_sessions.size());
   context.store = &*db;
@@ -114,7 +114,10 @@ int main(int argc, char** argv) {
   CLI::App app{"skinspecd: stored skin spectra, sessions and fits over HTTP/JSON"};
   app.set_version_flag("--version", "skinspecd " + std::string(skinspec::kVersion));
   app.add_option("--listen", o.listen, "HOST:PORT to listen on (port 0: any free port)")->capture_default_str();
-  app.add_option("--db", o.db, "SQLite database file, created when missing")->capture_default_str();
+  app.add_option("--db", o.db,
+                 "the store: a SQLite file (PATH or sqlite:PATH, created when missing) or a PostgreSQL database "
+                 "(postgresql://USER@HOST:PORT/DBNAME; the password from PGPASSFILE or ~/.pgpass)")
+      ->capture_default_str();
   app.add_option(
       "--device", o.device,
       "instrument connection URI (serial:, tcp: or usb:VID:PID[:SERIAL]) or 'auto' (a Photo Research meter on USB, "

@@ -14,6 +14,8 @@
 #include <set>
 
 #include "skinspec/store/store.hpp"
+#include "support/postgres_cluster.hpp"
+#include "support/raw_database.hpp"
 #include "support/store_samples.hpp"
 
 namespace skinspec {
@@ -41,8 +43,15 @@ struct ManualClock {
   }
 };
 
-class StoreTest : public ::testing::Test {
+// Each test on a new SQLite file and on a new PostgreSQL database of the test program's
+// throwaway cluster (support/postgres_cluster.hpp).
+class StoreTest : public ::testing::TestWithParam<Backend> {
  protected:
+  StoreTest()
+      : path_(GetParam() == Backend::sqlite
+                  ? dir_.file("skinspec.db")
+                  : testing::postgres_cluster().uri(testing::postgres_cluster().create_database())) {}
+
   Store open(OpenOptions options = {}) {
     if (!options.clock) options.clock = clock_.function();
     auto store = Store::open(path_, options);
@@ -50,10 +59,28 @@ class StoreTest : public ::testing::Test {
     return std::move(*store);
   }
 
+  // Queries beside the store, in the dialect of the backend.
+  testing::RawDatabase& raw() {
+    if (!raw_) raw_ = testing::raw_database(path_);
+    return *raw_;
+  }
+  bool on_sqlite() const { return GetParam() == Backend::sqlite; }
+
   testing::ScratchDirectory dir_;
-  std::string path_ = dir_.file("skinspec.db");
+  std::string path_;  // the SQLite file, or the PostgreSQL URI
   ManualClock clock_;
+  std::unique_ptr<testing::RawDatabase> raw_;
 };
+
+// What only a SQLite file has: its pragmas, and a file read without a writer.
+class SqliteStoreTest : public StoreTest {};
+
+std::string backend_name(const ::testing::TestParamInfo<Backend>& info) {
+  return info.param == Backend::sqlite ? "sqlite" : "postgresql";
+}
+
+INSTANTIATE_TEST_SUITE_P(EachBackend, StoreTest, ::testing::Values(Backend::sqlite, Backend::postgresql), backend_name);
+INSTANTIATE_TEST_SUITE_P(Sqlite, SqliteStoreTest, ::testing::Values(Backend::sqlite), backend_name);
 
 template <typename T>
 T value_of(Result<T> result) {
@@ -61,7 +88,7 @@ T value_of(Result<T> result) {
   return std::move(*result);
 }
 
-TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaInWalModeWithForeignKeys) {
+TEST_P(SqliteStoreTest, NewDatabaseHasTheCurrentSchemaInWalModeWithForeignKeys) {
   {
     auto store = open();
     EXPECT_EQ(store.schema_version(), current_schema_version());
@@ -73,7 +100,7 @@ TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaInWalModeWithForeignKeys) {
   EXPECT_EQ(testing::sqlite_text(path_, "PRAGMA integrity_check"), "ok");
 }
 
-TEST_F(StoreTest, InstrumentsAreKnownByModelAndSerialNumber) {
+TEST_P(StoreTest, InstrumentsAreKnownByModelAndSerialNumber) {
   auto store = open();
   const Id first = value_of(store.ensure_instrument(testing::sample_instrument(1)));
   auto moved = testing::sample_instrument(1);
@@ -92,7 +119,7 @@ TEST_F(StoreTest, InstrumentsAreKnownByModelAndSerialNumber) {
   EXPECT_EQ(store.instrument(99).error().kind, Kind::not_found);
 }
 
-TEST_F(StoreTest, WhiteStandardRoundTripsItsTableBitForBit) {
+TEST_P(StoreTest, WhiteStandardRoundTripsItsTableBitForBit) {
   auto store = open();
   auto standard = testing::sample_white_standard(1);
   standard.reflectance.values[1] = std::nextafter(0.99, 1.0);  // the last bit must survive
@@ -105,13 +132,14 @@ TEST_F(StoreTest, WhiteStandardRoundTripsItsTableBitForBit) {
   EXPECT_EQ(value_of(store.white_standards()).size(), 1u);
 }
 
-TEST_F(StoreTest, SpectraAreStoredAsLittleEndianFloat64Pairs) {
+TEST_P(StoreTest, SpectraAreStoredAsLittleEndianFloat64Pairs) {
   {
     auto store = open();
     WhiteStandard standard{0, "w", "", {{400, 700}, {0.5, -1.25}}, {}};
     value_of(store.add_white_standard(standard));
   }
-  const auto hex = testing::sqlite_text(path_, "SELECT hex(reflectance) FROM white_standards");
+  const auto hex = raw().text(on_sqlite() ? "SELECT hex(reflectance) FROM white_standards"
+                                          : "SELECT upper(encode(reflectance, 'hex')) FROM white_standards");
   // 400.0 = 0x4079000000000000, 0.5 = 0x3FE0..., 700.0 = 0x4085E00000000000, -1.25 = 0xBFF4...
   EXPECT_EQ(hex,
             "0000000000007940"
@@ -120,7 +148,7 @@ TEST_F(StoreTest, SpectraAreStoredAsLittleEndianFloat64Pairs) {
             "000000000000F4BF");
 }
 
-TEST_F(StoreTest, SessionRoundTripsAndFollowsItsStates) {
+TEST_P(StoreTest, SessionRoundTripsAndFollowsItsStates) {
   auto store = open();
   const Id white = value_of(store.add_white_standard(testing::sample_white_standard(1)));
   auto session = sample_session(2);
@@ -161,7 +189,7 @@ TEST_F(StoreTest, SessionRoundTripsAndFollowsItsStates) {
   EXPECT_EQ(store.create_session(Session{}).error().kind, Kind::invalid_argument);
 }
 
-TEST_F(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
+TEST_P(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
   auto store = open();
   const Id instrument = value_of(store.ensure_instrument(testing::sample_instrument(1)));
   const Id session = value_of(store.create_session(sample_session(1)));
@@ -227,7 +255,7 @@ TEST_F(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
   EXPECT_EQ(detail.fits[1].id, refit_id);
 }
 
-TEST_F(StoreTest, RejectedReadingsKeepTheirRawBytesInAnySessionState) {
+TEST_P(StoreTest, RejectedReadingsKeepTheirRawBytesInAnySessionState) {
   auto store = open();
   const Id instrument = value_of(store.ensure_instrument(testing::sample_instrument(1)));
   const Id session = value_of(store.create_session(sample_session(1)));
@@ -277,7 +305,7 @@ TEST_F(StoreTest, RejectedReadingsKeepTheirRawBytesInAnySessionState) {
   EXPECT_EQ(store.rejected_reading(12345).error().kind, StoreError::Kind::not_found);
 }
 
-TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
+TEST_P(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
   auto store = open();
   const Id session = value_of(store.create_session(sample_session(1)));
   auto bad_fit = sample_fit(1);
@@ -303,13 +331,13 @@ TEST_F(StoreTest, AMeasurementWhoseFitIsRefusedLeavesNoRow) {
     spoil(bad);
     EXPECT_EQ(store.record_measurement(sample_measurement(session, 1), bad).error().kind, Kind::invalid_argument);
   }
-  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 0);
-  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM fits"), 0);
+  EXPECT_EQ(raw().integer("SELECT count(*) FROM measurements"), 0);
+  EXPECT_EQ(raw().integer("SELECT count(*) FROM fits"), 0);
 }
 
 // Any model's fit comes back as it was given: its model, its parameters by name in order, its
 // judgement and its constants digest.
-TEST_F(StoreTest, AFitOfAnyModelReadsBackAsStored) {
+TEST_P(StoreTest, AFitOfAnyModelReadsBackAsStored) {
   auto store = open();
   const Id session = value_of(store.create_session(sample_session(2)));
   EXPECT_EQ(value_of(store.session(session)).model, "extended");
@@ -330,11 +358,12 @@ TEST_F(StoreTest, AFitOfAnyModelReadsBackAsStored) {
   EXPECT_EQ(stored.params, fit.params);
   EXPECT_EQ(stored.assessment, fit.assessment);
   EXPECT_EQ(stored.constants_digest, fit.constants_digest);
-  EXPECT_EQ(testing::sqlite_text(path_, "SELECT json_extract(parameters, '$[3].standard_error') IS NULL FROM fits"),
-            "1");
+  EXPECT_EQ(raw().integer(on_sqlite() ? "SELECT json_extract(parameters, '$[3].standard_error') IS NULL FROM fits"
+                                      : "SELECT ((parameters -> 3 ->> 'standard_error') IS NULL)::int FROM fits"),
+            1);
 }
 
-TEST_F(StoreTest, MeasurementsAreCheckedBeforeTheyAreStored) {
+TEST_P(StoreTest, MeasurementsAreCheckedBeforeTheyAreStored) {
   auto store = open();
   const Id session = value_of(store.create_session(sample_session(1)));
   auto m = sample_measurement(session, 1);
@@ -371,7 +400,7 @@ TEST_F(StoreTest, MeasurementsAreCheckedBeforeTheyAreStored) {
   EXPECT_EQ(value_of(store.session_detail(session)).measurements.size(), 1u);
 }
 
-TEST_F(StoreTest, SessionsAreListedNewestFirstWithFiltersAndCursor) {
+TEST_P(StoreTest, SessionsAreListedNewestFirstWithFiltersAndCursor) {
   auto store = open();
   std::vector<Id> ids;
   for (int n = 0; n < 7; ++n) ids.push_back(value_of(store.create_session(sample_session(n))));
@@ -404,7 +433,7 @@ TEST_F(StoreTest, SessionsAreListedNewestFirstWithFiltersAndCursor) {
   EXPECT_EQ(store.sessions({.limit = 0}).error().kind, Kind::invalid_argument);
 }
 
-TEST_F(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
+TEST_P(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
   auto store = open();
   const Id session = value_of(store.create_session(sample_session(1)));
   Job asked;
@@ -458,7 +487,7 @@ TEST_F(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
   const auto cancelled = value_of(store.update_job(unattached, {.state = JobState::cancelled, .error = why}));
   EXPECT_EQ(cancelled.error, why);
   EXPECT_EQ(value_of(store.job(unattached)).error, cancelled.error);
-  EXPECT_EQ(testing::sqlite_text(path_, "SELECT error FROM jobs WHERE id = " + std::to_string(unattached)),
+  EXPECT_EQ(raw().text("SELECT error FROM jobs WHERE id = " + std::to_string(unattached)),
             R"({"code":"cancelled","message":"by the operator, \"at once\""})");
   EXPECT_EQ(value_of(store.jobs()).size(), 2u);
   EXPECT_EQ(value_of(store.jobs(session)).size(), 1u);
@@ -469,7 +498,7 @@ TEST_F(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
 
 // A writer that died with a job running: on the next open its session is interrupted and the
 // job failed; what it had committed is all there.
-TEST_F(StoreTest, OpeningAfterAWriterDiedInterruptsItsRunningSessions) {
+TEST_P(StoreTest, OpeningAfterAWriterDiedInterruptsItsRunningSessions) {
   Id busy_session = 0, idle_session = 0, finished_session = 0, job_id = 0, measurement_id = 0;
   {
     auto store = open();
@@ -502,7 +531,7 @@ TEST_F(StoreTest, OpeningAfterAWriterDiedInterruptsItsRunningSessions) {
 
 // The measurement, its fit and the job's end are one transaction: a refusal of any part leaves
 // the job running and nothing of it stored.
-TEST_F(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
+TEST_P(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
   auto store = open();
   const Id session = value_of(store.create_session(sample_session(1)));
   const Id other_session = value_of(store.create_session(sample_session(2)));
@@ -531,11 +560,11 @@ TEST_F(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
 
   EXPECT_EQ(value_of(store.job(job_id)).state, JobState::running);
   EXPECT_EQ(value_of(store.job(job_id)).result, "{}");
-  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 0);
-  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM fits"), 0);
+  EXPECT_EQ(raw().integer("SELECT count(*) FROM measurements"), 0);
+  EXPECT_EQ(raw().integer("SELECT count(*) FROM fits"), 0);
 }
 
-TEST_F(StoreTest, RecoveryCanTreatEveryOpenSessionAsRunning) {
+TEST_P(StoreTest, RecoveryCanTreatEveryOpenSessionAsRunning) {
   Id idle = 0;
   {
     auto store = open();
@@ -548,7 +577,7 @@ TEST_F(StoreTest, RecoveryCanTreatEveryOpenSessionAsRunning) {
   EXPECT_EQ(value_of(store.session(idle)).state, SessionState::interrupted);
 }
 
-TEST_F(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
+TEST_P(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
   auto writer = open();
   const Id session = value_of(writer.create_session(sample_session(1)));
   const auto second = Store::open(path_);
@@ -567,7 +596,7 @@ TEST_F(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
   EXPECT_TRUE(reader->recovery().interrupted_sessions.empty());
 }
 
-TEST_F(StoreTest, ReadOnlyOpeningNeedsAnExistingFile) {
+TEST_P(SqliteStoreTest, ReadOnlyOpeningNeedsAnExistingFile) {
   OpenOptions read_only;
   read_only.mode = OpenMode::read_only;
   const auto missing = Store::open(path_, read_only);
@@ -588,7 +617,7 @@ std::vector<std::string> files_in(const std::filesystem::path& dir) {
 
 // With no writer (no -wal), a read-only store reads the file as it is, creating no -wal or
 // -shm beside it; when a writer then changes the file, its reads fail rather than mix states.
-TEST_F(StoreTest, ReadOnlyWithoutAWriterCreatesNothingAndNoticesOneThatStarts) {
+TEST_P(SqliteStoreTest, ReadOnlyWithoutAWriterCreatesNothingAndNoticesOneThatStarts) {
   Id first = 0;
   {
     auto writer = open();
@@ -622,7 +651,7 @@ TEST_F(StoreTest, ReadOnlyWithoutAWriterCreatesNothingAndNoticesOneThatStarts) {
 
 // While a writer has the file open, a read-only store reads through its log: it sees what the
 // writer committed and not yet copied into the file.
-TEST_F(StoreTest, ReadOnlyBesideAWriterSeesItsCommits) {
+TEST_P(StoreTest, ReadOnlyBesideAWriterSeesItsCommits) {
   auto writer = open();
   OpenOptions read_only;
   read_only.mode = OpenMode::read_only;
@@ -632,7 +661,7 @@ TEST_F(StoreTest, ReadOnlyBesideAWriterSeesItsCommits) {
 }
 
 // Read as a URI, the path keeps every byte: '?', '#', '%', blanks and non-ASCII are escaped.
-TEST_F(StoreTest, ReadOnlyOpensAPathThatLooksLikeAUri) {
+TEST_P(SqliteStoreTest, ReadOnlyOpensAPathThatLooksLikeAUri) {
   const auto odd = dir_.file("a?b #%20\xc3\xa9.db");
   {
     auto writer = value_of(Store::open(odd));
@@ -645,7 +674,7 @@ TEST_F(StoreTest, ReadOnlyOpensAPathThatLooksLikeAUri) {
   EXPECT_FALSE(std::filesystem::exists(dir_.file("a")));
 }
 
-TEST_F(StoreTest, ReadOnlyRefusesAnEmptySqliteDatabaseAndAnOlderSchema) {
+TEST_P(SqliteStoreTest, ReadOnlyRefusesAnEmptySqliteDatabaseAndAnOlderSchema) {
   OpenOptions read_only;
   read_only.mode = OpenMode::read_only;
   testing::sqlite_execute(path_, "CREATE TABLE t (x); DROP TABLE t;");
@@ -662,7 +691,7 @@ TEST_F(StoreTest, ReadOnlyRefusesAnEmptySqliteDatabaseAndAnOlderSchema) {
   EXPECT_EQ(testing::sqlite_integer(older, "PRAGMA user_version"), 1);
 }
 
-TEST_F(StoreTest, ErrorKindsHaveNames) {
+TEST_P(SqliteStoreTest, ErrorKindsHaveNames) {
   EXPECT_EQ(to_string(Kind::newer_schema), "newer_schema");
   EXPECT_EQ(to_string(SessionState::interrupted), "interrupted");
   EXPECT_EQ(parse_session_state("aborted"), SessionState::aborted);

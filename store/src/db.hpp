@@ -77,6 +77,12 @@ class Statement {
     return *this;
   }
 
+  // Binds one value by position (1-based), for statements whose columns are listed as data.
+  Statement& bind_at(int index, const Param& value) {
+    cursor_->bind(index, value);
+    return *this;
+  }
+
   bool step() { return cursor_->step(); }
   void run();  // steps to the end, ignoring any rows
 

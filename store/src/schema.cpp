@@ -4,6 +4,7 @@
 
 #include <array>
 
+#include "postgresql/migrations.hpp"
 #include "sqlite/migrations.hpp"
 
 namespace skinspec::store::detail {
@@ -15,7 +16,7 @@ constexpr std::array<Migration, 5> kMigrations = {{
     {2, &sqlite::kVersion2, nullptr},
     {3, &sqlite::kVersion3, nullptr},
     {4, &sqlite::kVersion4, nullptr},
-    {5, &sqlite::kVersion5, nullptr},
+    {5, &sqlite::kVersion5, &postgresql::kBaseline},
 }};
 
 constexpr bool numbered_in_order() {
@@ -31,12 +32,12 @@ const MigrationStep* step_of(const Migration& migration, Dialect dialect) {
 
 int schema_version(Connection& writer) {
   if (writer.dialect() == Dialect::sqlite) return sqlite::schema_version(writer);
-  fail(StoreError::Kind::internal, "this build has no PostgreSQL schema");
+  return postgresql::schema_version(writer);
 }
 
 void set_schema_version(Connection& writer, int version) {
   if (writer.dialect() == Dialect::sqlite) return sqlite::set_schema_version(writer, version);
-  fail(StoreError::Kind::internal, "this build has no PostgreSQL schema");
+  postgresql::set_schema_version(writer, version);
 }
 
 // The first entry after `version` written for `dialect`.
@@ -55,6 +56,7 @@ int latest_schema_version() { return kMigrations.back().version; }
 void migrate(Connection& writer, int target) {
   for (;;) {
     Transaction transaction(writer, TransactionKind::write);
+    if (writer.dialect() == Dialect::postgresql) postgresql::lock_schema(writer);
     // Read inside the transaction: the version cannot change under us once we hold it.
     const auto version = schema_version(writer);
     if (version >= target) return;

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "postgresql/open.hpp"
+#include "postgresql/target.hpp"
 #include "schema.hpp"
 #include "sqlite/open.hpp"
 #include "store_impl.hpp"
@@ -16,16 +18,33 @@ Time Store::Impl::now() const {
   return std::chrono::floor<std::chrono::microseconds>(std::chrono::system_clock::now());
 }
 
-Result<Store> Store::open(const std::string& path, const OpenOptions& options) {
-  return detail::guarded(fmt::format("opening the database {}", path), [&] {
-    if (path.empty() || path == ":memory:" || path.starts_with("file:"))
-      fail(Kind::invalid_argument, "the database must be a file path");
+Result<Store> Store::open(const std::string& target, const OpenOptions& options) {
+  const auto backend = backend_of(target);
+  const auto path = backend == Backend::sqlite && target.starts_with("sqlite:") ? target.substr(7) : target;
+  const auto shown = backend == Backend::postgresql ? "the database" : "the database file";
+  return detail::guarded(fmt::format("opening {} {}", shown, display_target(target)), [&] {
     auto impl = std::make_unique<Impl>();
     impl->path = path;
+    impl->backend = backend;
     impl->options = options;
-    sqlite::open(*impl);
+    if (backend == Backend::postgresql) {
+      postgresql::open(*impl);
+    } else {
+      if (path.empty() || path == ":memory:" || path.starts_with("file:"))
+        fail(Kind::invalid_argument, "the database must be a file path");
+      sqlite::open(*impl);
+    }
     return Store(std::move(impl));
   });
+}
+
+Backend backend_of(const std::string& target) {
+  return postgresql::is_postgresql_uri(target) ? Backend::postgresql : Backend::sqlite;
+}
+
+std::string display_target(const std::string& target) {
+  if (backend_of(target) == Backend::postgresql) return postgresql::display_form(target);
+  return target.starts_with("sqlite:") ? target.substr(7) : target;
 }
 
 Store::Store(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -34,6 +53,7 @@ Store& Store::operator=(Store&&) noexcept = default;
 Store::~Store() = default;
 
 const std::string& Store::path() const { return impl_->path; }
+Backend Store::backend() const { return impl_->backend; }
 int Store::schema_version() const { return impl_->version; }
 const RecoveryReport& Store::recovery() const { return impl_->recovery; }
 

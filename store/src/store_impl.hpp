@@ -40,6 +40,7 @@ auto guarded(std::string_view what, F&& body) -> Result<std::invoke_result_t<F>>
 
 struct Store::Impl {
   std::string path;
+  Backend backend = Backend::sqlite;
   OpenOptions options;
   int version = 0;
   RecoveryReport recovery;

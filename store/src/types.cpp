@@ -77,6 +77,11 @@ constexpr std::array<std::pair<StoreError::Kind, std::string_view>, 13> kErrorKi
 }  // namespace
 
 std::string_view to_string(StoreError::Kind kind) { return name_of(kErrorKinds, kind); }
+
+bool is_bad_target(StoreError::Kind kind) {
+  using Kind = StoreError::Kind;
+  return kind != Kind::io && kind != Kind::full && kind != Kind::internal;
+}
 std::string_view to_string(SessionState state) { return name_of(kSessionStates, state); }
 std::string_view to_string(MeasurementKind kind) { return name_of(kMeasurementKinds, kind); }
 std::string_view to_string(JobState state) { return name_of(kJobStates, state); }

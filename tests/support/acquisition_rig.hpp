@@ -20,6 +20,7 @@ struct RigOptions {
   std::string bin_dir;   // where skinspecd and skinspec-sim are
   std::string data_dir;  // the source tree's data/ (for the example forearm spectrum)
   std::string work_dir;  // the database and the white standard's file go here
+  std::string db;        // the store skinspecd is given (--db); empty: work_dir/lab.db
   // Added to the simulator's: time scale 0 (unless given here), a power-on window that never closes, a flat 0.99
   // white standard measured first, then the forearm example's subjects.
   std::vector<std::string> sim_args;
@@ -65,7 +66,7 @@ class AcquisitionRig {
   // Starts skinspec-sim again on the port the daemon knows.
   void restart_sim();
 
-  std::string db_path() const { return options_.work_dir + "/lab.db"; }
+  std::string db_path() const { return options_.db.empty() ? options_.work_dir + "/lab.db" : options_.db; }
 
   std::unique_ptr<BackgroundProcess> sim, daemon;
   unsigned short sim_port = 0, port = 0;

@@ -279,7 +279,10 @@ Connection::Connection(const Target& target, const ConnectSettings& settings) : 
 void Connection::fail(const PGresult* result, std::string_view what, bool committing) const {
   const char* state_field = result ? PQresultErrorField(result, PG_DIAG_SQLSTATE) : nullptr;
   const std::string sql_state = state_field ? state_field : "";
-  const bool lost = broken() || connection_lost_sql_state(sql_state);
+  // libpq's own errors carry no SQLSTATE: on a connection that was working they mean it is
+  // gone (the server closed it, or the socket failed), whether or not libpq has noticed yet.
+  const bool lost = broken() || connection_lost_sql_state(sql_state) || sql_state.empty();
+  if (lost) lost_ = true;
   std::string message;
   if (const char* primary = result ? PQresultErrorField(result, PG_DIAG_MESSAGE_PRIMARY) : nullptr) {
     message = primary;

@@ -77,7 +77,7 @@ class Connection final : public detail::Connection {
   bool in_transaction() const override;
 
   // Whether the connection is gone: a pool drops it rather than hand it out again.
-  bool broken() const { return PQstatus(handle()) != CONNECTION_OK; }
+  bool broken() const { return lost_ || PQstatus(handle()) != CONNECTION_OK; }
   int backend_pid() const { return PQbackendPID(handle()); }
   PGconn* handle() const { return connection_.get(); }
 
@@ -93,6 +93,7 @@ class Connection final : public detail::Connection {
 
   Target target_;
   std::unique_ptr<PGconn, decltype(&PQfinish)> connection_{nullptr, &PQfinish};
+  mutable bool lost_ = false;  // a statement found the connection gone (fail())
   // By the store's text of the statement, one map per row lock.
   std::array<std::unordered_map<std::string, std::unique_ptr<PgCursor>, detail::TextHash, std::equal_to<>>, 3> cache_;
 };

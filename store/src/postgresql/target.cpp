@@ -15,31 +15,51 @@ bool is_postgresql_uri(const std::string& target) {
   return target.starts_with("postgresql://") || target.starts_with("postgres://");
 }
 
-Target parse_target(const std::string& uri) {
+namespace {
+
+using ConninfoOptions = std::unique_ptr<PQconninfoOption, decltype(&PQconninfoFree)>;
+
+// libpq's reading of `uri`; throws invalid_argument when it has none.
+ConninfoOptions parsed(const std::string& uri) {
   char* error = nullptr;
-  std::unique_ptr<PQconninfoOption, decltype(&PQconninfoFree)> options(PQconninfoParse(uri.c_str(), &error),
-                                                                       &PQconninfoFree);
+  ConninfoOptions options(PQconninfoParse(uri.c_str(), &error), &PQconninfoFree);
   if (!options) {
     std::string message = error ? error : "libpq cannot parse it";
     PQfreemem(error);
     while (!message.empty() && message.back() == '\n') message.pop_back();
     detail::fail(Kind::invalid_argument, "not a PostgreSQL connection URI: " + message);
   }
-  const auto value = [&](std::string_view keyword) -> std::string {
-    for (auto* option = options.get(); option->keyword; ++option)
-      if (keyword == option->keyword && option->val) return option->val;
-    return "";
-  };
-  if (!value("password").empty())
+  return options;
+}
+
+std::string value_of(const ConninfoOptions& options, std::string_view keyword) {
+  for (auto* option = options.get(); option->keyword; ++option)
+    if (keyword == option->keyword && option->val) return option->val;
+  return "";
+}
+
+std::string display_of(const ConninfoOptions& options) {
+  const auto user = value_of(options, "user");
+  const auto port = value_of(options, "port");
+  return fmt::format("postgresql://{}{}{}/{}", user.empty() ? "" : user + "@", value_of(options, "host"),
+                     port.empty() ? "" : ":" + port, value_of(options, "dbname"));
+}
+
+}  // namespace
+
+Target parse_target(const std::string& uri) {
+  const auto options = parsed(uri);
+  if (!value_of(options, "password").empty())
     detail::fail(Kind::invalid_argument, "put the password in PGPASSFILE or ~/.pgpass, not in the URI");
-  Target target;
-  target.uri = uri;
-  target.user = value("user");
-  const auto host = value("host");
-  const auto port = value("port");
-  target.display = fmt::format("postgresql://{}{}{}/{}", target.user.empty() ? "" : target.user + "@", host,
-                               port.empty() ? "" : ":" + port, value("dbname"));
-  return target;
+  return Target{uri, display_of(options), value_of(options, "user")};
+}
+
+std::string display_form(const std::string& uri) {
+  try {
+    return display_of(parsed(uri));
+  } catch (const detail::Failure&) {
+    return "postgresql://(a URI libpq cannot parse)";
+  }
 }
 
 std::vector<std::pair<std::string, std::string>> connection_keywords(const Target& target,

@@ -28,6 +28,10 @@ struct ConnectSettings {
 // Throws invalid_argument for a URI libpq cannot parse or one that holds a password.
 Target parse_target(const std::string& uri);
 
+// `uri` as messages show it: postgresql://user@host:port/dbname, never a password (nor the
+// parameters, which could hold one).
+std::string display_form(const std::string& uri);
+
 // libpq's keywords and values for connecting to `target`: the store's defaults (timeouts,
 // keepalives), then the URI (whose parameters override the defaults), then what the store
 // needs whatever the URI says (UTF-8).

@@ -4,64 +4,21 @@
 
 #include <algorithm>
 
-#include "codec.hpp"
-
 namespace skinspec::store::sqlite {
 
 using detail::fail;
-using detail::Transaction;
 using Kind = StoreError::Kind;
 
-// ---- ReaderPool ----
+// ---- readers ----
 
-void ReaderPool::configure(std::string filename, int flags, std::chrono::milliseconds busy_timeout,
-                           int max_connections) {
-  filename_ = std::move(filename);
-  flags_ = flags;
-  busy_timeout_ = busy_timeout;
-  max_ = static_cast<std::size_t>(std::max(1, max_connections));
-}
-
-ConnectionLease ReaderPool::acquire() {
-  std::unique_lock lock(mutex_);
-  returned_.wait(lock, [&] { return !idle_.empty() || open_.size() + opening_ < max_; });
-  if (!idle_.empty()) {
-    auto* connection = idle_.back();
-    idle_.pop_back();
-    return ConnectionLease(*this, *connection);
-  }
-  ++opening_;
-  lock.unlock();
-  std::unique_ptr<Connection> connection;
-  try {
-    connection = std::make_unique<Connection>(filename_, flags_);
-    sqlite3_busy_timeout(connection->handle(), static_cast<int>(busy_timeout_.count()));
+detail::ConnectionPool::Opener reader_opener(std::string filename, int flags, std::chrono::milliseconds busy_timeout) {
+  return [filename = std::move(filename), flags, busy_timeout]() -> std::unique_ptr<detail::Connection> {
+    auto connection = std::make_unique<Connection>(filename, flags);
+    sqlite3_busy_timeout(connection->handle(), static_cast<int>(busy_timeout.count()));
     // A reader never writes the database file, not even a checkpoint when it closes.
     sqlite3_db_config(connection->handle(), SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
-  } catch (...) {
-    lock.lock();
-    --opening_;
-    returned_.notify_one();
-    throw;
-  }
-  lock.lock();
-  --opening_;
-  auto& opened = *open_.emplace_back(std::move(connection));
-  return ConnectionLease(*this, opened);
-}
-
-void ReaderPool::give_back(detail::Connection& connection) noexcept {
-  {
-    std::lock_guard lock(mutex_);
-    idle_.push_back(&connection);
-  }
-  returned_.notify_one();
-}
-
-void ReaderPool::close() {
-  std::lock_guard lock(mutex_);
-  idle_.clear();
-  open_.clear();
+    return connection;
+  };
 }
 
 // ---- FileIdentity ----
@@ -104,40 +61,6 @@ void SqliteEngine::after_read() const {
   struct stat info {};
   if (::stat(path_.c_str(), &info) == 0 && FileIdentity::of(info) == *frozen_) return;
   fail(Kind::busy, "the file changed while it was read (a program started writing it); read it again");
-}
-
-// ---- recovery ----
-
-// Such a job has stored nothing: a job's measurement is stored in the transaction that ends it
-// (complete_measurement_job).
-RecoveryReport recover(detail::Connection& writer, RecoveryPolicy policy, Time now) {
-  RecoveryReport report;
-  Transaction transaction(writer, detail::TransactionKind::write);
-  {
-    auto running = writer.prepare(policy == RecoveryPolicy::all_open_sessions
-                                      ? "SELECT id FROM sessions WHERE state = 'open' ORDER BY id"
-                                      : "SELECT DISTINCT s.id FROM sessions s JOIN jobs j ON j.session_id = s.id "
-                                        "WHERE s.state = 'open' AND j.state IN ('queued', 'running') ORDER BY s.id");
-    while (running.step()) report.interrupted_sessions.push_back(running.integer(0));
-  }
-  {
-    auto active = writer.prepare("SELECT id FROM jobs WHERE state IN ('queued', 'running') ORDER BY id");
-    while (active.step()) report.failed_jobs.push_back(active.integer(0));
-  }
-  const auto interrupted =
-      detail::encode_job_error({JobErrorCode::interrupted, "the program running it stopped before it finished"});
-  for (const Id id : report.interrupted_sessions) {
-    writer.prepare("UPDATE sessions SET state = 'interrupted', updated_at = ?2, ended_at = ?2 WHERE id = ?1")
-        .bind(id, now)
-        .run();
-  }
-  for (const Id id : report.failed_jobs) {
-    writer.prepare("UPDATE jobs SET state = 'failed', error = ?2, finished_at = ?3 WHERE id = ?1")
-        .bind(id, interrupted, now)
-        .run();
-  }
-  transaction.commit();
-  return report;
 }
 
 }  // namespace skinspec::store::sqlite

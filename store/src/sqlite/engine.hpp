@@ -6,13 +6,13 @@
 #include <sys/stat.h>
 
 #include <chrono>
-#include <condition_variable>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "../connection_pool.hpp"
 #include "../engine.hpp"
 #include "skinspec/store/store.hpp"
 #include "sqlite/connection.hpp"
@@ -21,26 +21,8 @@ namespace skinspec::store::sqlite {
 
 using detail::ConnectionLease;
 
-// Read connections, opened on demand up to a maximum; a caller beyond it waits.
-class ReaderPool final : public ConnectionLease::Owner {
- public:
-  // `filename` and `flags` as for sqlite3_open_v2 (a URI with SQLITE_OPEN_URI).
-  void configure(std::string filename, int flags, std::chrono::milliseconds busy_timeout, int max_connections);
-  ConnectionLease acquire();
-  void give_back(detail::Connection& connection) noexcept override;
-  void close();
-
- private:
-  std::string filename_;
-  int flags_ = SQLITE_OPEN_READONLY;
-  std::chrono::milliseconds busy_timeout_{0};
-  std::size_t max_ = 1;
-  std::mutex mutex_;
-  std::condition_variable returned_;
-  std::vector<std::unique_ptr<Connection>> open_;
-  std::vector<detail::Connection*> idle_;
-  std::size_t opening_ = 0;
-};
+// How the pool opens a read connection to `filename` (a URI with SQLITE_OPEN_URI in `flags`).
+detail::ConnectionPool::Opener reader_opener(std::string filename, int flags, std::chrono::milliseconds busy_timeout);
 
 // What identifies a file's content from outside: a write to it changes at least its times.
 struct FileIdentity {
@@ -72,7 +54,7 @@ class SqliteEngine final : public detail::Engine, private ConnectionLease::Owner
   void set_writer(std::unique_ptr<Connection> writer, int lock_fd);
   Connection& writer_connection() { return *writer_; }
   void freeze(const FileIdentity& identity) { frozen_ = identity; }
-  ReaderPool& readers() { return readers_; }
+  detail::ConnectionPool& readers() { return readers_; }
 
  private:
   void give_back(detail::Connection& connection) noexcept override;
@@ -84,11 +66,7 @@ class SqliteEngine final : public detail::Engine, private ConnectionLease::Owner
   std::optional<FileIdentity> frozen_;
   std::mutex writer_mutex_;
   std::unique_ptr<Connection> writer_;  // null when read-only
-  ReaderPool readers_;
+  detail::ConnectionPool readers_;
 };
-
-// Marks the sessions that were running when the last writer died as interrupted and fails the
-// jobs it left queued or running.
-RecoveryReport recover(detail::Connection& writer, RecoveryPolicy policy, Time now);
 
 }  // namespace skinspec::store::sqlite

@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "recovery.hpp"
 #include "sqlite/engine.hpp"
 #include "sqlite/migrations.hpp"
 #include "store_impl.hpp"
@@ -181,8 +182,9 @@ void open_read_write(Store::Impl& impl, SqliteEngine& engine) {
   configure_writer(writer, impl.options);
   detail::migrate(writer, detail::latest_schema_version());
   impl.version = detail::latest_schema_version();
-  impl.recovery = recover(writer, impl.options.recovery, impl.now());
-  engine.readers().configure(path, SQLITE_OPEN_READONLY, impl.options.busy_timeout, impl.options.max_readers);
+  impl.recovery = detail::recover(writer, impl.options.recovery, impl.now());
+  engine.readers().configure(reader_opener(path, SQLITE_OPEN_READONLY, impl.options.busy_timeout),
+                             impl.options.max_readers);
 }
 
 void open_read_only(Store::Impl& impl, SqliteEngine& engine) {
@@ -208,7 +210,8 @@ void open_read_only(Store::Impl& impl, SqliteEngine& engine) {
                      "next opens it, and left unchanged here",
                      impl.version, detail::latest_schema_version()));
   }
-  engine.readers().configure(access.filename, access.flags, impl.options.busy_timeout, impl.options.max_readers);
+  engine.readers().configure(reader_opener(access.filename, access.flags, impl.options.busy_timeout),
+                             impl.options.max_readers);
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
 #pragma once
-// The SQLite store of instruments, white standards, sessions, measurements, fits and jobs
-// (docs/store.md). One writer connection and a pool of read connections: every method may be
-// called from any thread; writes are serialised, reads run beside them on their own snapshot.
-// Every write is one transaction, durable when the method returns (WAL, synchronous=FULL).
+// The store of instruments, white standards, sessions, measurements, fits and jobs
+// (docs/store.md), in a SQLite file or a PostgreSQL database. One writer connection and a pool
+// of read connections: every method may be called from any thread; writes are serialised,
+// reads run beside them on their own snapshot. Every write is one transaction, durable when
+// the method returns (SQLite: WAL, synchronous=FULL; PostgreSQL: its commit).
 
 #include <chrono>
 #include <functional>
@@ -17,6 +18,14 @@ namespace skinspec::store {
 
 // The database engines a Store can run on.
 enum class Backend { sqlite, postgresql };
+
+// The engine a target names: a libpq URI ("postgresql://..." or "postgres://...") is
+// PostgreSQL; a path, or "sqlite:PATH", is a SQLite file.
+Backend backend_of(const std::string& target);
+
+// `target` as messages and logs show it: a PostgreSQL URI as postgresql://user@host:port/dbname
+// (never a password, nor parameters that could hold one), a file as its path.
+std::string display_target(const std::string& target);
 
 // Which sessions count as running when a database is opened after its writer died.
 enum class RecoveryPolicy {
@@ -100,6 +109,8 @@ struct CreatedJob {
   bool created = true;  // false: an earlier job had the same idempotency key, returned as is
 };
 
+struct CopyReport;  // copy.hpp
+
 struct CompletedJob {
   Job job;  // succeeded, its result holding the ids below
   RecordedMeasurement ids;
@@ -107,19 +118,23 @@ struct CompletedJob {
 
 class Store {
  public:
-  // Opens the database at `path`. Read-write: creates it when missing, migrates it forward and
-  // recovers from a writer that died (recovery()). Refuses, leaving the file as it was: a newer
-  // schema, a file that is not a skinspec database or is damaged, a read-only file (read-write),
-  // a database another program holds for writing (busy, read-write), and a missing, empty or
-  // older one (read-only).
-  static Result<Store> open(const std::string& path, const OpenOptions& options = {});
+  // Opens the database `target` names (backend_of). Read-write: creates the schema when missing,
+  // migrates it forward and recovers from a writer that died (recovery()). Refuses, leaving the
+  // database as it was: a newer schema, a file or database that is not a skinspec one or is
+  // damaged, a read-only file or role (read-write), a database another program holds for
+  // writing (busy, read-write), a missing, empty or older one (read-only); and for PostgreSQL a
+  // server that cannot be reached (unreachable) or refuses the role (access_denied). A
+  // PostgreSQL password comes from PGPASSFILE or ~/.pgpass, never from the URI.
+  static Result<Store> open(const std::string& target, const OpenOptions& options = {});
 
   // A moved-from Store may only be destroyed or assigned to.
   Store(Store&&) noexcept;
   Store& operator=(Store&&) noexcept;
   ~Store();
 
+  // The file's path, or the PostgreSQL URI as given.
   const std::string& path() const;
+  Backend backend() const;
   int schema_version() const;
   const RecoveryReport& recovery() const;
 
@@ -170,6 +185,7 @@ class Store {
   Result<std::vector<Job>> jobs(std::optional<Id> session_id = std::nullopt, int limit = 100) const;
 
   struct Impl;  // opaque: store/src/store_impl.hpp
+  friend Result<CopyReport> copy_database(const Store& from, Store& to);
 
  private:
   explicit Store(std::unique_ptr<Impl> impl);

@@ -46,6 +46,12 @@ struct StoreError {
 
 std::string_view to_string(StoreError::Kind kind);
 
+// Whether a failure to open or use a database says the database named is wrong for the job
+// (another program's, a newer schema, a role or file that may not write, a server that cannot
+// be reached or refuses the role, records in the way): the programs' exit status 2. Otherwise
+// (io, full, internal) the machine failed: status 1.
+bool is_bad_target(StoreError::Kind kind);
+
 template <typename T>
 using Result = std::expected<T, StoreError>;
 

@@ -1,0 +1,86 @@
+// Opening a PostgreSQL database: the checks made before anything is written (another
+// application's database, a newer schema, a role that may not write), the writer lock,
+// migrations under the schema lock, recovery; the read pool.
+
+#include "postgresql/open.hpp"
+
+#include <fmt/format.h>
+
+#include "postgresql/engine.hpp"
+#include "postgresql/migrations.hpp"
+#include "recovery.hpp"
+
+namespace skinspec::store::postgresql {
+
+using detail::fail;
+using Kind = StoreError::Kind;
+
+namespace {
+
+int version_of(detail::Connection& connection, TransactionKind kind) {
+  detail::Transaction transaction(connection, kind);
+  if (kind == TransactionKind::write) lock_schema(connection);  // not half way through another's migration
+  const int version = schema_version(connection);
+  transaction.commit();
+  return version;
+}
+
+void refuse_newer(int version) {
+  if (version > detail::latest_schema_version()) {
+    fail(Kind::newer_schema, fmt::format("written by a newer skinspec (schema version {}; this program knows "
+                                         "versions up to {}); left unchanged",
+                                         version, detail::latest_schema_version()));
+  }
+}
+
+// A role that may read but not write is refused at once, not at its first measurement.
+void require_writable(detail::Connection& writer, const Target& target, int version) {
+  if (writer.query_text("SELECT current_setting('default_transaction_read_only')") == "on")
+    fail(Kind::read_only, fmt::format("role {} only reads (default_transaction_read_only is on)", target.user));
+  if (version == 0) return;  // nothing yet: creating the schema checks the role may
+  const auto refused = writer.query_integer(
+      "SELECT count(*) FROM pg_catalog.pg_class c JOIN pg_catalog.pg_namespace n ON n.oid = c.relnamespace "
+      "WHERE n.nspname = current_schema() AND c.relkind = 'r' AND c.relname <> 'skinspec_schema' "
+      "AND NOT (has_table_privilege(c.oid, 'INSERT') AND has_table_privilege(c.oid, 'UPDATE'))");
+  if (refused > 0)
+    fail(Kind::read_only, fmt::format("role {} may not write {} of the database's tables", target.user, refused));
+}
+
+void open_read_write(Store::Impl& impl, const Target& target, PgEngine& engine) {
+  auto& writer = engine.connect_writer();
+  const int version = version_of(writer, TransactionKind::write);
+  refuse_newer(version);
+  require_writable(writer, target, version);
+  detail::migrate(writer, detail::latest_schema_version());
+  impl.version = detail::latest_schema_version();
+  impl.recovery = detail::recover(writer, impl.options.recovery, impl.now());
+}
+
+void open_read_only(Store::Impl& impl, PgEngine& engine) {
+  auto reader = engine.reader();
+  impl.version = version_of(*reader, TransactionKind::read);
+  refuse_newer(impl.version);
+  if (impl.version == 0) fail(Kind::corrupt, "an empty database, not a skinspec one");
+  if (impl.version < detail::latest_schema_version()) {
+    fail(Kind::older_schema,
+         fmt::format("schema version {} is older than this program's {}; it is migrated when skinspecd "
+                     "next opens it, and left unchanged here",
+                     impl.version, detail::latest_schema_version()));
+  }
+}
+
+}  // namespace
+
+void open(Store::Impl& impl) {
+  const auto target = parse_target(impl.path);
+  const bool writes = impl.options.mode == OpenMode::read_write;
+  auto engine = std::make_unique<PgEngine>(target, writes, impl.options.max_readers);
+  if (writes) {
+    open_read_write(impl, target, *engine);
+  } else {
+    open_read_only(impl, *engine);
+  }
+  impl.engine = std::move(engine);
+}
+
+}  // namespace skinspec::store::postgresql

@@ -1,0 +1,257 @@
+// The store on PostgreSQL, where it differs from a SQLite file: what opening refuses and
+// leaves untouched (an unreachable server, a refused role, another application's database, a
+// newer schema, a role that only reads), two programs opening one database at once, and a
+// server that goes away mid-work (a clear error, no partial rows, the next request served
+// again once it is back). The records themselves are store_test's, run on both engines.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <fstream>
+#include <future>
+#include <thread>
+
+#include "skinspec/store/copy.hpp"
+#include "skinspec/store/store.hpp"
+#include "support/postgres_cluster.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec {
+namespace {
+
+using namespace skinspec::store;
+using ::testing::HasSubstr;
+using testing::postgres_cluster;
+using testing::sample_fit;
+using testing::sample_measurement;
+using testing::sample_session;
+using Kind = StoreError::Kind;
+
+template <typename T>
+T value_of(Result<T> result) {
+  if (!result) throw std::runtime_error(result.error().message);
+  return std::move(*result);
+}
+
+struct Database {
+  std::string name = postgres_cluster().create_database();
+  std::string uri = postgres_cluster().uri(name);
+  long long tables() const {
+    return postgres_cluster().integer(name, "SELECT count(*) FROM pg_tables WHERE schemaname = 'public'");
+  }
+};
+
+TEST(PostgresqlStoreTest, ANewDatabaseGetsTheCurrentSchemaAndNamesItsBackend) {
+  Database db;
+  auto store = value_of(Store::open(db.uri));
+  EXPECT_EQ(store.backend(), Backend::postgresql);
+  EXPECT_EQ(backend_of(db.uri), Backend::postgresql);
+  EXPECT_EQ(backend_of("postgres://x@/y"), Backend::postgresql);
+  EXPECT_EQ(backend_of("sqlite:lab.db"), Backend::sqlite);
+  EXPECT_EQ(store.schema_version(), current_schema_version());
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT version FROM skinspec_schema"), current_schema_version());
+  EXPECT_EQ(postgres_cluster().text(db.name, "SELECT application FROM skinspec_schema"), "skinspec");
+}
+
+TEST(PostgresqlStoreTest, AnUnreachableServerOrARefusedRoleIsRefusedByName) {
+  Database db;
+  const auto nowhere = Store::open("postgresql://skinspec@/" + db.name + "?host=/nonexistent-socket-dir");
+  ASSERT_FALSE(nowhere);
+  EXPECT_EQ(nowhere.error().kind, Kind::unreachable);
+  EXPECT_THAT(nowhere.error().message, HasSubstr("cannot reach the database server"));
+
+  const auto in_uri = Store::open("postgresql://skinspec:secret@/" + db.name);
+  ASSERT_FALSE(in_uri);
+  EXPECT_EQ(in_uri.error().kind, Kind::invalid_argument);
+  EXPECT_THAT(in_uri.error().message, HasSubstr("PGPASSFILE"));
+
+  testing::ScratchDirectory dir;
+  const auto passwords = dir.file("pgpass");
+  std::ofstream(passwords) << "*:*:*:skinspec_pw:wrong\n";
+  std::filesystem::permissions(passwords, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  ::setenv("PGPASSFILE", passwords.c_str(), 1);
+  const auto wrong = Store::open(postgres_cluster().uri(db.name, "skinspec_pw"));
+  ::unsetenv("PGPASSFILE");
+  ASSERT_FALSE(wrong);
+  EXPECT_EQ(wrong.error().kind, Kind::access_denied);
+  EXPECT_THAT(wrong.error().message, ::testing::Not(HasSubstr("wrong")));
+
+  const auto missing = Store::open(postgres_cluster().uri("no_such_database"));
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().kind, Kind::unreachable);
+  EXPECT_THAT(missing.error().message, HasSubstr("no_such_database"));
+  EXPECT_EQ(db.tables(), 0);
+}
+
+TEST(PostgresqlStoreTest, AnotherApplicationsDatabaseIsLeftUntouched) {
+  Database db;
+  postgres_cluster().execute(
+      db.name, "CREATE TABLE orders (id int); INSERT INTO orders VALUES (1); ALTER TABLE orders OWNER TO skinspec");
+  const auto refused = Store::open(db.uri);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, Kind::corrupt);
+  EXPECT_THAT(refused.error().message, HasSubstr("another application"));
+  EXPECT_EQ(db.tables(), 1);
+
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  EXPECT_EQ(Store::open(db.uri, read_only).error().kind, Kind::corrupt);
+  Database empty;
+  const auto nothing = Store::open(empty.uri, read_only);
+  ASSERT_FALSE(nothing);
+  EXPECT_EQ(nothing.error().kind, Kind::corrupt);
+  EXPECT_EQ(empty.tables(), 0);
+}
+
+TEST(PostgresqlStoreTest, ANewerSchemaIsRefusedAndLeftAsItWas) {
+  Database db;
+  value_of(Store::open(db.uri));
+  const auto newer = current_schema_version() + 1;
+  postgres_cluster().execute(db.name, "UPDATE skinspec_schema SET version = " + std::to_string(newer));
+  for (const auto mode : {OpenMode::read_write, OpenMode::read_only}) {
+    OpenOptions options;
+    options.mode = mode;
+    const auto refused = Store::open(db.uri, options);
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().kind, Kind::newer_schema);
+  }
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT version FROM skinspec_schema"), newer);
+}
+
+// A role that may read the tables but not write them: refused at once for writing, with
+// nothing written (not even recovery), and fine for reading.
+TEST(PostgresqlStoreTest, ARoleThatOnlyReadsIsRefusedForWritingAndServedForReading) {
+  Database db;
+  Id session = 0;
+  {
+    auto store = value_of(Store::open(db.uri));
+    session = value_of(store.create_session(sample_session(1)));
+    Job job;
+    job.kind = "measure";
+    job.session_id = session;
+    const auto id = value_of(store.create_job(job)).job.id;
+    value_of(store.update_job(id, {.state = JobState::running}));
+  }
+  postgres_cluster().execute(db.name, "GRANT SELECT ON ALL TABLES IN SCHEMA public TO skinspec_reader");
+  const auto uri = postgres_cluster().uri(db.name, "skinspec_reader");
+  const auto refused = Store::open(uri);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, Kind::read_only);
+  EXPECT_THAT(refused.error().message, HasSubstr("role skinspec_reader may not write"));
+  EXPECT_EQ(postgres_cluster().text(db.name, "SELECT state FROM sessions"), "open");
+  EXPECT_EQ(postgres_cluster().text(db.name, "SELECT state FROM jobs"), "running");
+
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  auto reader = value_of(Store::open(uri, read_only));
+  EXPECT_EQ(value_of(reader.session(session)).subject, sample_session(1).subject);
+  EXPECT_EQ(reader.create_session(sample_session(2)).error().kind, Kind::read_only);
+
+  postgres_cluster().execute("postgres", "ALTER ROLE skinspec_reader SET default_transaction_read_only = on");
+  Database fresh;
+  postgres_cluster().execute(fresh.name, "ALTER DATABASE " + fresh.name + " OWNER TO skinspec_reader");
+  const auto read_only_role = Store::open(postgres_cluster().uri(fresh.name, "skinspec_reader"));
+  postgres_cluster().execute("postgres", "ALTER ROLE skinspec_reader RESET default_transaction_read_only");
+  ASSERT_FALSE(read_only_role);
+  EXPECT_EQ(read_only_role.error().kind, Kind::read_only);
+  EXPECT_EQ(fresh.tables(), 0);
+}
+
+// Two programs opening one new database at the same moment: the schema is made once (under
+// its lock), one becomes the writer and the other is told the database is busy.
+TEST(PostgresqlStoreTest, TwoProgramsOpeningAtOnceMakeTheSchemaOnceAndOneWrites) {
+  for (int round = 0; round < 5; ++round) {
+    Database db;
+    std::promise<void> go;
+    auto ready = go.get_future().share();
+    auto open_it = [&] {
+      ready.wait();
+      return Store::open(db.uri);
+    };
+    auto first = std::async(std::launch::async, open_it);
+    auto second = std::async(std::launch::async, open_it);
+    go.set_value();
+    auto a = first.get();
+    auto b = second.get();
+    ASSERT_NE(a.has_value(), b.has_value()) << (a ? "" : a.error().message) << (b ? "" : b.error().message);
+    const auto& refused = a ? b.error() : a.error();
+    EXPECT_EQ(refused.kind, Kind::busy) << refused.message;
+    EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM skinspec_schema"), 1);
+    auto& writer = a ? *a : *b;
+    EXPECT_GT(value_of(writer.create_session(sample_session(1))), 0);
+  }
+}
+
+// The server stopped with a transaction's work half done: the write fails as unreachable and
+// nothing of it is stored; once the server is back the same Store serves the next request.
+TEST(PostgresqlStoreTest, AServerThatGoesAwayFailsTheWriteWholeAndIsReachedAgainAfterwards) {
+  Database db;
+  auto store = value_of(Store::open(db.uri));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1)));
+
+  postgres_cluster().stop("immediate");
+  const auto lost = store.record_measurement(sample_measurement(session, 2), sample_fit(2));
+  ASSERT_FALSE(lost);
+  EXPECT_EQ(lost.error().kind, Kind::unreachable) << lost.error().message;
+  const auto unread = store.session_detail(session);
+  ASSERT_FALSE(unread);
+  EXPECT_EQ(unread.error().kind, Kind::unreachable);
+
+  postgres_cluster().start();
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM fits"), 1);
+  const auto again = value_of(store.record_measurement(sample_measurement(session, 3), sample_fit(3)));
+  EXPECT_GT(again.measurement_id, 0);
+  const auto detail = value_of(store.session_detail(session));
+  EXPECT_EQ(detail.measurements.size(), 2u);
+  EXPECT_EQ(detail.fits.size(), 2u);
+}
+
+// The server ended the writer's connection between two requests (an administrator, a
+// restart): the next write finds it gone before anything was committed and runs once more on
+// a new connection, so the caller sees it stored, once.
+TEST(PostgresqlStoreTest, AWriterConnectionTheServerEndedIsReplacedAndTheWriteStoredOnce) {
+  Database db;
+  auto store = value_of(Store::open(db.uri));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const auto writer_pid =
+      postgres_cluster().integer(db.name, "SELECT pid FROM pg_stat_activity WHERE datname = '" + db.name +
+                                              "' AND application_name = 'skinspec' ORDER BY backend_start LIMIT 1");
+  postgres_cluster().execute("postgres", "SELECT pg_terminate_backend(" + std::to_string(writer_pid) + ")");
+  const auto stored = value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1)));
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
+  EXPECT_EQ(postgres_cluster().integer(
+                db.name, "SELECT count(*) FROM fits WHERE measurement_id = " + std::to_string(stored.measurement_id)),
+            1);
+}
+
+// A copy the destination refuses part way (PostgreSQL takes only UTF-8 text; a SQLite file may
+// hold other bytes) leaves the destination as empty as it was.
+TEST(PostgresqlStoreTest, ACopyRefusedPartWayLeavesTheDestinationEmpty) {
+  testing::ScratchDirectory dir;
+  const auto file = dir.file("lab.db");
+  {
+    auto lab = value_of(Store::open(file));
+    const Id first = value_of(lab.create_session(sample_session(1)));
+    value_of(lab.record_measurement(sample_measurement(first, 1), sample_fit(1)));
+    auto odd = sample_session(2);
+    odd.notes = "latin-1 \xe9t\xe9";
+    value_of(lab.create_session(odd));
+  }
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  const auto from = value_of(Store::open(file, read_only));
+  Database db;
+  auto to = value_of(Store::open(db.uri));
+  const auto refused = copy_database(from, to);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, Kind::invalid_argument) << refused.error().message;
+  for (const auto* table : {"sessions", "measurements", "fits"})
+    EXPECT_EQ(postgres_cluster().integer(db.name, std::string("SELECT count(*) FROM ") + table), 0) << table;
+  EXPECT_EQ(value_of(to.create_session(sample_session(3))), 1);
+}
+
+}  // namespace
+}  // namespace skinspec
