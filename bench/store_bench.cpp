@@ -1,11 +1,17 @@
-// The SQLite store with synchronous=FULL on the build machine's disk: committed
-// measurement-plus-fit transactions per second (each one on the disk before it returns), and
-// reads per second while a writer keeps committing. Run: build/release/bin/store_bench
-// The database goes to $TMPDIR (or /tmp): put it on the disk you mean to measure.
+// The store on each engine, durable, on the build machine's disk: committed
+// measurement-plus-fit transactions per second (each one on the disk before it returns: SQLite
+// with synchronous=FULL, PostgreSQL with fsync and synchronous_commit on, over its Unix socket)
+// from one and two threads, and fit reads per second while a writer keeps committing.
+// Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a throwaway
+// one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to measure. The
+// disk's own fdatasync time is printed first, as what bounds a commit.
 
 #include <benchmark/benchmark.h>
+#include <fcntl.h>
 #include <stdlib.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -14,21 +20,44 @@
 #include <thread>
 
 #include "skinspec/store/store.hpp"
+#include "support/postgres_cluster.hpp"
 
 namespace skinspec::store {
 namespace {
 
-// A fresh database in its own temporary directory, removed afterwards.
+std::filesystem::path temporary_directory() {
+  std::string pattern = (std::filesystem::temp_directory_path() / "skinspec-bench-XXXXXX").string();
+  if (!::mkdtemp(pattern.data())) std::abort();
+  return pattern;
+}
+
+// One durable cluster for the program's PostgreSQL runs, on the temporary directory's disk.
+testing::PostgresCluster& cluster() {
+  static testing::PostgresCluster durable(testing::ClusterSettings{.durable = true, .base = {}});
+  return durable;
+}
+
+// benchmark's argument 0: the engine.
+Backend backend_of_run(const benchmark::State& state) {
+  return state.range(0) == 0 ? Backend::sqlite : Backend::postgresql;
+}
+
+// A fresh database (a file in its own temporary directory, or a new PostgreSQL database) with
+// one open session.
 struct Scratch {
   std::filesystem::path dir;
   std::optional<Store> store;
   Id session = 0;
 
-  Scratch() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "skinspec-bench-XXXXXX").string();
-    if (!::mkdtemp(pattern.data())) std::abort();
-    dir = pattern;
-    auto opened = Store::open((dir / "bench.db").string());
+  explicit Scratch(Backend backend) {
+    std::string target;
+    if (backend == Backend::sqlite) {
+      dir = temporary_directory();
+      target = (dir / "bench.db").string();
+    } else {
+      target = cluster().uri(cluster().create_database("bench"));
+    }
+    auto opened = Store::open(target);
     if (!opened) {
       std::fprintf(stderr, "store_bench: %s\n", opened.error().message.c_str());
       std::exit(1);
@@ -42,7 +71,7 @@ struct Scratch {
   }
   ~Scratch() {
     store.reset();
-    std::filesystem::remove_all(dir);
+    if (!dir.empty()) std::filesystem::remove_all(dir);
   }
 };
 
@@ -86,17 +115,37 @@ Fit fit() {
   return f;
 }
 
+// Commits from state.threads() threads into one Store (its writes are serialised on one
+// connection; PostgreSQL's group commit can share a WAL flush only between connections).
 void BM_CommitMeasurementWithFit(benchmark::State& state) {
-  Scratch scratch;
+  static std::unique_ptr<Scratch> scratch;
+  static std::atomic<int> ready;
+  if (state.thread_index() == 0) {
+    scratch = std::make_unique<Scratch>(backend_of_run(state));
+    ready = 1;
+  }
+  while (ready.load() == 0) std::this_thread::yield();
   const auto f = fit();
-  int n = 0;
+  int n = state.thread_index() * 1'000'000;
   for (auto _ : state) {
-    auto ids = scratch.store->record_measurement(measurement(scratch.session, n++), f);
+    auto ids = scratch->store->record_measurement(measurement(scratch->session, n++), f);
     if (!ids) state.SkipWithError(ids.error().message.c_str());
   }
   state.SetItemsProcessed(state.iterations());
+  state.SetLabel(backend_of_run(state) == Backend::sqlite ? "sqlite" : "postgresql");
+  if (state.thread_index() == 0) {
+    scratch.reset();
+    ready = 0;
+  }
 }
-BENCHMARK(BM_CommitMeasurementWithFit)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CommitMeasurementWithFit)
+    ->ArgName("postgresql")
+    ->Arg(0)
+    ->Arg(1)
+    ->Threads(1)
+    ->Threads(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // Reads of stored fits (what GET /api/v1/fits/{id} does) on `state.range(0)` reader threads,
 // while another thread commits measurement-plus-fit transactions as fast as it can.
@@ -108,7 +157,7 @@ void BM_ReadFitWhileWriting(benchmark::State& state) {
   static std::vector<Id> fits;
   static std::chrono::steady_clock::time_point started;
   if (state.thread_index() == 0) {
-    scratch = std::make_unique<Scratch>();
+    scratch = std::make_unique<Scratch>(backend_of_run(state));
     fits.clear();
     for (int n = 0; n < 200; ++n)
       fits.push_back(*scratch->store->record_measurement(measurement(scratch->session, n), fit())->fit_id);
@@ -129,6 +178,7 @@ void BM_ReadFitWhileWriting(benchmark::State& state) {
     benchmark::DoNotOptimize(read);
   }
   state.SetItemsProcessed(state.iterations());
+  state.SetLabel(backend_of_run(state) == Backend::sqlite ? "sqlite" : "postgresql");
   if (state.thread_index() == 0) {
     stop = true;
     writer.join();
@@ -137,9 +187,45 @@ void BM_ReadFitWhileWriting(benchmark::State& state) {
     scratch.reset();
   }
 }
-BENCHMARK(BM_ReadFitWhileWriting)->Threads(1)->Threads(2)->UseRealTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ReadFitWhileWriting)
+    ->ArgName("postgresql")
+    ->Arg(0)
+    ->Arg(1)
+    ->Threads(1)
+    ->Threads(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
+
+// What one fdatasync of a 4 KiB write takes on the temporary directory's disk, median of 200:
+// no durable commit on this disk can be quicker.
+double fdatasync_median_ms() {
+  const auto dir = temporary_directory();
+  const auto path = dir / "sync";
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT, 0600);
+  if (fd < 0) std::abort();
+  const std::string page(4096, 'x');
+  std::vector<double> ms;
+  for (int i = 0; i < 200; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    if (::pwrite(fd, page.data(), page.size(), 0) != static_cast<ssize_t>(page.size()) || ::fdatasync(fd) != 0)
+      std::abort();
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  }
+  ::close(fd);
+  std::filesystem::remove_all(dir);
+  std::nth_element(ms.begin(), ms.begin() + 100, ms.end());
+  return ms[100];
+}
 
 }  // namespace
 }  // namespace skinspec::store
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  std::printf("fdatasync of 4 KiB on %s: median %.3f ms\n", std::filesystem::temp_directory_path().c_str(),
+              skinspec::store::fdatasync_median_ms());
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
