@@ -17,6 +17,7 @@
 
 #include "support/acquisition_rig.hpp"
 #include "support/http_client.hpp"
+#include "support/raw_database.hpp"
 #include "support/store_samples.hpp"
 
 namespace skinspec::testing {

@@ -1,6 +1,7 @@
 // Readers beside a writer, in threads of one process; and a writer process running jobs
 // SIGKILLed at random moments, after which the database is intact, holds everything it
-// reported committed, and its jobs agree with the rows they stored.
+// reported committed, and its jobs agree with the rows they stored. Each on a SQLite file and
+// on a PostgreSQL database of the test program's throwaway cluster.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -13,7 +14,9 @@
 #include <thread>
 
 #include "skinspec/store/store.hpp"
+#include "support/postgres_cluster.hpp"
 #include "support/process.hpp"
+#include "support/raw_database.hpp"
 #include "support/store_samples.hpp"
 
 namespace skinspec {
@@ -28,13 +31,33 @@ T value_of(Result<T> result) {
   return std::move(*result);
 }
 
+// A new database on the test's engine: a file in a scratch directory, or a PostgreSQL database.
+class OnEachBackend : public ::testing::TestWithParam<Backend> {
+ protected:
+  OnEachBackend()
+      : target_(GetParam() == Backend::sqlite
+                    ? dir_.file("skinspec.db")
+                    : testing::postgres_cluster().uri(testing::postgres_cluster().create_database())) {}
+  testing::ScratchDirectory dir_;
+  std::string target_;
+};
+using StoreConcurrencyTest = OnEachBackend;
+using StoreCrashTest = OnEachBackend;
+
+std::string backend_name(const ::testing::TestParamInfo<Backend>& info) {
+  return info.param == Backend::sqlite ? "sqlite" : "postgresql";
+}
+INSTANTIATE_TEST_SUITE_P(EachBackend, StoreConcurrencyTest, ::testing::Values(Backend::sqlite, Backend::postgresql),
+                         backend_name);
+INSTANTIATE_TEST_SUITE_P(EachBackend, StoreCrashTest, ::testing::Values(Backend::sqlite, Backend::postgresql),
+                         backend_name);
+
 // Readers see whole transactions only: every fit they find has its measurement, every
 // measurement they find has its fit, and the counts only grow.
-TEST(StoreConcurrencyTest, ReadersSeeWholeTransactionsWhileOneThreadWrites) {
-  testing::ScratchDirectory dir;
+TEST_P(StoreConcurrencyTest, ReadersSeeWholeTransactionsWhileOneThreadWrites) {
   OpenOptions options;
   options.max_readers = 3;  // four reader threads: one always waits for a connection
-  auto store = value_of(Store::open(dir.file("skinspec.db"), options));
+  auto store = value_of(Store::open(target_, options));
   const Id session = value_of(store.create_session(testing::sample_session(1)));
 
   constexpr int kWrites = 150;
@@ -78,9 +101,8 @@ TEST(StoreConcurrencyTest, ReadersSeeWholeTransactionsWhileOneThreadWrites) {
 }
 
 // Writes from several threads are serialised on the one writer connection.
-TEST(StoreConcurrencyTest, WritesFromManyThreadsAllLand) {
-  testing::ScratchDirectory dir;
-  auto store = value_of(Store::open(dir.file("skinspec.db")));
+TEST_P(StoreConcurrencyTest, WritesFromManyThreadsAllLand) {
+  auto store = value_of(Store::open(target_));
   const Id session = value_of(store.create_session(testing::sample_session(1)));
   std::vector<std::thread> writers;
   std::atomic<int> failures{0};
@@ -142,9 +164,8 @@ void expect_reported_present(const std::string& path, const std::map<Id, Reporte
 
 // The writer is killed anywhere in its cycle, including between a job's start and its end,
 // where a measurement and its job's end were once two commits.
-TEST(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
-  testing::ScratchDirectory dir;
-  const auto path = dir.file("skinspec.db");
+TEST_P(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
+  const auto& path = target_;
   std::mt19937 random(650);
   std::uniform_int_distribution<int> delay_us(0, 60'000);
   std::bernoulli_distribution kill_early(0.2);  // before it has even opened the database
@@ -168,12 +189,14 @@ TEST(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
     const auto reported = committed_lines(ended.out);
     if (!reported.empty()) ++kills_mid_stream;
     all_reported.insert(reported.begin(), reported.end());
-    ASSERT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");
+    if (GetParam() == Backend::sqlite) {
+      ASSERT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");
+    }
     EXPECT_EQ(testing::jobs_and_rows_disagreement(path), "");
-    EXPECT_EQ(testing::sqlite_integer(path,
-                                      "SELECT count(*) FROM measurements m WHERE m.job_id IS NULL OR NOT EXISTS "
-                                      "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id)"),
-              0);
+    EXPECT_EQ(
+        testing::raw_database(path)->integer("SELECT count(*) FROM measurements m WHERE m.job_id IS NULL OR NOT EXISTS "
+                                             "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id)"),
+        0);
     expect_reported_present(path, reported);
     if (HasFatalFailure()) return;
   }
@@ -201,8 +224,8 @@ TEST(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
   EXPECT_GE(interrupted, 30);
   // Killed between a job's start and its end, where the measurement was once committed apart
   // from the job's end.
-  const auto killed_while_running =
-      testing::sqlite_integer(path, "SELECT count(*) FROM jobs WHERE state = 'failed' AND started_at IS NOT NULL");
+  const auto killed_while_running = testing::raw_database(path)->integer(
+      "SELECT count(*) FROM jobs WHERE state = 'failed' AND started_at IS NOT NULL");
   std::printf("kills mid-stream: %d of 100, of them while a job ran: %lld\n", kills_mid_stream, killed_while_running);
   EXPECT_GE(killed_while_running, 15);
 }

@@ -69,4 +69,28 @@ std::unique_ptr<RawDatabase> raw_database(const std::string& target) {
   return std::make_unique<SqliteDatabase>(target);
 }
 
+std::string jobs_and_rows_disagreement(const std::string& target) {
+  auto db = raw_database(target);
+  const bool sqlite = db->backend() == store::Backend::sqlite;
+  // The ids a job's result names, in each dialect.
+  const std::string measurement_named =
+      sqlite ? "json_extract(j.result, '$.measurement_id')" : "(j.result ->> 'measurement_id')::bigint";
+  const std::string fit_named = sqlite ? "json_extract(j.result, '$.fit_id')" : "(j.result ->> 'fit_id')::bigint";
+  const std::string differs = sqlite ? "IS NOT" : "IS DISTINCT FROM";
+  const std::pair<std::string, std::string> checks[] = {
+      {"measurements of a job that has not succeeded or does not name them and their fit",
+       "SELECT count(*) FROM measurements m JOIN jobs j ON j.id = m.job_id WHERE j.state <> 'succeeded' OR " +
+           measurement_named + " " + differs + " m.id OR " + fit_named + " " + differs +
+           " (SELECT min(f.id) FROM fits f WHERE f.measurement_id = m.id)"},
+      {"succeeded jobs without their measurement",
+       "SELECT count(*) FROM jobs j WHERE j.state = 'succeeded' AND NOT EXISTS (SELECT 1 FROM measurements m WHERE "
+       "m.job_id = j.id AND m.id = " +
+           measurement_named + ")"},
+  };
+  std::string problems;
+  for (const auto& [what, sql] : checks)
+    if (const auto n = db->integer(sql); n != 0) problems += std::to_string(n) + " " + what + "; ";
+  return problems;
+}
+
 }  // namespace skinspec::testing

@@ -24,4 +24,9 @@ class RawDatabase {
 // Opened now; a PostgreSQL connection stays open for the object's lifetime.
 std::unique_ptr<RawDatabase> raw_database(const std::string& target);
 
+// What must hold of a database whenever its writer died, read outside the store: every stored
+// measurement's job has succeeded and names it and its fit (or no fit, when it has none),
+// every succeeded job has its measurement. Empty when it holds; else what does not.
+std::string jobs_and_rows_disagreement(const std::string& target);
+
 }  // namespace skinspec::testing

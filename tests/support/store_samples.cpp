@@ -201,20 +201,4 @@ void sqlite_execute(const std::string& path, const std::string& sql) {
   }
 }
 
-std::string jobs_and_rows_disagreement(const std::string& path) {
-  static const std::pair<const char*, const char*> kChecks[] = {
-      {"measurements of a job that has not succeeded or does not name them and their fit",
-       "SELECT count(*) FROM measurements m JOIN jobs j ON j.id = m.job_id WHERE j.state <> 'succeeded' "
-       "OR json_extract(j.result, '$.measurement_id') IS NOT m.id "
-       "OR json_extract(j.result, '$.fit_id') IS NOT (SELECT min(f.id) FROM fits f WHERE f.measurement_id = m.id)"},
-      {"succeeded jobs without their measurement",
-       "SELECT count(*) FROM jobs j WHERE j.state = 'succeeded' AND NOT EXISTS "
-       "(SELECT 1 FROM measurements m WHERE m.job_id = j.id AND m.id = json_extract(j.result, '$.measurement_id'))"},
-  };
-  std::string problems;
-  for (const auto& [what, sql] : kChecks)
-    if (const auto n = sqlite_integer(path, sql); n != 0) problems += std::to_string(n) + " " + what + "; ";
-  return problems;
-}
-
 }  // namespace skinspec::testing

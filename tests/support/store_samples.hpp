@@ -50,9 +50,4 @@ long long sqlite_integer(const std::string& path, const std::string& sql);
 // Runs statements read-write (for building test databases by hand).
 void sqlite_execute(const std::string& path, const std::string& sql);
 
-// What must hold of a database whenever its writer died, read outside the store: every stored
-// measurement's job has succeeded and names it and its fit (or no fit, when it has none),
-// every succeeded job has its measurement. Empty when it holds; else what does not.
-std::string jobs_and_rows_disagreement(const std::string& path);
-
 }  // namespace skinspec::testing
