@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cctype>
+#include <utility>
 #include <limits>
 
 #include "postgresql/errors.hpp"
@@ -149,18 +150,12 @@ bool PgCursor::step() {
   if (!result_) {
     const auto n = parameter_types_.size();
     std::vector<const char*> values(n);
-    std::vector<int> lengths(n), formats(n, 1);
+    std::vector<int> lengths(n);
     for (std::size_t i = 0; i < n; ++i) {
       values[i] = nulls_[i] ? nullptr : values_[i].data();
       lengths[i] = static_cast<int>(values_[i].size());
     }
-    result_.reset(PQexecPrepared(connection_->handle(), name_.c_str(), static_cast<int>(n), values.data(),
-                                 lengths.data(), formats.data(), 1));
-    const auto status = result_ ? PQresultStatus(result_.get()) : PGRES_FATAL_ERROR;
-    if (status != PGRES_TUPLES_OK && status != PGRES_COMMAND_OK) {
-      auto failed = std::move(result_);
-      connection_->fail(failed.get(), sql_);
-    }
+    result_ = connection_->run_prepared(name_, static_cast<int>(n), values.data(), lengths.data(), sql_);
   }
   return ++row_ < PQntuples(result_.get());
 }
@@ -325,6 +320,60 @@ Cursor& Connection::cursor(std::string_view sql, RowLock lock) {
   return cursor;
 }
 
+namespace {
+
+using ResultPtr = std::unique_ptr<PGresult, decltype(&PQclear)>;
+
+bool succeeded(const PGresult* result) {
+  const auto status = result ? PQresultStatus(result) : PGRES_FATAL_ERROR;
+  return status == PGRES_TUPLES_OK || status == PGRES_COMMAND_OK;
+}
+
+}  // namespace
+
+ResultPtr Connection::run_prepared(const std::string& name, int count, const char* const* values, const int* lengths,
+                                   std::string_view what) {
+  if (pending_begin_) return run_pipelined(name, count, values, lengths, what);
+  const std::vector<int> formats(static_cast<std::size_t>(count), 1);
+  ResultPtr result(PQexecPrepared(handle(), name.c_str(), count, values, lengths, formats.data(), 1), &PQclear);
+  if (!succeeded(result.get())) fail(result.get(), what);
+  return result;
+}
+
+// BEGIN and the statement sent together, then their results read in order: BEGIN's, the
+// statement's (aborted if BEGIN failed), and the pipeline's end.
+ResultPtr Connection::run_pipelined(const std::string& name, int count, const char* const* values, const int* lengths,
+                                    std::string_view what) {
+  const char* begin = std::exchange(pending_begin_, nullptr);
+  const std::vector<int> formats(static_cast<std::size_t>(count), 1);
+  if (PQenterPipelineMode(handle()) != 1) fail(nullptr, what);
+  const bool sent = PQsendQueryParams(handle(), begin, 0, nullptr, nullptr, nullptr, nullptr, 1) == 1 &&
+                    PQsendQueryPrepared(handle(), name.c_str(), count, values, lengths, formats.data(), 1) == 1 &&
+                    PQpipelineSync(handle()) == 1;
+  ResultPtr begun(nullptr, &PQclear), result(nullptr, &PQclear);
+  if (sent) {
+    begun.reset(PQgetResult(handle()));
+    while (auto* rest = PQgetResult(handle())) PQclear(rest);  // up to the end of BEGIN's results
+    result.reset(PQgetResult(handle()));
+    while (auto* rest = PQgetResult(handle())) PQclear(rest);
+    // The pipeline's end (PGRES_PIPELINE_SYNC), then leave pipeline mode.
+    while (auto* rest = PQgetResult(handle())) {
+      const bool synced = PQresultStatus(rest) == PGRES_PIPELINE_SYNC;
+      PQclear(rest);
+      if (synced) break;
+    }
+  }
+  PQexitPipelineMode(handle());
+  if (!sent) fail(nullptr, what);
+  if (!succeeded(begun.get())) fail(begun.get(), "BEGIN");
+  if (!succeeded(result.get())) fail(result.get(), what);
+  return result;
+}
+
+void Connection::send_pending_begin() {
+  if (const char* begin = std::exchange(pending_begin_, nullptr)) run(begin, "BEGIN");
+}
+
 void Connection::run(const char* command, std::string_view what) {
   std::unique_ptr<PGresult, decltype(&PQclear)> result(PQexec(handle(), command), &PQclear);
   const auto status = result ? PQresultStatus(result.get()) : PGRES_FATAL_ERROR;
@@ -332,15 +381,18 @@ void Connection::run(const char* command, std::string_view what) {
 }
 
 void Connection::execute(std::string_view script) {
+  send_pending_begin();
   const std::string text(script);
   run(text.c_str(), "a script");
 }
 
 void Connection::begin(TransactionKind kind) {
-  run(kind == TransactionKind::write ? "BEGIN" : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY", "BEGIN");
+  if (in_transaction()) detail::fail(Kind::internal, "a transaction is already open");
+  pending_begin_ = kind == TransactionKind::write ? "BEGIN" : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY";
 }
 
 void Connection::commit() {
+  if (std::exchange(pending_begin_, nullptr)) return;  // nothing ran: nothing to commit
   std::unique_ptr<PGresult, decltype(&PQclear)> result(PQexec(handle(), "COMMIT"), &PQclear);
   if (!result || PQresultStatus(result.get()) != PGRES_COMMAND_OK) fail(result.get(), "COMMIT", true);
   // PostgreSQL answers COMMIT of a transaction a statement failed in with ROLLBACK.
@@ -349,6 +401,7 @@ void Connection::commit() {
 }
 
 void Connection::rollback() noexcept {
+  pending_begin_ = nullptr;
   if (!in_transaction()) return;
   // A failure here leaves nothing to do: the server rolls back a transaction whose
   // connection is gone, and a broken connection is not used again.
@@ -356,6 +409,7 @@ void Connection::rollback() noexcept {
 }
 
 bool Connection::in_transaction() const {
+  if (pending_begin_) return true;
   const auto status = PQtransactionStatus(handle());
   return status == PQTRANS_INTRANS || status == PQTRANS_INERROR || status == PQTRANS_ACTIVE;
 }
