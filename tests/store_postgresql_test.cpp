@@ -1,8 +1,9 @@
 // The store on PostgreSQL, where it differs from a SQLite file: what opening refuses and
 // leaves untouched (an unreachable server, a refused role, another application's database, a
-// newer schema, a role that only reads), two programs opening one database at once, and a
-// server that goes away mid-work (a clear error, no partial rows, the next request served
-// again once it is back). The records themselves are store_test's, run on both engines.
+// newer schema, a role that only reads), two programs opening one database at once, a server
+// that goes away mid-work or runs out of disk (a clear error, no partial rows, the next request
+// served again once it is back), and a copy refused part way. The records themselves are
+// store_test's, run on both engines.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -225,6 +226,32 @@ TEST(PostgresqlStoreTest, AWriterConnectionTheServerEndedIsReplacedAndTheWriteSt
   EXPECT_EQ(postgres_cluster().integer(
                 db.name, "SELECT count(*) FROM fits WHERE measurement_id = " + std::to_string(stored.measurement_id)),
             1);
+}
+
+// The server out of disk in the middle of a transaction (its error 53100, raised here by a
+// trigger as the server raises it when a write finds no space): the write fails as `full`,
+// nothing of it is stored, and once space is back the same Store writes again.
+TEST(PostgresqlStoreTest, ADiskFullMidTransactionIsFullAndLeavesNoPartOfIt) {
+  Database db;
+  auto store = value_of(Store::open(db.uri));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  postgres_cluster().execute(db.name,
+                             "CREATE FUNCTION no_space() RETURNS trigger LANGUAGE plpgsql AS $$ BEGIN RAISE "
+                             "EXCEPTION 'could not extend file: No space left on device' USING ERRCODE = 'disk_full'; "
+                             "END $$; CREATE TRIGGER no_space BEFORE INSERT ON fits FOR EACH ROW EXECUTE FUNCTION "
+                             "no_space()");
+  const auto full = store.record_measurement(sample_measurement(session, 1), sample_fit(1));
+  ASSERT_FALSE(full);
+  EXPECT_EQ(full.error().kind, Kind::full) << full.error().message;
+  EXPECT_EQ(full.error().sql_state, "53100");
+  EXPECT_THAT(full.error().message, HasSubstr("No space left on device"));
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 0);
+  EXPECT_EQ(value_of(store.session(session)).state, SessionState::open);
+
+  postgres_cluster().execute(db.name, "DROP TRIGGER no_space ON fits");
+  value_of(store.record_measurement(sample_measurement(session, 2), sample_fit(2)));
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM fits"), 1);
 }
 
 // A copy the destination refuses part way (PostgreSQL takes only UTF-8 text; a SQLite file may
