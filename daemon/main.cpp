@@ -93,15 +93,15 @@ int serve(const skinspec::daemon::Options& o) {
     spdlog::info("event=stopping signal={}", signal);
     server.stop();
   });
-  spdlog::info("event=listening address={} port={} db=\"{}\" auth={} version={}", options.address, server.port(), o.db,
-               context.access.required ? "tokens" : "none", skinspec::kVersion);
+  spdlog::info("event=listening address={} port={} db=\"{}\" auth={} version={}", options.address, server.port(),
+               store::display_target(o.db), context.access.required ? "tokens" : "none", skinspec::kVersion);
   // For people and for programs waiting for the service to come up.
   std::cout << "skinspecd listening on http://"
             << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address) << ':'
             << server.port() << std::endl;
   server.run();
   if (supervisor) supervisor->stop();
-  spdlog::info("event=stopped db=\"{}\"", o.db);
+  spdlog::info("event=stopped db=\"{}\"", store::display_target(o.db));
   return 0;
 }
 

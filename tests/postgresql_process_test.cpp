@@ -98,10 +98,12 @@ TEST(PostgresqlProcessTest, ADaemonKilledMidJobLeavesItInterruptedAndNothingHalf
   const auto accepted = submit(rig.port, session, {{"kind", "sample"}, {"count", 5}});
   ASSERT_TRUE(accepted["id"].is_number_integer()) << accepted;
   const auto job_id = accepted["id"].get<long long>();
-  for (auto until = std::chrono::steady_clock::now() + 20s; std::chrono::steady_clock::now() < until;) {
-    if (get_json(rig.port, "/api/v1/jobs/" + std::to_string(job_id))["state"] == "running") break;
-    std::this_thread::sleep_for(20ms);
+  bool running = false;
+  for (auto until = std::chrono::steady_clock::now() + 20s; !running && std::chrono::steady_clock::now() < until;) {
+    running = get_json(rig.port, "/api/v1/jobs/" + std::to_string(job_id))["state"] == "running";
+    if (!running) std::this_thread::sleep_for(20ms);
   }
+  ASSERT_TRUE(running) << rig.logs();
   rig.stop_daemon(SIGKILL);
   rig.restart_daemon();
   ASSERT_NE(rig.port, 0) << rig.logs();
@@ -156,7 +158,11 @@ TEST(PostgresqlProcessTest, MigrateDbCopiesALabsDatabaseWhole) {
 
   const auto back = dir.file("back.db");
   ASSERT_EQ(skinspec({"migrate-db", "--from", db.uri, "--to", back}).exit_status, 0);
-  EXPECT_TRUE(skinspec({"export", "--db", back}).out == skinspec({"export", "--db", lab}).out);
+  const auto from_back = skinspec({"export", "--db", back});
+  const auto from_lab = skinspec({"export", "--db", lab});
+  ASSERT_EQ(from_back.exit_status, 0) << from_back.describe();
+  ASSERT_EQ(from_lab.exit_status, 0) << from_lab.describe();
+  EXPECT_TRUE(from_back.out == from_lab.out);
 
   ScratchDirectory other_dir;
   {

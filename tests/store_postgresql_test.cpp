@@ -159,9 +159,9 @@ TEST(PostgresqlStoreTest, ARoleThatOnlyReadsIsRefusedForWritingAndServedForReadi
   EXPECT_EQ(fresh.tables(), 0);
 }
 
-// Two programs opening one new database at the same moment: the schema is made once (under
-// its lock), one becomes the writer and the other is told the database is busy.
-TEST(PostgresqlStoreTest, TwoProgramsOpeningAtOnceMakeTheSchemaOnceAndOneWrites) {
+// Two programs opening one new database at the same moment: one becomes the writer and makes
+// the schema, the other is told the database is busy.
+TEST(PostgresqlStoreTest, TwoProgramsOpeningAtOnceOneWritesTheOtherIsBusy) {
   for (int round = 0; round < 5; ++round) {
     Database db;
     std::promise<void> go;
@@ -178,7 +178,7 @@ TEST(PostgresqlStoreTest, TwoProgramsOpeningAtOnceMakeTheSchemaOnceAndOneWrites)
     ASSERT_NE(a.has_value(), b.has_value()) << (a ? "" : a.error().message) << (b ? "" : b.error().message);
     const auto& refused = a ? b.error() : a.error();
     EXPECT_EQ(refused.kind, Kind::busy) << refused.message;
-    EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM skinspec_schema"), 1);
+    EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT version FROM skinspec_schema"), current_schema_version());
     auto& writer = a ? *a : *b;
     EXPECT_GT(value_of(writer.create_session(sample_session(1))), 0);
   }
@@ -191,6 +191,7 @@ TEST(PostgresqlStoreTest, AServerThatGoesAwayFailsTheWriteWholeAndIsReachedAgain
   auto store = value_of(Store::open(db.uri));
   const Id session = value_of(store.create_session(sample_session(1)));
   value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1)));
+  value_of(store.session_detail(session));  // a read connection, idle in the pool from now on
 
   postgres_cluster().stop("immediate");
   const auto lost = store.record_measurement(sample_measurement(session, 2), sample_fit(2));
@@ -201,6 +202,8 @@ TEST(PostgresqlStoreTest, AServerThatGoesAwayFailsTheWriteWholeAndIsReachedAgain
   EXPECT_EQ(unread.error().kind, Kind::unreachable);
 
   postgres_cluster().start();
+  // Every connection the Store had is gone; the first read and the first write succeed.
+  EXPECT_EQ(value_of(store.session(session)).subject, sample_session(1).subject);
   EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
   EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM fits"), 1);
   const auto again = value_of(store.record_measurement(sample_measurement(session, 3), sample_fit(3)));
@@ -220,6 +223,8 @@ TEST(PostgresqlStoreTest, AWriterConnectionTheServerEndedIsReplacedAndTheWriteSt
   const auto writer_pid =
       postgres_cluster().integer(db.name, "SELECT pid FROM pg_stat_activity WHERE datname = '" + db.name +
                                               "' AND application_name = 'skinspec' ORDER BY backend_start LIMIT 1");
+  // Not waiting for the backend to go: it may still hold the writer lock when the Store
+  // reconnects, which must then end it and take the lock.
   postgres_cluster().execute("postgres", "SELECT pg_terminate_backend(" + std::to_string(writer_pid) + ")");
   const auto stored = value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1)));
   EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
@@ -252,6 +257,26 @@ TEST(PostgresqlStoreTest, ADiskFullMidTransactionIsFullAndLeavesNoPartOfIt) {
   value_of(store.record_measurement(sample_measurement(session, 2), sample_fit(2)));
   EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
   EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM fits"), 1);
+}
+
+// A URI's own options (here a search_path) hold for writing and for reading alike.
+TEST(PostgresqlStoreTest, TheUrisOwnOptionsHoldForTheWriterAndTheReaders) {
+  Database db;
+  postgres_cluster().execute(db.name, "CREATE SCHEMA lab AUTHORIZATION skinspec");
+  const auto uri = db.uri + "&options=-c%20search_path%3Dlab";
+  Id session = 0;
+  {
+    auto store = value_of(Store::open(uri));
+    session = value_of(store.create_session(sample_session(1)));
+    EXPECT_EQ(value_of(store.session(session)).subject, sample_session(1).subject);
+  }
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM lab.sessions"), 1);
+  EXPECT_EQ(db.tables(), 0);  // nothing in public
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  auto reader = value_of(Store::open(uri, read_only));
+  EXPECT_EQ(value_of(reader.session(session)).subject, sample_session(1).subject);
+  EXPECT_EQ(reader.create_session(sample_session(2)).error().kind, Kind::read_only);
 }
 
 // A copy the destination refuses part way (PostgreSQL takes only UTF-8 text; a SQLite file may

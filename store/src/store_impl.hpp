@@ -68,16 +68,19 @@ struct Store::Impl {
     });
   }
 
-  // One read transaction (a consistent snapshot) on a pooled read connection.
+  // One read transaction (a consistent snapshot) on a pooled read connection. A read that
+  // found its connection gone (a database server restarted) is run once more on a new one.
   template <typename F>
   auto read(std::string_view what, F&& body) const -> Result<std::invoke_result_t<F, detail::Connection&>> {
     return detail::guarded(what, [&] {
-      auto connection = engine->reader();
-      detail::Transaction transaction(*connection, detail::TransactionKind::read);
-      auto value = checked_read(body, *connection);
-      transaction.commit();
-      engine->after_read();
-      return value;
+      return retried_once([&] {
+        auto connection = engine->reader();
+        detail::Transaction transaction(*connection, detail::TransactionKind::read);
+        auto value = checked_read(body, *connection);
+        transaction.commit();
+        engine->after_read();
+        return value;
+      });
     });
   }
 
@@ -87,17 +90,29 @@ struct Store::Impl {
   template <typename F>
   auto read_one(std::string_view what, F&& body) const -> Result<std::invoke_result_t<F, detail::Connection&>> {
     return detail::guarded(what, [&] {
-      auto connection = engine->reader();
-      const auto before = connection->statements_prepared();
-      auto value = checked_read(body, *connection);
-      if (connection->statements_prepared() - before > 1)
-        detail::fail(StoreError::Kind::internal, "a single-statement read ran more than one statement");
-      engine->after_read();
-      return value;
+      return retried_once([&] {
+        auto connection = engine->reader();
+        const auto before = connection->statements_prepared();
+        auto value = checked_read(body, *connection);
+        if (connection->statements_prepared() - before > 1)
+          detail::fail(StoreError::Kind::internal, "a single-statement read ran more than one statement");
+        engine->after_read();
+        return value;
+      });
     });
   }
 
  private:
+  template <typename F>
+  static auto retried_once(F&& attempt) {
+    try {
+      return attempt();
+    } catch (const detail::Failure& failure) {
+      if (!failure.retryable) throw;
+      return attempt();
+    }
+  }
+
   template <typename F>
   auto checked_read(F& body, detail::Connection& connection) const {
     try {

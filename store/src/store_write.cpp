@@ -41,6 +41,10 @@ void check_fit(const Fit& f) {
     detail::check_not_empty(p.name, "a fit parameter's name");
     if (!std::isfinite(p.value)) invalid(fmt::format("parameter {} is not finite", p.name));
   }
+  for (const auto& [value, name] : {std::pair{f.rmse, "rmse"}, std::pair{f.max_abs_error, "max_abs_error"},
+                                    std::pair{f.delta_e00_d65, "delta_e00_d65"}}) {
+    if (!std::isfinite(value)) invalid(fmt::format("the fit's {} is not finite", name));
+  }
   detail::check_json_object(f.assessment, "fit assessment");
   if (f.measured.size() != f.wavelength_nm.size() || f.fitted.size() != f.wavelength_nm.size()) {
     invalid(fmt::format("fit: {} wavelengths, {} measured, {} fitted values", f.wavelength_nm.size(), f.measured.size(),

@@ -257,6 +257,8 @@ Connection::Connection(const Target& target, const ConnectSettings& settings) : 
   if (!connection_) detail::fail(Kind::internal, "libpq could not allocate a connection");
   if (PQstatus(handle()) == CONNECTION_OK) {
     PQsetNoticeReceiver(handle(), ignore_notice, nullptr);
+    backend_pid_ = PQbackendPID(handle());
+    apply(settings);
     return;
   }
   const std::string why = trimmed(PQerrorMessage(handle()));
@@ -300,12 +302,24 @@ void Connection::fail(const PGresult* result, std::string_view what, bool commit
   throw detail::Failure{std::move(error), retryable};
 }
 
+// Set on the session rather than in libpq's `options`, which would replace any the URI gives
+// (a search_path, say). The store's promise that a returned write is durable needs
+// synchronous_commit on whatever the server, database or role say; and a server that keeps an
+// idle connection of a host that vanished would hold its locks for the kernel's default two
+// hours, so it probes the client as libpq probes the server.
+void Connection::apply(const ConnectSettings& settings) {
+  execute(settings.read_only ? "SET SESSION CHARACTERISTICS AS TRANSACTION READ ONLY"
+                             : "SET synchronous_commit = on; SET tcp_keepalives_idle = 10; "
+                               "SET tcp_keepalives_interval = 5; SET tcp_keepalives_count = 3");
+}
+
 Cursor& Connection::cursor(std::string_view sql, RowLock lock) {
   auto& cache = cache_[static_cast<std::size_t>(lock)];
   auto found = cache.find(sql);
   if (found != cache.end()) return *found->second;
   const auto text = postgresql_sql(sql, lock);
-  const auto name = fmt::format("s{}", cache_[0].size() + cache_[1].size() + cache_[2].size() + 1);
+  // Never a name used before: a statement whose describing failed may exist on the server.
+  const auto name = fmt::format("s{}", ++statements_named_);
   std::unique_ptr<PGresult, decltype(&PQclear)> prepared(PQprepare(handle(), name.c_str(), text.c_str(), 0, nullptr),
                                                          &PQclear);
   if (!prepared || PQresultStatus(prepared.get()) != PGRES_COMMAND_OK) fail(prepared.get(), text);
@@ -363,7 +377,7 @@ ResultPtr Connection::run_pipelined(const std::string& name, int count, const ch
       if (synced) break;
     }
   }
-  PQexitPipelineMode(handle());
+  if (PQexitPipelineMode(handle()) != 1) lost_ = true;  // stuck in pipeline mode: not usable again
   if (!sent) fail(nullptr, what);
   if (!succeeded(begun.get())) fail(begun.get(), "BEGIN");
   if (!succeeded(result.get())) fail(result.get(), what);

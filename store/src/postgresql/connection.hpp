@@ -79,7 +79,8 @@ class Connection final : public detail::Connection {
 
   // Whether the connection is gone: a pool drops it rather than hand it out again.
   bool broken() const { return lost_ || PQstatus(handle()) != CONNECTION_OK; }
-  int backend_pid() const { return PQbackendPID(handle()); }
+  // The server process serving this connection, as it was when connected (also once broken).
+  int backend_pid() const { return backend_pid_; }
   PGconn* handle() const { return connection_.get(); }
 
   // Runs the prepared statement `name` with binary parameters and results; BEGIN first, in
@@ -97,6 +98,7 @@ class Connection final : public detail::Connection {
 
  private:
   void run(const char* command, std::string_view what);
+  void apply(const ConnectSettings& settings);
   void send_pending_begin();
   std::unique_ptr<PGresult, decltype(&PQclear)> run_pipelined(const std::string& name, int count,
                                                               const char* const* values, const int* lengths,
@@ -106,6 +108,8 @@ class Connection final : public detail::Connection {
   std::unique_ptr<PGconn, decltype(&PQfinish)> connection_{nullptr, &PQfinish};
   mutable bool lost_ = false;            // a statement found the connection gone (fail())
   const char* pending_begin_ = nullptr;  // the BEGIN begin() asked for, not sent yet
+  std::uint64_t statements_named_ = 0;
+  int backend_pid_ = 0;
   // By the store's text of the statement, one map per row lock.
   std::array<std::unordered_map<std::string, std::unique_ptr<PgCursor>, detail::TextHash, std::equal_to<>>, 3> cache_;
 };

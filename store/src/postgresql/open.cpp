@@ -17,6 +17,15 @@ using Kind = StoreError::Kind;
 
 namespace {
 
+// Text outside the database's encoding could not be stored: a skinspec database is UTF-8, as
+// every text of the store is.
+void require_utf8(detail::Connection& connection) {
+  const auto encoding = connection.query_text("SELECT current_setting('server_encoding')");
+  if (encoding != "UTF8")
+    fail(Kind::invalid_argument,
+         fmt::format("the database's encoding is {}; skinspec needs UTF8 (createdb --encoding UTF8)", encoding));
+}
+
 int version_of(detail::Connection& connection, TransactionKind kind) {
   detail::Transaction transaction(connection, kind);
   if (kind == TransactionKind::write) lock_schema(connection);  // not half way through another's migration
@@ -48,6 +57,7 @@ void require_writable(detail::Connection& writer, const Target& target, int vers
 
 void open_read_write(Store::Impl& impl, const Target& target, PgEngine& engine) {
   auto& writer = engine.connect_writer();
+  require_utf8(writer);
   const int version = version_of(writer, TransactionKind::write);
   refuse_newer(version);
   require_writable(writer, target, version);
@@ -58,6 +68,7 @@ void open_read_write(Store::Impl& impl, const Target& target, PgEngine& engine) 
 
 void open_read_only(Store::Impl& impl, PgEngine& engine) {
   auto reader = engine.reader();
+  require_utf8(*reader);
   impl.version = version_of(*reader, TransactionKind::read);
   refuse_newer(impl.version);
   if (impl.version == 0) fail(Kind::corrupt, "an empty database, not a skinspec one");

@@ -19,6 +19,22 @@ namespace {
 
 using ConninfoOptions = std::unique_ptr<PQconninfoOption, decltype(&PQconninfoFree)>;
 
+// libpq's parse errors quote the URI or a part of it, a password included: each quoted part
+// becomes "...".
+std::string without_quoted_parts(const std::string& message) {
+  std::string out;
+  bool quoted = false;
+  for (const char c : message) {
+    if (c == '"') {
+      if (!quoted) out += "\"...\"";
+      quoted = !quoted;
+    } else if (!quoted) {
+      out += c;
+    }
+  }
+  return out;
+}
+
 // libpq's reading of `uri`; throws invalid_argument when it has none.
 ConninfoOptions parsed(const std::string& uri) {
   char* error = nullptr;
@@ -27,7 +43,7 @@ ConninfoOptions parsed(const std::string& uri) {
     std::string message = error ? error : "libpq cannot parse it";
     PQfreemem(error);
     while (!message.empty() && message.back() == '\n') message.pop_back();
-    detail::fail(Kind::invalid_argument, "not a PostgreSQL connection URI: " + message);
+    detail::fail(Kind::invalid_argument, "not a PostgreSQL connection URI: " + without_quoted_parts(message));
   }
   return options;
 }
@@ -49,7 +65,7 @@ std::string display_of(const ConninfoOptions& options) {
 
 Target parse_target(const std::string& uri) {
   const auto options = parsed(uri);
-  if (!value_of(options, "password").empty())
+  if (!value_of(options, "password").empty() || !value_of(options, "sslpassword").empty())
     detail::fail(Kind::invalid_argument, "put the password in PGPASSFILE or ~/.pgpass, not in the URI");
   return Target{uri, display_of(options), value_of(options, "user")};
 }
@@ -74,7 +90,6 @@ std::vector<std::pair<std::string, std::string>> connection_keywords(const Targe
       {"dbname", target.uri},  // expanded by libpq: what the URI says overrides the above
       {"client_encoding", "UTF8"},
   };
-  if (settings.read_only) keywords.emplace_back("options", "-c default_transaction_read_only=on");
   return keywords;
 }
 

@@ -21,7 +21,7 @@ struct Target {
 struct ConnectSettings {
   std::string application_name = "skinspec";
   // Every transaction of the connection read-only (a Store opened to read): even a bug cannot
-  // write.
+  // write. Otherwise the session is set for writing durably (Connection::apply).
   bool read_only = false;
 };
 
