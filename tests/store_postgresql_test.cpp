@@ -279,6 +279,33 @@ TEST(PostgresqlStoreTest, TheUrisOwnOptionsHoldForTheWriterAndTheReaders) {
   EXPECT_EQ(reader.create_session(sample_session(2)).error().kind, Kind::read_only);
 }
 
+// More rows than one page of the copy: every one arrives, in order, the digests equal, and the
+// next id the destination gives follows the largest copied one.
+TEST(PostgresqlStoreTest, ACopyOfManyPagesOfRowsArrivesWhole) {
+  testing::ScratchDirectory dir;
+  const auto file = dir.file("lab.db");
+  constexpr int kSessions = 700;
+  {
+    auto lab = value_of(Store::open(file));
+    for (int i = 0; i < kSessions; ++i) value_of(lab.create_session(sample_session(i)));
+  }
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  const auto from = value_of(Store::open(file, read_only));
+  Database db;
+  auto to = value_of(Store::open(db.uri));
+  const auto report = value_of(copy_database(from, to));
+  EXPECT_FALSE(report.already_copied);
+  ASSERT_EQ(report.tables.size(), 7u);
+  EXPECT_EQ(report.tables[2].table, "sessions");
+  EXPECT_EQ(report.tables[2].rows, kSessions);
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM sessions"), kSessions);
+  const auto again = value_of(copy_database(from, to));
+  EXPECT_TRUE(again.already_copied);
+  EXPECT_EQ(again.tables[2].digest, report.tables[2].digest);
+  EXPECT_EQ(value_of(to.create_session(sample_session(1))), kSessions + 1);
+}
+
 // A copy the destination refuses part way (PostgreSQL takes only UTF-8 text; a SQLite file may
 // hold other bytes) leaves the destination as empty as it was.
 TEST(PostgresqlStoreTest, ACopyRefusedPartWayLeavesTheDestinationEmpty) {

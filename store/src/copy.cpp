@@ -8,6 +8,7 @@
 #include <array>
 #include <bit>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <string_view>
 
@@ -131,8 +132,12 @@ class Digest {
   std::uint64_t hash_ = 0xcbf29ce484222325ULL;
 };
 
-std::string select_all(const Table& table) {
-  return fmt::format("SELECT {} FROM {} ORDER BY id", table.columns, table.name);
+// A page of rows at a time, so that a large table is never held in memory whole (PostgreSQL
+// hands over all of a statement's rows at once).
+constexpr int kPageRows = 256;
+
+std::string select_page(const Table& table) {
+  return fmt::format("SELECT {} FROM {} WHERE id > ?1 ORDER BY id LIMIT {}", table.columns, table.name, kPageRows);
 }
 
 // Every row of `table` on `c`, in id order: their count and digest, each row also handed to
@@ -144,12 +149,17 @@ TableCopy scan(Connection& c, const Table& table, const std::function<void(const
   TableCopy out{std::string(table.name), 0, ""};
   Digest digest;
   Row row;
-  auto rows = c.prepare(select_all(table));
-  while (rows.step()) {
-    read_row(rows, table, row);
-    for (const auto& value : row.values) digest.add(value);
-    if (each) each(row);
-    ++out.rows;
+  Id after = std::numeric_limits<Id>::min();
+  for (int in_page = kPageRows; in_page == kPageRows;) {
+    auto rows = c.prepare(select_page(table));
+    rows.bind(after);
+    for (in_page = 0; rows.step(); ++in_page) {
+      read_row(rows, table, row);
+      for (const auto& value : row.values) digest.add(value);
+      if (each) each(row);
+      ++out.rows;
+      after = rows.integer(0);
+    }
   }
   out.digest = digest.hex();
   return out;
