@@ -324,8 +324,12 @@ void PostgresCluster::stop(std::string_view mode) {
 }
 
 void PostgresCluster::start() {
-  const std::string durability =
-      settings_.durable ? " -c fsync=on -c full_page_writes=on" : " -c fsync=off -c full_page_writes=off";
+  // Durable: as a lab's server would be set for steady writing, with room for the WAL between
+  // checkpoints (the template's segments are 1 MB, which would otherwise checkpoint every few
+  // hundred transactions and write each page whole again after each).
+  const std::string durability = settings_.durable ? " -c fsync=on -c full_page_writes=on -c max_wal_size=1GB "
+                                                     "-c checkpoint_timeout=15min"
+                                                   : " -c fsync=off -c full_page_writes=off";
   start_server(data(), directory_ / "log", "-k " + directory_.string() + durability + " -c synchronous_commit=on");
   running_ = true;
 }
