@@ -53,6 +53,22 @@ std::span<const Migration> migrations() { return kMigrations; }
 
 int latest_schema_version() { return kMigrations.back().version; }
 
+void refuse_newer_schema(int version) {
+  if (version <= latest_schema_version()) return;
+  fail(StoreError::Kind::newer_schema,
+       fmt::format("written by a newer skinspec (schema version {}; this program knows versions up to {}); left "
+                   "unchanged",
+                   version, latest_schema_version()));
+}
+
+void refuse_older_schema_for_reading(int version) {
+  if (version >= latest_schema_version()) return;
+  fail(StoreError::Kind::older_schema,
+       fmt::format("schema version {} is older than this program's {}; it is migrated when skinspecd next opens "
+                   "it, and left unchanged here",
+                   version, latest_schema_version()));
+}
+
 void migrate(Connection& writer, int target) {
   for (;;) {
     Transaction transaction(writer, TransactionKind::write);

@@ -30,6 +30,11 @@ inline constexpr int kPostgresqlBaseline = 5;
 std::span<const Migration> migrations();
 int latest_schema_version();
 
+// Throws newer_schema for a database written by a newer skinspec, left as it is.
+void refuse_newer_schema(int version);
+// Throws older_schema for a database opened to read that needs migrating first.
+void refuse_older_schema_for_reading(int version);
+
 // Applies the steps of the writer's dialect after the database's version up to `target`, each
 // in its own write transaction (so a crash leaves it at a whole version).
 void migrate(Connection& writer, int target);

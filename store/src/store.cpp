@@ -18,9 +18,16 @@ Time Store::Impl::now() const {
   return std::chrono::floor<std::chrono::microseconds>(std::chrono::system_clock::now());
 }
 
+namespace {
+
+// A SQLite target's file: the path, without "sqlite:" when it was given so.
+std::string sqlite_path(const std::string& target) { return target.starts_with("sqlite:") ? target.substr(7) : target; }
+
+}  // namespace
+
 Result<Store> Store::open(const std::string& target, const OpenOptions& options) {
   const auto backend = backend_of(target);
-  const auto path = backend == Backend::sqlite && target.starts_with("sqlite:") ? target.substr(7) : target;
+  const auto path = backend == Backend::sqlite ? sqlite_path(target) : target;
   const auto shown = backend == Backend::postgresql ? "the database" : "the database file";
   return detail::guarded(fmt::format("opening {} {}", shown, display_target(target)), [&] {
     auto impl = std::make_unique<Impl>();
@@ -44,7 +51,7 @@ Backend backend_of(const std::string& target) {
 
 std::string display_target(const std::string& target) {
   if (backend_of(target) == Backend::postgresql) return postgresql::display_form(target);
-  return target.starts_with("sqlite:") ? target.substr(7) : target;
+  return sqlite_path(target);
 }
 
 Store::Store(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}

@@ -34,14 +34,6 @@ int version_of(detail::Connection& connection, TransactionKind kind) {
   return version;
 }
 
-void refuse_newer(int version) {
-  if (version > detail::latest_schema_version()) {
-    fail(Kind::newer_schema, fmt::format("written by a newer skinspec (schema version {}; this program knows "
-                                         "versions up to {}); left unchanged",
-                                         version, detail::latest_schema_version()));
-  }
-}
-
 // A role that may read but not write is refused at once, not at its first measurement.
 void require_writable(detail::Connection& writer, const Target& target, int version) {
   if (writer.query_text("SELECT current_setting('default_transaction_read_only')") == "on")
@@ -59,7 +51,7 @@ void open_read_write(Store::Impl& impl, const Target& target, PgEngine& engine) 
   auto& writer = engine.connect_writer();
   require_utf8(writer);
   const int version = version_of(writer, TransactionKind::write);
-  refuse_newer(version);
+  detail::refuse_newer_schema(version);
   require_writable(writer, target, version);
   detail::migrate(writer, detail::latest_schema_version());
   impl.version = detail::latest_schema_version();
@@ -70,14 +62,9 @@ void open_read_only(Store::Impl& impl, PgEngine& engine) {
   auto reader = engine.reader();
   require_utf8(*reader);
   impl.version = version_of(*reader, TransactionKind::read);
-  refuse_newer(impl.version);
+  detail::refuse_newer_schema(impl.version);
   if (impl.version == 0) fail(Kind::corrupt, "an empty database, not a skinspec one");
-  if (impl.version < detail::latest_schema_version()) {
-    fail(Kind::older_schema,
-         fmt::format("schema version {} is older than this program's {}; it is migrated when skinspecd "
-                     "next opens it, and left unchanged here",
-                     impl.version, detail::latest_schema_version()));
-  }
+  detail::refuse_older_schema_for_reading(impl.version);
 }
 
 }  // namespace

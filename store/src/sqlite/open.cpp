@@ -104,11 +104,7 @@ int probe(const ReadAccess& access, const OpenOptions& options) {
                                       "user_version {}, {} schema objects)",
                                       application_id, version, objects));
     }
-    if (version > detail::latest_schema_version()) {
-      fail(Kind::newer_schema, fmt::format("written by a newer skinspec (schema version {}; this program knows "
-                                           "versions up to {}); left unchanged",
-                                           version, detail::latest_schema_version()));
-    }
+    detail::refuse_newer_schema(static_cast<int>(version));
     if (options.check_integrity && objects != 0) {
       const auto verdict = connection->query_text("PRAGMA quick_check(1)");
       if (verdict != "ok") fail(Kind::corrupt, "damaged: " + one_line(verdict));
@@ -204,12 +200,7 @@ void open_read_only(Store::Impl& impl, SqliteEngine& engine) {
   }
   engine.after_read();
   if (impl.version == 0) fail(Kind::corrupt, "an empty SQLite database, not a skinspec one");
-  if (impl.version < detail::latest_schema_version()) {
-    fail(Kind::older_schema,
-         fmt::format("schema version {} is older than this program's {}; it is migrated when skinspecd "
-                     "next opens it, and left unchanged here",
-                     impl.version, detail::latest_schema_version()));
-  }
+  detail::refuse_older_schema_for_reading(impl.version);
   engine.readers().configure(reader_opener(access.filename, access.flags, impl.options.busy_timeout),
                              impl.options.max_readers);
 }
