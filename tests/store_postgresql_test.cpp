@@ -213,6 +213,20 @@ TEST(PostgresqlStoreTest, AServerThatGoesAwayFailsTheWriteWholeAndIsReachedAgain
   EXPECT_EQ(detail.fits.size(), 2u);
 }
 
+// A server restarted while a read connection sat idle in the pool: the first read after it finds
+// that connection gone and runs once more on a new one, so the caller sees no error.
+TEST(PostgresqlStoreTest, AReadAfterARestartRunsAgainOnANewConnection) {
+  Database db;
+  auto store = value_of(Store::open(db.uri));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  value_of(store.session(session));  // leaves its read connection idle in the pool
+  postgres_cluster().stop("immediate");
+  postgres_cluster().start();
+  const auto read = store.session(session);
+  ASSERT_TRUE(read) << read.error().message;
+  EXPECT_EQ(read->subject, sample_session(1).subject);
+}
+
 // The server ended the writer's connection between two requests (an administrator, a
 // restart): the next write finds it gone before anything was committed and runs once more on
 // a new connection, so the caller sees it stored, once.
