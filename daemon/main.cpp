@@ -10,6 +10,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "bench_keeper.hpp"
 #include "options.hpp"
 #include "supervisor.hpp"
 #include "fitter_loader.hpp"
@@ -36,9 +37,18 @@ int serve(const skinspec::daemon::Options& o) {
     return 2;
   }
 
+  const std::string bench = o.bench.empty() ? daemon::host_name() : o.bench;
+  if (!daemon::valid_bench_name(bench))
+    return spdlog::error("event=bad_option message=\"--bench: '{}' is not 1-64 letters, digits, '-', '_' or '.'\"",
+                         bench),
+           2;
+  if (o.lease_s < 2 || o.lease_s > 3600)
+    return spdlog::error("event=bad_option message=\"--lease must be 2 to 3600 seconds\""), 2;
   auto fitter = skinspec::load_fitter();
   if (!fitter) return spdlog::error("event=model_load_failed message=\"{}\"", fitter.error()), 1;
-  auto db = store::Store::open(o.db);
+  store::OpenOptions open_options;
+  open_options.bench = bench;
+  auto db = store::Store::open(o.db, open_options);
   if (!db)
     return spdlog::error("event=db_open_failed db=\"{}\" kind={} message=\"{}\"", store::display_target(o.db),
                          store::to_string(db.error().kind), db.error().message),
@@ -53,6 +63,7 @@ int serve(const skinspec::daemon::Options& o) {
                "instrument_check_ms not negative\""),
            2;
   std::unique_ptr<daemon::Supervisor> supervisor;
+  std::unique_ptr<daemon::BenchKeeper> keeper;  // stopped before the supervisor
   if (!o.device.empty()) {
     supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, *model);
     supervisor->set_policy(o.measure);
@@ -61,7 +72,13 @@ int serve(const skinspec::daemon::Options& o) {
     link.backoff = {std::chrono::milliseconds(o.reconnect_initial_ms), std::chrono::milliseconds(o.reconnect_max_ms)};
     link.check_interval = std::chrono::milliseconds(o.instrument_check_ms);
     supervisor->start_connection(std::move(link));
+    supervisor->set_bench(bench, db->backend() == store::Backend::postgresql);
     supervisor->start();
+    keeper = std::make_unique<daemon::BenchKeeper>(
+        *db, *supervisor,
+        daemon::BenchSettings{std::chrono::seconds(o.lease_s), db->backend() == store::Backend::postgresql});
+    if (auto started = keeper->start(); !started)
+      return spdlog::error("event=bench_failed bench={} message=\"{}\"", bench, started.error().message), 1;
     spdlog::info("event=instrument device=\"{}\" model={} message=\"connecting in the background\"", o.device,
                  model->to_string());
   }
@@ -100,6 +117,7 @@ int serve(const skinspec::daemon::Options& o) {
             << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address) << ':'
             << server.port() << std::endl;
   server.run();
+  if (keeper) keeper->stop();
   if (supervisor) supervisor->stop();
   spdlog::info("event=stopped db=\"{}\"", store::display_target(o.db));
   return 0;
@@ -134,6 +152,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--instrument-check-ms", o.instrument_check_ms, "how often an idle meter is checked (0: never)")
       ->check(CLI::Range(0, 3600000))
+      ->capture_default_str();
+  app.add_option("--bench", o.bench,
+                 "this PC's bench among the skinspecd writing one database (default: the host name)");
+  app.add_option("--lease", o.lease_s,
+                 "seconds this bench may stay silent before the others count it gone and interrupt its jobs")
+      ->check(CLI::Range(2, 3600))
       ->capture_default_str();
   app.add_option("--token-file", o.token_file,
                  "0600 JSON file with read_token and operator_token; required off loopback");

@@ -17,6 +17,8 @@ struct Options {
   std::string device;          // serial:, tcp:, usb: URI or "auto"; empty: no instrument
   std::string model = "auto";  // the meter's model (a profile id), or auto: found out when connecting
   std::string token_file;
+  std::string bench;  // this PC's bench among those writing one database; empty: the host name
+  int lease_s = 15;   // how long the bench may stay silent before other programs count it gone
   std::string log_level = "info";
   std::string config;
   std::size_t body_limit = 1024 * 1024;

@@ -5,6 +5,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "measure_request.hpp"
 #include "supervisor_common.hpp"
 
 namespace skinspec::daemon {
@@ -105,16 +106,14 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
     return std::unexpected(api::ApiError{
         api::ErrorKind::conflict, "conflict",
         "session " + std::to_string(session_id) + " is " + std::string(store::to_string(session->state))});
-  if (auto refused = check_exposure(request.integration_ms)) return std::unexpected(*refused);
   store::Job job;
   job.kind = "measure";
   job.session_id = session_id;
   job.idempotency_key = idempotency_key;
-  job.request = json{{"kind", std::string(store::to_string(request.kind))},
-                     {"count", request.count},
-                     {"label", request.label},
-                     {"integration_ms", request.integration_ms}}
-                    .dump();
+  job.request = measure_request_json(request);
+  if (owned_elsewhere(*session)) return submit_elsewhere(*session, std::move(job));
+  if (auto refused = check_exposure(request.integration_ms)) return std::unexpected(*refused);
+  job.bench = bench_;
   std::lock_guard lock(mutex_);  // queue order is the order of the jobs' ids
   if (stopping_)
     return std::unexpected(api::ApiError{api::ErrorKind::unavailable, "unavailable", "the service is stopping"});
@@ -160,6 +159,7 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
   }
   auto job = db_.job(job_id);
   if (!job) return std::unexpected(api::from_store_error(job.error()));
+  if (!was_running && routes_ && !job->bench.empty() && job->bench != bench_) return cancel_elsewhere(*job);
   if (job->state != store::JobState::queued && job->state != store::JobState::running && !was_running)
     return std::unexpected(
         api::ApiError{api::ErrorKind::conflict, "conflict",
@@ -169,17 +169,30 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
 
 std::optional<std::pair<Supervisor::QueuedJob, Supervisor::Step<store::Job>>> Supervisor::take_next() {
   std::unique_lock lock(mutex_);
-  wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-  if (stopping_) return std::nullopt;
-  QueuedJob next = queue_.front();
-  queue_.pop_front();
-  running_ = next.id;
-  cancel_running_.reset();
-  // Under the lock, so that followers never see the job running in one place and queued in
-  // the other.
-  auto job = db_.update_job(next.id, {store::JobState::running, std::nullopt, std::nullopt});
-  live_[next.id].phase = api::JobPhase::connecting;
-  job_changed();
+  for (;;) {
+    wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+    if (stopping_) return std::nullopt;
+    QueuedJob next = queue_.front();
+    queue_.pop_front();
+    // Under the lock, so that followers never see the job running in one place and queued in
+    // the other.
+    auto job = db_.update_job(next.id, {store::JobState::running, std::nullopt, std::nullopt, store::JobState::queued});
+    if (!job && job.error().kind == store::StoreError::Kind::conflict) {
+      // Cancelled through another bench's program before it started here: nothing to run.
+      live_.erase(next.id);
+      job_changed();
+      continue;
+    }
+    running_ = next.id;
+    cancel_running_.reset();
+    live_[next.id].phase = api::JobPhase::connecting;
+    job_changed();
+    return started(next, std::move(job));
+  }
+}
+
+std::pair<Supervisor::QueuedJob, Supervisor::Step<store::Job>> Supervisor::started(const QueuedJob& next,
+                                                                                   store::Result<store::Job> job) {
   if (!job) {
     const store::JobError failure{store::JobErrorCode::store, "the job could not start: " + job.error().message};
     return std::pair{next, Step<store::Job>(std::unexpected(failure))};
@@ -271,7 +284,11 @@ void Supervisor::job_changed() {
 std::optional<api::JobProgress> Supervisor::progress(store::Id job_id) const {
   std::lock_guard lock(mutex_);
   const auto it = live_.find(job_id);
-  if (it == live_.end()) return std::nullopt;
+  if (it == live_.end()) {
+    const auto remote = remote_.find(job_id);
+    if (remote == remote_.end()) return std::nullopt;
+    return remote->second;
+  }
   api::JobProgress out = it->second;
   out.position = 0;
   if (out.phase == api::JobPhase::queued) {

@@ -43,6 +43,20 @@ class Supervisor final : public api::Acquisition {
   void start();
   void stop();
 
+  // ---- Benches (supervisor_benches.cpp; docs/store.md, "Benches") ----
+
+  // This bench's name, and whether sessions of other benches are theirs to measure in (several
+  // programs on one PostgreSQL database) rather than this one's (a SQLite file). Before start().
+  void set_bench(std::string name, bool routes);
+  // A job another program queued for this bench: queued here, in id order, unless known already.
+  void adopt(const store::Job& job);
+  // Another bench's job as its owner published it: its progress, or nullopt once it ended.
+  void note_remote(store::Id job_id, std::optional<api::JobProgress> progress);
+  // This bench's queued and running jobs with their positions and progress, to publish.
+  std::map<store::Id, api::JobProgress> local_progress() const;
+  // A cancel asked for through another program, of a job this one may be running.
+  void cancel_here(store::Id job_id);
+
   nlohmann::json instrument_status() const override;
   std::expected<store::CreatedJob, api::ApiError> submit(store::Id session_id, const api::MeasureRequest& request,
                                                          const std::string& idempotency_key) override;
@@ -69,9 +83,14 @@ class Supervisor final : public api::Acquisition {
     std::chrono::system_clock::time_point last_reply_at;  // when the meter's last reply was in
   };
   void run();
+  bool owned_elsewhere(const store::Session& session) const;
+  std::expected<store::CreatedJob, api::ApiError> submit_elsewhere(const store::Session& session, store::Job job);
+  std::expected<store::Job, api::ApiError> cancel_elsewhere(const store::Job& job);
+  bool known_here(store::Id job_id) const;  // mutex_ held
   // The next job, marked running; nullopt when stopping. A job whose record cannot be marked
   // running comes with the error it ends with.
   std::optional<std::pair<QueuedJob, Step<store::Job>>> take_next();
+  static std::pair<QueuedJob, Step<store::Job>> started(const QueuedJob& next, store::Result<store::Job> job);
   // Runs a job to its end; a job that succeeds is stored succeeded with its measurement. What
   // a job that fails got done (readings, rejected readings) goes to `partial`.
   Step<store::CompletedJob> execute(const store::Job& job, const api::MeasureRequest& request, nlohmann::json& partial);
@@ -122,6 +141,9 @@ class Supervisor final : public api::Acquisition {
   // Progress of the queued and running jobs (and of those whose end the store refused), and
   // the change count their followers wait on.
   std::map<store::Id, api::JobProgress> live_;
+  std::map<store::Id, api::JobProgress> remote_;  // other benches' jobs, as they publish them
+  std::string bench_;
+  bool routes_ = false;
   std::uint64_t changes_ = 0;
   mutable std::condition_variable changed_;
 

@@ -90,11 +90,35 @@ INSERT INTO jobs VALUES (1, 'measure', '{"kind":"sample"}', '', 1, 'k-1', 'faile
   1700000000000011, 1700000000000012, '{"code":"bad_reading","message":"quality 19"}');
 )sql";
 
+// Version 5's rows: sessions with their model, fits with their parameters by name as JSON.
+const std::string kVersion5Rows = R"sql(
+INSERT INTO instruments VALUES (1, 'PR-650', '60950', '', 'serial:/dev/ttyUSB0', 1700000000000000, 1700000000000000);
+INSERT INTO white_standards VALUES (1, 'Spectralon', 'cert 7',
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 1700000000000001);
+INSERT INTO sessions VALUES (1, 'S-1', 'forearm', 'op', 'first', 1, 'open', 1700000000000002, 1700000000000002, NULL,
+  'paper');
+INSERT INTO measurements VALUES (1, 1, 'white', 'w', 1, NULL, 0, 0, 'OK', 'W/(sr m2 nm)', '{}', 1,
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL, NULL, '[]', X'303030302C300D0A',
+  1700000000000003, 1700000000000004, 1700000000000005, NULL);
+INSERT INTO measurements VALUES (2, 1, 'sample', 's', 1, 1, 1, 0, 'OK', 'W/(sr m2 nm)', '{"averages":2}', 2,
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', NULL,
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', '["old white"]', X'00FF',
+  1700000000000006, 1700000000000007, 1700000000000008, NULL);
+INSERT INTO fits VALUES (1, 2, 'forearm', 'paper',
+  '[{"name":"surface_reflectance","value":0.1,"standard_error":0.01},{"name":"melanin","value":7,"standard_error":0.2},
+    {"name":"oxyhemoglobin","value":3,"standard_error":0.3},{"name":"deoxyhemoglobin","value":2,"standard_error":0.2},
+    {"name":"bilirubin","value":1,"standard_error":null}]',
+  '{}', 0.012, 0.03, 0.9, 14, 1, 'converged', '{"site":"forearm"}', 'skinspec 0.1.0', 'abc123', '',
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F',
+  X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 0, 1700000000000009);
+)sql";
+
 const std::map<int, std::string> kRowsAtVersion = {
     {1, rows_written_by_version("")},
     {2, rows_written_by_version(", NULL") + kVersion2Job},
     {3, rows_written_by_version(", NULL") + kVersion2Job + kVersion3Jobs},
     {4, rows_written_by_version(", NULL") + kVersion4Job},
+    {5, kVersion5Rows + kVersion4Job},
 };
 
 // What every version's rows must read back as under the current schema.
@@ -106,6 +130,7 @@ void expect_rows_of_earlier_version(Store& store) {
   const auto detail = value_of(store.session_detail(1));
   EXPECT_EQ(detail.session.notes, "first");
   EXPECT_EQ(detail.session.white_standard_id, 1);
+  EXPECT_EQ(detail.session.bench, "") << "opened before benches: any bench's";
   ASSERT_GE(detail.measurements.size(), 2u);  // and what the test added since
   const auto& sample = detail.measurements[1];
   EXPECT_EQ(sample.kind, MeasurementKind::sample);
@@ -140,6 +165,7 @@ void expect_jobs_of_earlier_version(Store& store, int version) {
   EXPECT_EQ(job.state, JobState::failed);
   EXPECT_EQ(job.error, (JobError{JobErrorCode::bad_reading, "quality 19"}));
   EXPECT_EQ(job.idempotency_key, "k-1");
+  EXPECT_EQ(job.bench, "");
 }
 
 class StoreMigrationTest : public ::testing::Test {

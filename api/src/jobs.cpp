@@ -94,6 +94,7 @@ json job_json(const store::Job& job, const std::optional<JobProgress>& live) {
                {"job_id", job.id},
                {"kind", job.kind},
                {"session_id", job.session_id ? json(*job.session_id) : json(nullptr)},
+               {"bench", job.bench},
                {"state", std::string(store::to_string(job.state))},
                {"position", nullptr},
                {"progress", stored_progress(job, request, result)},

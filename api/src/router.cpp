@@ -98,6 +98,30 @@ struct Router::Handlers {
     no_query(call);
     return json_response(instrument_status(c));
   }
+  // GET /api/v1/benches
+  static Response benches(const RouterContext& c, const Call& call) {
+    no_query(call);
+    const store::Store& db = store_of(c);
+    const auto now = std::chrono::floor<std::chrono::microseconds>(std::chrono::system_clock::now());
+    json list = json::array();
+    for (const auto& b : value(db.benches())) {
+      const bool here = b.name == db.bench();
+      json instrument = json::parse(b.instrument, nullptr, false);
+      if (here && c.acquisition != nullptr) instrument = c.acquisition->instrument_status();
+      list.push_back({{"name", b.name},
+                      {"host", b.host},
+                      {"pid", b.pid},
+                      {"started_at", detail::format_time(b.started_at)},
+                      {"heartbeat_at", detail::format_time(b.heartbeat_at)},
+                      {"lease_s", std::chrono::duration<double>(b.lease).count()},
+                      {"state", b.stopped_at                   ? "stopped"
+                                : store::bench_running(b, now) ? "running"
+                                                               : "silent"},
+                      {"this", here},
+                      {"instrument", instrument.is_object() ? instrument : json::object()}});
+    }
+    return json_response({{"bench", db.bench()}, {"benches", list}});
+  }
   // GET /api/v1/ports
   static Response ports(const RouterContext& c, const Call& call) {
     no_query(call);
@@ -513,6 +537,11 @@ const std::vector<Route>& route_table() {
           "The instrument's state (connected, measuring, lost ...), port, last error and reconnection", false, "",
           "Instrument", 200},
          &H::instrument,
+         {}},
+        {{"GET", "/api/v1/benches",
+          "The benches writing this database: each one's program, heartbeat, state and instrument", false, "",
+          "BenchList", 200},
+         &H::benches,
          {}},
         {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true,
           "MeasureRequest", "Job", 202},

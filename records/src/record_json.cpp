@@ -81,6 +81,7 @@ Json to_json(const store::Session& s) {
           {"operator", s.operator_name},
           {"notes", s.notes},
           {"model", s.model},
+          {"bench", s.bench},
           {"white_standard_id", optional_id(s.white_standard_id)},
           {"state", store::to_string(s.state)},
           {"created_at", json_time(s.created_at)},

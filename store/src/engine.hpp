@@ -2,6 +2,7 @@
 // What a Store runs on: an engine hands out connections, one to write with and pooled ones to
 // read with, and does what differs between engines beyond the SQL (sqlite/engine.hpp).
 
+#include <string>
 #include <utility>
 
 #include "db.hpp"
@@ -48,6 +49,13 @@ class Engine {
   // Called after each read, and when a read failed: throws when what was read cannot be trusted
   // (SQLite: a file read as immutable that changed meanwhile).
   virtual void after_read() const {}
+  // Inside a write transaction on `writer`: whether no other program writes for `bench`, which
+  // stays so until the transaction ends (PostgreSQL: its writer lock taken for the transaction).
+  // A SQLite file has one writer, this one.
+  virtual bool take_bench_for_transaction(Connection& writer, const std::string& bench) {
+    (void)writer, (void)bench;
+    return true;
+  }
 };
 
 }  // namespace skinspec::store::detail

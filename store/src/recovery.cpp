@@ -7,19 +7,27 @@
 namespace skinspec::store::detail {
 
 // Such a job has stored nothing: a job's measurement is stored in the transaction that ends it
-// (complete_measurement_job).
-RecoveryReport recover(detail::Connection& writer, RecoveryPolicy policy, Time now) {
+// (complete_measurement_job). ?1 is the bench, NULL for every bench; a bench's recovery also
+// covers what was written before benches (bench '') when ?2.
+RecoveryReport mark_interrupted(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now) {
   RecoveryReport report;
-  Transaction transaction(writer, detail::TransactionKind::write);
+  const std::optional<std::string_view> bench = owner.bench;
   {
     auto running = writer.prepare(policy == RecoveryPolicy::all_open_sessions
-                                      ? "SELECT id FROM sessions WHERE state = 'open' ORDER BY id"
+                                      ? "SELECT id FROM sessions WHERE state = 'open' AND (bench = ?1 OR (bench = '' "
+                                        "AND ?2) OR ?1 IS NULL) ORDER BY id"
                                       : "SELECT DISTINCT s.id FROM sessions s JOIN jobs j ON j.session_id = s.id "
-                                        "WHERE s.state = 'open' AND j.state IN ('queued', 'running') ORDER BY s.id");
+                                        "WHERE s.state = 'open' AND j.state IN ('queued', 'running') "
+                                        "AND (j.bench = ?1 OR (j.bench = '' AND ?2) OR ?1 IS NULL) ORDER BY s.id");
+    running.bind(bench, owner.with_unowned);
     while (running.step()) report.interrupted_sessions.push_back(running.integer(0));
   }
   {
-    auto active = writer.prepare("SELECT id FROM jobs WHERE state IN ('queued', 'running') ORDER BY id");
+    auto active = writer.prepare(
+        "SELECT id FROM jobs WHERE state IN ('queued', 'running') AND (bench = ?1 OR (bench = '' AND ?2) OR ?1 IS "
+        "NULL) "
+        "ORDER BY id");
+    active.bind(bench, owner.with_unowned);
     while (active.step()) report.failed_jobs.push_back(active.integer(0));
   }
   const auto interrupted =
@@ -34,6 +42,12 @@ RecoveryReport recover(detail::Connection& writer, RecoveryPolicy policy, Time n
         .bind(id, interrupted, now)
         .run();
   }
+  return report;
+}
+
+RecoveryReport recover(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now) {
+  Transaction transaction(writer, detail::TransactionKind::write);
+  auto report = mark_interrupted(writer, policy, owner, now);
   transaction.commit();
   return report;
 }

@@ -1,13 +1,27 @@
 #pragma once
-// What opening a database read-write does about the work its last writer left unfinished.
+// What opening a database read-write does about the work its last writer left unfinished, and
+// what another bench's program does about the work of one that is gone.
+
+#include <optional>
+#include <string>
 
 #include "db.hpp"
 #include "skinspec/store/store.hpp"
 
 namespace skinspec::store::detail {
 
-// Marks the sessions that were running when the last writer died as interrupted and fails the
-// jobs it left queued or running, in one transaction.
-RecoveryReport recover(Connection& writer, RecoveryPolicy policy, Time now);
+// Whose unfinished work a recovery covers: every bench's (a SQLite file, which one program
+// writes), or one bench's together with the jobs and sessions from before benches.
+struct Owner {
+  std::optional<std::string> bench;  // empty: every bench
+  bool with_unowned = true;          // with a bench: also what was written before benches (bench '')
+};
+
+// Marks the sessions that were running when the owner's writer died as interrupted and fails
+// the jobs it left queued or running (code `interrupted`), inside the caller's transaction.
+RecoveryReport mark_interrupted(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now);
+
+// The same in a transaction of its own, when opening.
+RecoveryReport recover(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now);
 
 }  // namespace skinspec::store::detail

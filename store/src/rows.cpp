@@ -57,6 +57,7 @@ Session read_session(const Statement& row) {
   out.updated_at = row.time(8);
   out.ended_at = row.optional_time(9);
   out.model = row.text(10);
+  out.bench = row.text(11);
   return out;
 }
 
@@ -132,6 +133,20 @@ Job read_job(const Statement& row) {
   out.created_at = row.time(9);
   out.started_at = row.optional_time(10);
   out.finished_at = row.optional_time(11);
+  out.bench = row.text(12);
+  return out;
+}
+
+Bench read_bench(const Statement& row) {
+  Bench out;
+  out.name = row.text(0);
+  out.host = row.text(1);
+  out.pid = row.integer(2);
+  out.started_at = row.time(3);
+  out.heartbeat_at = row.time(4);
+  out.lease = std::chrono::milliseconds(row.integer(5));
+  out.instrument = row.text(6);
+  out.stopped_at = row.optional_time(7);
   return out;
 }
 

@@ -13,7 +13,7 @@ inline constexpr std::string_view kInstrumentColumns =
     "id, model, serial_number, spectral_configuration, connection, created_at, last_seen_at";
 inline constexpr std::string_view kWhiteStandardColumns = "id, name, certificate, reflectance, created_at";
 inline constexpr std::string_view kSessionColumns =
-    "id, subject, site, operator_name, notes, white_standard_id, state, created_at, updated_at, ended_at, model";
+    "id, subject, site, operator_name, notes, white_standard_id, state, created_at, updated_at, ended_at, model, bench";
 inline constexpr std::string_view kMeasurementColumns =
     "id, session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, quality_code, quality, "
     "units, settings, reading_count, radiance, radiance_sd, reflectance, warnings, raw_reply, started_at, "
@@ -24,7 +24,9 @@ inline constexpr std::string_view kFitColumns =
     "samples_ignored, created_at";
 inline constexpr std::string_view kJobColumns =
     "id, kind, request, requested_by, session_id, idempotency_key, state, error, result, created_at, started_at, "
-    "finished_at";
+    "finished_at, bench";
+inline constexpr std::string_view kBenchColumns =
+    "name, host, pid, started_at, heartbeat_at, lease_ms, instrument, stopped_at";
 inline constexpr std::string_view kRejectedReadingColumns =
     "id, session_id, job_id, instrument_id, attempt, quality_code, quality, reason, raw_reply, measured_at, created_at";
 
@@ -34,6 +36,7 @@ Session read_session(const Statement& row);
 Measurement read_measurement(const Statement& row);
 Fit read_fit(const Statement& row);
 Job read_job(const Statement& row);
+Bench read_bench(const Statement& row);
 RejectedReading read_rejected_reading(const Statement& row);
 
 }  // namespace skinspec::store::detail

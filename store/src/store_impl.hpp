@@ -8,6 +8,7 @@
 #include <type_traits>
 
 #include "engine.hpp"
+#include "local_notifications.hpp"
 #include "skinspec/store/store.hpp"
 
 namespace skinspec::store {
@@ -45,6 +46,7 @@ struct Store::Impl {
   int version = 0;
   RecoveryReport recovery;
   std::unique_ptr<detail::Engine> engine;
+  std::shared_ptr<detail::LocalHub> hub = std::make_shared<detail::LocalHub>();  // SQLite's notifications
 
   Time now() const;
 
@@ -58,9 +60,15 @@ struct Store::Impl {
         auto connection = engine->writer();
         try {
           detail::Transaction transaction(*connection, detail::TransactionKind::write);
-          auto value = body(*connection);
-          transaction.commit();
-          return value;
+          if constexpr (std::is_void_v<std::invoke_result_t<F, detail::Connection&>>) {
+            body(*connection);
+            transaction.commit();
+            return;
+          } else {
+            auto value = body(*connection);
+            transaction.commit();
+            return value;
+          }
         } catch (const detail::Failure& failure) {
           if (!failure.retryable || attempt == 2) throw;
         }

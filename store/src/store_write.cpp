@@ -146,9 +146,11 @@ void check_job_update(const JobUpdate& update) {
   if (update.error) detail::check_not_empty(update.error->message, "the job error's message");
 }
 
+// Job `id`, its row locked until the transaction ends where the engine has row locks: the
+// programs of two benches may change one job (a cancel beside the start).
 Job job_in(Connection& c, Id id) {
   static const std::string by_id = fmt::format("SELECT {} FROM jobs WHERE id = ?1", detail::kJobColumns);
-  auto row = c.prepare(by_id);
+  auto row = c.prepare(by_id, detail::RowLock::update);
   row.bind(id);
   if (!row.step()) fail(Kind::not_found, fmt::format("job {} does not exist", id));
   return detail::read_job(row);
@@ -158,6 +160,8 @@ Job job_in(Connection& c, Id id) {
 Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
   check_job_update(update);
   const JobState current = job_in(c, id).state;
+  if (update.only_from && current != *update.only_from)
+    fail(Kind::conflict, fmt::format("job {} is {}, not {}", id, to_string(current), to_string(*update.only_from)));
   if (update.state != current && !job_transition_allowed(current, update.state)) {
     fail(Kind::conflict, fmt::format("a job that is {} cannot become {}", to_string(current), to_string(update.state)));
   }
@@ -250,8 +254,9 @@ Result<Id> Store::create_session(const Session& s) {
     const auto now = impl_->now();
     return returned_id(
         c.prepare("INSERT INTO sessions (subject, site, operator_name, notes, model, white_standard_id, state, "
-                  "created_at, updated_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'open', ?7, ?7) RETURNING id")
-            .bind(s.subject, s.site, s.operator_name, s.notes, s.model, s.white_standard_id, now));
+                  "created_at, updated_at, bench) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'open', ?7, ?7, ?8) RETURNING id")
+            .bind(s.subject, s.site, s.operator_name, s.notes, s.model, s.white_standard_id, now,
+                  impl_->options.bench));
   });
 }
 
@@ -342,17 +347,22 @@ Result<CreatedJob> Store::create_job(const Job& job) {
       if (existing.step()) return CreatedJob{detail::read_job(existing), false};
     }
     if (job.session_id) require_row(c, "SELECT 1 FROM sessions WHERE id = ?1", *job.session_id, "session");
+    const std::string& bench = job.bench.empty() ? impl_->options.bench : job.bench;
+    // A session from before benches belongs to the first bench that runs a job in it.
+    if (job.session_id)
+      c.prepare("UPDATE sessions SET bench = ?2 WHERE id = ?1 AND bench = ''").bind(*job.session_id, bench).run();
     const std::optional<std::string> key =
         job.idempotency_key.empty() ? std::nullopt : std::optional<std::string>(job.idempotency_key);
     // A job with the same key stored since the look-up above (by another writer) wins.
     static const std::string insert = fmt::format(
         "INSERT INTO jobs (kind, request, requested_by, session_id, idempotency_key, state, error, result, "
-        "created_at) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', NULL, ?6, ?7) ON CONFLICT (idempotency_key) DO NOTHING "
+        "created_at, bench) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', NULL, ?6, ?7, ?8) "
+        "ON CONFLICT (idempotency_key) DO NOTHING "
         "RETURNING {}",
         detail::kJobColumns);
     {
       auto created = c.prepare(insert);
-      created.bind(job.kind, job.request, job.requested_by, job.session_id, key, job.result, impl_->now());
+      created.bind(job.kind, job.request, job.requested_by, job.session_id, key, job.result, impl_->now(), bench);
       if (created.step()) {
         auto out = CreatedJob{detail::read_job(created), true};
         created.run();

@@ -95,4 +95,8 @@ std::optional<JobErrorCode> parse_job_error_code(std::string_view text) { return
 std::span<const std::pair<JobState, std::string_view>> job_state_names() { return kJobStates; }
 std::span<const std::pair<JobErrorCode, std::string_view>> job_error_code_names() { return kJobErrorCodes; }
 
+bool bench_running(const Bench& bench, Time now) {
+  return !bench.stopped_at && now - bench.heartbeat_at <= bench.lease;
+}
+
 }  // namespace skinspec::store

@@ -1,46 +1,61 @@
 #include "postgresql/engine.hpp"
 
+#include <fmt/format.h>
+
+#include <chrono>
+#include <thread>
+
 namespace skinspec::store::postgresql {
 
 using Kind = StoreError::Kind;
 
 namespace {
 
-// pg_try_advisory_lock's key for the database's one writer; the schema lock is 0x534B5350.
-constexpr std::int64_t kWriterLockKey = 0x534B5351;
-
-bool try_writer_lock(Connection& writer) {
-  auto lock = writer.prepare("SELECT pg_try_advisory_lock(?1)");
-  lock.bind(kWriterLockKey);
+bool try_writer_lock(Connection& writer, const std::string& bench) {
+  auto lock = writer.prepare("SELECT pg_try_advisory_lock(?1::integer, hashtext(?2))");
+  lock.bind(kWriterLockKey, bench);
   return lock.step() && lock.boolean(0);
+}
+
+// Whether backend `pid` holds `bench`'s writer lock (pg_locks shows a two-key lock with the
+// keys as classid and objid, objsubid 2).
+bool holds_writer_lock(Connection& writer, int pid, const std::string& bench) {
+  auto holder = writer.prepare(
+      "SELECT count(*) FROM pg_catalog.pg_locks WHERE locktype = 'advisory' AND granted AND pid = ?1 AND "
+      "classid::bigint = ?2 AND objid::bigint = (hashtext(?3)::bigint & 4294967295) AND objsubid = 2");
+  holder.bind(pid, kWriterLockKey, bench);
+  const bool ours = holder.step() && holder.integer(0) > 0;
+  holder.run();
+  return ours;
 }
 
 // The writer lock, on a new writer connection. When this Store's previous writer connection
 // broke, its backend may still be alive on the server, holding the lock (the server notices a
 // vanished client only when it next reads from it, or by its keepalive): that backend, and only
-// that one, is ended (waiting up to 5 s for it to go) and the lock taken again.
-void take_writer_lock(Connection& writer, int previous_backend) {
-  if (try_writer_lock(writer)) return;
-  if (previous_backend != 0) {
-    auto holder = writer.prepare(
-        "SELECT count(*) FROM pg_catalog.pg_locks WHERE locktype = 'advisory' AND granted AND pid = ?1 AND "
-        "objid::bigint = ?2 AND classid::bigint = ?3");
-    holder.bind(previous_backend, kWriterLockKey & 0xffffffff, kWriterLockKey >> 32);
-    const bool ours = holder.step() && holder.integer(0) > 0;
-    holder.run();
-    if (ours) {
+// that one, is ended (waiting up to 5 s for it to go) and the lock taken again. Another
+// program may hold the bench's lock for a moment while it recovers a bench it found silent
+// (Store::recover_bench): asked again for up to 1 s before giving up.
+void take_writer_lock(Connection& writer, int previous_backend, const std::string& bench) {
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    if (try_writer_lock(writer, bench)) return;
+    if (previous_backend != 0 && holds_writer_lock(writer, previous_backend, bench)) {
       writer.prepare("SELECT pg_terminate_backend(?1, 5000)").bind(previous_backend).run();
-      if (try_writer_lock(writer)) return;
+      continue;
     }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
-  detail::fail(Kind::busy, "another program has it open for writing");
+  detail::fail(Kind::busy, bench.empty() ? std::string("another program has it open for writing")
+                                         : fmt::format("bench {} is already served by another program on this "
+                                                       "database",
+                                                       bench));
 }
 
 }  // namespace
 
 // ---- PgEngine ----
 
-PgEngine::PgEngine(const Target& target, bool writes, int max_readers) : target_(target), writes_(writes) {
+PgEngine::PgEngine(const Target& target, bool writes, int max_readers, std::string bench)
+    : target_(target), writes_(writes), bench_(std::move(bench)) {
   const ConnectSettings settings{.read_only = !writes};
   readers_.configure([target, settings] { return std::make_unique<Connection>(target, settings); }, max_readers,
                      [](const detail::Connection& c) { return static_cast<const Connection&>(c).broken(); });
@@ -52,7 +67,7 @@ Connection& PgEngine::connect_writer() {
   const int previous_backend = writer_ ? writer_->backend_pid() : 0;
   writer_.reset();
   auto connection = std::make_unique<Connection>(target_, ConnectSettings{});
-  take_writer_lock(*connection, previous_backend);
+  take_writer_lock(*connection, previous_backend, bench_);
   writer_ = std::move(connection);
   return *writer_;
 }
@@ -63,6 +78,12 @@ ConnectionLease PgEngine::writer() {
   if (!writer_ || writer_->broken()) connect_writer();
   lock.release();  // give_back unlocks it
   return ConnectionLease(*this, *writer_);
+}
+
+bool PgEngine::take_bench_for_transaction(detail::Connection& writer, const std::string& bench) {
+  auto lock = writer.prepare("SELECT pg_try_advisory_xact_lock(?1::integer, hashtext(?2))");
+  lock.bind(kWriterLockKey, bench);
+  return lock.step() && lock.boolean(0);
 }
 
 void PgEngine::give_back(detail::Connection&) noexcept { writer_mutex_.unlock(); }

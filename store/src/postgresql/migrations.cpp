@@ -143,9 +143,27 @@ CREATE INDEX rejected_readings_by_session ON rejected_readings (session_id);
 // pg_advisory_xact_lock's key for migrating: "SKSP", the SQLite files' application_id.
 constexpr std::int64_t kSchemaLockKey = 0x534B5350;
 
+// Benches (docs/store.md, "Benches"), as version 6 of the SQLite schema.
+constexpr std::string_view kVersion6Sql = R"sql(
+ALTER TABLE sessions ADD COLUMN bench text NOT NULL DEFAULT '';
+ALTER TABLE jobs ADD COLUMN bench text NOT NULL DEFAULT '';
+CREATE INDEX jobs_active_by_bench ON jobs (bench, id) WHERE state IN ('queued', 'running');
+CREATE TABLE benches (
+  name         text PRIMARY KEY,
+  host         text NOT NULL,
+  pid          bigint NOT NULL,
+  started_at   timestamptz NOT NULL,
+  heartbeat_at timestamptz NOT NULL,
+  lease_ms     bigint NOT NULL CHECK (lease_ms > 0),
+  instrument   json NOT NULL CHECK (json_typeof(instrument) = 'object'),
+  stopped_at   timestamptz
+);
+)sql";
+
 }  // namespace
 
 constexpr detail::MigrationStep kBaseline{kBaselineSql};
+constexpr detail::MigrationStep kVersion6{kVersion6Sql};
 
 int schema_version(detail::Connection& writer) {
   const auto marked = writer.query_integer(

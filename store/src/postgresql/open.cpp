@@ -55,7 +55,7 @@ void open_read_write(Store::Impl& impl, const Target& target, PgEngine& engine) 
   require_writable(writer, target, version);
   detail::migrate(writer, detail::latest_schema_version());
   impl.version = detail::latest_schema_version();
-  impl.recovery = detail::recover(writer, impl.options.recovery, impl.now());
+  impl.recovery = detail::recover(writer, impl.options.recovery, {impl.options.bench}, impl.now());
 }
 
 void open_read_only(Store::Impl& impl, PgEngine& engine) {
@@ -72,7 +72,7 @@ void open_read_only(Store::Impl& impl, PgEngine& engine) {
 void open(Store::Impl& impl) {
   const auto target = parse_target(impl.path);
   const bool writes = impl.options.mode == OpenMode::read_write;
-  auto engine = std::make_unique<PgEngine>(target, writes, impl.options.max_readers);
+  auto engine = std::make_unique<PgEngine>(target, writes, impl.options.max_readers, impl.options.bench);
   if (writes) {
     open_read_write(impl, target, *engine);
   } else {

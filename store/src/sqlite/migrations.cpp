@@ -281,6 +281,24 @@ constexpr detail::MigrationStep kVersion2{kVersion2Sql};
 constexpr detail::MigrationStep kVersion3{kVersion3Sql};
 constexpr detail::MigrationStep kVersion4{kVersion4Sql, convert_version3_errors, kVersion4After};
 constexpr detail::MigrationStep kVersion5{kVersion5Sql};
+// Benches (docs/store.md, "Benches"): the bench each session was opened on and each job runs on
+// ('' for rows from before), and the benches with their heartbeats.
+constexpr std::string_view kVersion6Sql = R"sql(
+ALTER TABLE sessions ADD COLUMN bench TEXT NOT NULL DEFAULT '';
+ALTER TABLE jobs ADD COLUMN bench TEXT NOT NULL DEFAULT '';
+CREATE INDEX jobs_active_by_bench ON jobs (bench, id) WHERE state IN ('queued', 'running');
+CREATE TABLE benches (
+  name         TEXT PRIMARY KEY,
+  host         TEXT NOT NULL,
+  pid          INTEGER NOT NULL,
+  started_at   INTEGER NOT NULL,
+  heartbeat_at INTEGER NOT NULL,
+  lease_ms     INTEGER NOT NULL CHECK (lease_ms > 0),
+  instrument   TEXT NOT NULL CHECK (json_valid(instrument) AND json_type(instrument) = 'object'),
+  stopped_at   INTEGER
+);
+)sql";
+constexpr detail::MigrationStep kVersion6{kVersion6Sql};
 
 int schema_version(detail::Connection& writer) { return static_cast<int>(writer.query_integer("PRAGMA user_version")); }
 

@@ -49,6 +49,11 @@ struct OpenOptions {
   // Run PRAGMA quick_check before using an existing file (time proportional to its size).
   bool check_integrity = true;
   std::chrono::milliseconds busy_timeout{5000};
+  // The bench this Store writes for (docs/store.md, "Benches"): stamped on the sessions and jobs
+  // it creates. On PostgreSQL one Store writes for a bench at a time (the writer lock is the
+  // bench's), and opening recovers only that bench's jobs; a SQLite file has one writer whatever
+  // the bench, and recovers every job.
+  std::string bench;
   int max_readers = 8;  // read connections; a reader beyond them waits for one
   // Caps the database at this many pages (PRAGMA max_page_count, 4 KiB each); 0 = no cap.
   // Writes beyond it fail as `full`, like a full disk.
@@ -102,6 +107,9 @@ struct JobUpdate {
   // Required for failed and cancelled, refused for the other states.
   std::optional<JobError> error{};
   std::optional<std::string> result{};  // a JSON object
+  // When set, the update applies only to a job in this state (conflict otherwise): a program
+  // cancelling another bench's queued job must not end it once that bench has started it.
+  std::optional<JobState> only_from{};
 };
 
 struct CreatedJob {
@@ -110,6 +118,23 @@ struct CreatedJob {
 };
 
 struct CopyReport;  // copy.hpp
+
+// A message between the programs writing one database (docs/store.md, "Benches").
+struct Notification {
+  std::string channel;
+  std::string payload;
+};
+
+// Notifications on some channels: PostgreSQL's LISTEN, or for a SQLite file, which one program
+// writes, those its own Store sends. Delivery is at most once: a connection lost and made again
+// misses what was sent meanwhile, so listeners also look at the records now and then.
+class Subscription {
+ public:
+  virtual ~Subscription() = default;
+  // What arrived, waiting up to `timeout` for the first; empty after the timeout. Fails as
+  // `unreachable` while the database server cannot be reached.
+  virtual Result<std::vector<Notification>> wait(std::chrono::milliseconds timeout) = 0;
+};
 
 struct CompletedJob {
   Job job;  // succeeded, its result holding the ids below
@@ -183,6 +208,27 @@ class Store {
   Result<std::optional<Job>> job_by_idempotency_key(const std::string& key) const;
   // Newest first; of one session when given.
   Result<std::vector<Job>> jobs(std::optional<Id> session_id = std::nullopt, int limit = 100) const;
+
+  // ---- Benches (docs/store.md, "Benches") ----
+
+  // The bench this Store writes for (OpenOptions::bench).
+  const std::string& bench() const;
+  // This bench's heartbeat: `bench` (its name ignored: this Store's) with heartbeat_at now,
+  // running again if it had stopped.
+  Result<void> beat(const Bench& bench);
+  // This bench stopped cleanly: others see it is not running without waiting for its lease.
+  Result<void> leave_bench();
+  Result<std::vector<Bench>> benches() const;
+  // This bench's queued jobs, oldest first: those posted through another program too.
+  Result<std::vector<Job>> queued_jobs() const;
+  // Another bench's queued and running jobs marked failed (`interrupted`), with the open sessions
+  // they belonged to, when that bench's program is gone: its lease ran out (or it stopped) and,
+  // on PostgreSQL, nobody holds its writer lock. Empty when it is not gone, or had none.
+  Result<RecoveryReport> recover_bench(const std::string& name);
+
+  // Sends `payload` on `channel` to every subscriber (PostgreSQL: pg_notify, delivered when sent).
+  Result<void> notify(const std::string& channel, const std::string& payload);
+  Result<std::unique_ptr<Subscription>> subscribe(const std::vector<std::string>& channels) const;
 
   struct Impl;  // opaque: store/src/store_impl.hpp
   friend Result<CopyReport> copy_database(const Store& from, Store& to);

@@ -94,6 +94,9 @@ struct Session {
   std::string notes;
   std::string model;  // the skin model its samples are fitted with ("paper", "extended"); required
   std::optional<Id> white_standard_id{};
+  // The bench it was opened on (the store's OpenOptions::bench); empty for sessions from before
+  // benches (schema 6), which belong to the first bench that measures in them.
+  std::string bench;
   SessionState state = SessionState::open;  // new sessions are always open
   Time created_at{}, updated_at{};
   std::optional<Time> ended_at{};  // when it left the open state
@@ -211,6 +214,7 @@ struct Job {
   std::string request = "{}";  // a JSON object: what was asked
   std::string requested_by;    // who asked (a token name, a user)
   std::optional<Id> session_id{};
+  std::string bench;            // the bench that runs it; empty for jobs from before benches (schema 6)
   std::string idempotency_key;  // empty = none; otherwise unique among jobs
   JobState state = JobState::queued;
   std::optional<JobError> error{};  // why it failed or was cancelled; none in any other state
@@ -218,5 +222,20 @@ struct Job {
   Time created_at{};
   std::optional<Time> started_at{}, finished_at{};
 };
+
+// A skinspecd writing the database for one bench (a PC with its meter), as its last heartbeat
+// left it (docs/store.md, "Benches").
+struct Bench {
+  std::string name;
+  std::string host;  // the machine it runs on
+  std::int64_t pid = 0;
+  Time started_at{}, heartbeat_at{};
+  std::chrono::milliseconds lease{15000};  // silent longer than this after heartbeat_at: gone
+  std::string instrument = "{}";           // a JSON object: its instrument's state at the heartbeat
+  std::optional<Time> stopped_at{};        // set when it stopped cleanly; empty while it runs
+};
+
+// Whether a bench's daemon counts as running at `now`: not stopped, and heard within its lease.
+bool bench_running(const Bench& bench, Time now);
 
 }  // namespace skinspec::store
