@@ -147,6 +147,41 @@ BENCHMARK(BM_CommitMeasurementWithFit)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// Commits from state.threads() benches at once into one PostgreSQL database, each thread a
+// Store of its own bench (as each bench's skinspecd writes): the server may share one WAL
+// flush between their commits (a SQLite file has one writer, so it has no such run).
+void BM_CommitOnEachBench(benchmark::State& state) {
+  static std::string target;
+  static std::atomic<int> ready;
+  if (state.thread_index() == 0) {
+    target = cluster().uri(cluster().create_database("benches"));
+    ready = 1;
+  }
+  while (ready.load() == 0) std::this_thread::yield();
+  OpenOptions options;
+  options.bench = "bench-" + std::to_string(state.thread_index());
+  auto store = Store::open(target, options);
+  if (!store) {
+    state.SkipWithError(store.error().message.c_str());
+    return;
+  }
+  Session s;
+  s.subject = "S-" + options.bench;
+  s.site = "forearm";
+  s.model = "extended";
+  const Id session = *store->create_session(s);
+  const auto f = fit();
+  int n = 0;
+  for (auto _ : state) {
+    auto ids = store->record_measurement(measurement(session, n++), f);
+    if (!ids) state.SkipWithError(ids.error().message.c_str());
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.SetLabel("postgresql");
+  if (state.thread_index() == 0) ready = 0;
+}
+BENCHMARK(BM_CommitOnEachBench)->Threads(1)->Threads(2)->Threads(4)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // Reads of stored fits (what GET /api/v1/fits/{id} does) on `state.range(0)` reader threads,
 // while another thread commits measurement-plus-fit transactions as fast as it can.
 void BM_ReadFitWhileWriting(benchmark::State& state) {

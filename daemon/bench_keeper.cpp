@@ -67,6 +67,7 @@ store::Bench BenchKeeper::record() const {
 store::Result<void> BenchKeeper::start() {
   if (auto first = db_.beat(record()); !first) return first;
   started_ = true;
+  beating_since_ = std::chrono::steady_clock::now();
   spdlog::info("event=bench name={} lease_ms={} shared={}", db_.bench(), settings_.lease.count(), settings_.shared);
   beating_ = std::jthread([this](std::stop_token stop) { keep_beating(stop); });
   if (settings_.shared) {
@@ -91,9 +92,18 @@ void BenchKeeper::stop() {
 void BenchKeeper::keep_beating(std::stop_token stop) {
   const auto period = heartbeat_interval(settings_.lease);
   while (pause(stop, period)) {
-    if (auto beaten = db_.beat(record()); !beaten) log_refusal("heartbeat_failed", beaten.error());
+    const auto now = std::chrono::steady_clock::now();
+    if (auto beaten = db_.beat(record()); !beaten) {
+      log_refusal("heartbeat_failed", beaten.error());
+      beating_since_.reset();
+      continue;
+    }
+    if (!beating_since_) beating_since_ = now;
     adopt_queued();
-    if (settings_.shared) recover_silent();
+    if (settings_.shared) {
+      recover_silent(now - *beating_since_);
+      forget_ended_remote_jobs();
+    }
   }
 }
 
@@ -103,21 +113,41 @@ void BenchKeeper::adopt_queued() {
   for (const auto& job : *queued) supervisor_.adopt(job);
 }
 
-void BenchKeeper::recover_silent() {
+// A bench is judged only by a program that has itself been heard without a break for longer
+// than that bench's lease: after an outage of the database every bench's heartbeat is old and
+// its lock free until its program connects again, which the first one back must not take for
+// death.
+void BenchKeeper::recover_silent(std::chrono::steady_clock::duration heard_for) {
   auto benches = db_.benches();
   if (!benches) return log_refusal("list_failed", benches.error());
   const auto now = to_store_time(std::chrono::system_clock::now());
   for (const auto& bench : *benches) {
     if (bench.name == db_.bench() || store::bench_running(bench, now)) continue;
+    if (heard_for <= bench.lease + heartbeat_interval(bench.lease)) continue;
+    // One recovery per silence: nothing of it can start again until it beats again.
+    if (const auto done = recovered_.find(bench.name); done != recovered_.end() && done->second == bench.heartbeat_at)
+      continue;
     auto recovered = db_.recover_bench(bench.name);
     if (!recovered) {
       log_refusal("recovery_failed", recovered.error());
       continue;
     }
+    if (!recovered->failed_jobs.empty() || bench.stopped_at) recovered_[bench.name] = bench.heartbeat_at;
     for (const auto id : recovered->failed_jobs) {
       spdlog::warn("event=job_interrupted job={} bench={} message=\"its bench went silent\"", id, bench.name);
       supervisor_.note_remote(id, std::nullopt);
     }
+  }
+}
+
+// Other benches' jobs this program shows live whose records have ended meanwhile (an end
+// notice lost, or a bench recovered by a third program): shown from their records again.
+void BenchKeeper::forget_ended_remote_jobs() {
+  for (const auto id : supervisor_.remote_jobs()) {
+    const auto job = db_.job(id);
+    if (!job) continue;
+    if (job->state != store::JobState::queued && job->state != store::JobState::running)
+      supervisor_.note_remote(id, std::nullopt);
   }
 }
 
@@ -137,7 +167,9 @@ void BenchKeeper::keep_listening(std::stop_token stop) {
     auto notices = subscription->wait(std::chrono::milliseconds(250));
     if (!notices) {
       log_refusal("listen_failed", notices.error());
-      continue;  // made again at once; a failure to connect pauses above
+      subscription.reset();  // made again after a pause, not in a loop against a server that is down
+      if (!pause(stop, heartbeat_interval(settings_.lease))) return;
+      continue;
     }
     for (const auto& notice : *notices) on_notice(notice);
   }
@@ -158,31 +190,44 @@ void BenchKeeper::on_notice(const store::Notification& notice) {
 // change only then), published for the followers connected to other programs.
 void BenchKeeper::keep_publishing(std::stop_token stop) {
   std::map<store::Id, api::JobProgress> published;
+  std::vector<store::Id> ended;  // jobs whose end is still to be told
   std::uint64_t seen = 0;
   const auto equal = [](const api::JobProgress& a, const api::JobProgress& b) {
     return a.position == b.position && a.phase == b.phase && a.readings_done == b.readings_done &&
            a.readings_total == b.readings_total;
   };
+  // `progress` null: the job ended.
+  const auto publish = [&](store::Id id, const api::JobProgress* progress) {
+    JobEvent event;
+    event.bench = db_.bench();
+    event.job_id = id;
+    if (progress) event.progress.emplace(*progress);
+    auto sent = db_.notify(std::string(kJobEventsChannel), job_event_json(event));
+    if (!sent) log_refusal("publish_failed", sent.error());
+    return sent.has_value();
+  };
   while (!stop.stop_requested()) {
     seen = supervisor_.changes();
-    const auto now = supervisor_.local_progress();
-    for (const auto& [id, progress] : now) {
-      const auto before = published.find(id);
-      if (before != published.end() && equal(before->second, progress)) continue;
-      if (auto sent = db_.notify(std::string(kJobEventsChannel), job_event_json({db_.bench(), id, progress})); !sent)
-        log_refusal("publish_failed", sent.error());
-    }
+    auto jobs = supervisor_.local_jobs();
     for (const auto& [id, progress] : published)
-      if (!now.contains(id))
-        if (auto sent = db_.notify(std::string(kJobEventsChannel), job_event_json({db_.bench(), id, std::nullopt}));
-            !sent)
-          log_refusal("publish_failed", sent.error());
-    published = now;
+      if (!jobs.live.contains(id)) jobs.ended.push_back(id);
+    std::ranges::sort(jobs.ended);
+    for (const auto id : jobs.ended)
+      if (std::ranges::find(ended, id) == ended.end()) ended.push_back(id);
+    std::map<store::Id, api::JobProgress> told;
+    for (const auto& [id, progress] : jobs.live) {
+      const auto before = published.find(id);
+      const bool same = before != published.end() && equal(before->second, progress);
+      if (same || publish(id, &progress)) told.emplace(id, progress);
+    }
+    published = std::move(told);
+    std::erase_if(ended, [&](store::Id id) { return publish(id, nullptr); });
     std::atomic<bool> abandoned{false};
     std::stop_callback wake(stop, [&] {
       abandoned = true;
       supervisor_.wake_waiters();
     });
+    // Told ends that could not be sent are tried again at the next change, or after a second.
     supervisor_.wait_for_change(seen, std::chrono::milliseconds(1000), abandoned);
   }
 }

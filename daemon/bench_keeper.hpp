@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <map>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -50,7 +51,8 @@ class BenchKeeper {
   void keep_listening(std::stop_token stop);
   void keep_publishing(std::stop_token stop);
   void adopt_queued();
-  void recover_silent();
+  void recover_silent(std::chrono::steady_clock::duration heard_for);
+  void forget_ended_remote_jobs();
   void on_notice(const store::Notification& notice);
 
   store::Store& db_;
@@ -59,6 +61,10 @@ class BenchKeeper {
   const store::Time started_at_;
   std::atomic<bool> stopping_{false};
   bool started_ = false;  // its first heartbeat was written
+  // Of the heartbeat thread: since when this bench's heartbeats have been written without a
+  // failure, and the benches recovered, with the heartbeat they were silent after.
+  std::optional<std::chrono::steady_clock::time_point> beating_since_;
+  std::map<std::string, store::Time> recovered_;
   std::jthread beating_, listening_, publishing_;
 };
 

@@ -46,8 +46,10 @@ int serve(const skinspec::daemon::Options& o) {
     return spdlog::error("event=bad_option message=\"--lease must be 2 to 3600 seconds\""), 2;
   auto fitter = skinspec::load_fitter();
   if (!fitter) return spdlog::error("event=model_load_failed message=\"{}\"", fitter.error()), 1;
+  // A daemon without a meter is no bench: the sessions it opens belong to the first bench that
+  // measures in them.
   store::OpenOptions open_options;
-  open_options.bench = bench;
+  open_options.bench = o.device.empty() ? std::string() : bench;
   auto db = store::Store::open(o.db, open_options);
   if (!db)
     return spdlog::error("event=db_open_failed db=\"{}\" kind={} message=\"{}\"", store::display_target(o.db),

@@ -54,7 +54,7 @@ void Supervisor::stop() {
     // A record left queued is failed as interrupted when the database is next opened.
     if (auto refused = record_end(queued.id, stopped, std::nullopt)) log_unrecorded(queued.id, stopped, *refused);
     std::lock_guard lock(mutex_);
-    live_.erase(queued.id);
+    forget_live(queued.id);
     job_changed();
   }
 }
@@ -139,7 +139,7 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
       const auto cancelled = cancellation(store::JobErrorCode::cancelled);
       auto job = db_.update_job(job_id, {store::JobState::cancelled, cancelled, std::nullopt});
       if (job) {
-        live_.erase(job_id);
+        forget_live(job_id);
       } else {
         // Still queued in the store, where it is failed as interrupted at the next start.
         log_unrecorded(job_id, cancelled, job.error());
@@ -159,7 +159,9 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
   }
   auto job = db_.job(job_id);
   if (!job) return std::unexpected(api::from_store_error(job.error()));
-  if (!was_running && routes_ && !job->bench.empty() && job->bench != bench_) return cancel_elsewhere(*job);
+  // Not in this program's queue: queued for another bench, or for this one and not taken in yet.
+  if (!was_running && (job->state == store::JobState::queued || (routes_ && job->bench != bench_)))
+    return cancel_elsewhere(*job);
   if (job->state != store::JobState::queued && job->state != store::JobState::running && !was_running)
     return std::unexpected(
         api::ApiError{api::ErrorKind::conflict, "conflict",
@@ -179,7 +181,7 @@ std::optional<std::pair<Supervisor::QueuedJob, Supervisor::Step<store::Job>>> Su
     auto job = db_.update_job(next.id, {store::JobState::running, std::nullopt, std::nullopt, store::JobState::queued});
     if (!job && job.error().kind == store::StoreError::Kind::conflict) {
       // Cancelled through another bench's program before it started here: nothing to run.
-      live_.erase(next.id);
+      forget_live(next.id);
       job_changed();
       continue;
     }
@@ -240,7 +242,7 @@ void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome, 
       live.phase = api::JobPhase::done;
       live.unrecorded_failure = unrecorded(*failure, *refused);
     } else {
-      live_.erase(id);
+      forget_live(id);
     }
     job_changed();
   }
@@ -274,6 +276,11 @@ void Supervisor::report_progress(api::JobPhase phase, int readings_done) {
   live.phase = phase;
   live.readings_done = readings_done;
   job_changed();
+}
+
+void Supervisor::forget_live(store::Id id) {
+  live_.erase(id);
+  if (routes_) ended_.push_back(id);
 }
 
 void Supervisor::job_changed() {

@@ -52,8 +52,15 @@ class Supervisor final : public api::Acquisition {
   void adopt(const store::Job& job);
   // Another bench's job as its owner published it: its progress, or nullopt once it ended.
   void note_remote(store::Id job_id, std::optional<api::JobProgress> progress);
-  // This bench's queued and running jobs with their positions and progress, to publish.
-  std::map<store::Id, api::JobProgress> local_progress() const;
+  // This bench's queued and running jobs with their positions and progress, and those that
+  // ended since the last call, to publish.
+  struct LocalJobs {
+    std::map<store::Id, api::JobProgress> live;
+    std::vector<store::Id> ended;
+  };
+  LocalJobs local_jobs();
+  // Other benches' jobs shown live here.
+  std::vector<store::Id> remote_jobs() const;
   // A cancel asked for through another program, of a job this one may be running.
   void cancel_here(store::Id job_id);
 
@@ -121,6 +128,8 @@ class Supervisor final : public api::Acquisition {
   // With mutex_ held, after the job's store record was written: counts a change and wakes the
   // followers.
   void job_changed();
+  // With mutex_ held: a job no longer queued or running here (its record says how it ended).
+  void forget_live(store::Id id);
 
   const std::string device_;
   const drivers::ModelChoice model_;
@@ -142,6 +151,7 @@ class Supervisor final : public api::Acquisition {
   // the change count their followers wait on.
   std::map<store::Id, api::JobProgress> live_;
   std::map<store::Id, api::JobProgress> remote_;  // other benches' jobs, as they publish them
+  std::vector<store::Id> ended_;                  // this bench's jobs ended since local_jobs()
   std::string bench_;
   bool routes_ = false;
   std::uint64_t changes_ = 0;

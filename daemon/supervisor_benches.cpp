@@ -99,8 +99,8 @@ void Supervisor::note_remote(store::Id job_id, std::optional<api::JobProgress> p
   job_changed();
 }
 
-std::map<store::Id, api::JobProgress> Supervisor::local_progress() const {
-  std::map<store::Id, api::JobProgress> out;
+Supervisor::LocalJobs Supervisor::local_jobs() {
+  LocalJobs out;
   std::lock_guard lock(mutex_);
   for (const auto& [id, live] : live_) {
     if (live.unrecorded_failure) continue;
@@ -108,8 +108,16 @@ std::map<store::Id, api::JobProgress> Supervisor::local_progress() const {
     p.position = 0;
     if (p.phase == api::JobPhase::queued)
       p.position = static_cast<int>(std::ranges::find(queue_, id, &QueuedJob::id) - queue_.begin()) + 1;
-    out.emplace(id, p);
+    out.live.emplace(id, p);
   }
+  out.ended.swap(ended_);
+  return out;
+}
+
+std::vector<store::Id> Supervisor::remote_jobs() const {
+  std::lock_guard lock(mutex_);
+  std::vector<store::Id> out;
+  for (const auto& [id, progress] : remote_) out.push_back(id);
   return out;
 }
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <thread>
 
 #include "skinspec/store/store.hpp"
 #include "support/postgres_cluster.hpp"
@@ -211,7 +212,12 @@ TEST_P(PostgresqlBenchesTest, ASilentBenchsJobsAreInterruptedOnlyOnceItsLeaseRan
   EXPECT_EQ(value_of(a.job(b_running)).state, JobState::running);
 
   clock_.advance(1ms);
-  const auto report = value_of(a.recover_bench("bench-b"));
+  // Its lock goes with its closed connection, which the server ends a moment after the close.
+  RecoveryReport report;
+  for (int attempt = 0; attempt < 100 && report.failed_jobs.empty(); ++attempt) {
+    report = value_of(a.recover_bench("bench-b"));
+    if (report.failed_jobs.empty()) std::this_thread::sleep_for(20ms);
+  }
   EXPECT_THAT(report.failed_jobs, ElementsAre(b_running, b_queued));
   EXPECT_THAT(report.interrupted_sessions, ElementsAre(b_session));
   for (const Id id : {b_running, b_queued}) {

@@ -32,13 +32,20 @@ RecoveryReport mark_interrupted(Connection& writer, RecoveryPolicy policy, const
   }
   const auto interrupted =
       detail::encode_job_error({JobErrorCode::interrupted, "the program running it stopped before it finished"});
+  // Each guarded by its state: another program may have ended it since it was selected.
   for (const Id id : report.interrupted_sessions) {
-    writer.prepare("UPDATE sessions SET state = 'interrupted', updated_at = ?2, ended_at = ?2 WHERE id = ?1")
+    writer
+        .prepare(
+            "UPDATE sessions SET state = 'interrupted', updated_at = ?2, ended_at = ?2 WHERE id = ?1 "
+            "AND state = 'open'")
         .bind(id, now)
         .run();
   }
   for (const Id id : report.failed_jobs) {
-    writer.prepare("UPDATE jobs SET state = 'failed', error = ?2, finished_at = ?3 WHERE id = ?1")
+    writer
+        .prepare(
+            "UPDATE jobs SET state = 'failed', error = ?2, finished_at = ?3 WHERE id = ?1 "
+            "AND state IN ('queued', 'running')")
         .bind(id, interrupted, now)
         .run();
   }

@@ -2,6 +2,8 @@
 
 #include <poll.h>
 
+#include <chrono>
+
 #include <fmt/format.h>
 
 #include "postgresql/connection.hpp"
@@ -21,15 +23,18 @@ class PgSubscription final : public Subscription {
   Result<std::vector<Notification>> wait(std::chrono::milliseconds timeout) override {
     return detail::guarded("listening for notifications", [&] {
       if (!connection_) connect();
-      auto arrived = drain();
-      if (!arrived.empty()) return arrived;
-      pollfd readable{PQsocket(connection_->handle()), POLLIN, 0};
-      const int count = poll(&readable, 1, static_cast<int>(timeout.count()));
-      if (count > 0 && PQconsumeInput(connection_->handle()) == 0) {
-        connection_.reset();  // made again at the next wait
-        detail::fail(StoreError::Kind::unreachable, fmt::format("the connection to {} was lost", target_.display));
+      const auto deadline = std::chrono::steady_clock::now() + timeout;
+      for (;;) {
+        auto arrived = drain();
+        const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+        if (!arrived.empty() || left <= std::chrono::milliseconds::zero()) return arrived;
+        // Readable may mean part of a message, or none: read what there is and look again.
+        pollfd readable{PQsocket(connection_->handle()), POLLIN, 0};
+        if (poll(&readable, 1, static_cast<int>(left.count())) > 0 && PQconsumeInput(connection_->handle()) == 0) {
+          connection_.reset();  // made again at the next wait
+          detail::fail(StoreError::Kind::unreachable, fmt::format("the connection to {} was lost", target_.display));
+        }
       }
-      return drain();
     });
   }
 
