@@ -7,6 +7,7 @@
 #include <set>
 
 #include "fit_json.hpp"
+#include "http_caching.hpp"
 #include "fitter_loader.hpp"
 #include "skinspec/records/fit_record.hpp"
 #include "skinspec/api/render_cache.hpp"
@@ -357,6 +358,22 @@ TEST_F(ApiRouterTest, RendersAFitAsPngCachedByItsParameters) {
   const auto again = call("GET", base + "?scale_melanin=2&illuminant=A&size=64x48");
   EXPECT_EQ(cache_header(again), "hit");
   EXPECT_EQ(again.body, first.body);
+  // Tagged immutable, never gzipped; a client holding it gets 304.
+  std::string etag;
+  for (const auto& [name, value] : first.headers) {
+    if (name == "ETag") etag = value;
+    if (name == "Cache-Control") {
+      EXPECT_EQ(value, "public, max-age=31536000, immutable");
+    }
+    EXPECT_NE(name, "Content-Encoding");
+  }
+  ASSERT_FALSE(etag.empty());
+  auto conditional = req("GET", base + "?size=64x48&illuminant=A&scale_melanin=2");
+  conditional.headers["if-none-match"] = etag;
+  conditional.headers["accept-encoding"] = "gzip";
+  EXPECT_EQ(router_->handle(conditional).status, 304);
+  conditional.headers.erase("if-none-match");
+  EXPECT_EQ(router_->handle(conditional).body, first.body) << "a PNG is not compressed again";
   const auto darker = call("GET", base + "?size=64x48&illuminant=A&scale_melanin=4");
   EXPECT_EQ(cache_header(darker), "miss");
   EXPECT_NE(darker.body, first.body);
@@ -369,6 +386,62 @@ TEST_F(ApiRouterTest, RendersAFitAsPngCachedByItsParameters) {
     expect_error(call("GET", base + "?" + query), 400, "invalid_parameter");
   expect_error(call("GET", base + "?colour=red"), 400, "unknown_parameter");
   expect_error(call("GET", "/api/v1/fits/77/render.png"), 404, "not_found");
+}
+
+// A stored fit never changes: once served, its answer comes from the cache of answers, with no
+// SQL (shown by removing the row under it), tagged immutable; a client holding it gets 304.
+TEST_F(ApiRouterTest, AStoredFitIsServedOnceFromTheDatabaseThenFromItsCachedAnswer) {
+  const auto session = db_->create_session(testing::sample_session(1));
+  ASSERT_TRUE(session);
+  const auto ids = db_->record_measurement(testing::sample_measurement(*session, 1), testing::sample_fit(1));
+  ASSERT_TRUE(ids && ids->fit_id);
+  const std::string path = "/api/v1/fits/" + std::to_string(*ids->fit_id);
+  const auto first = call("GET", path);
+  ASSERT_EQ(first.status, 200) << first.body;
+  const auto header = [](const Response& r, const std::string& name) {
+    for (const auto& [key, value] : r.headers)
+      if (key == name) return value;
+    return std::string();
+  };
+  const std::string etag = header(first, "ETag");
+  EXPECT_EQ(etag.size(), 18u) << etag;
+  EXPECT_EQ(header(first, "Cache-Control"), "public, max-age=31536000, immutable");
+
+  testing::sqlite_execute(dir_.file("api.db"), "DELETE FROM fits WHERE id = " + std::to_string(*ids->fit_id));
+  const auto again = call("GET", path);
+  EXPECT_EQ(again.status, 200);
+  EXPECT_EQ(again.body, first.body);
+
+  auto conditional = req("GET", path);
+  conditional.headers["if-none-match"] = "\"0000000000000000\", " + etag;
+  const auto unchanged = router_->handle(conditional);
+  EXPECT_EQ(unchanged.status, 304);
+  EXPECT_TRUE(unchanged.body.empty());
+  EXPECT_EQ(header(unchanged, "ETag"), etag);
+  conditional.headers["if-none-match"] = "\"0000000000000000\"";
+  EXPECT_EQ(router_->handle(conditional).status, 200);
+  // Another database behind another router: its own cache.
+  RouterContext other;
+  other.store = &*db_;
+  other.fitter = &shared_fitter();
+  expect_error(Router(other).handle(req("GET", path)), 404, "not_found");
+}
+
+TEST(HttpCaching, TagsEncodingsAndConditions) {
+  EXPECT_EQ(detail::etag_of(""), "\"cbf29ce484222325\"");
+  EXPECT_TRUE(detail::etag_matches("*", "\"a\""));
+  EXPECT_TRUE(detail::etag_matches("W/\"a\"", "\"a\""));
+  EXPECT_TRUE(detail::etag_matches("\"b\" , \"a\"", "\"a\""));
+  EXPECT_FALSE(detail::etag_matches("\"b\"", "\"a\""));
+  EXPECT_FALSE(detail::etag_matches("", "\"a\""));
+  EXPECT_TRUE(detail::accepts_gzip("gzip"));
+  EXPECT_TRUE(detail::accepts_gzip("deflate, GZIP;q=0.5, br"));
+  EXPECT_TRUE(detail::accepts_gzip("x-gzip"));
+  EXPECT_FALSE(detail::accepts_gzip("gzip;q=0"));
+  EXPECT_FALSE(detail::accepts_gzip("gzip; q=0.000"));
+  EXPECT_FALSE(detail::accepts_gzip("deflate, br"));
+  EXPECT_FALSE(detail::accepts_gzip("gzipped"));
+  EXPECT_FALSE(detail::accepts_gzip(""));
 }
 
 TEST(RenderCache, DropsTheLeastRecentlyUsedBeyondItsBudget) {

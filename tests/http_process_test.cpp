@@ -3,6 +3,7 @@
 // idle connections from one client.
 
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <sys/resource.h>
 #include <unistd.h>
@@ -21,6 +22,7 @@
 #include "support/http_client.hpp"
 #include "support/process.hpp"
 #include "support/service_processes.hpp"
+#include "skinspec/store/store.hpp"
 #include "support/store_samples.hpp"
 
 namespace skinspec::testing {
@@ -188,6 +190,71 @@ TEST_F(HttpProcessTest, HeadAnswersAsGetWithTheHeadersOnly) {
   EXPECT_EQ(replies[3].body, get.body);
   // Had a HEAD answer carried a body, the bytes after the last response would not parse.
   EXPECT_TRUE(replies[3].error.empty()) << replies[3].error;
+}
+
+// `gzip` as the inflater of zlib reads it.
+std::string gunzip(const std::string& bytes) {
+  z_stream stream{};
+  if (inflateInit2(&stream, 15 + 16) != Z_OK) return "inflateInit2 failed";
+  std::string out(1 << 20, '\0');
+  stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
+  stream.avail_in = static_cast<uInt>(bytes.size());
+  stream.next_out = reinterpret_cast<Bytef*>(out.data());
+  stream.avail_out = static_cast<uInt>(out.size());
+  const int status = inflate(&stream, Z_FINISH);
+  out.resize(stream.total_out);
+  inflateEnd(&stream);
+  return status == Z_STREAM_END ? out : "not a whole gzip stream";
+}
+
+TEST_F(HttpProcessTest, StoredRecordsAreTaggedRevalidatedWith304AndSentGzipWhenAsked) {
+  store::Id session = 0, measurement = 0, fit = 0;
+  {
+    auto db = store::Store::open(dir_.file("lab.db"));
+    ASSERT_TRUE(db) << db.error().message;
+    session = *db->create_session(sample_session(1));
+    const auto ids = db->record_measurement(sample_measurement(session, 1), sample_fit(1));
+    ASSERT_TRUE(ids && ids->fit_id);
+    measurement = ids->measurement_id;
+    fit = *ids->fit_id;
+  }
+  auto d = start({});
+  ASSERT_NE(d.port, 0);
+  for (const auto& [path, cache_control] :
+       {std::pair{"/api/v1/fits/" + std::to_string(fit), std::string("public, max-age=31536000, immutable")},
+        std::pair{"/api/v1/measurements/" + std::to_string(measurement), std::string("no-cache")}}) {
+    SCOPED_TRACE(path);
+    const auto plain = http_request(d.port, "GET", path);
+    ASSERT_EQ(plain.status, 200) << plain.body;
+    EXPECT_TRUE(plain.json().is_object());
+    EXPECT_EQ(plain.header("cache-control"), cache_control);
+    EXPECT_EQ(plain.header("vary"), "Accept-Encoding");
+    EXPECT_EQ(plain.header("content-encoding"), "");
+    const std::string etag = plain.header("etag");
+    ASSERT_EQ(etag.size(), 18u) << etag;
+
+    const auto unchanged = http_request(d.port, "GET", path, "", {{"If-None-Match", etag}});
+    EXPECT_EQ(unchanged.status, 304);
+    EXPECT_EQ(unchanged.body, "");
+    EXPECT_EQ(unchanged.header("etag"), etag);
+    EXPECT_EQ(http_request(d.port, "GET", path, "", {{"If-None-Match", "\"00\""}}).status, 200);
+
+    const auto zipped = http_request(d.port, "GET", path, "", {{"Accept-Encoding", "br, gzip"}});
+    ASSERT_EQ(zipped.status, 200);
+    EXPECT_EQ(zipped.header("content-encoding"), "gzip");
+    EXPECT_LT(zipped.body.size(), plain.body.size());
+    EXPECT_EQ(gunzip(zipped.body), plain.body);
+    EXPECT_EQ(http_request(d.port, "GET", path, "", {{"Accept-Encoding", "gzip;q=0"}}).body, plain.body);
+  }
+  // A large answer made for each request (a whole session) is compressed too; a small one is not.
+  const auto whole =
+      http_request(d.port, "GET", "/api/v1/sessions/" + std::to_string(session), "", {{"Accept-Encoding", "gzip"}});
+  ASSERT_EQ(whole.status, 200);
+  EXPECT_EQ(whole.header("content-encoding"), "gzip");
+  EXPECT_EQ(nlohmann::json::parse(gunzip(whole.body))["id"], session);
+  const auto small = http_request(d.port, "GET", "/healthz", "", {{"Accept-Encoding", "gzip"}});
+  EXPECT_EQ(small.header("content-encoding"), "");
+  EXPECT_TRUE(small.json().is_object());
 }
 
 TEST_F(HttpProcessTest, OutOfFileDescriptorsTheDaemonNeitherSpinsNorStopsAnswering) {

@@ -12,37 +12,6 @@
 
 namespace skinspec::api {
 
-std::optional<std::string> RenderCache::find(const std::string& key) {
-  const std::lock_guard lock(mutex_);
-  const auto it = index_.find(key);
-  if (it == index_.end()) return std::nullopt;
-  entries_.splice(entries_.begin(), entries_, it->second);
-  return it->second->second;
-}
-
-void RenderCache::put(const std::string& key, std::string png) {
-  if (png.size() > max_bytes_) return;
-  const std::lock_guard lock(mutex_);
-  if (const auto it = index_.find(key); it != index_.end()) {
-    bytes_ -= it->second->second.size();
-    entries_.erase(it->second);
-    index_.erase(it);
-  }
-  bytes_ += png.size();
-  entries_.emplace_front(key, std::move(png));
-  index_[key] = entries_.begin();
-  while (bytes_ > max_bytes_) {
-    bytes_ -= entries_.back().second.size();
-    index_.erase(entries_.back().first);
-    entries_.pop_back();
-  }
-}
-
-std::size_t RenderCache::size() const {
-  const std::lock_guard lock(mutex_);
-  return entries_.size();
-}
-
 namespace detail {
 
 namespace {

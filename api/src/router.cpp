@@ -13,6 +13,7 @@
 #include "skinspec/records/record_json.hpp"
 #include "skinspec/spectral/colour.hpp"
 #include "skinspec/store/store.hpp"
+#include "http_caching.hpp"
 #include "skinspec/version.hpp"
 #include "text.hpp"
 #include "web.hpp"
@@ -392,7 +393,8 @@ struct Router::Handlers {
     const auto fits = value(db.fits_of_measurement(m.id));
     json body = records::to_json(m, records::latest_fit_of(m.id, fits));
     body["colour"] = colour_of(c, m);
-    return json_response(body);
+    // Its latest fit can change (a refit): tagged, to be asked again each time.
+    return detail::cached_response(call.request, detail::tagged(detail::dump(body)), detail::kRevalidate);
   }
   // A reflectance's colour under D65 and A: XYZ (Y = 1 for white), CIELAB against that
   // light's white, and the sRGB a display shows for it. Under A the XYZ are not adapted to the
@@ -424,9 +426,18 @@ struct Router::Handlers {
     }
     return json_response({{"sites", list}});
   }
+  // A stored fit never changes: served from the cache of answers once made, with a tag that
+  // lets a client that holds it skip the body (304).
   static Response get_fit(const RouterContext& c, const Call& call) {
     no_query(call);
-    return json_response(records::to_json(value(store_of(c).fit(call.ids[0]))));
+    const std::string key = "fit/" + std::to_string(call.ids[0]);
+    auto cached = c.body_cache->find(key);
+    if (!cached) {
+      cached = std::make_shared<const CachedBody>(
+          detail::cacheable(detail::dump(records::to_json(value(store_of(c).fit(call.ids[0]))))));
+      c.body_cache->put(key, *cached);
+    }
+    return detail::cached_response(call.request, **cached, detail::kImmutable);
   }
   static Response refit(const RouterContext& c, const Call& call) {
     const json body = call.request.body.empty() ? json::object() : detail::parse_object(call.request.body);
@@ -457,7 +468,12 @@ struct Router::Handlers {
   }
   // GET /api/v1/fits/{id}/render.png
   static Response render_fit(const RouterContext& c, const Call& call) {
-    return detail::render_fit_png(fitter_of(c), value(store_of(c).fit(call.ids[0])), call.query, *c.render_cache);
+    auto image = detail::render_fit_png(fitter_of(c), value(store_of(c).fit(call.ids[0])), call.query, *c.render_cache);
+    // An image of a stored fit by given parameters never changes either.
+    const auto cached = detail::tagged(std::move(image.body));
+    auto r = detail::cached_response(call.request, cached, detail::kImmutable, image.content_type);
+    r.headers.insert(r.headers.end(), image.headers.begin(), image.headers.end());
+    return r;
   }
 };
 
@@ -655,6 +671,7 @@ Response error_response(const ApiError& error) {
 Router::Router(RouterContext context) : context_(std::move(context)) {
   if (!context_.metrics) context_.metrics = std::make_shared<Metrics>();
   if (!context_.render_cache) context_.render_cache = std::make_shared<RenderCache>();
+  if (!context_.body_cache) context_.body_cache = std::make_shared<BodyCache>();
 }
 Router::~Router() = default;
 
@@ -731,6 +748,11 @@ Response Router::handle(const Request& request) const {
     const json body = json::parse(response.body, nullptr, false);
     context_.metrics->record_error(body.is_object() && body.contains("error") ? body["error"].value("code", "unknown")
                                                                               : "unknown");
+  }
+  try {
+    detail::compress_if_accepted(request, response);
+  } catch (const std::exception& e) {
+    response = error_response({ErrorKind::internal, "", e.what()});
   }
   context_.metrics->record_request(route_label, response.status, std::chrono::steady_clock::now() - started);
   return response;

@@ -28,6 +28,7 @@ namespace skinspec::api {
 
 class Acquisition;
 class RenderCache;
+class BodyCache;
 
 struct Request {
   std::string method;                          // "GET", "POST", ...
@@ -71,6 +72,7 @@ struct RouterContext {
   Acquisition* acquisition = nullptr;         // null: no instrument; measurement routes answer 503
   std::shared_ptr<Metrics> metrics;           // created when null
   std::shared_ptr<RenderCache> render_cache;  // images of GET /api/v1/fits/{id}/render.png; created when null
+  std::shared_ptr<BodyCache> body_cache;      // answers of GET /api/v1/fits/{id}; created when null
   AccessPolicy access;
   std::size_t max_spectrum_samples = 10000;
 };
