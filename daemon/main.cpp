@@ -199,7 +199,12 @@ int main(int argc, char** argv) {
   app.add_option("--lamp-change-tolerance", o.measure.lamp_change_tolerance,
                  "warn when a white's band-integrated radiance differs from the previous white's by more (0.05 = 5 %)")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version end here too, with status 0; a bad flag is bad input: 2.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
 
   auto logger = spdlog::stderr_color_mt("skinspecd");
   spdlog::set_default_logger(logger);
@@ -210,8 +215,14 @@ int main(int argc, char** argv) {
     if (!in) return spdlog::error("event=bad_config path=\"{}\" message=\"cannot read\"", o.config), 2;
     std::stringstream text;
     text << in.rdbuf();
-    auto applied = skinspec::daemon::apply_config_json(
-        text.str(), o, [&app](const std::string& flag) { return app.count("--" + flag) > 0; });
+    auto applied = skinspec::daemon::apply_config_json(text.str(), o, [&app](const std::string& flag) {
+      // A key that names no flag is not given on the command line; the config refuses it.
+      try {
+        return app.count("--" + flag) > 0;
+      } catch (const CLI::OptionNotFound&) {
+        return false;
+      }
+    });
     if (!applied) return spdlog::error("event=bad_config path=\"{}\" message=\"{}\"", o.config, applied.error()), 2;
   }
   spdlog::set_level(spdlog::level::from_str(o.log_level));

@@ -29,7 +29,7 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       else if (key == "model") o.model = v.get<std::string>();
       else if (key == "token_file") o.token_file = v.get<std::string>();
       else if (key == "bench") o.bench = v.get<std::string>();
-      else if (key == "lease_s") o.lease_s = v.get<int>();
+      else if (key == "lease") o.lease_s = v.get<int>();
       else if (key == "log_level") o.log_level = v.get<std::string>();
       else if (key == "body_limit") o.body_limit = v.get<std::size_t>();
       else if (key == "max_connections") o.max_connections = v.get<std::size_t>();

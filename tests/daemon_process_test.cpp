@@ -349,6 +349,34 @@ TEST_F(DaemonTest, ConfigFileSetsOptionsAndFlagsWin) {
   EXPECT_EQ(bad.exit_status, 2) << bad.describe();
 }
 
+// A bench name that is not one, or a lease out of range, as a flag or in the config file: exit
+// 2 naming it, before any database is made; so is any flag CLI11 refuses.
+TEST_F(DaemonTest, ABadBenchOrLeaseIsABadOption) {
+  const auto run = [&](std::vector<std::string> args) {
+    args.insert(args.end(), {"--db", dir_.file("b.db"), "--device", "tcp:127.0.0.1:9"});
+    return run_process(kDaemon, args, {.stdin_bytes = {}, .timeout = 30s, .environment = {}});
+  };
+  const auto spaced = run({"--bench", "bench one"});
+  EXPECT_EQ(spaced.exit_status, 2) << spaced.describe();
+  EXPECT_NE(spaced.err.find("--bench: 'bench one' is not 1-64 letters"), std::string::npos) << spaced.err;
+  EXPECT_EQ(run({"--bench", std::string(65, 'b')}).exit_status, 2);
+  const auto short_lease = run({"--lease", "1"});
+  EXPECT_EQ(short_lease.exit_status, 2) << short_lease.describe();
+  EXPECT_NE(short_lease.err.find("--lease"), std::string::npos) << short_lease.err;
+  EXPECT_EQ(run({"--threads", "0"}).exit_status, 2);
+  const std::string config = dir_.file("bench.json");
+  std::ofstream(config) << R"({"bench": "a/b", "lease": 15})";
+  EXPECT_EQ(run({"--config", config}).exit_status, 2);
+  std::ofstream(config) << R"({"lease": 9999})";
+  EXPECT_EQ(run({"--config", config}).exit_status, 2);
+  std::ofstream(config) << R"({"lease_s": 15})";
+  const auto unknown = run({"--config", config});
+  EXPECT_EQ(unknown.exit_status, 2) << unknown.describe();
+  EXPECT_NE(unknown.err.find("unknown config key 'lease_s'"), std::string::npos) << unknown.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_.file("b.db")));
+  EXPECT_EQ(run_process(kDaemon, {"--version"}, {.stdin_bytes = {}, .timeout = 30s, .environment = {}}).exit_status, 0);
+}
+
 // A model skinspec does not know, as a flag or in the config file, is a bad option: exit 2 with
 // the models it knows, before any database is made.
 TEST_F(DaemonTest, AnUnknownModelIsABadOption) {
