@@ -244,6 +244,30 @@ TEST_P(PostgresqlBenchesTest, EachBenchHasItsOwnWriterAndASecondProgramForOneBen
   EXPECT_THAT(again.error().message, ::testing::HasSubstr("bench bench-a"));
 }
 
+// skinspec before benches held the one-key writer lock alone: while such a program writes the
+// database, a newer one is refused (it would migrate the schema under it), and lets go after.
+TEST_P(PostgresqlBenchesTest, AnOlderWriterFromBeforeBenchesKeepsNewerOnesOut) {
+  open("bench-a");  // the schema made, and let go
+  {
+    auto older = testing::raw_database(target_);
+    // The closed writer's backend lets go of its share a moment after the close.
+    bool taken = false;
+    for (int attempt = 0; attempt < 100 && !taken; ++attempt) {
+      taken = older->text("SELECT pg_try_advisory_lock(1397445457)::text") == "true";
+      if (!taken) std::this_thread::sleep_for(20ms);
+    }
+    ASSERT_TRUE(taken);
+    const auto refused = open_as("bench-a");
+    ASSERT_FALSE(refused.has_value());
+    EXPECT_EQ(refused.error().kind, Kind::busy);
+    EXPECT_THAT(refused.error().message, ::testing::HasSubstr("older skinspecd"));
+  }
+  Store a = open("bench-a");
+  Store b = open("bench-b");  // benches share it
+  auto older = testing::raw_database(target_);
+  EXPECT_EQ(older->text("SELECT pg_try_advisory_lock(1397445457)::text"), "false");
+}
+
 TEST_P(PostgresqlBenchesTest, OpeningRecoversOnlyItsOwnBenchsJobs) {
   Store a = open("bench-a");
   const Id a_job = value_of(a.create_job(measure_job(value_of(a.create_session(sample_session(1)))))).job.id;

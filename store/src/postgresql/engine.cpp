@@ -35,9 +35,21 @@ bool holds_writer_lock(Connection& writer, int pid, const std::string& bench) {
 // that one, is ended (waiting up to 5 s for it to go) and the lock taken again. Another
 // program may hold the bench's lock for a moment while it recovers a bench it found silent
 // (Store::recover_bench): asked again for up to 1 s before giving up.
+// Every writer also shares the one-key lock on kWriterLockKey that skinspec before benches
+// (schema 5) took alone: so an older skinspecd still writing the database keeps a newer one from
+// migrating under it and recovering its jobs, and is kept out in turn.
+void share_with_other_benches(Connection& writer, const std::string& bench) {
+  auto shared = writer.prepare("SELECT pg_try_advisory_lock_shared(?1)");
+  shared.bind(kWriterLockKey);
+  if (shared.step() && shared.boolean(0)) return;
+  shared.run();
+  writer.prepare("SELECT pg_advisory_unlock(?1::integer, hashtext(?2))").bind(kWriterLockKey, bench).run();
+  detail::fail(Kind::busy, "an older skinspecd, from before benches, has it open for writing");
+}
+
 void take_writer_lock(Connection& writer, int previous_backend, const std::string& bench) {
   for (int attempt = 0; attempt < 5; ++attempt) {
-    if (try_writer_lock(writer, bench)) return;
+    if (try_writer_lock(writer, bench)) return share_with_other_benches(writer, bench);
     if (previous_backend != 0 && holds_writer_lock(writer, previous_backend, bench)) {
       writer.prepare("SELECT pg_terminate_backend(?1, 5000)").bind(previous_backend).run();
       continue;
