@@ -296,13 +296,14 @@ std::optional<api::JobProgress> Supervisor::progress(store::Id job_id) const {
     if (remote == remote_.end()) return std::nullopt;
     return remote->second;
   }
-  api::JobProgress out = it->second;
-  out.position = 0;
-  if (out.phase == api::JobPhase::queued) {
-    const auto queued = std::ranges::find(queue_, job_id, &QueuedJob::id);
-    out.position = static_cast<int>(queued - queue_.begin()) + 1;
-  }
-  return out;
+  return with_position(job_id, it->second);
+}
+
+api::JobProgress Supervisor::with_position(store::Id job_id, api::JobProgress live) const {
+  live.position = 0;
+  if (live.phase == api::JobPhase::queued)
+    live.position = static_cast<int>(std::ranges::find(queue_, job_id, &QueuedJob::id) - queue_.begin()) + 1;
+  return live;
 }
 
 std::uint64_t Supervisor::changes() const {

@@ -94,6 +94,8 @@ class Supervisor final : public api::Acquisition {
   std::expected<store::CreatedJob, api::ApiError> submit_elsewhere(const store::Session& session, store::Job job);
   std::expected<store::Job, api::ApiError> cancel_elsewhere(const store::Job& job);
   bool known_here(store::Id job_id) const;  // mutex_ held
+  // A job's live progress with its place in the queue (1 is next; 0 once it runs), mutex_ held.
+  api::JobProgress with_position(store::Id job_id, api::JobProgress live) const;
   // The next job, marked running; nullopt when stopping. A job whose record cannot be marked
   // running comes with the error it ends with.
   std::optional<std::pair<QueuedJob, Step<store::Job>>> take_next();

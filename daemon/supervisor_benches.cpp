@@ -103,12 +103,7 @@ Supervisor::LocalJobs Supervisor::local_jobs() {
   LocalJobs out;
   std::lock_guard lock(mutex_);
   for (const auto& [id, live] : live_) {
-    if (live.unrecorded_failure) continue;
-    api::JobProgress p = live;
-    p.position = 0;
-    if (p.phase == api::JobPhase::queued)
-      p.position = static_cast<int>(std::ranges::find(queue_, id, &QueuedJob::id) - queue_.begin()) + 1;
-    out.live.emplace(id, p);
+    if (!live.unrecorded_failure) out.live.emplace(id, with_position(id, live));
   }
   out.ended.swap(ended_);
   return out;

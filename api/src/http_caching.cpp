@@ -3,22 +3,18 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <cctype>
 #include <charconv>
 #include <cstdint>
 #include <stdexcept>
 
+#include <boost/beast/core/string.hpp>
 #include <fmt/format.h>
+
+#include "text.hpp"
 
 namespace skinspec::api::detail {
 
 namespace {
-
-std::string_view trimmed(std::string_view text) {
-  while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
-  while (!text.empty() && (text.back() == ' ' || text.back() == '\t')) text.remove_suffix(1);
-  return text;
-}
 
 // Calls `each` with every comma-separated member of a header's value, trimmed.
 template <typename F>
@@ -32,9 +28,8 @@ void for_each_member(std::string_view list, F&& each) {
 }
 
 bool iequals(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && std::ranges::equal(a, b, [](char x, char y) {
-           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-         });
+  return boost::beast::iequals(boost::beast::string_view(a.data(), a.size()),
+                               boost::beast::string_view(b.data(), b.size()));
 }
 
 std::string header(const Request& request, const std::string& name) {

@@ -10,17 +10,13 @@
 #include <boost/beast/core/string.hpp>
 #include <boost/beast/http/error.hpp>
 
+#include "text.hpp"
+
 namespace skinspec::api::detail {
 
 namespace beast = boost::beast;
 
 namespace {
-
-std::string_view trimmed(std::string_view text) {
-  while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
-  while (!text.empty() && (text.back() == ' ' || text.back() == '\t')) text.remove_suffix(1);
-  return text;
-}
 
 ApiError bad_framing(std::string message) { return {ErrorKind::bad_request, "invalid_framing", std::move(message)}; }
 

@@ -124,6 +124,12 @@ std::optional<store::Time> parse_time(std::string_view text) {
 
 std::string format_time(store::Time time) { return records::json_time(time); }
 
+std::string_view trimmed(std::string_view text) {
+  while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\t')) text.remove_suffix(1);
+  return text;
+}
+
 }  // namespace skinspec::api::detail
 
 namespace skinspec::api {

@@ -20,4 +20,7 @@ std::optional<store::Time> parse_time(std::string_view text);
 // As every record shows its times (records::json_time).
 std::string format_time(store::Time time);
 
+// `text` without the spaces and tabs around it (HTTP's optional whitespace, RFC 9110 5.6.3).
+std::string_view trimmed(std::string_view text);
+
 }  // namespace skinspec::api::detail

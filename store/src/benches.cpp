@@ -41,10 +41,7 @@ Result<void> Store::leave_bench() {
 Result<std::vector<Bench>> Store::benches() const {
   return impl_->read_one("listing benches", [&](Connection& c) {
     static const std::string sql = fmt::format("SELECT {} FROM benches ORDER BY name", detail::kBenchColumns);
-    auto rows = c.prepare(sql);
-    std::vector<Bench> out;
-    while (rows.step()) out.push_back(detail::read_bench(rows));
-    return out;
+    return detail::all(c, sql, detail::read_bench);
   });
 }
 
@@ -52,11 +49,7 @@ Result<std::vector<Job>> Store::queued_jobs() const {
   return impl_->read_one("listing the bench's queued jobs", [&](Connection& c) {
     static const std::string sql =
         fmt::format("SELECT {} FROM jobs WHERE bench = ?1 AND state = 'queued' ORDER BY id", detail::kJobColumns);
-    auto rows = c.prepare(sql);
-    rows.bind(impl_->options.bench);
-    std::vector<Job> out;
-    while (rows.step()) out.push_back(detail::read_job(rows));
-    return out;
+    return detail::all(c, sql, detail::read_job, impl_->options.bench);
   });
 }
 

@@ -2,7 +2,10 @@
 // The columns each record is read with, and the decoders from a result row to a record. The
 // SELECT lists and the decoders change together, here.
 
+#include <string>
 #include <string_view>
+#include <type_traits>
+#include <vector>
 
 #include "skinspec/store/types.hpp"
 #include "db.hpp"
@@ -29,6 +32,16 @@ inline constexpr std::string_view kBenchColumns =
     "name, host, pid, started_at, heartbeat_at, lease_ms, instrument, stopped_at";
 inline constexpr std::string_view kRejectedReadingColumns =
     "id, session_id, job_id, instrument_id, attempt, quality_code, quality, reason, raw_reply, measured_at, created_at";
+
+// Every row `sql` selects with `args` bound, each decoded by `read`.
+template <typename Read, typename... Args>
+auto all(Connection& c, const std::string& sql, Read read, const Args&... args) {
+  auto rows = c.prepare(sql);
+  rows.bind(args...);
+  std::vector<std::invoke_result_t<Read, const Statement&>> out;
+  while (rows.step()) out.push_back(read(rows));
+  return out;
+}
 
 Instrument read_instrument(const Statement& row);
 WhiteStandard read_white_standard(const Statement& row);

@@ -10,6 +10,7 @@
 
 namespace skinspec::store {
 
+using detail::all;
 using detail::Connection;
 using detail::fail;
 using Kind = StoreError::Kind;
@@ -23,15 +24,6 @@ auto one(Connection& c, const std::string& sql, Id id, std::string_view what, Re
   row.bind(id);
   if (!row.step()) fail(Kind::not_found, fmt::format("{} {} does not exist", what, id));
   return read(row);
-}
-
-template <typename Read, typename... Args>
-auto all(Connection& c, const std::string& sql, Read read, const Args&... args) {
-  auto rows = c.prepare(sql);
-  rows.bind(args...);
-  std::vector<std::invoke_result_t<Read, const detail::Statement&>> out;
-  while (rows.step()) out.push_back(read(rows));
-  return out;
 }
 
 std::string select_by_id(std::string_view columns, std::string_view table) {
