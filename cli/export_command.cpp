@@ -1,4 +1,4 @@
-// skinspec export --db PATH|URI [--session ID] [--format csv|json]: stored spectra and fits.
+// skinspec export --db PATH|URI [--session ID] [--format csv|json|cgats]: stored spectra and fits.
 
 #include <iostream>
 #include <sstream>
@@ -35,7 +35,9 @@ store::Store open_for_export(const std::string& path) {
 
 // The whole export, held back until complete: a failure part way prints nothing on stdout.
 std::string exported(const store::Store& db, const ExportArgs& args) {
-  const auto format = args.format == "csv" ? records::ExportFormat::csv : records::ExportFormat::json;
+  const auto format = args.format == "csv"     ? records::ExportFormat::csv
+                      : args.format == "cgats" ? records::ExportFormat::cgats
+                                               : records::ExportFormat::json;
   std::ostringstream out;
   store::Result<void> written;
   if (args.session) {
@@ -63,8 +65,11 @@ void add_export_command(CLI::App& app) {
   auto* command = app.add_subcommand("export", "write the stored spectra and fits of one session or all");
   command->add_option("--db", args->db, "the skinspec database, a file or a postgresql:// URI (only read)")->required();
   command->add_option("--session", args->session, "the session id (default: every session)");
-  command->add_option("--format", args->format, "csv (one row per wavelength) or json (one line per session)")
-      ->check(CLI::IsMember({"csv", "json"}))
+  command
+      ->add_option("--format", args->format,
+                   "csv (one row per wavelength), json (one line per session) or cgats (reflectance spectra, "
+                   "ArgyllCMS .ti3)")
+      ->check(CLI::IsMember({"csv", "json", "cgats"}))
       ->capture_default_str();
   command->callback([args] { run_export(*args); });
 }

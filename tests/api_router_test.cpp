@@ -12,6 +12,7 @@
 #include "skinspec/records/fit_record.hpp"
 #include "skinspec/api/render_cache.hpp"
 #include "skinspec/api/router.hpp"
+#include "skinspec/records/cgats.hpp"
 #include "skinspec/spectral/colour.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/version.hpp"
@@ -329,6 +330,20 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   EXPECT_EQ(csv.body.rfind("session_id,", 0), 0u);
   EXPECT_GT(std::count(csv.body.begin(), csv.body.end(), '\n'), 100);
   expect_error(call("GET", "/api/v1/sessions/7/export.csv"), 404, "not_found");
+  const auto cgats = call("GET", "/api/v1/sessions/1/export.cgats");
+  ASSERT_EQ(cgats.status, 200);
+  EXPECT_EQ(cgats.content_type.rfind("text/plain", 0), 0u);
+  const auto spectra = records::parse_cgats(cgats.body);
+  ASSERT_TRUE(spectra) << spectra.error().message;
+  ASSERT_EQ(spectra->size(), 1u);
+  EXPECT_EQ((*spectra)[0].sample_id, std::to_string(m));
+  EXPECT_EQ((*spectra)[0].reflectance.size(),
+            body(call("GET", "/api/v1/measurements/" + std::to_string(m)))["reflectance"]["values"].size());
+  expect_error(call("GET", "/api/v1/sessions/7/export.cgats"), 404, "not_found");
+  // The whole session in one request, spectra included, however it is asked for.
+  EXPECT_EQ(body(call("GET", "/api/v1/sessions/1?include=spectra")), detail);
+  expect_error(call("GET", "/api/v1/sessions/1?include=thumbnails"), 400, "invalid_parameter");
+  expect_error(call("GET", "/api/v1/sessions/1?fields=all"), 400, "unknown_parameter");
   expect_error(call("GET", "/api/v1/measurements/77"), 404, "not_found");
   expect_error(call("GET", "/api/v1/fits/77"), 404, "not_found");
   expect_error(call("POST", "/api/v1/measurements/77/fit", "{}"), 404, "not_found");

@@ -13,7 +13,11 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "skinspec/records/cgats.hpp"
+#include "skinspec/records/export.hpp"
+#include "skinspec/spectral/colour.hpp"
 #include "skinspec/store/store.hpp"
+#include "support/data.hpp"
 #include "support/process.hpp"
 #include "support/store_samples.hpp"
 
@@ -220,6 +224,52 @@ TEST_F(ExportTest, CsvHasOneRowPerWavelengthOfEachMeasurementAndFit) {
   EXPECT_EQ(lines_of(one.out)[0], lines[0]);
 }
 
+// The CGATS export is read by ArgyllCMS's own spec2cie, which writes CIE values beside the
+// spectra: the spectra come back as stored, and its XYZ under D65 agree with skinspec's.
+TEST_F(ExportTest, CgatsIsReadByArgyllsSpec2cie) {
+  auto store = make_database();
+  const auto result = skinspec({"export", "--db", path_, "--session", std::to_string(first_), "--format", "cgats"});
+  ASSERT_EQ(result.exit_status, 0) << result.describe();
+  const auto ti3 = dir_.file("session.ti3"), converted = dir_.file("cie.ti3");
+  std::ofstream(ti3, std::ios::binary) << result.out;
+  const auto argyll = testing::run_process(SKINSPEC_TEST_SPEC2CIE, {"-i", "D65", "-o", "1931_2", ti3, converted});
+  ASSERT_EQ(argyll.exit_status, 0) << argyll.describe();
+  const auto read = records::parse_cgats(testing::file_bytes(converted));
+  ASSERT_TRUE(read) << read.error().line << ": " << read.error().message;
+  // The white has no reflectance; the two samples do.
+  ASSERT_EQ(read->size(), 2u);
+  const auto detail = value_of(store.session_detail(first_));
+  const auto d65 = *testing::colorimetry().illuminant("D65");
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto& stored = detail.measurements[i + 1];
+    const auto& back = (*read)[i];
+    EXPECT_EQ(back.sample_id, std::to_string(stored.id));
+    EXPECT_EQ(back.sample_name, stored.label);
+    EXPECT_EQ(back.wavelength_nm, stored.reflectance.wavelength_nm);
+    ASSERT_EQ(back.reflectance.size(), stored.reflectance.values.size());
+    for (std::size_t k = 0; k < back.reflectance.size(); ++k)
+      EXPECT_NEAR(back.reflectance[k], stored.reflectance.values[k], 1e-6);  // Argyll prints 6 digits
+    std::map<std::string, double> cie;
+    for (const auto& [name, text] : back.fields)
+      if (name.starts_with("XYZ_")) cie[name] = std::stod(text);
+    ASSERT_EQ(cie.size(), 3u) << "spec2cie wrote no XYZ";
+    const auto reflectance = Spectrum::create(stored.reflectance.wavelength_nm, stored.reflectance.values);
+    ASSERT_TRUE(reflectance) << reflectance.error();
+    const auto own = testing::colorimetry().xyz(*reflectance, d65);
+    EXPECT_NEAR(cie["XYZ_X"], 100 * own.x, 0.3);
+    EXPECT_NEAR(cie["XYZ_Y"], 100 * own.y, 0.3);
+    EXPECT_NEAR(cie["XYZ_Z"], 100 * own.z, 0.3);
+  }
+}
+
+TEST_F(ExportTest, TheServiceSendsTheSameCgats) {
+  auto store = make_database();
+  std::ostringstream out;
+  ASSERT_TRUE(records::export_session(store, first_, records::ExportFormat::cgats, out));
+  const auto command = skinspec({"export", "--db", path_, "--session", std::to_string(first_), "--format", "cgats"});
+  EXPECT_EQ(command.out, out.str());
+}
+
 // Export reads beside a live writer without disturbing it: no lock taken, no recovery run.
 TEST_F(ExportTest, ExportingBesideAWriterChangesNothing) {
   auto store = make_database();
@@ -237,7 +287,7 @@ TEST_F(ExportTest, ExportingBesideAWriterChangesNothing) {
 
 TEST_F(ExportTest, AnUnknownSessionIsBadInputWithNothingOnStdout) {
   auto store = make_database();
-  for (const char* format : {"json", "csv"}) {
+  for (const char* format : {"json", "csv", "cgats"}) {
     const auto result = skinspec({"export", "--db", path_, "--session", "999", "--format", format});
     EXPECT_EQ(result.exit_status, kBadInput) << result.describe();
     EXPECT_THAT(result.out, IsEmpty());
@@ -260,7 +310,7 @@ class ExportRefusesTest : public ExportTest {
  protected:
   void expect_refused_untouched(const std::string& path, const std::string& message) {
     const auto before = directory_state(dir_.path());
-    for (const char* format : {"json", "csv"}) {
+    for (const char* format : {"json", "csv", "cgats"}) {
       SCOPED_TRACE(format);
       const auto result = skinspec({"export", "--db", path, "--format", format});
       EXPECT_EQ(result.exit_status, kBadInput) << result.describe();

@@ -113,12 +113,26 @@ INSERT INTO fits VALUES (1, 2, 'forearm', 'paper',
   X'0000000000007940000000000000E03F0000000000E08540000000000000D03F', 0, 1700000000000009);
 )sql";
 
+// Version 6's: the same with each session's and job's bench ('' as the rows above were written
+// before benches, which the checks below expect) and a bench that stopped.
+std::string rows_with_benches(std::string rows) {
+  for (const std::string row_end : {"'paper');", "quality 19\"}');"}) {
+    const auto at = rows.find(row_end);
+    if (at == std::string::npos) throw std::logic_error("no row ending " + row_end);
+    rows.insert(at + row_end.size() - 2, ", ''");
+  }
+  return rows +
+         "INSERT INTO benches VALUES ('bench-a', 'pc-1', 4321, 1700000000000020, 1700000000000021, 15000, "
+         "'{\"model\":\"pr650\"}', 1700000000000022);\n";
+}
+
 const std::map<int, std::string> kRowsAtVersion = {
     {1, rows_written_by_version("")},
     {2, rows_written_by_version(", NULL") + kVersion2Job},
     {3, rows_written_by_version(", NULL") + kVersion2Job + kVersion3Jobs},
     {4, rows_written_by_version(", NULL") + kVersion4Job},
     {5, kVersion5Rows + kVersion4Job},
+    {6, rows_with_benches(kVersion5Rows + kVersion4Job)},
 };
 
 // What every version's rows must read back as under the current schema.

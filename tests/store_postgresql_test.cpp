@@ -159,6 +159,34 @@ TEST(PostgresqlStoreTest, ARoleThatOnlyReadsIsRefusedForWritingAndServedForReadi
   EXPECT_EQ(fresh.tables(), 0);
 }
 
+// Measurement and fit rows are kept whole in their pages (version 7): how many of the two tables
+// have that setting.
+long long tables_keeping_rows_whole(const std::string& database) {
+  return postgres_cluster().integer(database,
+                                    "SELECT count(*) FROM pg_class WHERE relname IN ('measurements', 'fits') AND "
+                                    "'toast_tuple_target=8160' = ANY (reloptions)");
+}
+
+TEST(PostgresqlStoreTest, AVersion6DatabaseIsMigratedWithItsRows) {
+  Database db;
+  Id measurement = 0;
+  {
+    auto store = value_of(Store::open(db.uri));
+    const Id session = value_of(store.create_session(sample_session(1)));
+    measurement = value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1))).measurement_id;
+  }
+  EXPECT_EQ(tables_keeping_rows_whole(db.name), 2);
+  postgres_cluster().execute(db.name,
+                             "ALTER TABLE measurements RESET (toast_tuple_target); ALTER TABLE fits RESET "
+                             "(toast_tuple_target); UPDATE skinspec_schema SET version = 6");
+  ASSERT_EQ(tables_keeping_rows_whole(db.name), 0);
+  auto store = value_of(Store::open(db.uri));
+  EXPECT_EQ(store.schema_version(), current_schema_version());
+  EXPECT_EQ(tables_keeping_rows_whole(db.name), 2);
+  EXPECT_EQ(testing::check_sample_measurement(value_of(store.measurement(measurement))), "");
+  EXPECT_EQ(value_of(store.fits_of_measurement(measurement)).size(), 1u);
+}
+
 // Two programs opening one new database at the same moment: one becomes the writer and makes
 // the schema, the other is told the database is busy.
 TEST(PostgresqlStoreTest, TwoProgramsOpeningAtOnceOneWritesTheOtherIsBusy) {

@@ -339,8 +339,14 @@ struct Router::Handlers {
     return json_response(
         {{"sessions", list}, {"next_cursor", page.next_cursor ? json(*page.next_cursor) : json(nullptr)}});
   }
+  // The detail always holds every measurement's and fit's spectra, so a notebook has a whole
+  // session in one request; `include=spectra` says so explicitly and is the only include.
   static Response get_session(const RouterContext& c, const Call& call) {
-    no_query(call);
+    for (const auto& [name, text] : call.query) {
+      if (name != "include")
+        fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + name + "'");
+      if (text != "spectra") fail(ErrorKind::bad_request, "invalid_parameter", "'include' can only be 'spectra'");
+    }
     const auto detail_ = value(store_of(c).session_detail(call.ids[0]));
     json out = records::to_json(detail_.session);
     json measurements = json::array(), fits = json::array();
@@ -373,16 +379,23 @@ struct Router::Handlers {
       fail(ErrorKind::unprocessable, "missing_field", "nothing to change: give 'notes', 'close' or 'state'");
     return json_response(records::to_json(value(store_of(c).update_session(call.ids[0], update))));
   }
-  static Response export_csv(const RouterContext& c, const Call& call) {
+  // A session's export as a file to save: session-ID.EXTENSION.
+  static Response export_file(const RouterContext& c, const Call& call, records::ExportFormat format,
+                              const char* content_type, const char* extension) {
     no_query(call);
     std::ostringstream out;
-    records::write_csv_header(out);
-    if (auto done = records::export_session(store_of(c), call.ids[0], records::ExportFormat::csv, out); !done)
-      fail_store(done.error());
-    Response r{200, "text/csv; charset=utf-8", out.str(), {}};
+    if (format == records::ExportFormat::csv) records::write_csv_header(out);
+    if (auto done = records::export_session(store_of(c), call.ids[0], format, out); !done) fail_store(done.error());
+    Response r{200, content_type, out.str(), {}};
     r.headers.emplace_back("Content-Disposition",
-                           "attachment; filename=\"session-" + std::to_string(call.ids[0]) + ".csv\"");
+                           "attachment; filename=\"session-" + std::to_string(call.ids[0]) + "." + extension + "\"");
     return r;
+  }
+  static Response export_csv(const RouterContext& c, const Call& call) {
+    return export_file(c, call, records::ExportFormat::csv, "text/csv; charset=utf-8", "csv");
+  }
+  static Response export_cgats(const RouterContext& c, const Call& call) {
+    return export_file(c, call, records::ExportFormat::cgats, "text/plain; charset=utf-8", "ti3");
   }
 
   // Measurements and fits
@@ -537,6 +550,11 @@ const std::vector<Route>& route_table() {
          {}},
         {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", false, "", "text/csv", 200},
          &H::export_csv,
+         {}},
+        {{"GET", "/api/v1/sessions/{id}/export.cgats",
+          "A session's reflectance spectra as CGATS (ArgyllCMS .ti3), one set per measurement", false, "", "text/plain",
+          200},
+         &H::export_cgats,
          {}},
         {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id",
           false, "", "Measurement", 200},

@@ -8,6 +8,7 @@
 #include <ostream>
 #include <stdexcept>
 
+#include "skinspec/records/cgats.hpp"
 #include "skinspec/records/fit_record.hpp"
 #include "skinspec/records/record_json.hpp"
 
@@ -164,6 +165,11 @@ Result<void> export_session(const Store& store, Id session_id, ExportFormat form
     auto json = detail_json(store, *detail);
     if (!json) return std::unexpected(json.error());
     out << json->dump(-1, ' ', false, Json::error_handler_t::replace) << '\n';
+    return {};
+  }
+  if (format == ExportFormat::cgats) {
+    if (auto written = write_cgats(*detail, out); !written)
+      return std::unexpected(store::StoreError{store::StoreError::Kind::invalid_argument, written.error(), 0});
     return {};
   }
   for (const auto& m : detail->measurements) {

@@ -11,13 +11,14 @@ namespace skinspec::store::detail {
 
 namespace {
 
-constexpr std::array<Migration, 6> kMigrations = {{
+constexpr std::array<Migration, 7> kMigrations = {{
     {1, &sqlite::kVersion1, nullptr},
     {2, &sqlite::kVersion2, nullptr},
     {3, &sqlite::kVersion3, nullptr},
     {4, &sqlite::kVersion4, nullptr},
     {5, &sqlite::kVersion5, &postgresql::kBaseline},
     {6, &sqlite::kVersion6, &postgresql::kVersion6},
+    {7, &kUnchanged, &postgresql::kVersion7},
 }};
 
 constexpr bool numbered_in_order() {

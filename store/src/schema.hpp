@@ -18,6 +18,9 @@ struct MigrationStep {
   std::string_view after_sql = {};
 };
 
+// The step of a version that changes nothing on one engine (a setting only the other has).
+inline constexpr MigrationStep kUnchanged{""};
+
 struct Migration {
   int version;                      // the version this entry makes
   const MigrationStep* sqlite;      // from the version before

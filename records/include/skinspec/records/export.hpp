@@ -9,18 +9,20 @@
 
 namespace skinspec::records {
 
-enum class ExportFormat { csv, json };
+enum class ExportFormat { csv, json, cgats };
 
 // The CSV header line (with its line end).
 void write_csv_header(std::ostream& out);
 
 // One session: CSV rows (one per wavelength of each measurement and each of its fits) without
-// the header, or one JSON object on one line (the session, its white standard, instruments,
-// measurements with their spectra and fits). not_found for an unknown session.
+// the header, one JSON object on one line (the session, its white standard, instruments,
+// measurements with their spectra and fits), or its reflectance spectra as CGATS tables
+// (cgats.hpp; invalid_argument for a grid CGATS cannot name). not_found for an unknown session.
 store::Result<void> export_session(const store::Store& store, store::Id session_id, ExportFormat format,
                                    std::ostream& out);
 
-// Every session, oldest first: the CSV header and all rows, or one JSON line per session.
+// Every session, oldest first: the CSV header and all rows, one JSON line per session, or each
+// session's CGATS tables.
 store::Result<void> export_all(const store::Store& store, ExportFormat format, std::ostream& out);
 
 }  // namespace skinspec::records
