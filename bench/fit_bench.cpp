@@ -83,8 +83,14 @@ void FitOne(benchmark::State& state) {
   FitOptions options;
   options.model = kind;
   std::size_t i = 0;
-  for (auto _ : state) benchmark::DoNotOptimize(fitter().fit(spectra[i++ % spectra.size()], options));
+  double iterations = 0;
+  for (auto _ : state) {
+    auto fit = fitter().fit(spectra[i++ % spectra.size()], options);
+    if (fit) iterations += fit->iterations;
+    benchmark::DoNotOptimize(fit);
+  }
   state.SetItemsProcessed(state.iterations());
+  state.counters["solver_iterations"] = benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
 }
 BENCHMARK(FitOne)
     ->ArgName("extended")

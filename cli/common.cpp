@@ -99,4 +99,8 @@ CLI::Option* add_site_option(CLI::App& app, std::string& site) {
       ->capture_default_str();
 }
 
+Failure store_failure(const store::StoreError& error) {
+  return Failure{store::is_bad_target(error.kind) ? kBadInput : kFailure, error.message};
+}
+
 }  // namespace skinspec::cli

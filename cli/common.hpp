@@ -9,6 +9,7 @@
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/spectral/spectra_csv.hpp"
 #include "skinspec/spectral/utf8.hpp"
+#include "skinspec/store/types.hpp"
 
 namespace skinspec::cli {
 
@@ -22,6 +23,10 @@ struct Failure {
   int status;
   std::string message;
 };
+
+// What the store refused or failed at: bad input (exit 2) when the target or what was asked
+// of it is wrong (store::is_bad_target), a failure of ours or the disk's otherwise.
+Failure store_failure(const store::StoreError& error);
 
 // Reads FILE, or standard input for "-".
 std::string read_input(const std::string& path);
@@ -55,6 +60,7 @@ void add_ports_command(CLI::App& app);
 void add_measure_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_migrate_db_command(CLI::App& app);
+void add_refit_command(CLI::App& app);
 void add_session_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_figures_command(CLI::App& app);

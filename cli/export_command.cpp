@@ -18,7 +18,7 @@ struct ExportArgs {
 
 // Whatever the store reports (a missing, foreign, damaged, newer or older file, an unknown
 // session, a read that fails) is about the file the user named: bad input, naming it.
-Failure store_failure(const std::string& path, const store::StoreError& error) {
+Failure export_failure(const std::string& path, const store::StoreError& error) {
   const auto shown = store::display_target(path);
   const bool names_the_file = error.message.find(shown) != std::string::npos;
   return Failure{kBadInput, names_the_file ? error.message : shown + ": " + error.message};
@@ -29,7 +29,7 @@ store::Store open_for_export(const std::string& path) {
   store::OpenOptions options;
   options.mode = store::OpenMode::read_only;
   auto opened = store::Store::open(path, options);
-  if (!opened) throw store_failure(path, opened.error());
+  if (!opened) throw export_failure(path, opened.error());
   return std::move(*opened);
 }
 
@@ -46,7 +46,7 @@ std::string exported(const store::Store& db, const ExportArgs& args) {
   } else {
     written = records::export_all(db, format, out);
   }
-  if (!written) throw store_failure(args.db, written.error());
+  if (!written) throw export_failure(args.db, written.error());
   return std::move(out).str();
 }
 

@@ -18,10 +18,6 @@ struct MigrateArgs {
   std::string to;
 };
 
-Failure store_failure(const store::StoreError& error) {
-  return Failure{store::is_bad_target(error.kind) ? kBadInput : kFailure, error.message};
-}
-
 store::Store open_store(const std::string& target, store::OpenMode mode) {
   store::OpenOptions options;
   options.mode = mode;

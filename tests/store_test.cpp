@@ -189,6 +189,63 @@ TEST_P(StoreTest, SessionRoundTripsAndFollowsItsStates) {
   EXPECT_EQ(store.create_session(Session{}).error().kind, Kind::invalid_argument);
 }
 
+// A refit's work list: measurements with a reflectance holding no fit by the maker, by id, of one
+// session or all; and its fits stored a batch at a time, all or none.
+TEST_P(StoreTest, MeasurementsToRefitAreThoseWithoutAFitByTheMaker) {
+  auto store = open();
+  const Id first = value_of(store.create_session(sample_session(1)));
+  const Id second = value_of(store.create_session(sample_session(2)));
+  auto white = sample_measurement(first, 0);
+  white.kind = MeasurementKind::white;
+  white.reflectance = {};
+  value_of(store.record_measurement(white, std::nullopt));
+  std::vector<Id> samples;
+  for (int n = 1; n <= 5; ++n)
+    samples.push_back(value_of(store.record_measurement(sample_measurement(n % 2 ? first : second, n), sample_fit(n)))
+                          .measurement_id);
+  auto maker = FitMaker{"paper", "skinspec 0.1.0", "3f2a9c0d", "77aa01be"};  // sample_fit's
+  RefitQuery query{maker, std::nullopt, 0, 256};
+  EXPECT_TRUE(value_of(store.measurements_to_refit(query)).empty());
+  EXPECT_EQ(value_of(store.count_measurements_to_refit(query)), 0);
+
+  query.made_by.constants_digest = "newer";
+  query.limit = 2;
+  const auto page = value_of(store.measurements_to_refit(query));
+  ASSERT_EQ(page.size(), 2u);
+  EXPECT_EQ(page[0].id, samples[0]);
+  EXPECT_EQ(check_sample_measurement(page[1]), "");
+  EXPECT_EQ(value_of(store.count_measurements_to_refit(query)), 5);
+  query.after_id = page[1].id;
+  EXPECT_EQ(value_of(store.measurements_to_refit(query)).front().id, samples[2]);
+  query.session_id = second;
+  query.after_id = 0;
+  query.limit = 256;
+  EXPECT_EQ(value_of(store.count_measurements_to_refit(query)), 2);
+
+  // Fits of the newer maker, two at once: those two are done.
+  std::vector<Fit> fits;
+  for (const Id id : {samples[1], samples[3]}) {
+    auto f = sample_fit(9);
+    f.measurement_id = id;
+    f.constants_digest = "newer";
+    fits.push_back(f);
+  }
+  const auto ids = value_of(store.add_fits(fits));
+  ASSERT_EQ(ids.size(), 2u);
+  EXPECT_EQ(value_of(store.fit(ids[1])).measurement_id, samples[3]);
+  EXPECT_EQ(value_of(store.count_measurements_to_refit(query)), 0);
+  query.session_id = std::nullopt;
+  EXPECT_EQ(value_of(store.count_measurements_to_refit(query)), 3);
+
+  // A batch with one fit of a measurement that does not exist stores none of them.
+  fits[0].measurement_id = samples[0];
+  fits[1].measurement_id = 999;
+  EXPECT_EQ(store.add_fits(fits).error().kind, Kind::not_found);
+  EXPECT_EQ(value_of(store.fits_of_measurement(samples[0])).size(), 1u);
+  query.limit = 0;
+  EXPECT_EQ(store.measurements_to_refit(query).error().kind, Kind::invalid_argument);
+}
+
 TEST_P(StoreTest, MeasurementAndFitRoundTripInOneTransaction) {
   auto store = open();
   const Id instrument = value_of(store.ensure_instrument(testing::sample_instrument(1)));

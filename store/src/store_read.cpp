@@ -148,6 +148,44 @@ Result<std::vector<Fit>> Store::fits_of_measurement(Id measurement_id) const {
   });
 }
 
+namespace {
+
+// The measurements of a RefitQuery: ?1-?4 the maker, ?5 the session or NULL. (Unqualified
+// columns of the outer SELECT are the measurement's.)
+constexpr std::string_view kToRefit =
+    "FROM measurements m WHERE m.reflectance IS NOT NULL AND (m.session_id = ?5 OR ?5 IS NULL) AND NOT EXISTS "
+    "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id AND f.model = ?1 AND f.model_version = ?2 AND "
+    "f.tables_digest = ?3 AND f.constants_digest = ?4)";
+
+void check_refit_query(const RefitQuery& query) {
+  if (query.limit < 1 || query.limit > 10000)
+    fail(Kind::invalid_argument, fmt::format("a refit's page of {} measurements is not 1 to 10000", query.limit));
+}
+
+}  // namespace
+
+Result<std::vector<Measurement>> Store::measurements_to_refit(const RefitQuery& query) const {
+  return impl_->read_one("listing measurements to refit", [&](Connection& c) {
+    check_refit_query(query);
+    static const std::string sql =
+        fmt::format("SELECT {} {} AND m.id > ?6 ORDER BY m.id LIMIT ?7", detail::kMeasurementColumns, kToRefit);
+    const auto& by = query.made_by;
+    return all(c, sql, detail::read_measurement, by.model, by.model_version, by.tables_digest, by.constants_digest,
+               query.session_id, query.after_id, query.limit);
+  });
+}
+
+Result<std::int64_t> Store::count_measurements_to_refit(const RefitQuery& query) const {
+  return impl_->read_one("counting measurements to refit", [&](Connection& c) {
+    static const std::string sql = fmt::format("SELECT count(*) {}", kToRefit);
+    const auto& by = query.made_by;
+    auto row = c.prepare(sql);
+    row.bind(by.model, by.model_version, by.tables_digest, by.constants_digest, query.session_id);
+    row.step();
+    return row.integer(0);
+  });
+}
+
 Result<RejectedReading> Store::rejected_reading(Id id) const {
   return impl_->read_one("reading a rejected reading", [&](Connection& c) {
     static const std::string sql = select_by_id(detail::kRejectedReadingColumns, "rejected_readings");

@@ -319,6 +319,19 @@ Result<Id> Store::add_fit(const Fit& fit) {
   });
 }
 
+Result<std::vector<Id>> Store::add_fits(const std::vector<Fit>& fits) {
+  return impl_->write(fmt::format("storing {} fits", fits.size()), [&](Connection& c) {
+    std::vector<Id> ids;
+    const auto now = impl_->now();
+    for (const auto& fit : fits) {
+      check_fit(fit);
+      require_row(c, "SELECT 1 FROM measurements WHERE id = ?1", fit.measurement_id, "measurement");
+      ids.push_back(insert_fit(c, fit, fit.measurement_id, now));
+    }
+    return ids;
+  });
+}
+
 Result<Id> Store::record_rejected_reading(const RejectedReading& r) {
   return impl_->write("recording a rejected reading", [&](Connection& c) {
     if (r.attempt < 1) invalid(fmt::format("attempt {} is below 1", r.attempt));

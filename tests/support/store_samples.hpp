@@ -4,11 +4,19 @@
 // SQLite queries that bypass the store.
 
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 
 #include "skinspec/store/types.hpp"
 
 namespace skinspec::testing {
+
+// The value of a store call that must succeed; its error, thrown, fails the test otherwise.
+template <typename T>
+T value_of(store::Result<T> result) {
+  if (!result) throw std::runtime_error(result.error().message);
+  return std::move(*result);
+}
 
 // A fresh directory under the system's temporary directory, removed with everything in it.
 class ScratchDirectory {

@@ -160,6 +160,7 @@ void open_read_write(Store::Impl& impl, SqliteEngine& engine) {
   const auto& path = impl.path;
   struct stat info {};
   const bool exists = ::stat(path.c_str(), &info) == 0;
+  if (!exists && !impl.options.create_missing) fail(Kind::not_found, "no database file there");
   if (exists && !S_ISREG(info.st_mode)) fail(Kind::invalid_argument, "not a regular file");
   if (exists && !writable(path, info)) fail(Kind::read_only, "the file is read-only");
   if (exists && info.st_size > 0) probe(read_access(path), impl.options);

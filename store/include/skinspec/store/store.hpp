@@ -45,6 +45,9 @@ enum class OpenMode {
 
 struct OpenOptions {
   OpenMode mode = OpenMode::read_write;
+  // read_write: a missing SQLite file is created (skinspecd); false refuses it as not_found, for
+  // commands that work on a database that must exist (skinspec refit).
+  bool create_missing = true;
   RecoveryPolicy recovery = RecoveryPolicy::sessions_with_active_jobs;
   // Run PRAGMA quick_check before using an existing file (time proportional to its size).
   bool check_integrity = true;
@@ -75,6 +78,24 @@ struct SessionFilter {
   std::optional<Time> created_before{};  // created_at < this
   std::optional<Id> cursor{};            // next_cursor of the previous page
   int limit = 50;                        // 1-1000
+};
+
+// What made a fit, as a refit names the fits it makes: a measurement holding a fit with all
+// four is refitted already.
+struct FitMaker {
+  std::string model;
+  std::string model_version;
+  std::string tables_digest;
+  std::string constants_digest;
+};
+
+// The measurements a refit has still to do: those with a reflectance (of one session, or of
+// every one) holding no fit by `made_by`, in order of id after `after_id`, at most `limit`.
+struct RefitQuery {
+  FitMaker made_by;
+  std::optional<Id> session_id{};
+  Id after_id = 0;
+  int limit = 256;  // 1-10000
 };
 
 // Newest first.
@@ -194,6 +215,12 @@ class Store {
   Result<std::optional<Measurement>> latest_measurement(Id session_id, MeasurementKind kind) const;
   // Another fit of a stored measurement (a refit), in any session state.
   Result<Id> add_fit(const Fit& fit);
+  // Several fits of stored measurements in one transaction: all of them or none. Their ids in
+  // the order given.
+  Result<std::vector<Id>> add_fits(const std::vector<Fit>& fits);
+  Result<std::vector<Measurement>> measurements_to_refit(const RefitQuery& query) const;
+  // How many measurements the query (after_id and limit aside) would yield in all.
+  Result<std::int64_t> count_measurements_to_refit(const RefitQuery& query) const;
   Result<Fit> fit(Id id) const;
   Result<std::vector<Fit>> fits_of_measurement(Id measurement_id) const;
 

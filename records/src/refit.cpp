@@ -1,0 +1,132 @@
+#include "skinspec/records/refit.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <map>
+
+#include "skinspec/records/fit_record.hpp"
+#include "skinspec/spectral/parallel.hpp"
+
+namespace skinspec::records {
+
+namespace {
+
+// Large enough that a transaction's commit is a small share of a batch's time, small enough
+// that a stop is prompt and little work is lost to a kill.
+constexpr int kBatch = 512;
+constexpr std::size_t kFailuresKept = 10;
+
+using Clock = std::chrono::steady_clock;
+
+// One measurement's fit, or why the fitter refused it.
+struct Refitted {
+  std::optional<store::Fit> fit;
+  std::string failure;
+};
+
+Refitted refit_one(const Fitter& fitter, const store::Measurement& m, const FitOptions& options) {
+  auto spectrum = Spectrum::create(m.reflectance.wavelength_nm, m.reflectance.values);
+  if (!spectrum) return {std::nullopt, fmt::format("measurement {}: {}", m.id, spectrum.error())};
+  auto result = fitter.fit(*spectrum, options);
+  if (!result) return {std::nullopt, fmt::format("measurement {}: {}", m.id, result.error())};
+  store::Fit f = to_store_fit(*result, options, fitter.optics(options.model));
+  f.measurement_id = m.id;
+  return {std::move(f), {}};
+}
+
+class Refit {
+ public:
+  Refit(store::Store& store, const Fitter& fitter, const RefitRequest& request)
+      : store_(store), fitter_(fitter), request_(request) {}
+
+  std::expected<RefitReport, store::StoreError> run(const RefitObserver& observer) {
+    store::RefitQuery query{current_fit_maker(fitter_, request_.model), request_.session_id, 0, kBatch};
+    auto total = store_.count_measurements_to_refit(query);
+    if (!total) return std::unexpected(total.error());
+    report_.progress.total = *total;
+    for (;;) {
+      auto batch = store_.measurements_to_refit(query);
+      if (!batch) return std::unexpected(batch.error());
+      if (batch->empty()) return report_;
+      query.after_id = batch->back().id;
+      if (auto stored = fit_and_store(*batch); !stored) return std::unexpected(stored.error());
+      if (observer && !observer(progress_now())) {
+        report_.stopped = true;
+        return report_;
+      }
+    }
+  }
+
+ private:
+  std::expected<void, store::StoreError> fit_and_store(const std::vector<store::Measurement>& batch) {
+    std::vector<FitOptions> options;
+    for (const auto& m : batch) {
+      auto o = options_for(m.session_id);
+      if (!o) return std::unexpected(o.error());
+      options.push_back(*o);
+    }
+    std::vector<Refitted> refitted(batch.size());
+    parallel_for(batch.size(), 0, [&](std::size_t i) { refitted[i] = refit_one(fitter_, batch[i], options[i]); });
+    std::vector<store::Fit> fits;
+    for (auto& r : refitted) {
+      if (r.fit) {
+        fits.push_back(std::move(*r.fit));
+      } else {
+        ++report_.progress.failed;
+        if (report_.failures.size() < kFailuresKept) report_.failures.push_back(std::move(r.failure));
+      }
+    }
+    if (fits.empty()) return {};
+    auto stored = store_.add_fits(fits);
+    if (!stored) return std::unexpected(stored.error());
+    report_.progress.done += static_cast<std::int64_t>(fits.size());
+    return {};
+  }
+
+  // A measurement is fitted with its session's site.
+  std::expected<FitOptions, store::StoreError> options_for(store::Id session_id) {
+    auto known = sites_.find(session_id);
+    if (known == sites_.end()) {
+      auto session = store_.session(session_id);
+      if (!session) return std::unexpected(session.error());
+      known = sites_.emplace(session_id, session->site).first;
+    }
+    FitOptions options;
+    options.model = request_.model;
+    options.site = known->second;
+    options.lateral_diffusion = request_.lateral_diffusion;
+    return options;
+  }
+
+  RefitProgress progress_now() {
+    auto& p = report_.progress;
+    p.elapsed_s = std::chrono::duration<double>(Clock::now() - started_).count();
+    const auto handled = p.done + p.failed;
+    if (handled > 0 && p.elapsed_s > 0)
+      p.remaining_s = static_cast<double>(std::max<std::int64_t>(p.total - handled, 0)) * p.elapsed_s /
+                      static_cast<double>(handled);
+    return p;
+  }
+
+  store::Store& store_;
+  const Fitter& fitter_;
+  RefitRequest request_;
+  RefitReport report_;
+  std::map<store::Id, std::string> sites_;
+  Clock::time_point started_ = Clock::now();
+};
+
+}  // namespace
+
+store::FitMaker current_fit_maker(const Fitter& fitter, ModelKind model) {
+  const auto& optics = fitter.optics(model);
+  return {std::string(to_string(model)), model_version(), optics.tables_digest(), optics.constants_digest()};
+}
+
+std::expected<RefitReport, store::StoreError> refit(store::Store& store, const Fitter& fitter,
+                                                    const RefitRequest& request, const RefitObserver& observer) {
+  return Refit(store, fitter, request).run(observer);
+}
+
+}  // namespace skinspec::records
