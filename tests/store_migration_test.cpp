@@ -133,6 +133,7 @@ const std::map<int, std::string> kRowsAtVersion = {
     {4, rows_written_by_version(", NULL") + kVersion4Job},
     {5, kVersion5Rows + kVersion4Job},
     {6, rows_with_benches(kVersion5Rows + kVersion4Job)},
+    {7, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 7 changed nothing in a SQLite file
 };
 
 // What every version's rows must read back as under the current schema.
@@ -212,6 +213,12 @@ TEST_F(StoreMigrationTest, EveryEarlierVersionOpensWithItsRowsIntact) {
       m.white_measurement_id = 1;
       const auto ids = value_of(store.complete_measurement_job(created.job.id, m, testing::sample_fit(1), "{}")).ids;
       EXPECT_EQ(value_of(store.measurement(ids.measurement_id)).job_id, created.job.id);
+      auto imported = testing::sample_measurement(1, 2);
+      imported.kind = MeasurementKind::imported;
+      imported.radiance = {};
+      imported.radiance_sd = {};
+      const auto imported_id = value_of(store.record_measurement(imported, std::nullopt)).measurement_id;
+      EXPECT_EQ(value_of(store.measurement(imported_id)).kind, MeasurementKind::imported);
       EXPECT_EQ(value_of(store.sessions({.site = "forearm"})).sessions.size(), 1u);
       RejectedReading rejected;
       rejected.session_id = 1;

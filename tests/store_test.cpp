@@ -189,6 +189,33 @@ TEST_P(StoreTest, SessionRoundTripsAndFollowsItsStates) {
   EXPECT_EQ(store.create_session(Session{}).error().kind, Kind::invalid_argument);
 }
 
+// An imported reflectance has no radiance of its own; a measured one must have it, and an
+// import must bring its reflectance.
+TEST_P(StoreTest, AnImportedMeasurementHasAReflectanceAndNoRadiance) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(1)));
+  auto imported = sample_measurement(session, 3);
+  imported.kind = MeasurementKind::imported;
+  imported.radiance = {};
+  imported.radiance_sd = {};
+  imported.settings = R"({"source":{"file":"cm700d.csv","sample_id":"P-1","line":4}})";
+  const auto ids = value_of(store.record_measurement(imported, sample_fit(3)));
+  const auto back = value_of(store.measurement(ids.measurement_id));
+  EXPECT_EQ(back.kind, MeasurementKind::imported);
+  EXPECT_TRUE(back.radiance.empty());
+  EXPECT_EQ(back.reflectance, imported.reflectance);
+  EXPECT_EQ(back.settings, imported.settings);
+  EXPECT_EQ(to_string(MeasurementKind::imported), "imported");
+  EXPECT_EQ(parse_measurement_kind("imported"), MeasurementKind::imported);
+
+  auto no_reflectance = imported;
+  no_reflectance.reflectance = {};
+  EXPECT_EQ(store.record_measurement(no_reflectance, std::nullopt).error().kind, Kind::invalid_argument);
+  auto sample_without_radiance = imported;
+  sample_without_radiance.kind = MeasurementKind::sample;
+  EXPECT_EQ(store.record_measurement(sample_without_radiance, std::nullopt).error().kind, Kind::invalid_argument);
+}
+
 // A refit's work list: measurements with a reflectance holding no fit by the maker, by id, of one
 // session or all; and its fits stored a batch at a time, all or none.
 TEST_P(StoreTest, MeasurementsToRefitAreThoseWithoutAFitByTheMaker) {

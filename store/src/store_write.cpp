@@ -22,7 +22,10 @@ namespace {
 
 void check_measurement(const Measurement& m) {
   if (m.session_id <= 0) invalid("a measurement needs its session's id");
-  detail::check_spectrum(m.radiance, "radiance", false);
+  // An imported reflectance comes without the radiance it was taken from; a measured one has it.
+  const bool imported = m.kind == MeasurementKind::imported;
+  detail::check_spectrum(m.radiance, "radiance", imported);
+  if (imported && m.reflectance.empty()) invalid("an imported measurement needs its reflectance");
   detail::check_spectrum(m.radiance_sd, "radiance_sd", true);
   if (!m.radiance_sd.empty() && m.radiance_sd.wavelength_nm != m.radiance.wavelength_nm)
     invalid("radiance_sd: not on the radiance's grid");
@@ -289,6 +292,19 @@ Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, cons
   return impl_->write("recording a measurement", [&](Connection& c) {
     if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
     return insert_measurement_and_fit(c, m, fit, impl_->now());
+  });
+}
+
+Result<std::vector<RecordedMeasurement>> Store::record_measurements(
+    const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements) {
+  return impl_->write(fmt::format("recording {} measurements", measurements.size()), [&](Connection& c) {
+    std::vector<RecordedMeasurement> out;
+    const auto now = impl_->now();
+    for (const auto& [m, fit] : measurements) {
+      if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
+      out.push_back(insert_measurement_and_fit(c, m, fit, now));
+    }
+    return out;
   });
 }
 

@@ -26,10 +26,11 @@ constexpr std::array<std::pair<SessionState, std::string_view>, 4> kSessionState
     {SessionState::aborted, "aborted"},
 }};
 
-constexpr std::array<std::pair<MeasurementKind, std::string_view>, 3> kMeasurementKinds = {{
+constexpr std::array<std::pair<MeasurementKind, std::string_view>, 4> kMeasurementKinds = {{
     {MeasurementKind::white, "white"},
     {MeasurementKind::sample, "sample"},
     {MeasurementKind::dark, "dark"},
+    {MeasurementKind::imported, "imported"},
 }};
 
 constexpr std::array<std::pair<JobState, std::string_view>, 5> kJobStates = {{

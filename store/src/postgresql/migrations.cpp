@@ -169,11 +169,19 @@ ALTER TABLE measurements SET (toast_tuple_target = 8160);
 ALTER TABLE fits SET (toast_tuple_target = 8160);
 )sql";
 
+// Imports (docs/store.md, "Imports"): measurements of kind 'imported'.
+constexpr std::string_view kVersion8Sql = R"sql(
+ALTER TABLE measurements DROP CONSTRAINT measurements_kind_check;
+ALTER TABLE measurements ADD CONSTRAINT measurements_kind_check
+  CHECK (kind IN ('white', 'sample', 'dark', 'imported'));
+)sql";
+
 }  // namespace
 
 constexpr detail::MigrationStep kBaseline{kBaselineSql};
 constexpr detail::MigrationStep kVersion6{kVersion6Sql};
 constexpr detail::MigrationStep kVersion7{kVersion7Sql};
+constexpr detail::MigrationStep kVersion8{kVersion8Sql};
 
 int schema_version(detail::Connection& writer) {
   const auto marked = writer.query_integer(

@@ -300,6 +300,26 @@ CREATE TABLE benches (
 )sql";
 constexpr detail::MigrationStep kVersion6{kVersion6Sql};
 
+// Imports (docs/store.md, "Imports"): measurements of kind 'imported'. Only the CHECK of
+// measurements.kind changes, and it only admits one more value, which every row already
+// satisfies: so, as SQLite's manual describes for loosening a CHECK, its text is changed in
+// sqlite_schema and the schema's cookie advanced, in the migration's transaction, instead of
+// copying the table (which its fits and white readings reference).
+void admit_imported_measurements(detail::Connection& writer) {
+  const auto cookie = writer.query_integer("PRAGMA schema_version");
+  writer.execute("PRAGMA writable_schema = ON");
+  writer.execute(
+      "UPDATE sqlite_schema SET sql = replace(sql, '(kind IN (''white'', ''sample'', ''dark''))', "
+      "'(kind IN (''white'', ''sample'', ''dark'', ''imported''))') WHERE type = 'table' AND name = 'measurements'");
+  const auto changed = writer.query_integer("SELECT changes()");
+  writer.execute(fmt::format("PRAGMA schema_version = {}", cookie + 1));
+  writer.execute("PRAGMA writable_schema = OFF");
+  if (changed != 1)
+    detail::fail(StoreError::Kind::corrupt, "the measurements table is not as version 7 made it (its kind check)");
+}
+
+constexpr detail::MigrationStep kVersion8{"", admit_imported_measurements};
+
 int schema_version(detail::Connection& writer) { return static_cast<int>(writer.query_integer("PRAGMA user_version")); }
 
 void set_schema_version(detail::Connection& writer, int version) {

@@ -21,7 +21,8 @@ namespace skinspec::records {
 struct CgatsSpectrum {
   std::string sample_id;  // SAMPLE_ID, else SAMPLE_NAME, else the set's number from 1
   std::string sample_name;
-  std::size_t line = 0;  // where the set begins in the text, from 1
+  std::string instrument;  // the table's TARGET_INSTRUMENT (ArgyllCMS) or INSTRUMENT, if any
+  std::size_t line = 0;    // where the set begins in the text, from 1
   std::vector<double> wavelength_nm;
   std::vector<double> reflectance;                          // the SPEC_nnn values over SPECTRAL_NORM (1 where absent)
   std::vector<std::pair<std::string, std::string>> fields;  // every field of the set, as written

@@ -204,6 +204,10 @@ class Store {
   // ignored), in one transaction: both or neither. A measurement a job made (job_id set) is
   // refused here: it is stored with the job's end, by complete_measurement_job.
   Result<RecordedMeasurement> record_measurement(const Measurement& measurement, const std::optional<Fit>& fit);
+  // Several measurements, each with its fit when given, in one transaction: all of them or none
+  // (an imported file). Their ids in the order given.
+  Result<std::vector<RecordedMeasurement>> record_measurements(
+      const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements);
   // The end of a running job that measured: the measurement (its job_id set to `job_id`), its
   // fit when given, and the job `succeeded` with `result` (a JSON object, to which the store
   // adds "measurement_id" and "fit_id"), in one transaction: all of it or nothing. So a

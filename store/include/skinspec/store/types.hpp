@@ -102,7 +102,9 @@ struct Session {
   std::optional<Time> ended_at{};  // when it left the open state
 };
 
-enum class MeasurementKind { white, sample, dark };
+// imported: a reflectance read from another program's file (docs/store.md, "Imports"), with no
+// radiance of its own.
+enum class MeasurementKind { white, sample, dark, imported };
 std::string_view to_string(MeasurementKind kind);
 std::optional<MeasurementKind> parse_measurement_kind(std::string_view text);
 

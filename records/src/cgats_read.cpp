@@ -1,14 +1,14 @@
+// Reading CGATS (cgats.hpp): tokens, tables, and the spectra of the spectral ones.
+
 #include "skinspec/records/cgats.hpp"
 
 #include <fmt/format.h>
 
-#include <charconv>
 #include <cmath>
 #include <map>
 #include <optional>
-#include <ostream>
 
-#include "skinspec/records/record_json.hpp"
+#include "finite_number.hpp"
 
 namespace skinspec::records {
 
@@ -52,14 +52,6 @@ std::expected<std::vector<Token>, CgatsError> tokens_of(std::string_view text) {
     }
   }
   return out;
-}
-
-std::optional<double> number_of(const std::string& text) {
-  double value = 0;
-  const auto* first = text.data() + (text.starts_with('+') ? 1 : 0);
-  const auto [end, error] = std::from_chars(first, text.data() + text.size(), value);
-  if (error != std::errc() || end != text.data() + text.size() || !std::isfinite(value)) return std::nullopt;
-  return value;
 }
 
 // One table as read: its keywords, its fields, its sets (each a run of tokens).
@@ -118,7 +110,7 @@ class Reader {
 
   std::expected<long, CgatsError> count_after(const std::string& keyword, std::size_t at_line) {
     const auto values = rest_of_line();
-    const auto value = values.size() == 1 ? number_of(values[0].text) : std::nullopt;
+    const auto value = values.size() == 1 ? detail::finite_number(values[0].text) : std::nullopt;
     if (!value || *value < 0 || *value != std::floor(*value))
       return std::unexpected(CgatsError{at_line, fmt::format("{} must be followed by a whole number", keyword)});
     return static_cast<long>(*value);
@@ -198,7 +190,7 @@ std::expected<double, CgatsError> keyword_number(const Table& table, const std::
   const auto found = table.keywords.find(name);
   if (found == table.keywords.end())
     return std::unexpected(CgatsError{table.line, fmt::format("the spectral table begun here has no {}", name)});
-  const auto value = number_of(found->second.text);
+  const auto value = detail::finite_number(found->second.text);
   if (!value) return std::unexpected(CgatsError{found->second.line, fmt::format("{} is not a number", name)});
   return *value;
 }
@@ -245,16 +237,21 @@ std::expected<void, CgatsError> spectra_of(const Table& table, std::vector<Cgats
                                                                        "SPECTRAL_BANDS",
                                                                        name, wavelength)});
   }
+  std::string instrument;
+  for (const char* keyword : {"TARGET_INSTRUMENT", "INSTRUMENT"})
+    if (const auto found = table.keywords.find(keyword); found != table.keywords.end() && instrument.empty())
+      instrument = found->second.text;
   const auto id_column = field_index(table, "SAMPLE_ID");
   const auto name_column = field_index(table, "SAMPLE_NAME");
   for (std::size_t s = 0; s < table.sets.size(); ++s) {
     const auto& set = table.sets[s];
     CgatsSpectrum spectrum;
     spectrum.line = set.front().line;
+    spectrum.instrument = instrument;
     spectrum.wavelength_nm = *grid;
     for (std::size_t b = 0; b < columns.size(); ++b) {
       const auto& token = set[columns[b]];
-      const auto value = token.quoted ? std::nullopt : number_of(token.text);
+      const auto value = token.quoted ? std::nullopt : detail::finite_number(token.text);
       if (!value)
         return std::unexpected(
             CgatsError{token.line, fmt::format("{} is '{}', not a number", table.fields[columns[b]], token.text)});
@@ -270,58 +267,6 @@ std::expected<void, CgatsError> spectra_of(const Table& table, std::vector<Cgats
   return {};
 }
 
-// ---- writing ----
-
-std::string cgats_string(std::string_view text) {
-  std::string out = "\"";
-  for (const char c : text) out += (c == '"' || c == '\n' || c == '\r') ? '\'' : c;
-  return out + '"';
-}
-
-// The SPEC_nnn names of an even grid on whole nanometres, or why it has none.
-std::expected<std::vector<std::string>, std::string> band_names(const std::vector<double>& grid) {
-  if (grid.size() < 2) return std::unexpected("fewer than two wavelengths");
-  const double step = (grid.back() - grid.front()) / static_cast<double>(grid.size() - 1);
-  std::vector<std::string> names;
-  for (std::size_t i = 0; i < grid.size(); ++i) {
-    const double expected = grid.front() + step * static_cast<double>(i);
-    if (std::abs(grid[i] - expected) > 1e-6 * step)
-      return std::unexpected(fmt::format("the wavelengths are not evenly spaced (at {} nm)", grid[i]));
-    if (std::abs(grid[i] - std::round(grid[i])) > 1e-9)
-      return std::unexpected(fmt::format("{} nm is not a whole number of nanometres", grid[i]));
-    names.push_back(fmt::format("SPEC_{:03}", std::lround(grid[i])));
-  }
-  return names;
-}
-
-void write_table(const store::Session& session, const std::vector<double>& grid, const std::vector<std::string>& names,
-                 const std::vector<const store::Measurement*>& sets, std::ostream& out) {
-  out << "CTI3\n\n"
-      << "DESCRIPTOR "
-      << cgats_string(
-             fmt::format("skinspec session {}: subject {}, site {}", session.id, session.subject, session.site))
-      << "\nORIGINATOR \"skinspec\"\n"
-      << "CREATED " << cgats_string(json_time(session.created_at))
-      << '\n'
-      // ArgyllCMS's tools need a device class; measured reflective samples are what its INPUT
-      // (scanner and camera) references hold.
-      << "DEVICE_CLASS \"INPUT\"\n"
-      << "KEYWORD \"SAMPLE_NAME\"\n"
-      << "INSTRUMENT_TYPE_SPECTRAL \"YES\"\n"
-      << fmt::format("SPECTRAL_BANDS \"{}\"\nSPECTRAL_START_NM \"{}\"\nSPECTRAL_END_NM \"{}\"\n", grid.size(),
-                     grid.front(), grid.back())
-      << "SPECTRAL_NORM \"100\"\n\n"
-      << "NUMBER_OF_FIELDS " << names.size() + 2 << "\nBEGIN_DATA_FORMAT\nSAMPLE_ID SAMPLE_NAME";
-  for (const auto& name : names) out << ' ' << name;
-  out << "\nEND_DATA_FORMAT\n\nNUMBER_OF_SETS " << sets.size() << "\nBEGIN_DATA\n";
-  for (const auto* m : sets) {
-    out << m->id << ' ' << cgats_string(m->label);
-    for (const double v : m->reflectance.values) out << ' ' << fmt::format("{}", v * 100);
-    out << '\n';
-  }
-  out << "END_DATA\n";
-}
-
 }  // namespace
 
 std::expected<std::vector<CgatsSpectrum>, CgatsError> parse_cgats(std::string_view text) {
@@ -335,27 +280,6 @@ std::expected<std::vector<CgatsSpectrum>, CgatsError> parse_cgats(std::string_vi
     if (auto read = spectra_of(table, out); !read) return std::unexpected(read.error());
   }
   return out;
-}
-
-std::expected<void, std::string> write_cgats(const store::SessionDetail& detail, std::ostream& out) {
-  // Tables in the order their grids first appear; sets in the order stored.
-  std::vector<std::pair<std::vector<double>, std::vector<const store::Measurement*>>> tables;
-  for (const auto& m : detail.measurements) {
-    if (m.reflectance.empty()) continue;
-    auto same = std::ranges::find(tables, m.reflectance.wavelength_nm, [](const auto& t) { return t.first; });
-    if (same == tables.end()) same = tables.insert(tables.end(), {m.reflectance.wavelength_nm, {}});
-    same->second.push_back(&m);
-  }
-  for (std::size_t t = 0; t < tables.size(); ++t) {
-    const auto& [grid, sets] = tables[t];
-    const auto names = band_names(grid);
-    if (!names)
-      return std::unexpected(fmt::format("measurement {}: its reflectance cannot be written as CGATS: {}",
-                                         sets.front()->id, names.error()));
-    if (t > 0) out << '\n';
-    write_table(detail.session, grid, *names, sets, out);
-  }
-  return {};
 }
 
 }  // namespace skinspec::records

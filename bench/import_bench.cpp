@@ -1,0 +1,101 @@
+// A lab's archive, imported and refitted (issue goals on 2 cores: 100,000 spectra imported with
+// their fits in <= 15 s, refitted in <= 10 s). N skin-like reflectances with noise (101 points,
+// 380-780 nm) are written as one CSV file of one row per spectrum, imported into a session of a
+// new SQLite database as `records::import_file` does (read, fitted on every core, stored in one
+// transaction), then refitted as `skinspec refit` does (`records::refit`, 512 fits to a
+// transaction). Prints each phase's time and rate.
+// Run: build/release/bin/import_bench [N]   (default 100000; the file goes to $TMPDIR or /tmp)
+
+#include <fmt/format.h>
+#include <stdlib.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <random>
+#include <string>
+
+#include "fitter_loader.hpp"
+#include "skinspec/fit/model.hpp"
+#include "skinspec/records/import_file.hpp"
+#include "skinspec/records/refit.hpp"
+
+namespace {
+
+using namespace skinspec;
+using Clock = std::chrono::steady_clock;
+
+[[noreturn]] void die(const std::string& message) {
+  std::fprintf(stderr, "import_bench: %s\n", message.c_str());
+  std::exit(1);
+}
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// One row per spectrum: "id,380nm,384nm,...", values as reflectance 0-1.
+std::string archive(const Fitter& fitter, int count) {
+  const auto grid = Spectrum::uniform_grid(380, 780, 4);
+  const auto& optics = fitter.optics(ModelKind::extended);
+  const SkinModel model(optics, *optics.site("forearm"), grid, true);
+  std::mt19937 random(42);
+  std::uniform_real_distribution<double> melanin(1, 30), blood(1, 8), share(0.5, 0.95), bilirubin(0, 3);
+  std::normal_distribution<double> noise(0, 0.002);
+  std::string out = "id";
+  for (const double w : grid) out += fmt::format(",{}nm", w);
+  out += '\n';
+  for (int n = 0; n < count; ++n) {
+    Params p = default_params(ModelKind::extended);
+    p[kMelanin] = melanin(random);
+    p[kTotalHemoglobin] = blood(random);
+    p[kOxygenSaturation] = share(random);
+    p[kBilirubin] = bilirubin(random);
+    out += fmt::format("S-{}", n);
+    for (const double r : model.reflectance(p)) out += fmt::format(",{:.5f}", r + noise(random));
+    out += '\n';
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int count = argc > 1 ? std::atoi(argv[1]) : 100000;
+  if (count < 1) die("N must be a positive number of spectra");
+  auto fitter = load_fitter();
+  if (!fitter) die(fitter.error() + " (set SKINSPEC_DATA_DIR)");
+  const auto text = archive(*fitter, count);
+  std::string pattern = (std::filesystem::temp_directory_path() / "skinspec-import-XXXXXX").string();
+  if (!::mkdtemp(pattern.data())) die("cannot make a temporary directory");
+  const std::filesystem::path dir = pattern;
+  {
+    auto db = store::Store::open((dir / "lab.db").string());
+    if (!db) die(db.error().message);
+    store::Session session;
+    session.subject = "archive";
+    session.site = "forearm";
+    session.model = "extended";
+    const auto id = db->create_session(session);
+    if (!id) die(id.error().message);
+
+    auto started = Clock::now();
+    const auto imported = records::import_file(*db, *fitter, *id, text, "archive.csv", records::ImportFormat::csv);
+    if (!imported) die(imported.error().message());
+    double seconds = seconds_since(started);
+    std::printf("imported %zu spectra (%.1f MB of CSV) with their fits in %.2f s: %.0f spectra/s\n",
+                imported->stored.size(), static_cast<double>(text.size()) / 1e6, seconds,
+                static_cast<double>(imported->stored.size()) / seconds);
+
+    // The refit's maker differs from the import's only by its model: the paper's.
+    started = Clock::now();
+    const auto report =
+        records::refit(*db, *fitter, {.model = ModelKind::paper, .session_id = {}, .lateral_diffusion = true}, {});
+    if (!report) die(report.error().message);
+    seconds = seconds_since(started);
+    std::printf("refitted %lld of %lld (%lld refused) in %.2f s: %.0f measurements/s\n",
+                static_cast<long long>(report->progress.done), static_cast<long long>(report->progress.total),
+                static_cast<long long>(report->progress.failed), seconds,
+                static_cast<double>(report->progress.done) / seconds);
+  }
+  std::filesystem::remove_all(dir);
+  return 0;
+}

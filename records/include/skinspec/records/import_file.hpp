@@ -1,0 +1,45 @@
+#pragma once
+// One file of spectra imported into a session (docs/store.md, "Imports"): read (import.hpp),
+// each spectrum fitted with the session's model and site on every core, and all of them stored
+// with their fits in one transaction. A defect anywhere in the file, or a spectrum the fitter
+// refuses, refuses the whole file, naming its line; nothing of it is stored.
+
+#include <cstddef>
+#include <functional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "skinspec/fit/fitter.hpp"
+#include "skinspec/records/import.hpp"
+#include "skinspec/store/store.hpp"
+
+namespace skinspec::records {
+
+// An imported spectrum as a measurement of `session_id` (kind imported, its reflectance, no
+// radiance), its provenance in `settings`: {"source": {"file", "format", "sample_id", "line",
+// "instrument"}}.
+store::Measurement imported_measurement(const ImportedSpectrum& spectrum, store::Id session_id, std::string_view source,
+                                        ImportFormat format, store::Time now);
+
+// Why a file was not imported: the file itself (bad input), or the store.
+struct ImportFailure {
+  std::variant<InputError, store::StoreError> cause;
+  bool bad_file() const { return std::holds_alternative<InputError>(cause); }
+  std::string message() const;  // "FILE:LINE:COLUMN: what", or the store's message
+};
+
+// Told how many of the file's spectra are fitted, of how many, as the fitting goes (from any
+// thread, one call at a time); returning false stops the import before anything is stored.
+using ImportObserver = std::function<bool(std::size_t fitted, std::size_t total)>;
+
+struct ImportedFile {
+  std::vector<store::RecordedMeasurement> stored;  // in the file's order
+  bool stopped = false;                            // the observer stopped it: nothing stored
+};
+
+std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
+                                                       std::string_view bytes, std::string_view source,
+                                                       ImportFormat format, const ImportObserver& observer = {});
+
+}  // namespace skinspec::records

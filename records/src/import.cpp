@@ -1,0 +1,279 @@
+#include "skinspec/records/import.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "finite_number.hpp"
+#include "skinspec/records/cgats.hpp"
+#include "skinspec/spectral/utf8.hpp"
+
+namespace skinspec::records {
+
+namespace {
+
+constexpr std::array<std::pair<ImportFormat, std::string_view>, 2> kFormats = {{
+    {ImportFormat::csv, "csv"},
+    {ImportFormat::cgats, "cgats"},
+}};
+
+// Above this a CSV file's values are percent; below it (after scaling) none may fall.
+constexpr double kPercentAbove = 1.5;
+constexpr double kLowestReflectance = -0.05;  // a little below 0: spectrometer noise over black
+
+struct Row {
+  std::size_t line = 0;
+  std::vector<std::string> cells;
+};
+
+std::string trimmed(std::string_view text) {
+  const auto first = text.find_first_not_of(" \t");
+  if (first == std::string_view::npos) return {};
+  const auto last = text.find_last_not_of(" \t");
+  return std::string(text.substr(first, last - first + 1));
+}
+
+// RFC 4180 rows, quotes and doubled quotes in them; blank lines and lines starting with '#'
+// (outside quotes) skipped.
+std::expected<std::vector<Row>, InputError> rows_of(std::string_view bytes, std::string_view source) {
+  std::vector<Row> rows;
+  std::size_t line = 1;
+  for (std::size_t i = 0; i < bytes.size();) {
+    Row row{line, {}};
+    const auto text_start = bytes.find_first_not_of(" \t", i);
+    const bool comment = text_start != std::string_view::npos && bytes[text_start] == '#';
+    std::string cell;
+    bool quoted = false, any = false;
+    for (; i < bytes.size(); ++i) {
+      const char c = bytes[i];
+      if (quoted) {
+        if (c == '"' && i + 1 < bytes.size() && bytes[i + 1] == '"') cell += '"', ++i;
+        else if (c == '"') quoted = false;
+        else {
+          if (c == '\n') ++line;
+          cell += c;
+        }
+      } else if (c == '"') {
+        quoted = any = true;
+      } else if (c == ',') {
+        row.cells.push_back(trimmed(cell)), cell.clear(), any = true;
+      } else if (c == '\n') {
+        ++i;
+        break;
+      } else if (c != '\r') {
+        cell += c;
+        if (c != ' ' && c != '\t') any = true;
+      }
+    }
+    if (quoted) return std::unexpected(InputError{std::string(source), row.line, 0, "a quoted field is not closed"});
+    row.cells.push_back(trimmed(cell));
+    ++line;
+    if (any && !comment) rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+// "400", "400nm", "400 nm", "400.5 nm".
+std::optional<double> wavelength_of(std::string_view header) {
+  std::string text = trimmed(header);
+  if (text.ends_with("nm")) text = trimmed(std::string_view(text).substr(0, text.size() - 2));
+  const auto value = detail::finite_number(text);
+  if (!value || *value <= 0 || *value > 100000) return std::nullopt;
+  return value;
+}
+
+bool names_wavelengths(std::string header) {
+  std::ranges::transform(header, header.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::erase(header, ' ');
+  return header == "wavelength_nm" || header == "wavelength" || header == "nm" || header == "wavelength(nm)" ||
+         header == "lambda";
+}
+
+class CsvReader {
+ public:
+  CsvReader(std::vector<Row> rows, std::string_view source) : rows_(std::move(rows)), source_(source) {}
+
+  std::expected<std::vector<ImportedSpectrum>, InputError> read() {
+    if (rows_.size() < 2) return fail(rows_.empty() ? 0 : rows_[0].line, 0, "no header and data rows");
+    auto spectra = names_wavelengths(rows_[0].cells[0]) ? by_columns() : by_rows();
+    if (!spectra) return spectra;
+    if (auto scaled = to_fractions(*spectra); !scaled) return std::unexpected(scaled.error());
+    return spectra;
+  }
+
+ private:
+  std::unexpected<InputError> fail(std::size_t line, std::size_t column, std::string message) const {
+    return std::unexpected(InputError{std::string(source_), line, column, std::move(message)});
+  }
+
+  std::expected<double, InputError> value_at(const Row& row, std::size_t column) const {
+    if (column >= row.cells.size())
+      return fail(row.line, 0, fmt::format("{} fields where the header has more", row.cells.size()));
+    const auto value = detail::finite_number(row.cells[column]);
+    if (!value) return fail(row.line, column + 1, fmt::format("'{}' is not a number", row.cells[column]));
+    return *value;
+  }
+
+  std::expected<void, InputError> check_width(const Row& row) const {
+    if (row.cells.size() != rows_[0].cells.size())
+      return fail(row.line, 0,
+                  fmt::format("{} fields where the header has {}", row.cells.size(), rows_[0].cells.size()));
+    return {};
+  }
+
+  // One column per spectrum, one row per wavelength.
+  std::expected<std::vector<ImportedSpectrum>, InputError> by_columns() {
+    const auto& header = rows_[0].cells;
+    if (header.size() < 2) return fail(rows_[0].line, 0, "no spectrum column after the wavelength column");
+    std::vector<ImportedSpectrum> out(header.size() - 1);
+    where_.resize(out.size());
+    for (std::size_t c = 1; c < header.size(); ++c) {
+      if (header[c].empty()) return fail(rows_[0].line, c + 1, "a spectrum column without a name");
+      out[c - 1].sample_id = header[c];
+      out[c - 1].line = rows_[1].line;
+    }
+    for (std::size_t r = 1; r < rows_.size(); ++r) {
+      if (auto width = check_width(rows_[r]); !width) return std::unexpected(width.error());
+      const auto wavelength = value_at(rows_[r], 0);
+      if (!wavelength) return std::unexpected(wavelength.error());
+      if (r > 1 && !(*wavelength > out[0].reflectance.wavelength_nm.back()))
+        return fail(rows_[r].line, 1, "the wavelengths must increase from row to row");
+      for (std::size_t c = 1; c < header.size(); ++c) {
+        const auto value = value_at(rows_[r], c);
+        if (!value) return std::unexpected(value.error());
+        out[c - 1].reflectance.wavelength_nm.push_back(*wavelength);
+        out[c - 1].reflectance.values.push_back(*value);
+        where_[c - 1].push_back({rows_[r].line, c + 1});
+      }
+    }
+    return out;
+  }
+
+  // One row per spectrum: text columns (the first the sample id), then wavelength columns.
+  std::expected<std::vector<ImportedSpectrum>, InputError> by_rows() {
+    const auto& header = rows_[0].cells;
+    std::size_t first = header.size();
+    while (first > 0 && wavelength_of(header[first - 1])) --first;
+    if (header.size() - first < 2)
+      return fail(rows_[0].line, 0,
+                  "the header names no wavelengths: its first field is not wavelength_nm (one column per spectrum) "
+                  "and it does not end in wavelength columns such as 400nm (one row per spectrum)");
+    std::vector<double> grid;
+    for (std::size_t c = first; c < header.size(); ++c) {
+      grid.push_back(*wavelength_of(header[c]));
+      if (grid.size() > 1 && !(grid.back() > grid[grid.size() - 2]))
+        return fail(rows_[0].line, c + 1, "the wavelengths must increase from column to column");
+    }
+    std::vector<ImportedSpectrum> out;
+    for (std::size_t r = 1; r < rows_.size(); ++r) {
+      if (auto width = check_width(rows_[r]); !width) return std::unexpected(width.error());
+      ImportedSpectrum spectrum;
+      spectrum.sample_id = first > 0 && !rows_[r].cells[0].empty() ? rows_[r].cells[0] : std::to_string(r);
+      spectrum.line = rows_[r].line;
+      spectrum.reflectance.wavelength_nm = grid;
+      auto& where = where_.emplace_back();
+      for (std::size_t c = first; c < header.size(); ++c) {
+        const auto value = value_at(rows_[r], c);
+        if (!value) return std::unexpected(value.error());
+        spectrum.reflectance.values.push_back(*value);
+        where.push_back({rows_[r].line, c + 1});
+      }
+      out.push_back(std::move(spectrum));
+    }
+    return out;
+  }
+
+  // Percent when any value is above 1.5; then every value must be a reflectance.
+  std::expected<void, InputError> to_fractions(std::vector<ImportedSpectrum>& spectra) const {
+    double largest = 0;
+    for (const auto& s : spectra)
+      for (const double v : s.reflectance.values) largest = std::max(largest, v);
+    const double scale = largest > kPercentAbove ? 0.01 : 1.0;
+    for (std::size_t i = 0; i < spectra.size(); ++i) {
+      auto& values = spectra[i].reflectance.values;
+      if (values.size() < 2) return fail(spectra[i].line, 0, "a spectrum needs at least two wavelengths");
+      for (std::size_t k = 0; k < values.size(); ++k) {
+        values[k] *= scale;
+        if (values[k] >= kLowestReflectance && values[k] <= kPercentAbove) continue;
+        const auto [line, column] = where_[i][k];
+        return fail(line, column,
+                    fmt::format("{} is not a reflectance ({} to {}{})", values[k] / scale, kLowestReflectance / scale,
+                                kPercentAbove / scale, scale < 1 ? " percent, as the file holds percent" : ""));
+      }
+    }
+    return {};
+  }
+
+  std::vector<Row> rows_;
+  std::string_view source_;
+  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> where_;  // each value's line and column
+};
+
+std::expected<std::vector<ImportedSpectrum>, InputError> read_cgats(std::string_view bytes, std::string_view source) {
+  auto read = parse_cgats(bytes);
+  if (!read) return std::unexpected(InputError{std::string(source), read.error().line, 0, read.error().message});
+  std::vector<ImportedSpectrum> out;
+  for (auto& s : *read) {
+    for (std::size_t k = 0; k < s.reflectance.size(); ++k)
+      if (!(s.reflectance[k] >= kLowestReflectance && s.reflectance[k] <= kPercentAbove))
+        return std::unexpected(
+            InputError{std::string(source), s.line, 0,
+                       fmt::format("{} at {} nm is not a reflectance ({} to {}, over SPECTRAL_NORM)", s.reflectance[k],
+                                   s.wavelength_nm[k], kLowestReflectance, kPercentAbove)});
+    out.push_back({std::move(s.sample_id), s.line, std::move(s.instrument),
+                   store::SpectralSamples{std::move(s.wavelength_nm), std::move(s.reflectance)}});
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string_view to_string(ImportFormat format) {
+  for (const auto& [f, name] : kFormats)
+    if (f == format) return name;
+  return "?";
+}
+
+std::optional<ImportFormat> parse_import_format(std::string_view text) {
+  for (const auto& [f, name] : kFormats)
+    if (name == text) return f;
+  return std::nullopt;
+}
+
+ImportFormat recognise_import_format(std::string_view bytes) {
+  const auto start = bytes.find_first_not_of(" \t\r\n");
+  if (start == std::string_view::npos) return ImportFormat::csv;
+  const auto first_word = bytes.substr(start, bytes.find_first_of(" \t\r\n,", start) - start);
+  const bool cgats_type = first_word.starts_with("CGATS") || first_word == "CTI1" || first_word == "CTI2" ||
+                          first_word == "CTI3" || first_word == "SPECT" || first_word.starts_with("IT8") ||
+                          first_word == "LGOROWLENGTH" || first_word == "ECI2002";
+  return cgats_type && bytes.find("BEGIN_DATA") != std::string_view::npos ? ImportFormat::cgats : ImportFormat::csv;
+}
+
+std::expected<std::vector<ImportedSpectrum>, InputError> read_import(std::string_view bytes, std::string_view source,
+                                                                     ImportFormat format) {
+  // Spreadsheet programs put a byte order mark in front; the store keeps UTF-8 text without NUL.
+  if (bytes.starts_with("\xEF\xBB\xBF")) bytes.remove_prefix(3);
+  const auto defect = utf8::first_defect(bytes);
+  const auto nul = bytes.find('\0');
+  if (defect || nul != std::string_view::npos) {
+    const auto at = std::min(defect ? defect->offset : bytes.size(), nul);
+    const auto line =
+        static_cast<std::size_t>(std::count(bytes.begin(), bytes.begin() + static_cast<long>(at), '\n')) + 1;
+    return std::unexpected(InputError{std::string(source), line, 0, "not UTF-8 text: save the file as UTF-8"});
+  }
+  std::expected<std::vector<ImportedSpectrum>, InputError> spectra;
+  if (format == ImportFormat::cgats) {
+    spectra = read_cgats(bytes, source);
+  } else {
+    auto rows = rows_of(bytes, source);
+    if (!rows) return std::unexpected(rows.error());
+    spectra = CsvReader(std::move(*rows), source).read();
+  }
+  if (spectra && spectra->empty()) return std::unexpected(InputError{std::string(source), 0, 0, "no spectra in it"});
+  return spectra;
+}
+
+}  // namespace skinspec::records

@@ -1,0 +1,101 @@
+#include "skinspec/records/import_file.hpp"
+
+#include <fmt/format.h>
+
+#include <atomic>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include "skinspec/records/fit_record.hpp"
+#include "skinspec/spectral/parallel.hpp"
+
+namespace skinspec::records {
+
+namespace {
+
+// How often, in spectra, the observer hears of the fitting.
+constexpr std::size_t kReportEvery = 256;
+
+std::unexpected<ImportFailure> bad_file(std::string_view source, std::size_t line, std::string message) {
+  return std::unexpected(ImportFailure{InputError{std::string(source), line, 0, std::move(message)}});
+}
+
+}  // namespace
+
+store::Measurement imported_measurement(const ImportedSpectrum& spectrum, store::Id session_id, std::string_view source,
+                                        ImportFormat format, store::Time now) {
+  store::Measurement m;
+  m.session_id = session_id;
+  m.kind = store::MeasurementKind::imported;
+  m.label = spectrum.sample_id;
+  m.quality = "imported";
+  m.units = "reflectance";
+  m.settings = nlohmann::json{{"source",
+                               {{"file", source},
+                                {"format", to_string(format)},
+                                {"sample_id", spectrum.sample_id},
+                                {"line", spectrum.line},
+                                {"instrument", spectrum.instrument}}}}
+                   .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  m.reading_count = 1;
+  m.reflectance = spectrum.reflectance;
+  m.started_at = now;
+  m.finished_at = now;
+  return m;
+}
+
+std::string ImportFailure::message() const {
+  if (const auto* input = std::get_if<InputError>(&cause)) return input->what();
+  return std::get<store::StoreError>(cause).message;
+}
+
+std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
+                                                       std::string_view bytes, std::string_view source,
+                                                       ImportFormat format, const ImportObserver& observer) {
+  const auto session = store.session(session_id);
+  if (!session) return std::unexpected(ImportFailure{session.error()});
+  const auto model = parse_model_kind(session->model);
+  if (!model)
+    return std::unexpected(ImportFailure{store::StoreError{
+        store::StoreError::Kind::conflict,
+        fmt::format("session {}'s model '{}' is not one this version knows", session_id, session->model), 0}});
+  auto spectra = read_import(bytes, source, format);
+  if (!spectra) return std::unexpected(ImportFailure{spectra.error()});
+
+  const FitOptions options{
+      .model = *model, .site = session->site, .lateral_diffusion = true, .weights = {}, .held = {}};
+  const auto now = store::Time(
+      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()));
+  std::vector<std::pair<store::Measurement, std::optional<store::Fit>>> rows(spectra->size());
+  std::vector<std::string> refused(spectra->size());
+  std::atomic<std::size_t> fitted{0};
+  std::atomic<bool> stop{false};
+  std::mutex observing;
+  parallel_for(spectra->size(), 0, [&](std::size_t i) {
+    if (stop) return;
+    const auto& s = (*spectra)[i];
+    rows[i].first = imported_measurement(s, session_id, source, format, now);
+    auto spectrum = Spectrum::create(s.reflectance.wavelength_nm, s.reflectance.values);
+    auto result = spectrum ? fitter.fit(*spectrum, options) : std::unexpected(spectrum.error());
+    if (!result) {
+      refused[i] = result.error();
+    } else {
+      rows[i].second = to_store_fit(*result, options, fitter.optics(*model));
+    }
+    const auto done = ++fitted;
+    if (observer && (done % kReportEvery == 0 || done == rows.size())) {
+      std::lock_guard lock(observing);
+      if (!observer(done, rows.size())) stop = true;
+    }
+  });
+  if (stop) return ImportedFile{{}, true};
+  for (std::size_t i = 0; i < refused.size(); ++i)
+    if (!refused[i].empty())
+      return bad_file(source, (*spectra)[i].line,
+                      fmt::format("spectrum '{}' cannot be fitted: {}", (*spectra)[i].sample_id, refused[i]));
+  auto stored = store.record_measurements(rows);
+  if (!stored) return std::unexpected(ImportFailure{stored.error()});
+  return ImportedFile{std::move(*stored), false};
+}
+
+}  // namespace skinspec::records

@@ -1,0 +1,212 @@
+// Other programs' spectra files read for import (records/import.hpp): the example files of each
+// layout, the format recognised, and the defects that refuse a file with its line and column.
+
+#include "skinspec/records/import.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "skinspec/records/import_file.hpp"
+#include "support/data.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec::records {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::vector<ImportedSpectrum> read_ok(std::string_view bytes, ImportFormat format) {
+  auto read = read_import(bytes, "f.csv", format);
+  if (!read) throw std::runtime_error(read.error().what());
+  return std::move(*read);
+}
+
+InputError read_refused(std::string_view bytes, ImportFormat format = ImportFormat::csv) {
+  auto read = read_import(bytes, "f.csv", format);
+  if (read) throw std::runtime_error("read a file it should refuse");
+  return read.error();
+}
+
+TEST(ImportTest, KonicaMinoltaRowsInPercentBecomeFractionsNamedByTheirFirstColumn) {
+  const auto text = testing::data_file("examples/import-rows-percent.csv");
+  EXPECT_EQ(recognise_import_format(text), ImportFormat::csv);
+  const auto spectra = read_ok(text, ImportFormat::csv);
+  ASSERT_EQ(spectra.size(), 3u);
+  EXPECT_EQ(spectra[0].sample_id, "forearm P-01");
+  EXPECT_EQ(spectra[2].sample_id, "cheek P-01");
+  EXPECT_EQ(spectra[1].line, 3u);
+  ASSERT_EQ(spectra[0].reflectance.wavelength_nm.size(), 31u);
+  EXPECT_EQ(spectra[0].reflectance.wavelength_nm.front(), 400);
+  EXPECT_EQ(spectra[0].reflectance.wavelength_nm.back(), 700);
+  EXPECT_DOUBLE_EQ(spectra[0].reflectance.values[0], 0.2503);
+}
+
+TEST(ImportTest, ColumnsOfFractionsAreReadAsTheyAre) {
+  const auto text = testing::data_file("examples/import-columns.csv");
+  const auto spectra = read_ok(text, recognise_import_format(text));
+  ASSERT_EQ(spectra.size(), 2u);
+  EXPECT_EQ(spectra[1].sample_id, "subject-7 right");
+  EXPECT_EQ(spectra[1].line, 3u);
+  EXPECT_DOUBLE_EQ(spectra[1].reflectance.values[0], 0.28026);
+  EXPECT_EQ(spectra[1].reflectance.wavelength_nm[1], 410);
+}
+
+TEST(ImportTest, AnArgyllTableIsRecognisedWithItsInstrument) {
+  const auto text = testing::data_file("examples/import-argyll.ti3");
+  ASSERT_EQ(recognise_import_format(text), ImportFormat::cgats);
+  const auto spectra = read_ok(text, ImportFormat::cgats);
+  ASSERT_EQ(spectra.size(), 2u);
+  EXPECT_EQ(spectra[0].sample_id, "1");
+  EXPECT_EQ(spectra[0].instrument, "X-Rite i1 Pro 2");
+  EXPECT_EQ(spectra[0].line, 21u);
+  EXPECT_DOUBLE_EQ(spectra[0].reflectance.values[0], 0.250261);  // 25.0261 over SPECTRAL_NORM 100
+}
+
+TEST(ImportTest, DefectsAreNamedByLineAndColumn) {
+  struct Case {
+    std::string text;
+    std::size_t line, column;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {"", 0, 0, "no header"},
+      {"wavelength_nm,a\n", 1, 0, "no header and data rows"},
+      {"wavelength_nm,a\n400,0.1\n500,x\n", 3, 2, "'x' is not a number"},
+      {"wavelength_nm,a\n400,0.1\n400,0.2\n", 3, 1, "must increase"},
+      {"wavelength_nm,a,b\n400,0.1,0.2\n500,0.3\n", 3, 0, "2 fields where the header has 3"},
+      {"wavelength_nm,a,\n400,0.1,0.2\n500,0.3,0.3\n", 1, 3, "without a name"},
+      {"id,400nm,500nm\nP1,10,20\nP2,30,200\n", 3, 3, "200 is not a reflectance (-5 to 150 percent"},
+      {"id,400nm,500nm\nP1,0.1,-0.2\n", 2, 3, "-0.2 is not a reflectance"},
+      {"id,500nm,400nm\nP1,0.1,0.2\n", 1, 3, "must increase from column to column"},
+      {"id,comment\nP1,x\n", 1, 0, "the header names no wavelengths"},
+      {"id,400,500\n\"P1,0.1,0.2\n", 2, 0, "not closed"},
+      {"wavelength_nm,a\n400,0.1\n", 2, 0, "at least two wavelengths"},
+      {"id,400,500\nP\xE9,0.1,0.2\n", 2, 0, "not UTF-8"},
+      {std::string("id,400,500\nP1,0.1,0.2\nP\0,0.1,0.2\n", 33), 3, 0, "not UTF-8"},
+  };
+  for (const auto& c : cases) {
+    const auto error = read_refused(c.text);
+    EXPECT_EQ(error.source, "f.csv");
+    EXPECT_EQ(error.line, c.line) << c.text;
+    EXPECT_EQ(error.column, c.column) << c.text;
+    EXPECT_THAT(error.message, HasSubstr(c.says)) << c.text;
+  }
+  const auto cgats = read_refused(
+      "CTI3\nSPECTRAL_BANDS 2\nBEGIN_DATA_FORMAT\nSAMPLE_ID\nEND_DATA_FORMAT\n"
+      "BEGIN_DATA\n1\nEND_DATA\n",
+      ImportFormat::cgats);
+  EXPECT_THAT(cgats.message, HasSubstr("no SPECTRAL_START_NM"));
+  // Radiance, or percent without SPECTRAL_NORM 100, is no reflectance.
+  const auto radiance = read_refused(
+      "CTI3\nSPECTRAL_BANDS 2\nSPECTRAL_START_NM 400\nSPECTRAL_END_NM 500\nBEGIN_DATA_FORMAT\nSAMPLE_ID SPEC_400 "
+      "SPEC_500\nEND_DATA_FORMAT\nBEGIN_DATA\n1 0.3 0.4\n2 30 40\nEND_DATA\n",
+      ImportFormat::cgats);
+  EXPECT_EQ(radiance.line, 10u);
+  EXPECT_THAT(radiance.message, HasSubstr("30 at 400 nm is not a reflectance"));
+  EXPECT_THAT(read_refused("CTI3\nBEGIN_DATA_FORMAT\nSAMPLE_ID\nEND_DATA_FORMAT\nBEGIN_DATA\n1\nEND_DATA\n",
+                           ImportFormat::cgats)
+                  .message,
+              HasSubstr("no spectra"));
+}
+
+TEST(ImportTest, QuotedFieldsCommentsAndBlankLinesAreRead) {
+  const auto spectra = read_ok(
+      "\xEF\xBB\xBF# exported\n\n\"Data Name\",\"400 nm\",\"500 nm\"\r\n\"P \"\"A\"\", left\",0.1,0.2\r\n\n# end\n",
+      ImportFormat::csv);
+  ASSERT_EQ(spectra.size(), 1u);
+  EXPECT_EQ(spectra[0].sample_id, "P \"A\", left");
+  EXPECT_EQ(spectra[0].line, 4u);
+  EXPECT_EQ(spectra[0].reflectance.values[1], 0.2);
+}
+
+TEST(ImportTest, AnImportedSpectrumBecomesAMeasurementWithItsProvenance) {
+  ImportedSpectrum s{"P-1", 7, "CM-700d", {{400, 500}, {0.3, 0.4}}};
+  const auto m = imported_measurement(s, 12, "lab.csv", ImportFormat::csv, store::Time(std::chrono::seconds(5)));
+  EXPECT_EQ(m.session_id, 12);
+  EXPECT_EQ(m.kind, store::MeasurementKind::imported);
+  EXPECT_EQ(m.label, "P-1");
+  EXPECT_TRUE(m.radiance.empty());
+  EXPECT_EQ(m.reflectance.values, (std::vector<double>{0.3, 0.4}));
+  const auto source = nlohmann::json::parse(m.settings)["source"];
+  EXPECT_EQ(source["file"], "lab.csv");
+  EXPECT_EQ(source["format"], "csv");
+  EXPECT_EQ(source["line"], 7);
+  EXPECT_EQ(source["instrument"], "CM-700d");
+  EXPECT_EQ(parse_import_format("cgats"), ImportFormat::cgats);
+  EXPECT_FALSE(parse_import_format("xlsx"));
+}
+
+// ---- A file imported into a session: fitted and stored in one transaction, or nothing of it.
+
+class ImportFileTest : public ::testing::Test {
+ protected:
+  ImportFileTest() : store_(testing::value_of(store::Store::open(dir_.file("lab.db")))) {
+    auto session = testing::sample_session(1);
+    session.model = "extended";
+    session_ = testing::value_of(store_.create_session(session));
+  }
+
+  std::expected<ImportedFile, ImportFailure> import(std::string_view bytes, const ImportObserver& observer = {}) {
+    return import_file(store_, testing::shipped_fitter(), session_, bytes, "lab.csv", recognise_import_format(bytes),
+                       observer);
+  }
+  std::size_t stored_measurements() { return testing::value_of(store_.session_detail(session_)).measurements.size(); }
+
+  testing::ScratchDirectory dir_;
+  store::Store store_;
+  store::Id session_ = 0;
+};
+
+TEST_F(ImportFileTest, EverySpectrumIsStoredWithItsFitAndProvenance) {
+  const auto imported = import(testing::data_file("examples/import-rows-percent.csv"));
+  ASSERT_TRUE(imported) << imported.error().message();
+  ASSERT_EQ(imported->stored.size(), 3u);
+  const auto detail = testing::value_of(store_.session_detail(session_));
+  ASSERT_EQ(detail.measurements.size(), 3u);
+  ASSERT_EQ(detail.fits.size(), 3u);
+  const auto& m = detail.measurements[1];
+  EXPECT_EQ(m.kind, store::MeasurementKind::imported);
+  EXPECT_EQ(m.label, "forearm P-02");
+  EXPECT_EQ(nlohmann::json::parse(m.settings)["source"]["line"], 3);
+  EXPECT_EQ(detail.fits[1].measurement_id, m.id);
+  EXPECT_EQ(detail.fits[1].model, "extended");
+  EXPECT_EQ(detail.fits[1].site, detail.session.site);
+  EXPECT_EQ(*imported->stored[1].fit_id, detail.fits[1].id);
+  const auto argyll = import(testing::data_file("examples/import-argyll.ti3"));
+  ASSERT_TRUE(argyll) << argyll.error().message();
+  EXPECT_EQ(stored_measurements(), 5u);
+}
+
+TEST_F(ImportFileTest, AFileWithADefectOrASpectrumTheFitterRefusesStoresNothing) {
+  std::string text = testing::data_file("examples/import-columns.csv");
+  text.replace(text.find("0.28039"), 7, "0.2803x");
+  const auto bad_value = import(text);
+  ASSERT_FALSE(bad_value);
+  EXPECT_TRUE(bad_value.error().bad_file());
+  EXPECT_THAT(bad_value.error().message(), HasSubstr("lab.csv:4:3: '0.2803x' is not a number"));
+  // A spectrum of 500-600 nm only: the fitter needs more.
+  const auto narrow = import("wavelength_nm,a\n500,0.3\n550,0.3\n600,0.4\n");
+  ASSERT_FALSE(narrow);
+  EXPECT_TRUE(narrow.error().bad_file());
+  EXPECT_THAT(narrow.error().message(), HasSubstr("lab.csv:2: spectrum 'a' cannot be fitted"));
+  EXPECT_EQ(stored_measurements(), 0u);
+}
+
+TEST_F(ImportFileTest, AClosedSessionOrAStoppedImportStoresNothing) {
+  const auto text = testing::data_file("examples/import-columns.csv");
+  const auto stopped = import(text, [](std::size_t, std::size_t) { return false; });
+  ASSERT_TRUE(stopped);
+  EXPECT_TRUE(stopped->stopped);
+  EXPECT_EQ(stored_measurements(), 0u);
+  testing::value_of(store_.update_session(session_, {.notes = std::nullopt, .state = store::SessionState::complete}));
+  const auto closed = import(text);
+  ASSERT_FALSE(closed);
+  EXPECT_FALSE(closed.error().bad_file());
+  EXPECT_THAT(closed.error().message(), HasSubstr("not open"));
+  EXPECT_EQ(stored_measurements(), 0u);
+}
+
+}  // namespace
+}  // namespace skinspec::records
