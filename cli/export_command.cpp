@@ -52,6 +52,9 @@ std::string exported(const store::Store& db, const ExportArgs& args) {
 
 void run_export(const ExportArgs& args) {
   const auto db = open_for_export(args.db);
+  // ArgyllCMS's tools read one table of a CGATS file: one session's spectra at a time.
+  if (args.format == "cgats" && !args.session)
+    throw Failure{kBadInput, "--format cgats writes one session's spectra: give --session ID"};
   const auto text = exported(db, args);
   std::cout << text;
   std::cout.flush();

@@ -268,6 +268,15 @@ TEST_F(ExportTest, TheServiceSendsTheSameCgats) {
   ASSERT_TRUE(records::export_session(store, first_, records::ExportFormat::cgats, out));
   const auto command = skinspec({"export", "--db", path_, "--session", std::to_string(first_), "--format", "cgats"});
   EXPECT_EQ(command.out, out.str());
+  // One session at a time (ArgyllCMS reads one table), and one with a reflectance.
+  const auto all = skinspec({"export", "--db", path_, "--format", "cgats"});
+  EXPECT_EQ(all.exit_status, kBadInput) << all.describe();
+  EXPECT_THAT(all.err, HasSubstr("give --session ID"));
+  EXPECT_THAT(all.out, IsEmpty());
+  const Id empty = value_of(store.create_session(testing::sample_session(9)));
+  const auto none = skinspec({"export", "--db", path_, "--session", std::to_string(empty), "--format", "cgats"});
+  EXPECT_EQ(none.exit_status, kBadInput) << none.describe();
+  EXPECT_THAT(none.err, HasSubstr("holds no reflectance spectrum"));
 }
 
 // Export reads beside a live writer without disturbing it: no lock taken, no recovery run.

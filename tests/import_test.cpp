@@ -56,6 +56,7 @@ TEST(ImportTest, ColumnsOfFractionsAreReadAsTheyAre) {
 TEST(ImportTest, AnArgyllTableIsRecognisedWithItsInstrument) {
   const auto text = testing::data_file("examples/import-argyll.ti3");
   ASSERT_EQ(recognise_import_format(text), ImportFormat::cgats);
+  EXPECT_EQ(recognise_import_format("\xEF\xBB\xBF" + text), ImportFormat::cgats);
   const auto spectra = read_ok(text, ImportFormat::cgats);
   ASSERT_EQ(spectra.size(), 2u);
   EXPECT_EQ(spectra[0].sample_id, "1");
@@ -84,6 +85,8 @@ TEST(ImportTest, DefectsAreNamedByLineAndColumn) {
       {"id,400,500\n\"P1,0.1,0.2\n", 2, 0, "not closed"},
       {"wavelength_nm,a\n400,0.1\n", 2, 0, "at least two wavelengths"},
       {"id,400,500\nP\xE9,0.1,0.2\n", 2, 0, "not UTF-8"},
+      {"id,400nm,500nm\nP1,40,50\nP2,0.4,0.5\n", 3, 0, "spectrum 'P2' stays at or below 1.5"},
+      {"id,400,500\rP1,0.1,0.2\r", 1, 0, "carriage return alone"},
       {std::string("id,400,500\nP1,0.1,0.2\nP\0,0.1,0.2\n", 33), 3, 0, "not UTF-8"},
   };
   for (const auto& c : cases) {
@@ -113,9 +116,12 @@ TEST(ImportTest, DefectsAreNamedByLineAndColumn) {
 
 TEST(ImportTest, QuotedFieldsCommentsAndBlankLinesAreRead) {
   const auto spectra = read_ok(
-      "\xEF\xBB\xBF# exported\n\n\"Data Name\",\"400 nm\",\"500 nm\"\r\n\"P \"\"A\"\", left\",0.1,0.2\r\n\n# end\n",
+      "\xEF\xBB\xBF# exported by \"a program\n\n\"Data Name\",\"400 nm\",\"500 nm\"\r\n\"P \"\"A\"\", "
+      "left\",0.1,0.2\r\n\n#12,0.3,0.4\n",
       ImportFormat::csv);
-  ASSERT_EQ(spectra.size(), 1u);
+  // A '#' line before the header is a comment, unparsed; after it, a sample named #12.
+  ASSERT_EQ(spectra.size(), 2u);
+  EXPECT_EQ(spectra[1].sample_id, "#12");
   EXPECT_EQ(spectra[0].sample_id, "P \"A\", left");
   EXPECT_EQ(spectra[0].line, 4u);
   EXPECT_EQ(spectra[0].reflectance.values[1], 0.2);

@@ -318,6 +318,21 @@ TEST_F(StoreMigrationTest, AFailedMigrationLeavesThePreviousVersionWhole) {
   EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), 2);
 }
 
+// Version 8 edits the text of the measurements' kind check in place: a table whose check is not
+// the one version 7 left is not edited blindly, and the file stays at version 7.
+TEST_F(StoreMigrationTest, AKindCheckOtherThanVersion7sIsNotEditedBlindly) {
+  ASSERT_TRUE(create_database_at_version(path_, 7));
+  testing::sqlite_execute(path_,
+                          "PRAGMA writable_schema = ON; UPDATE sqlite_schema SET sql = replace(sql, "
+                          "'''dark''))', '''dark'', ''reference''))') WHERE name = 'measurements'; "
+                          "PRAGMA writable_schema = OFF;");
+  const auto opened = Store::open(path_);
+  ASSERT_FALSE(opened);
+  EXPECT_EQ(opened.error().kind, Kind::corrupt);
+  EXPECT_THAT(opened.error().message, HasSubstr("kind check"));
+  EXPECT_EQ(testing::sqlite_integer(path_, "PRAGMA user_version"), 7);
+}
+
 TEST_F(StoreMigrationTest, CreatingAtAVersionChecksItsArguments) {
   EXPECT_EQ(create_database_at_version(path_, 0).error().kind, Kind::invalid_argument);
   EXPECT_EQ(create_database_at_version(path_, current_schema_version() + 1).error().kind, Kind::invalid_argument);

@@ -111,8 +111,9 @@ class Reader {
   std::expected<long, CgatsError> count_after(const std::string& keyword, std::size_t at_line) {
     const auto values = rest_of_line();
     const auto value = values.size() == 1 ? detail::finite_number(values[0].text) : std::nullopt;
-    if (!value || *value < 0 || *value != std::floor(*value))
-      return std::unexpected(CgatsError{at_line, fmt::format("{} must be followed by a whole number", keyword)});
+    if (!value || *value < 0 || *value > 1e9 || *value != std::floor(*value))
+      return std::unexpected(
+          CgatsError{at_line, fmt::format("{} must be followed by a whole number up to 10^9", keyword)});
     return static_cast<long>(*value);
   }
 

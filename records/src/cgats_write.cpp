@@ -74,6 +74,9 @@ std::expected<void, std::string> write_cgats(const store::SessionDetail& detail,
     if (same == tables.end()) same = tables.insert(tables.end(), {m.reflectance.wavelength_nm, {}});
     same->second.push_back(&m);
   }
+  if (tables.empty())
+    return std::unexpected(
+        fmt::format("session {} holds no reflectance spectrum to write as CGATS", detail.session.id));
   for (std::size_t t = 0; t < tables.size(); ++t) {
     const auto& [grid, sets] = tables[t];
     const auto names = band_names(grid);

@@ -50,6 +50,15 @@ store::Fit to_store_fit(const FitResult& result, const FitOptions& options, cons
   return f;
 }
 
+std::expected<store::Fit, std::string> fitted(const Fitter& fitter, const store::SpectralSamples& reflectance,
+                                              const FitOptions& options) {
+  auto spectrum = Spectrum::create(reflectance.wavelength_nm, reflectance.values);
+  if (!spectrum) return std::unexpected(spectrum.error());
+  auto result = fitter.fit(*spectrum, options);
+  if (!result) return std::unexpected(result.error());
+  return to_store_fit(*result, options, fitter.optics(options.model));
+}
+
 std::expected<FitResult, std::string> to_fit_result(const store::Fit& fit) {
   const auto model = parse_model_kind(fit.model);
   if (!model)

@@ -35,15 +35,21 @@ std::string trimmed(std::string_view text) {
   return std::string(text.substr(first, last - first + 1));
 }
 
-// RFC 4180 rows, quotes and doubled quotes in them; blank lines and lines starting with '#'
-// (outside quotes) skipped.
+// RFC 4180 rows, quotes and doubled quotes in them. Blank lines are skipped, and so are lines
+// starting with '#' before the header (a comment there is not parsed for quotes); after the
+// header such a line is data, where '#12' may well be a sample's name.
 std::expected<std::vector<Row>, InputError> rows_of(std::string_view bytes, std::string_view source) {
   std::vector<Row> rows;
   std::size_t line = 1;
   for (std::size_t i = 0; i < bytes.size();) {
-    Row row{line, {}};
     const auto text_start = bytes.find_first_not_of(" \t", i);
-    const bool comment = text_start != std::string_view::npos && bytes[text_start] == '#';
+    if (rows.empty() && text_start != std::string_view::npos && bytes[text_start] == '#') {
+      const auto end = bytes.find('\n', i);
+      i = end == std::string_view::npos ? bytes.size() : end + 1;
+      ++line;
+      continue;
+    }
+    Row row{line, {}};
     std::string cell;
     bool quoted = false, any = false;
     for (; i < bytes.size(); ++i) {
@@ -62,6 +68,10 @@ std::expected<std::vector<Row>, InputError> rows_of(std::string_view bytes, std:
       } else if (c == '\n') {
         ++i;
         break;
+      } else if (c == '\r' && (i + 1 == bytes.size() || bytes[i + 1] != '\n')) {
+        return std::unexpected(InputError{std::string(source), line, 0,
+                                          "a line ends in a carriage return alone: save the file with LF or CRLF "
+                                          "line ends"});
       } else if (c != '\r') {
         cell += c;
         if (c != ' ' && c != '\t') any = true;
@@ -70,12 +80,11 @@ std::expected<std::vector<Row>, InputError> rows_of(std::string_view bytes, std:
     if (quoted) return std::unexpected(InputError{std::string(source), row.line, 0, "a quoted field is not closed"});
     row.cells.push_back(trimmed(cell));
     ++line;
-    if (any && !comment) rows.push_back(std::move(row));
+    if (any) rows.push_back(std::move(row));
   }
   return rows;
 }
 
-// "400", "400nm", "400 nm", "400.5 nm".
 std::optional<double> wavelength_of(std::string_view header) {
   std::string text = trimmed(header);
   if (text.ends_with("nm")) text = trimmed(std::string_view(text).substr(0, text.size() - 2));
@@ -97,7 +106,8 @@ class CsvReader {
 
   std::expected<std::vector<ImportedSpectrum>, InputError> read() {
     if (rows_.size() < 2) return fail(rows_.empty() ? 0 : rows_[0].line, 0, "no header and data rows");
-    auto spectra = names_wavelengths(rows_[0].cells[0]) ? by_columns() : by_rows();
+    by_columns_ = names_wavelengths(rows_[0].cells[0]);
+    auto spectra = by_columns_ ? by_columns() : by_rows();
     if (!spectra) return spectra;
     if (auto scaled = to_fractions(*spectra); !scaled) return std::unexpected(scaled.error());
     return spectra;
@@ -128,7 +138,6 @@ class CsvReader {
     const auto& header = rows_[0].cells;
     if (header.size() < 2) return fail(rows_[0].line, 0, "no spectrum column after the wavelength column");
     std::vector<ImportedSpectrum> out(header.size() - 1);
-    where_.resize(out.size());
     for (std::size_t c = 1; c < header.size(); ++c) {
       if (header[c].empty()) return fail(rows_[0].line, c + 1, "a spectrum column without a name");
       out[c - 1].sample_id = header[c];
@@ -145,7 +154,6 @@ class CsvReader {
         if (!value) return std::unexpected(value.error());
         out[c - 1].reflectance.wavelength_nm.push_back(*wavelength);
         out[c - 1].reflectance.values.push_back(*value);
-        where_[c - 1].push_back({rows_[r].line, c + 1});
       }
     }
     return out;
@@ -166,6 +174,7 @@ class CsvReader {
       if (grid.size() > 1 && !(grid.back() > grid[grid.size() - 2]))
         return fail(rows_[0].line, c + 1, "the wavelengths must increase from column to column");
     }
+    first_value_column_ = first;
     std::vector<ImportedSpectrum> out;
     for (std::size_t r = 1; r < rows_.size(); ++r) {
       if (auto width = check_width(rows_[r]); !width) return std::unexpected(width.error());
@@ -173,34 +182,46 @@ class CsvReader {
       spectrum.sample_id = first > 0 && !rows_[r].cells[0].empty() ? rows_[r].cells[0] : std::to_string(r);
       spectrum.line = rows_[r].line;
       spectrum.reflectance.wavelength_nm = grid;
-      auto& where = where_.emplace_back();
       for (std::size_t c = first; c < header.size(); ++c) {
         const auto value = value_at(rows_[r], c);
         if (!value) return std::unexpected(value.error());
         spectrum.reflectance.values.push_back(*value);
-        where.push_back({rows_[r].line, c + 1});
       }
       out.push_back(std::move(spectrum));
     }
     return out;
   }
 
-  // Percent when any value is above 1.5; then every value must be a reflectance.
+  // Where value k of spectrum i was read (1-based line and column).
+  std::pair<std::size_t, std::size_t> position(std::size_t i, std::size_t k) const {
+    if (by_columns_) return {rows_[k + 1].line, i + 2};
+    return {rows_[i + 1].line, first_value_column_ + k + 1};
+  }
+
+  // Percent when any value is above 1.5; then every value must be a reflectance, and every
+  // spectrum must reach above 1.5 percent somewhere: one below it throughout is on another
+  // scale than the rest of the file (a file of fractions with one typing error, say).
   std::expected<void, InputError> to_fractions(std::vector<ImportedSpectrum>& spectra) const {
     double largest = 0;
     for (const auto& s : spectra)
       for (const double v : s.reflectance.values) largest = std::max(largest, v);
-    const double scale = largest > kPercentAbove ? 0.01 : 1.0;
+    const bool percent = largest > kPercentAbove;
+    const double scale = percent ? 0.01 : 1.0;
     for (std::size_t i = 0; i < spectra.size(); ++i) {
       auto& values = spectra[i].reflectance.values;
       if (values.size() < 2) return fail(spectra[i].line, 0, "a spectrum needs at least two wavelengths");
+      if (percent && *std::ranges::max_element(values) <= kPercentAbove)
+        return fail(spectra[i].line, 0,
+                    fmt::format("spectrum '{}' stays at or below {} while the file holds percent elsewhere: its "
+                                "values are on another scale",
+                                spectra[i].sample_id, kPercentAbove));
       for (std::size_t k = 0; k < values.size(); ++k) {
         values[k] *= scale;
         if (values[k] >= kLowestReflectance && values[k] <= kPercentAbove) continue;
-        const auto [line, column] = where_[i][k];
+        const auto [line, column] = position(i, k);
         return fail(line, column,
                     fmt::format("{} is not a reflectance ({} to {}{})", values[k] / scale, kLowestReflectance / scale,
-                                kPercentAbove / scale, scale < 1 ? " percent, as the file holds percent" : ""));
+                                kPercentAbove / scale, percent ? " percent, as the file holds percent" : ""));
       }
     }
     return {};
@@ -208,7 +229,8 @@ class CsvReader {
 
   std::vector<Row> rows_;
   std::string_view source_;
-  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> where_;  // each value's line and column
+  bool by_columns_ = false;
+  std::size_t first_value_column_ = 0;  // of the rows layout: the first wavelength column
 };
 
 std::expected<std::vector<ImportedSpectrum>, InputError> read_cgats(std::string_view bytes, std::string_view source) {
@@ -243,6 +265,7 @@ std::optional<ImportFormat> parse_import_format(std::string_view text) {
 }
 
 ImportFormat recognise_import_format(std::string_view bytes) {
+  if (bytes.starts_with("\xEF\xBB\xBF")) bytes.remove_prefix(3);
   const auto start = bytes.find_first_not_of(" \t\r\n");
   if (start == std::string_view::npos) return ImportFormat::csv;
   const auto first_word = bytes.substr(start, bytes.find_first_of(" \t\r\n,", start) - start);

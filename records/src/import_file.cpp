@@ -54,6 +54,11 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
                                                        ImportFormat format, const ImportObserver& observer) {
   const auto session = store.session(session_id);
   if (!session) return std::unexpected(ImportFailure{session.error()});
+  // Refused before the fitting, which a large file spends long on.
+  if (session->state != store::SessionState::open)
+    return std::unexpected(ImportFailure{
+        store::StoreError{store::StoreError::Kind::conflict,
+                          fmt::format("session {} is {}, not open", session_id, store::to_string(session->state)), 0}});
   const auto model = parse_model_kind(session->model);
   if (!model)
     return std::unexpected(ImportFailure{store::StoreError{
@@ -68,21 +73,22 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()));
   std::vector<std::pair<store::Measurement, std::optional<store::Fit>>> rows(spectra->size());
   std::vector<std::string> refused(spectra->size());
-  std::atomic<std::size_t> fitted{0};
+  std::atomic<std::size_t> fitted_count{0};
   std::atomic<bool> stop{false};
   std::mutex observing;
   parallel_for(spectra->size(), 0, [&](std::size_t i) {
     if (stop) return;
     const auto& s = (*spectra)[i];
-    rows[i].first = imported_measurement(s, session_id, source, format, now);
-    auto spectrum = Spectrum::create(s.reflectance.wavelength_nm, s.reflectance.values);
-    auto result = spectrum ? fitter.fit(*spectrum, options) : std::unexpected(spectrum.error());
-    if (!result) {
-      refused[i] = result.error();
-    } else {
-      rows[i].second = to_store_fit(*result, options, fitter.optics(*model));
+    // Nothing may leave a worker thread: whatever is thrown refuses this spectrum, by its line.
+    try {
+      rows[i].first = imported_measurement(s, session_id, source, format, now);
+      auto fit = fitted(fitter, s.reflectance, options);
+      if (fit) rows[i].second = std::move(*fit);
+      else refused[i] = fit.error();
+    } catch (const std::exception& e) {
+      refused[i] = e.what();
     }
-    const auto done = ++fitted;
+    const auto done = ++fitted_count;
     if (observer && (done % kReportEvery == 0 || done == rows.size())) {
       std::lock_guard lock(observing);
       if (!observer(done, rows.size())) stop = true;

@@ -25,14 +25,16 @@ struct Refitted {
   std::string failure;
 };
 
+// Nothing may leave a worker thread: whatever is thrown refuses this measurement.
 Refitted refit_one(const Fitter& fitter, const store::Measurement& m, const FitOptions& options) {
-  auto spectrum = Spectrum::create(m.reflectance.wavelength_nm, m.reflectance.values);
-  if (!spectrum) return {std::nullopt, fmt::format("measurement {}: {}", m.id, spectrum.error())};
-  auto result = fitter.fit(*spectrum, options);
-  if (!result) return {std::nullopt, fmt::format("measurement {}: {}", m.id, result.error())};
-  store::Fit f = to_store_fit(*result, options, fitter.optics(options.model));
-  f.measurement_id = m.id;
-  return {std::move(f), {}};
+  try {
+    auto fit = fitted(fitter, m.reflectance, options);
+    if (!fit) return {std::nullopt, fmt::format("measurement {}: {}", m.id, fit.error())};
+    fit->measurement_id = m.id;
+    return {std::move(*fit), {}};
+  } catch (const std::exception& e) {
+    return {std::nullopt, fmt::format("measurement {}: {}", m.id, e.what())};
+  }
 }
 
 class Refit {

@@ -310,7 +310,8 @@ void admit_imported_measurements(detail::Connection& writer) {
   writer.execute("PRAGMA writable_schema = ON");
   writer.execute(
       "UPDATE sqlite_schema SET sql = replace(sql, '(kind IN (''white'', ''sample'', ''dark''))', "
-      "'(kind IN (''white'', ''sample'', ''dark'', ''imported''))') WHERE type = 'table' AND name = 'measurements'");
+      "'(kind IN (''white'', ''sample'', ''dark'', ''imported''))') WHERE type = 'table' AND name = 'measurements' "
+      "AND instr(sql, '(kind IN (''white'', ''sample'', ''dark''))') > 0");
   const auto changed = writer.query_integer("SELECT changes()");
   writer.execute(fmt::format("PRAGMA schema_version = {}", cookie + 1));
   writer.execute("PRAGMA writable_schema = OFF");

@@ -20,6 +20,11 @@ std::string model_version();
 // caller sets measurement_id (record_measurement does it for a fit stored with its measurement).
 store::Fit to_store_fit(const FitResult& result, const FitOptions& options, const SkinOptics& optics);
 
+// `reflectance` fitted with `options` and made a store fit as above (measurement_id unset), or
+// why the fitter refused it.
+std::expected<store::Fit, std::string> fitted(const Fitter& fitter, const store::SpectralSamples& reflectance,
+                                              const FitOptions& options);
+
 // A stored fit's values as the fitter gave them; an error when its model is not one this
 // version knows or its parameters are not that model's.
 std::expected<FitResult, std::string> to_fit_result(const store::Fit& fit);

@@ -9,9 +9,10 @@
 //    Minolta's CM-700d/CM-2600d software exports.
 //  - cgats: ArgyllCMS's .ti3/.sp/.cgats spectral tables (cgats.hpp).
 // In CSV, values are reflectance from 0 to 1; a file with any value above 1.5 holds percent
-// (as Konica Minolta writes), and every value of it is divided by 100. Fields may be quoted
-// (RFC 4180); blank lines and lines starting with '#' are skipped. A defect anywhere refuses
-// the whole file, naming its line (and column).
+// (as Konica Minolta writes), every value of it is divided by 100, and each of its spectra must
+// exceed 1.5 somewhere. Fields may be quoted (RFC 4180); blank lines, and lines starting with
+// '#' before the header, are skipped. A defect anywhere refuses the whole file, naming its line
+// (and column).
 
 #include <cstddef>
 #include <expected>
