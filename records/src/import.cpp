@@ -23,6 +23,8 @@ constexpr std::array<std::pair<ImportFormat, std::string_view>, 2> kFormats = {{
 constexpr double kPercentAbove = 1.5;
 constexpr double kLowestReflectance = -0.05;  // a little below 0: spectrometer noise over black
 
+bool is_reflectance(double value) { return value >= kLowestReflectance && value <= kPercentAbove; }
+
 struct Row {
   std::size_t line = 0;
   std::vector<std::string> cells;
@@ -217,7 +219,7 @@ class CsvReader {
                                 spectra[i].sample_id, kPercentAbove));
       for (std::size_t k = 0; k < values.size(); ++k) {
         values[k] *= scale;
-        if (values[k] >= kLowestReflectance && values[k] <= kPercentAbove) continue;
+        if (is_reflectance(values[k])) continue;
         const auto [line, column] = position(i, k);
         return fail(line, column,
                     fmt::format("{} is not a reflectance ({} to {}{})", values[k] / scale, kLowestReflectance / scale,
@@ -239,7 +241,7 @@ std::expected<std::vector<ImportedSpectrum>, InputError> read_cgats(std::string_
   std::vector<ImportedSpectrum> out;
   for (auto& s : *read) {
     for (std::size_t k = 0; k < s.reflectance.size(); ++k)
-      if (!(s.reflectance[k] >= kLowestReflectance && s.reflectance[k] <= kPercentAbove))
+      if (!is_reflectance(s.reflectance[k]))
         return std::unexpected(
             InputError{std::string(source), s.line, 0,
                        fmt::format("{} at {} nm is not a reflectance ({} to {}, over SPECTRAL_NORM)", s.reflectance[k],

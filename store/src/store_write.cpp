@@ -288,11 +288,21 @@ Result<Session> Store::update_session(Id id, const SessionUpdate& update) {
   });
 }
 
+namespace {
+
+// A measurement stored on its own (not a job's, which complete_measurement_job stores), with its
+// fit, inside the caller's transaction.
+RecordedMeasurement insert_measurement_without_job(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
+                                                   Time now) {
+  if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
+  return insert_measurement_and_fit(c, m, fit, now);
+}
+
+}  // namespace
+
 Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, const std::optional<Fit>& fit) {
-  return impl_->write("recording a measurement", [&](Connection& c) {
-    if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
-    return insert_measurement_and_fit(c, m, fit, impl_->now());
-  });
+  return impl_->write("recording a measurement",
+                      [&](Connection& c) { return insert_measurement_without_job(c, m, fit, impl_->now()); });
 }
 
 Result<std::vector<RecordedMeasurement>> Store::record_measurements(
@@ -300,10 +310,7 @@ Result<std::vector<RecordedMeasurement>> Store::record_measurements(
   return impl_->write(fmt::format("recording {} measurements", measurements.size()), [&](Connection& c) {
     std::vector<RecordedMeasurement> out;
     const auto now = impl_->now();
-    for (const auto& [m, fit] : measurements) {
-      if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
-      out.push_back(insert_measurement_and_fit(c, m, fit, now));
-    }
+    for (const auto& [m, fit] : measurements) out.push_back(insert_measurement_without_job(c, m, fit, now));
     return out;
   });
 }
