@@ -61,6 +61,7 @@ void add_measure_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_migrate_db_command(CLI::App& app);
 void add_refit_command(CLI::App& app);
+void add_import_command(CLI::App& app);
 void add_session_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_figures_command(CLI::App& app);

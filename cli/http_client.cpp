@@ -56,7 +56,8 @@ struct Connection {
   [[noreturn]] void unreachable(const beast::error_code& ec) const {
     throw Failure{kUnreachable, "cannot reach skinspecd at " + server.text + ": " + ec.message()};
   }
-  void send(const std::string& method, const std::string& target, const std::string& body, const std::string& token) {
+  void send(const std::string& method, const std::string& target, const std::string& body, const std::string& token,
+            const std::string& content_type = "application/json") {
     http::request<http::string_body> req;
     req.method_string(method);
     req.target(server.base + target);
@@ -65,7 +66,7 @@ struct Connection {
     req.set(http::field::user_agent, "skinspec");
     req.keep_alive(false);
     if (!token.empty()) req.set(http::field::authorization, "Bearer " + token);
-    if (!body.empty()) req.set(http::field::content_type, "application/json");
+    if (!body.empty()) req.set(http::field::content_type, content_type);
     req.body() = body;
     req.prepare_payload();
     beast::error_code ec;
@@ -133,9 +134,10 @@ ServerUrl parse_server_url(const std::string& text) {
   return url;
 }
 
-HttpResult ApiClient::request(const std::string& method, const std::string& target, const std::string& body) const {
+HttpResult ApiClient::request(const std::string& method, const std::string& target, const std::string& body,
+                              const std::string& content_type) const {
   Connection connection(server_);
-  connection.send(method, target, body, token_);
+  connection.send(method, target, body, token_, content_type);
   http::response_parser<http::string_body> parser;
   parser.body_limit(256 * 1024 * 1024);
   beast::error_code ec;
@@ -145,7 +147,14 @@ HttpResult ApiClient::request(const std::string& method, const std::string& targ
 }
 
 json ApiClient::call(const std::string& method, const std::string& target, const json& body) const {
-  const auto reply = request(method, target, body.is_null() ? "" : body.dump());
+  return reply_json(request(method, target, body.is_null() ? "" : body.dump()), method, target);
+}
+
+json ApiClient::post_text(const std::string& target, const std::string& text, const std::string& content_type) const {
+  return reply_json(request("POST", target, text, content_type), "POST", target);
+}
+
+json ApiClient::reply_json(const HttpResult& reply, const std::string& method, const std::string& target) {
   if (reply.status < 200 || reply.status >= 300) refuse(reply);
   json parsed = json::parse(reply.body, nullptr, false);
   if (parsed.is_discarded()) throw Failure{kFailure, "the server's reply to " + method + " " + target + " is not JSON"};

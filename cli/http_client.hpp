@@ -29,10 +29,13 @@ class ApiClient {
  public:
   ApiClient(ServerUrl server, std::string token) : server_(std::move(server)), token_(std::move(token)) {}
 
-  HttpResult request(const std::string& method, const std::string& target, const std::string& body = "") const;
+  HttpResult request(const std::string& method, const std::string& target, const std::string& body = "",
+                     const std::string& content_type = "application/json") const;
   // The body as JSON when the status is 2xx; Failure kBadInput with the server's message for
   // a 4xx, kFailure for anything else.
   nlohmann::json call(const std::string& method, const std::string& target, const nlohmann::json& body = nullptr) const;
+  // POSTs `text` (a file) with its content type; the answer as call() gives it.
+  nlohmann::json post_text(const std::string& target, const std::string& text, const std::string& content_type) const;
   // GETs `target` as Server-Sent Events, calling `on_event(name, data)` for each event until
   // the server ends the stream. A reply other than 200 is refused as call() refuses it.
   void follow_events(const std::string& target,
@@ -41,6 +44,7 @@ class ApiClient {
   const ServerUrl& server() const { return server_; }
 
  private:
+  static nlohmann::json reply_json(const HttpResult& reply, const std::string& method, const std::string& target);
   ServerUrl server_;
   std::string token_;
 };

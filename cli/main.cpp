@@ -33,6 +33,7 @@ int run(int argc, char** argv) {
   add_export_command(app);
   add_migrate_db_command(app);
   add_refit_command(app);
+  add_import_command(app);
   add_session_command(app);
   add_render_command(app);
   add_figures_command(app);

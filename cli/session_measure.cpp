@@ -3,12 +3,11 @@
 // and prints the result: for a sample the fitted parameters with their standard errors.
 
 #include <fmt/format.h>
-#include <unistd.h>
-
 #include <iostream>
 
 #include "common.hpp"
 #include "fit_text.hpp"
+#include "job_follow.hpp"
 #include "session_client.hpp"
 
 namespace skinspec::cli {
@@ -25,70 +24,6 @@ struct SessionMeasureArgs {
   int integration_ms = 0;
   bool no_wait = false;
 };
-
-bool finished(const json& job) {
-  const auto state = job.value("state", "");
-  return state == "succeeded" || state == "failed" || state == "cancelled";
-}
-
-// The job's progress on stderr: a bar redrawn in place on a terminal, else a line per change.
-class ProgressView {
- public:
-  explicit ProgressView(bool terminal) : terminal_(terminal) {}
-
-  void show(const json& job) {
-    const json& p = job["progress"];
-    std::string status = job.value("state", "?");
-    if (job["position"].is_number_integer() && job["position"].get<int>() > 0)
-      status += fmt::format(", position {}", job["position"].get<int>());
-    status +=
-        fmt::format(", {} {}/{}", p.value("phase", "?"), p.value("readings_done", 0), p.value("readings_total", 0));
-    if (!terminal_) {
-      std::cerr << fmt::format("job {}: {}\n", job.value("id", 0LL), status);
-      return;
-    }
-    constexpr int kWidth = 30;
-    const int filled = static_cast<int>(p.value("fraction", 0.0) * kWidth + 0.5);
-    std::cerr << fmt::format("\r[{}{}] {:3.0f}%  {:<40}", std::string(static_cast<std::size_t>(filled), '#'),
-                             std::string(static_cast<std::size_t>(kWidth - filled), '-'),
-                             p.value("fraction", 0.0) * 100, status)
-              << std::flush;
-    drawn_ = true;
-  }
-  ~ProgressView() {
-    if (drawn_) std::cerr << '\n';
-  }
-
- private:
-  bool terminal_;
-  bool drawn_ = false;
-};
-
-json follow(const ApiClient& client, long long job_id) {
-  json last;
-  {
-    ProgressView view(::isatty(STDERR_FILENO) == 1);
-    client.follow_events("/api/v1/jobs/" + std::to_string(job_id) + "/events",
-                         [&](const std::string& name, const std::string& data) {
-                           if (name != "job") return;
-                           json job = json::parse(data, nullptr, false);
-                           if (!job.is_object()) return;
-                           view.show(job);
-                           last = std::move(job);
-                         });
-  }
-  if (!finished(last)) last = client.call("GET", "/api/v1/jobs/" + std::to_string(job_id));
-  if (!finished(last))
-    throw Failure{kUnreachable,
-                  fmt::format("the events of job {} ended before the job did (is skinspecd stopping?)", job_id)};
-  return last;
-}
-
-// A job's error, {"code", "message"}, as one line: "message (code)".
-std::string error_text(const json& error) {
-  if (!error.is_object()) return "no reason given";
-  return fmt::format("{} ({})", error.value("message", ""), error.value("code", "unknown"));
-}
 
 std::string id_text(const json& value) {
   return value.is_number_integer() ? std::to_string(value.get<long long>()) : "-";
@@ -138,10 +73,10 @@ void run_measure(const ServerArgs& server, const SessionMeasureArgs& args) {
     else std::cout << fmt::format("job {} queued: {}/api/v1/jobs/{}\n", job_id, client.server().text, job_id);
     return;
   }
-  const json job = follow(client, job_id);
+  const json job = follow_job(client, job_id);
   if (job["state"] != "succeeded")
     throw Failure{kInstrumentError,
-                  fmt::format("job {} {}: {}", job_id, job["state"].get<std::string>(), error_text(job["error"]))};
+                  fmt::format("job {} {}: {}", job_id, job["state"].get<std::string>(), job_error_text(job["error"]))};
   json fit = nullptr;
   if (const auto& id = job["result"]["fit_id"]; id.is_number_integer())
     fit = client.call("GET", "/api/v1/fits/" + std::to_string(id.get<long long>()));

@@ -90,6 +90,7 @@ int serve(const skinspec::daemon::Options& o) {
   options.address = listen->first;
   options.port = listen->second;
   options.body_limit = o.body_limit;
+  options.upload_limit = o.upload_limit;
   options.max_connections = o.max_connections;
   options.max_connections_per_client = o.max_connections_per_client;
   options.compute_threads = o.compute_threads;
@@ -168,6 +169,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--config", o.config, "JSON file of settings (keys as the flags, '_' for '-'); flags win");
   app.add_option("--body-limit", o.body_limit, "largest request body in bytes")->capture_default_str();
+  app.add_option("--upload-limit", o.upload_limit, "largest file to import, in bytes")->capture_default_str();
   app.add_option("--max-connections", o.max_connections,
                  "connections held at once (fewer if the file-descriptor limit is lower); a newcomer over it takes the "
                  "place of the "

@@ -32,6 +32,7 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       else if (key == "lease") o.lease_s = v.get<int>();
       else if (key == "log_level") o.log_level = v.get<std::string>();
       else if (key == "body_limit") o.body_limit = v.get<std::size_t>();
+      else if (key == "upload_limit") o.upload_limit = v.get<std::size_t>();
       else if (key == "max_connections") o.max_connections = v.get<std::size_t>();
       else if (key == "max_connections_per_client") o.max_connections_per_client = v.get<std::size_t>();
       else if (key == "compute_threads") o.compute_threads = v.get<std::size_t>();

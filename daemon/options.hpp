@@ -22,6 +22,7 @@ struct Options {
   std::string log_level = "info";
   std::string config;
   std::size_t body_limit = 1024 * 1024;
+  std::size_t upload_limit = 512 * 1024 * 1024;
   std::size_t max_connections = 512;
   std::size_t max_connections_per_client = 64;
   int read_timeout_ms = 10000;

@@ -107,7 +107,7 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
         api::ErrorKind::conflict, "conflict",
         "session " + std::to_string(session_id) + " is " + std::string(store::to_string(session->state))});
   store::Job job;
-  job.kind = "measure";
+  job.kind = std::string(api::to_string(api::JobKind::measure));
   job.session_id = session_id;
   job.idempotency_key = idempotency_key;
   job.request = measure_request_json(request);

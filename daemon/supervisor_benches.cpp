@@ -73,6 +73,7 @@ bool Supervisor::known_here(store::Id job_id) const {
 }
 
 void Supervisor::adopt(const store::Job& job) {
+  if (api::parse_job_kind(job.kind) != api::JobKind::measure) return;  // not the instrument's work
   const auto request = parse_measure_request(job.request);
   std::lock_guard lock(mutex_);
   if (stopping_ || job.state != store::JobState::queued || known_here(job.id)) return;

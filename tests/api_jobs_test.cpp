@@ -316,7 +316,15 @@ TEST_F(ApiJobsTest, TheOpenApiJobSchemaHasPositionAndProgress) {
   for (const auto& [code, name] : store::job_error_code_names())
     EXPECT_NE(std::ranges::find(codes, json(name)), codes.end()) << name;
   EXPECT_EQ(doc["components"]["schemas"]["JobProgress"]["properties"]["phase"]["enum"],
-            json({"queued", "connecting", "measuring", "fitting", "storing", "done"}));
+            json({"queued", "connecting", "measuring", "reading", "fitting", "storing", "done"}));
+  EXPECT_EQ(job["kind"]["enum"], json({"measure", "import", "refit"}));
+  // An import takes the file itself as its body, with its format and name in the query.
+  const json& import = doc["paths"]["/api/v1/sessions/{id}/imports"]["post"];
+  EXPECT_TRUE(import["requestBody"]["content"].contains("text/plain")) << import;
+  EXPECT_EQ(import["responses"]["202"]["content"]["application/json"]["schema"]["$ref"], "#/components/schemas/Job");
+  EXPECT_EQ(import["parameters"].size(), 3u) << import;  // id, format, name
+  EXPECT_EQ(doc["paths"]["/api/v1/refits"]["post"]["requestBody"]["content"]["application/json"]["schema"]["$ref"],
+            "#/components/schemas/RefitJobRequest");
 }
 
 }  // namespace

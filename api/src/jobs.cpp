@@ -1,5 +1,5 @@
-// Jobs as the API shows them: the store's record with the acquisition's live position and
-// progress, and the Server-Sent Events that follow one job until it ends.
+// Jobs as the API shows them: the store's record with the live position and progress of what
+// runs them, and the Server-Sent Events that follow one job until it ends.
 
 #include "jobs.hpp"
 
@@ -25,6 +25,21 @@ json progress_json(JobPhase phase, int done, int total, double fraction) {
           {"fraction", fraction}};
 }
 
+// An import's or a refit's progress: spectra rather than readings, and the time left.
+json spectra_progress_json(JobPhase phase, std::int64_t done, std::int64_t total, std::optional<double> remaining_s) {
+  const double fraction = phase == JobPhase::done ? 1.0 : total > 0 ? static_cast<double>(done) / total : 0.0;
+  return {{"phase", std::string(to_string(phase))},
+          {"spectra_done", done},
+          {"spectra_total", total},
+          {"fraction", fraction},
+          {"remaining_s", remaining_s ? json(*remaining_s) : json(nullptr)}};
+}
+
+bool counts_spectra(const store::Job& job) {
+  const auto kind = parse_job_kind(job.kind);
+  return kind == JobKind::import || kind == JobKind::refit;
+}
+
 // Measuring takes most of a job's time: it covers 0 to 0.9, reading by reading; fitting and
 // storing the rest.
 double measuring_fraction(int done, int total) { return total > 0 ? 0.9 * done / total : 0.0; }
@@ -36,11 +51,31 @@ json live_progress(const JobProgress& p) {
   return progress_json(p.phase, p.readings_done, p.readings_total, fraction);
 }
 
+std::int64_t integer_in(const json& object, const char* key, std::int64_t fallback) {
+  const auto it = object.is_object() ? object.find(key) : object.end();
+  return it != object.end() && it->is_number_integer() ? it->get<std::int64_t>() : fallback;
+}
+
+// An import or refit nobody here runs any more (or not yet): what its record says. Its result
+// counts what it stored (records::import_job_result, FitJobs' refit result).
+json stored_spectra_progress(const store::Job& job, const json& result) {
+  const std::int64_t done = integer_in(result, "imported", integer_in(result, "refitted", 0));
+  const std::int64_t total = integer_in(result, "total", done);
+  switch (job.state) {
+    case store::JobState::queued:
+      return spectra_progress_json(JobPhase::queued, 0, 0, std::nullopt);
+    case store::JobState::running:
+      return spectra_progress_json(JobPhase::fitting, done, total, std::nullopt);
+    default:
+      return spectra_progress_json(JobPhase::done, done, total, std::nullopt);
+  }
+}
+
 // A job nobody here runs any more (or not yet): what its record says.
 json stored_progress(const store::Job& job, const json& request, const json& result) {
+  if (counts_spectra(job)) return stored_spectra_progress(job, result);
   const auto integer = [](const json& object, const char* key, int fallback) {
-    const auto it = object.is_object() ? object.find(key) : object.end();
-    return it != object.end() && it->is_number_integer() ? it->get<int>() : fallback;
+    return static_cast<int>(integer_in(object, key, fallback));
   };
   const int total = integer(request, "count", 1);
   switch (job.state) {
@@ -64,19 +99,23 @@ json error_json(const std::optional<store::JobError>& error) {
 
 // The state, position and progress of a job this process runs, from its live progress: a
 // record read a moment earlier may still say queued.
-void show_live(json& view, const JobProgress& live) {
+void show_live(json& view, const JobProgress& live, bool spectra) {
   if (live.unrecorded_failure) {
     view["state"] = std::string(store::to_string(store::JobState::failed));
     view["position"] = nullptr;
     view["error"] = error_json(live.unrecorded_failure);
-    view["progress"] = progress_json(JobPhase::done, live.readings_done, live.readings_total,
-                                     measuring_fraction(live.readings_done, live.readings_total));
+    view["progress"] = spectra
+                           ? spectra_progress_json(JobPhase::done, live.spectra_done, live.spectra_total, std::nullopt)
+                           : progress_json(JobPhase::done, live.readings_done, live.readings_total,
+                                           measuring_fraction(live.readings_done, live.readings_total));
     return;
   }
   const bool queued = live.phase == JobPhase::queued;
   view["state"] = std::string(store::to_string(queued ? store::JobState::queued : store::JobState::running));
   view["position"] = queued ? std::max(1, live.position) : 0;
-  view["progress"] = live_progress(live);
+  view["progress"] = spectra
+                         ? spectra_progress_json(live.phase, live.spectra_done, live.spectra_total, live.remaining_s)
+                         : live_progress(live);
 }
 
 std::string sse_event(std::uint64_t id, const json& job) {
@@ -106,36 +145,36 @@ json job_json(const store::Job& job, const std::optional<JobProgress>& live) {
                {"started_at", job.started_at ? json(detail::format_time(*job.started_at)) : json(nullptr)},
                {"finished_at", job.finished_at ? json(detail::format_time(*job.finished_at)) : json(nullptr)}};
   // A finished record wins over live progress that has not been cleared yet.
-  if (live && !finished(job.state)) show_live(view, *live);
+  if (live && !finished(job.state)) show_live(view, *live, counts_spectra(job));
   return view;
 }
 
-store::Result<json> current_job_json(const store::Store& db, const Acquisition* acquisition, store::Id id) {
+store::Result<json> current_job_json(const store::Store& db, const JobWatch* watch, store::Id id) {
   // Read twice at most: a job whose record was created between the two reads has its
   // progress by the second.
   for (int round = 1;; ++round) {
-    const auto live = acquisition ? acquisition->progress(id) : std::nullopt;
+    const auto live = watch ? watch->progress(id) : std::nullopt;
     auto job = db.job(id);
     if (!job) return std::unexpected(job.error());
-    if (live || acquisition == nullptr || finished(job->state) || round == 2) return job_json(*job, live);
+    if (live || watch == nullptr || finished(job->state) || round == 2) return job_json(*job, live);
   }
 }
 
-JobEvents::JobEvents(const store::Store& db, const Acquisition* acquisition, store::Id job_id)
-    : db_(db), acquisition_(acquisition), job_id_(job_id) {}
+JobEvents::JobEvents(const store::Store& db, const JobWatch* watch, store::Id job_id)
+    : db_(db), watch_(watch), job_id_(job_id) {}
 
 std::optional<std::string> JobEvents::next(std::chrono::milliseconds keep_alive) {
   using clock = std::chrono::steady_clock;
   const auto deadline = clock::now() + keep_alive;
   while (!ended_ && !closed_) {
     // The count is read before the job, so that a change after the read wakes the wait below.
-    const std::uint64_t seen = acquisition_ ? acquisition_->changes() : 0;
-    auto current = current_job_json(db_, acquisition_, job_id_);
+    const std::uint64_t seen = watch_ ? watch_->changes() : 0;
+    auto current = current_job_json(db_, watch_, job_id_);
     if (!current) break;
     const json& view = *current;
-    // Without an acquisition nothing will change the job any more.
+    // Without a watch nothing will change the job any more.
     const auto state = store::parse_job_state(view["state"].get<std::string>());
-    const bool last = !state || finished(*state) || acquisition_ == nullptr;
+    const bool last = !state || finished(*state) || watch_ == nullptr;
     if (view != sent_) {
       sent_ = view;
       ended_ = last;
@@ -144,7 +183,7 @@ std::optional<std::string> JobEvents::next(std::chrono::milliseconds keep_alive)
     if (last) break;
     const auto now = clock::now();
     if (now >= deadline) return std::string(": keep-alive\n\n");
-    acquisition_->wait_for_change(seen, std::chrono::ceil<std::chrono::milliseconds>(deadline - now), closed_);
+    watch_->wait_for_change(seen, std::chrono::ceil<std::chrono::milliseconds>(deadline - now), closed_);
   }
   ended_ = true;
   return std::nullopt;
@@ -152,7 +191,7 @@ std::optional<std::string> JobEvents::next(std::chrono::milliseconds keep_alive)
 
 void JobEvents::close() {
   closed_ = true;
-  if (acquisition_) acquisition_->wake_waiters();
+  if (watch_) watch_->wake_waiters();
 }
 
 }  // namespace skinspec::api

@@ -1,6 +1,6 @@
 #pragma once
 // The events of one job (GET /api/v1/jobs/{id}/events): a Server-Sent Event `job` with the job
-// as JSON for each change of its position, phase, reading count or state, the last one when it
+// as JSON for each change of its position, phase, progress or state, the last one when it
 // has ended, after which the stream ends.
 
 #include <atomic>
@@ -14,13 +14,13 @@ namespace skinspec::api {
 
 class JobEvents final : public EventSource {
  public:
-  JobEvents(const store::Store& db, const Acquisition* acquisition, store::Id job_id);
+  JobEvents(const store::Store& db, const JobWatch* watch, store::Id job_id);
   std::optional<std::string> next(std::chrono::milliseconds keep_alive) override;
   void close() override;
 
  private:
   const store::Store& db_;
-  const Acquisition* acquisition_;  // null: the job as stored, once
+  const JobWatch* watch_;  // what runs the job; null: the job as stored, once
   const store::Id job_id_;
   std::atomic<bool> closed_{false};
   bool ended_ = false;

@@ -314,7 +314,7 @@ json schemas() {
         {"properties",
          {{"id", {{"type", "integer"}}},
           {"job_id", {{"type", "integer"}}},
-          {"kind", {{"type", "string"}}},
+          {"kind", {{"type", "string"}, {"enum", names(job_kind_names())}}},
           {"session_id", nullable("integer")},
           {"bench", {{"type", "string"}, {"description", "the bench that runs it"}}},
           {"state", {{"type", "string"}, {"enum", names(store::job_state_names())}}},
@@ -340,12 +340,27 @@ json schemas() {
           {"message", {{"type", "string"}}}}}}},
       {"JobProgress",
        {{"type", "object"},
-        {"required", {"phase", "readings_done", "readings_total", "fraction"}},
+        {"required", {"phase", "fraction"}},
+        {"description",
+         "a measurement counts readings (readings_done, readings_total); an import or a refit counts spectra "
+         "(spectra_done, spectra_total) and gives the seconds left at the rate so far (remaining_s)"},
         {"properties",
          {{"phase", {{"type", "string"}, {"enum", names(job_phase_names())}}},
           {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
           {"readings_total", {{"type", "integer"}, {"minimum", 1}}},
+          {"spectra_done", {{"type", "integer"}, {"minimum", 0}}},
+          {"spectra_total", {{"type", "integer"}, {"minimum", 0}}},
+          {"remaining_s", nullable("number")},
           {"fraction", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}}}}}},
+      {"RefitJobRequest",
+       {{"type", "object"},
+        {"additionalProperties", false},
+        {"properties",
+         {{"model", model_schema()},
+          {"session_id",
+           {{"type", "integer"},
+            {"minimum", 1},
+            {"description", "only this session's measurements; every session's when absent"}}}}}}},
       {"RejectedReading",
        {{"type", "object"},
         {"properties",
@@ -395,6 +410,20 @@ json list_parameters() {
        q("limit", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}, {"default", 50}}, "page size")});
 }
 
+json import_parameters() {
+  return json::array(
+      {{{"name", "format"},
+        {"in", "query"},
+        {"required", false},
+        {"schema", {{"type", "string"}, {"enum", {"csv", "cgats"}}}},
+        {"description", "recognised from the content when absent: CGATS when it starts with a CGATS file type"}},
+       {{"name", "name"},
+        {"in", "query"},
+        {"required", false},
+        {"schema", {{"type", "string"}, {"maxLength", 255}}},
+        {"description", "the file's name, kept with each spectrum as provenance (default: upload)"}}});
+}
+
 json render_parameters() {
   auto q = [](const char* name, json schema, const char* description) {
     return json{{"name", name}, {"in", "query"}, {"required", false}, {"schema", schema}, {"description", description}};
@@ -430,7 +459,11 @@ json Router::openapi_document() {
     op["responses"] = {{std::to_string(r.success_status), {{"description", "success"}, {"content", content}}},
                        {"4XX", error_reply("the request was refused")},
                        {"5XX", error_reply("the service could not answer")}};
-    if (!r.request_schema.empty())
+    if (r.request_schema == "text/plain")
+      op["requestBody"] = {{"required", true},
+                           {"description", "the file's bytes, with any text/* content type"},
+                           {"content", {{"text/plain", {{"schema", {{"type", "string"}}}}}}}};
+    else if (!r.request_schema.empty())
       op["requestBody"] = {{"required", r.path != "/api/v1/measurements/{id}/fit"},
                            {"content", {{"application/json", {{"schema", ref(r.request_schema)}}}}}};
     json params = json::array();
@@ -440,6 +473,8 @@ json Router::openapi_document() {
     if (r.method == "GET" && r.path == "/api/v1/sessions") params = list_parameters();
     if (r.path == "/api/v1/fits/{id}/render.png")
       for (const auto& p : render_parameters()) params.push_back(p);
+    if (r.path == "/api/v1/sessions/{id}/imports")
+      for (const auto& p : import_parameters()) params.push_back(p);
     if (!params.empty()) op["parameters"] = params;
     if (r.mutating) op["security"] = json::array({{{"bearer", json::array()}}});
     std::string method = r.method;

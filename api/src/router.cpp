@@ -4,6 +4,7 @@
 #include <charconv>
 #include <sstream>
 
+#include "fit_jobs.hpp"
 #include "jobs.hpp"
 #include "json_io.hpp"
 #include "skinspec/api/acquisition.hpp"
@@ -141,17 +142,69 @@ struct Router::Handlers {
     request.label = detail::optional_string(body, "label", 200).value_or("");
     // An hour at most here; the acquisition holds it to the meter's own range.
     request.integration_ms = integer_field(body, "integration_ms", 0, 3600000).value_or(0);
-    std::string key;
-    if (const auto it = call.request.headers.find("idempotency-key"); it != call.request.headers.end()) {
-      key = it->second;
-      if (key.empty() || key.size() > 200)
-        fail(ErrorKind::bad_request, "invalid_parameter", "'Idempotency-Key' must be 1 to 200 characters");
+    const std::string key = idempotency_key(call);
+    return accepted(c, acquisition_of(c).submit(call.ids[0], request, key));
+  }
+  // POST /api/v1/sessions/{id}/imports?format=csv|cgats&name=FILE, the file as the body
+  static Response import_spectra(const RouterContext& c, const Call& call) {
+    ImportUpload upload;
+    upload.session_id = call.ids[0];
+    upload.source = "upload";
+    std::optional<records::ImportFormat> format;
+    for (const auto& [name, text] : call.query) {
+      if (name == "format") {
+        format = records::parse_import_format(text);
+        if (!format) fail(ErrorKind::bad_request, "invalid_parameter", "'format' must be csv or cgats");
+      } else if (name == "name") {
+        if (text.empty() || text.size() > 255 || std::ranges::any_of(text, [](unsigned char ch) { return ch < 0x20; }))
+          fail(ErrorKind::bad_request, "invalid_parameter", "'name' must be 1 to 255 characters without controls");
+        upload.source = text;
+      } else {
+        fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + name + "'");
+      }
     }
-    auto created = acquisition_of(c).submit(call.ids[0], request, key);
+    if (call.request.body.empty()) fail(ErrorKind::unprocessable, "empty_file", "the body holds no file to import");
+    upload.format = format.value_or(records::recognise_import_format(call.request.body));
+    upload.bytes = call.request.body;
+    return accepted(c, fit_jobs_of(c).submit_import(std::move(upload), idempotency_key(call)));
+  }
+  // POST /api/v1/refits
+  static Response refits(const RouterContext& c, const Call& call) {
+    no_query(call);
+    const json body = detail::parse_object(call.request.body);
+    detail::only_fields(body, {"model", "session_id"});
+    records::RefitRequest request;
+    request.model = model_of(body);
+    if (const auto it = body.find("session_id"); it != body.end()) {
+      if (!it->is_number_integer() || it->get<std::int64_t>() < 1)
+        fail(ErrorKind::unprocessable, "wrong_type", "'session_id' must be a positive integer");
+      request.session_id = it->get<store::Id>();
+    }
+    return accepted(c, fit_jobs_of(c).submit_refit(request, idempotency_key(call)));
+  }
+  static std::string idempotency_key(const Call& call) {
+    const auto it = call.request.headers.find("idempotency-key");
+    if (it == call.request.headers.end()) return {};
+    if (it->second.empty() || it->second.size() > 200)
+      fail(ErrorKind::bad_request, "invalid_parameter", "'Idempotency-Key' must be 1 to 200 characters");
+    return it->second;
+  }
+  // 202 with the job and its Location; 200 when an idempotency key named an earlier job.
+  static Response accepted(const RouterContext& c, const std::expected<store::CreatedJob, ApiError>& created) {
     if (!created) throw detail::HandlerError{created.error()};
     Response r = json_response(job_view(c, created->job.id), created->created ? 202 : 200);
     r.headers.emplace_back("Location", "/api/v1/jobs/" + std::to_string(created->job.id));
     return r;
+  }
+  static FitJobs& fit_jobs_of(const RouterContext& c) {
+    store_of(c);
+    fitter_of(c);
+    return *c.fit_jobs;  // made by the router whenever there are a store and a fitter
+  }
+  // What runs a job of this kind, and so knows its live progress (null: nothing here does).
+  static const JobWatch* watch_of(const RouterContext& c, const store::Job& job) {
+    if (parse_job_kind(job.kind) == JobKind::measure) return c.acquisition;
+    return c.fit_jobs.get();
   }
   static std::optional<int> integer_field(const json& body, const char* key, int min, int max) {
     const auto it = body.find(key);
@@ -165,7 +218,8 @@ struct Router::Handlers {
     return static_cast<int>(v);
   }
   static json job_view(const RouterContext& c, store::Id job_id) {
-    return value(current_job_json(store_of(c), c.acquisition, job_id));
+    const store::Store& db = store_of(c);
+    return value(current_job_json(db, watch_of(c, value(db.job(job_id))), job_id));
   }
   // GET /api/v1/jobs/{id}
   static Response get_job(const RouterContext& c, const Call& call) {
@@ -176,16 +230,17 @@ struct Router::Handlers {
   static Response job_events(const RouterContext& c, const Call& call) {
     no_query(call);
     store::Store& db = store_of(c);
-    value(db.job(call.ids[0]));  // 404 before the stream starts
+    const auto job = value(db.job(call.ids[0]));  // 404 before the stream starts
     Response r{200, "text/event-stream", "", {{"Cache-Control", "no-cache"}}};
-    r.events = std::make_shared<JobEvents>(db, c.acquisition, call.ids[0]);
+    r.events = std::make_shared<JobEvents>(db, watch_of(c, job), call.ids[0]);
     return r;
   }
   // DELETE /api/v1/jobs/{id}
   static Response cancel_job(const RouterContext& c, const Call& call) {
     no_query(call);
-    value(store_of(c).job(call.ids[0]));  // 404 first
-    auto job = acquisition_of(c).cancel(call.ids[0]);
+    const auto found = value(store_of(c).job(call.ids[0]));  // 404 first
+    auto job = parse_job_kind(found.kind) == JobKind::measure ? acquisition_of(c).cancel(found.id)
+                                                              : fit_jobs_of(c).cancel(found.id);
     if (!job) throw detail::HandlerError{job.error()};
     return json_response(job_view(c, job->id));
   }
@@ -581,6 +636,16 @@ const std::vector<Route>& route_table() {
           "MeasureRequest", "Job", 202},
          &H::measure,
          {}},
+        {{"POST", "/api/v1/sessions/{id}/imports",
+          "Import a file of spectra (CSV or CGATS) into an open session, each spectrum fitted: a job", true,
+          "text/plain", "Job", 202, false, true},
+         &H::import_spectra,
+         {}},
+        {{"POST", "/api/v1/refits",
+          "Refit stored measurements (every session's, or one's) with the current model and constants: a job", true,
+          "RefitJobRequest", "Job", 202},
+         &H::refits,
+         {}},
         {{"GET", "/api/v1/jobs/{id}", "One job: state, queue position, progress, error, the ids it produced", false, "",
           "Job", 200},
          &H::get_job,
@@ -670,14 +735,31 @@ void check_access(const AccessPolicy& access, const Request& request, const Rout
   fail(ErrorKind::unauthorized, "unauthorized", "unknown token");
 }
 
-bool is_json_content_type(const Request& request) {
+// The media type of the request's body, lower case without parameters; empty when not given.
+std::string media_type(const Request& request) {
   const auto it = request.headers.find("content-type");
-  if (it == request.headers.end()) return false;
+  if (it == request.headers.end()) return {};
   std::string type = it->second.substr(0, it->second.find(';'));
   std::transform(type.begin(), type.end(), type.begin(),
                  [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
   while (!type.empty() && type.back() == ' ') type.pop_back();
-  return type == "application/json";
+  return type;
+}
+
+// A route that reads JSON takes application/json (a refit of a measurement may have no body);
+// one that reads a file takes any text type, or none named.
+void check_content_type(const Request& request, const RouteInfo& route) {
+  if (route.request_schema.empty()) return;
+  const std::string type = media_type(request);
+  if (route.request_schema == "text/plain") {
+    if (!type.empty() && !type.starts_with("text/"))
+      fail(ErrorKind::unsupported_media_type, "unsupported_media_type",
+           "the body must be a text type such as text/csv, not " + type);
+    return;
+  }
+  if (request.body.empty() && route.path == "/api/v1/measurements/{id}/fit") return;
+  if (type != "application/json")
+    fail(ErrorKind::unsupported_media_type, "unsupported_media_type", "the body must be application/json");
 }
 
 }  // namespace
@@ -690,6 +772,8 @@ Router::Router(RouterContext context) : context_(std::move(context)) {
   if (!context_.metrics) context_.metrics = std::make_shared<Metrics>();
   if (!context_.render_cache) context_.render_cache = std::make_shared<RenderCache>();
   if (!context_.body_cache) context_.body_cache = std::make_shared<BodyCache>();
+  if (!context_.fit_jobs && context_.store && context_.fitter)
+    context_.fit_jobs = std::make_shared<FitJobs>(*context_.store, *context_.fitter);
 }
 Router::~Router() = default;
 
@@ -702,15 +786,25 @@ const std::vector<RouteInfo>& Router::routes() {
   return infos;
 }
 
-bool Router::is_heavy(const std::string& method, const std::string& target) {
+const RouteInfo* Router::route_of(const std::string& method, const std::string& target) {
   const std::string_view path = std::string_view(target).substr(0, target.find('?'));
-  if (path.empty() || path.front() != '/') return false;
+  if (path.empty() || path.front() != '/') return nullptr;
   const auto decoded = detail::percent_decode(path, false);
-  if (!decoded) return false;
+  if (!decoded) return nullptr;
   std::vector<store::Id> ids;
   std::string allow;
   const Route* route = find_route(method, split_path(*decoded), ids, allow);
-  return route != nullptr && route->info.heavy;
+  return route != nullptr ? &route->info : nullptr;
+}
+
+bool Router::is_heavy(const std::string& method, const std::string& target) {
+  const RouteInfo* route = route_of(method, target);
+  return route != nullptr && route->heavy;
+}
+
+bool Router::is_upload(const std::string& method, const std::string& target) {
+  const RouteInfo* route = route_of(method, target);
+  return route != nullptr && route->upload;
 }
 
 Response Router::handle(const Request& request) const {
@@ -747,10 +841,7 @@ Response Router::handle(const Request& request) const {
     } else {
       route_label = matched->info.method + " " + matched->info.path;
       check_access(context_.access, request, matched->info);
-      if (!matched->info.request_schema.empty() &&
-          !(request.body.empty() && matched->info.path == "/api/v1/measurements/{id}/fit") &&
-          !is_json_content_type(request))
-        fail(ErrorKind::unsupported_media_type, "unsupported_media_type", "the body must be application/json");
+      check_content_type(request, matched->info);
       auto query = detail::parse_query(qmark == std::string_view::npos ? std::string_view{} : target.substr(qmark + 1));
       if (!query)
         fail(ErrorKind::bad_request, "invalid_query", "the query string is malformed, repeats a name or is not UTF-8");

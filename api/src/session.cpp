@@ -1,5 +1,7 @@
 #include "session.hpp"
 
+#include <algorithm>
+
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/post.hpp>
@@ -55,7 +57,11 @@ void Session::evict() {
 void Session::do_read() {
   if (stopping_) return do_close();
   parser_.emplace();
-  prepare_parser(*parser_, state_->limits);
+  limits_ = state_->limits;
+  prepare_parser(*parser_, limits_);
+  // The parser refuses a Content-Length over its limit as soon as it reads the header, before
+  // the route is known; so it allows an upload's, and on_header holds other routes to theirs.
+  parser_->body_limit(std::max(limits_.body_limit, state_->options.upload_limit));
   stream_.expires_after(state_->options.read_timeout);
   if (buffer_.size() > 0) return read_header();  // a pipelined request is here already
   set_idle();
@@ -79,6 +85,14 @@ void Session::read_header() {
 void Session::on_header(const beast::error_code& ec) {
   if (ec) return on_read_failure(ec);
   if (auto refused = check_framing(parser_->get())) return send_error(*refused, parser_->get().version());
+  const auto& header = parser_->get();
+  if (Router::is_upload(std::string(header.method_string()), std::string(header.target()))) {
+    limits_.body_limit = state_->options.upload_limit;
+    stream_.expires_after(state_->options.upload_timeout);
+  } else if (parser_->content_length().value_or(0) > limits_.body_limit) {
+    return on_read_failure(http::error::body_limit);
+  }
+  parser_->body_limit(limits_.body_limit);  // a chunked body is counted as it comes
   http::async_read(stream_, buffer_, *parser_,
                    [self = shared_from_this()](beast::error_code read_ec, std::size_t) { self->on_read(read_ec); });
 }
@@ -91,7 +105,7 @@ void Session::on_read(const beast::error_code& ec) {
 
 void Session::on_read_failure(const beast::error_code& ec) {
   if (client_gone(ec)) return do_close();
-  send_error(read_failure(ec, state_->limits), 11);
+  send_error(read_failure(ec, limits_), 11);
 }
 
 void Session::answer(const std::shared_ptr<RequestMessage>& message) {

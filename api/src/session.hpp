@@ -62,6 +62,7 @@ class Session : public std::enable_shared_from_this<Session> {
   ConnectionTable::Id id_;
   boost::beast::flat_buffer buffer_;
   std::optional<RequestParser> parser_;
+  RequestLimits limits_;  // those of the request being read: an upload's are larger
   std::shared_ptr<Reply> reply_;
   std::shared_ptr<EventPipe> events_;  // while a body is streamed
   bool busy_ = false, stopping_ = false;

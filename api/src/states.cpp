@@ -1,4 +1,4 @@
-// The names of the instrument's states and of a job's phases, as the API shows them: the one
+// The names of the instrument's states and of a job's kinds and phases, as the API shows them: the one
 // mapping each way.
 
 #include <algorithm>
@@ -18,13 +18,20 @@ constexpr std::array<std::pair<InstrumentState, std::string_view>, 5> kInstrumen
     {InstrumentState::lost, "lost"},
 }};
 
-constexpr std::array<std::pair<JobPhase, std::string_view>, 6> kJobPhases = {{
+constexpr std::array<std::pair<JobPhase, std::string_view>, 7> kJobPhases = {{
     {JobPhase::queued, "queued"},
     {JobPhase::connecting, "connecting"},
     {JobPhase::measuring, "measuring"},
+    {JobPhase::reading, "reading"},
     {JobPhase::fitting, "fitting"},
     {JobPhase::storing, "storing"},
     {JobPhase::done, "done"},
+}};
+
+constexpr std::array<std::pair<JobKind, std::string_view>, 3> kJobKinds = {{
+    {JobKind::measure, "measure"},
+    {JobKind::import, "import"},
+    {JobKind::refit, "refit"},
 }};
 
 template <typename E>
@@ -51,5 +58,9 @@ std::optional<InstrumentState> parse_instrument_state(std::string_view text) {
 std::span<const std::pair<JobPhase, std::string_view>> job_phase_names() { return kJobPhases; }
 std::string_view to_string(JobPhase phase) { return name_in(job_phase_names(), phase); }
 std::optional<JobPhase> parse_job_phase(std::string_view text) { return value_in(job_phase_names(), text); }
+
+std::span<const std::pair<JobKind, std::string_view>> job_kind_names() { return kJobKinds; }
+std::string_view to_string(JobKind kind) { return name_in(job_kind_names(), kind); }
+std::optional<JobKind> parse_job_kind(std::string_view text) { return value_in(job_kind_names(), text); }
 
 }  // namespace skinspec::api

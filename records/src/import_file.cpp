@@ -49,9 +49,15 @@ std::string ImportFailure::message() const {
   return std::get<store::StoreError>(cause).message;
 }
 
+std::string import_job_result(std::size_t imported, std::string_view source, ImportFormat format) {
+  return nlohmann::json{{"imported", imported}, {"source", source}, {"format", to_string(format)}}.dump(
+      -1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
                                                        std::string_view bytes, std::string_view source,
-                                                       ImportFormat format, const ImportObserver& observer) {
+                                                       ImportFormat format, const ImportObserver& observer,
+                                                       std::optional<store::Id> job_id) {
   const auto session = store.session(session_id);
   if (!session) return std::unexpected(ImportFailure{session.error()});
   // Refused before the fitting, which a large file spends long on.
@@ -66,6 +72,7 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
         fmt::format("session {}'s model '{}' is not one this version knows", session_id, session->model), 0}});
   auto spectra = read_import(bytes, source, format);
   if (!spectra) return std::unexpected(ImportFailure{spectra.error()});
+  if (observer && !observer(0, spectra->size())) return ImportedFile{{}, true};
 
   const FitOptions options{
       .model = *model, .site = session->site, .lateral_diffusion = true, .weights = {}, .held = {}};
@@ -99,7 +106,9 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
     if (!refused[i].empty())
       return bad_file(source, (*spectra)[i].line,
                       fmt::format("spectrum '{}' cannot be fitted: {}", (*spectra)[i].sample_id, refused[i]));
-  auto stored = store.record_measurements(rows);
+  std::optional<store::JobCompletion> completion;
+  if (job_id) completion = store::JobCompletion{*job_id, import_job_result(rows.size(), source, format)};
+  auto stored = store.record_measurements(rows, completion);
   if (!stored) return std::unexpected(ImportFailure{stored.error()});
   return ImportedFile{std::move(*stored), false};
 }

@@ -306,11 +306,28 @@ Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, cons
 }
 
 Result<std::vector<RecordedMeasurement>> Store::record_measurements(
-    const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements) {
+    const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements,
+    const std::optional<JobCompletion>& job) {
   return impl_->write(fmt::format("recording {} measurements", measurements.size()), [&](Connection& c) {
     std::vector<RecordedMeasurement> out;
+    out.reserve(measurements.size());
     const auto now = impl_->now();
-    for (const auto& [m, fit] : measurements) out.push_back(insert_measurement_without_job(c, m, fit, now));
+    if (!job) {
+      for (const auto& [m, fit] : measurements) out.push_back(insert_measurement_without_job(c, m, fit, now));
+      return out;
+    }
+    const auto running = job_in(c, job->job_id);
+    if (running.state != JobState::running)
+      fail(Kind::conflict, fmt::format("job {} is {}, not running", job->job_id, to_string(running.state)));
+    for (const auto& [m, fit] : measurements) {
+      if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
+      if (running.session_id != m.session_id)
+        invalid(fmt::format("job {} is not of session {}", job->job_id, m.session_id));
+      Measurement of_job = m;
+      of_job.job_id = job->job_id;
+      out.push_back(insert_measurement_and_fit(c, of_job, fit, now));
+    }
+    change_job(c, job->job_id, {.state = JobState::succeeded, .result = job->result}, now);
     return out;
   });
 }

@@ -41,7 +41,7 @@ constexpr std::array<std::pair<JobState, std::string_view>, 5> kJobStates = {{
     {JobState::cancelled, "cancelled"},
 }};
 
-constexpr std::array<std::pair<JobErrorCode, std::string_view>, 15> kJobErrorCodes = {{
+constexpr std::array<std::pair<JobErrorCode, std::string_view>, 16> kJobErrorCodes = {{
     {JobErrorCode::cancelled, "cancelled"},
     {JobErrorCode::stopped, "stopped"},
     {JobErrorCode::interrupted, "interrupted"},
@@ -56,6 +56,7 @@ constexpr std::array<std::pair<JobErrorCode, std::string_view>, 15> kJobErrorCod
     {JobErrorCode::white_mismatch, "white_mismatch"},
     {JobErrorCode::white_dark, "white_dark"},
     {JobErrorCode::store, "store"},
+    {JobErrorCode::bad_file, "bad_file"},
     {JobErrorCode::internal, "internal"},
 }};
 

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "skinspec/api/errors.hpp"
+#include "skinspec/api/job_watch.hpp"
 #include "skinspec/store/store.hpp"
 
 namespace skinspec::api {
@@ -33,26 +34,8 @@ std::string_view to_string(InstrumentState state);
 std::optional<InstrumentState> parse_instrument_state(std::string_view text);
 std::span<const std::pair<InstrumentState, std::string_view>> instrument_state_names();
 
-// Where a job is, in order; `done` only finished jobs show.
-enum class JobPhase { queued, connecting, measuring, fitting, storing, done };
-std::string_view to_string(JobPhase phase);
-std::optional<JobPhase> parse_job_phase(std::string_view text);
-std::span<const std::pair<JobPhase, std::string_view>> job_phase_names();
-
-// Where a queued or running job is.
-struct JobProgress {
-  int position = 1;  // in the FIFO queue while queued: 1 is next; ignored once it runs
-  JobPhase phase = JobPhase::queued;
-  int readings_done = 0;
-  int readings_total = 1;
-  // Set when the job has ended but the store refused its end: the job is shown failed with
-  // this error (code `store`) instead of the record's state, which stays behind.
-  std::optional<store::JobError> unrecorded_failure{};
-};
-
-class Acquisition {
+class Acquisition : public JobWatch {
  public:
-  virtual ~Acquisition() = default;
   // {"device", "port", "state" (an InstrumentState), "since",
   //  "last_error", "serial_number", "attempts", "next_attempt_in_ms", "queued", ...}
   virtual nlohmann::json instrument_status() const = 0;
@@ -63,19 +46,6 @@ class Acquisition {
                                                             const std::string& idempotency_key) = 0;
   // Cancels a queued or running job; the job as it is afterwards.
   virtual std::expected<store::Job, ApiError> cancel(store::Id job_id) = 0;
-
-  // The live progress of a queued or running job; nullopt once it has finished (its state is
-  // in the store by then) or for a job this process does not run. Read it before the job's
-  // record (current_job_json does): a job's record is written before its progress moves on.
-  virtual std::optional<JobProgress> progress(store::Id job_id) const = 0;
-  // A count that grows with every change of any job: position, phase, reading count, state.
-  // The job's store record is written before the count grows.
-  virtual std::uint64_t changes() const = 0;
-  // Blocks until changes() exceeds `seen`, `timeout` passes, or `abandoned` is set and
-  // wake_waiters() called; returns changes(). For followers of a job (Server-Sent Events).
-  virtual std::uint64_t wait_for_change(std::uint64_t seen, std::chrono::milliseconds timeout,
-                                        const std::atomic<bool>& abandoned) const = 0;
-  virtual void wake_waiters() const = 0;
 };
 
 // A time as every answer of the API shows it: RFC 3339, UTC, with microseconds.
@@ -88,7 +58,7 @@ std::string api_time(store::Time time);
 nlohmann::json job_json(const store::Job& job, const std::optional<JobProgress>& live);
 
 // Job `id` as the API shows it now: its live progress read first, then its record, so that
-// the two agree (`acquisition` may be null).
-store::Result<nlohmann::json> current_job_json(const store::Store& db, const Acquisition* acquisition, store::Id id);
+// the two agree (`watch`, what runs jobs of its kind, may be null).
+store::Result<nlohmann::json> current_job_json(const store::Store& db, const JobWatch* watch, store::Id id);
 
 }  // namespace skinspec::api

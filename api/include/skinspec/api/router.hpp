@@ -29,6 +29,7 @@ namespace skinspec::api {
 class Acquisition;
 class RenderCache;
 class BodyCache;
+class FitJobs;
 
 struct Request {
   std::string method;                          // "GET", "POST", ...
@@ -73,6 +74,8 @@ struct RouterContext {
   std::shared_ptr<Metrics> metrics;           // created when null
   std::shared_ptr<RenderCache> render_cache;  // images of GET /api/v1/fits/{id}/render.png; created when null
   std::shared_ptr<BodyCache> body_cache;      // answers of GET /api/v1/fits/{id}; created when null
+  // Imports and refits; created when null and there are a store and a fitter.
+  std::shared_ptr<FitJobs> fit_jobs;
   AccessPolicy access;
   std::size_t max_spectrum_samples = 10000;
 };
@@ -87,6 +90,8 @@ struct RouteInfo {
   int success_status = 200;
   // CPU-heavy (fits, renders): the server runs it on its bounded compute pool.
   bool heavy = false;
+  // Takes a file as its body: the server allows it the upload limit instead of the body limit.
+  bool upload = false;
 };
 
 class Router {
@@ -102,6 +107,8 @@ class Router {
   static const std::vector<RouteInfo>& routes();
   // Whether `method` on `target` (as in a Request) is a heavy route.
   static bool is_heavy(const std::string& method, const std::string& target);
+  // Whether `method` on `target` takes a file as its body (RouteInfo::upload).
+  static bool is_upload(const std::string& method, const std::string& target);
   // OpenAPI 3.1, generated from routes(), with this build's version.
   static nlohmann::json openapi_document();
 
@@ -110,6 +117,8 @@ class Router {
   struct Handlers;
 
  private:
+  // The route `method` on `target` (as in a Request) matches; null for none.
+  static const RouteInfo* route_of(const std::string& method, const std::string& target);
   RouterContext context_;
 };
 

@@ -30,6 +30,10 @@ struct ServerOptions {
   // end of the previous response on a kept-alive connection; otherwise the connection is closed.
   std::chrono::milliseconds read_timeout{10000};
   std::chrono::milliseconds write_timeout{30000};
+  // A file sent to a route that takes one (Router::is_upload: an import) may be this large and
+  // take this long to arrive.
+  std::size_t upload_limit = 512 * 1024 * 1024;
+  std::chrono::milliseconds upload_timeout{300000};
   // A streamed body (Server-Sent Events) sends a keep-alive comment after this much silence.
   std::chrono::milliseconds event_keep_alive{15000};
   // Connections held at once, at most what the file-descriptor limit leaves room for; and per

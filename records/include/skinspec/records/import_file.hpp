@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -29,8 +30,9 @@ struct ImportFailure {
   std::string message() const;  // "FILE:LINE:COLUMN: what", or the store's message
 };
 
-// Told how many of the file's spectra are fitted, of how many, as the fitting goes (from any
-// thread, one call at a time); returning false stops the import before anything is stored.
+// Told how many of the file's spectra are fitted, of how many: once with none when the file has
+// been read, then as the fitting goes (from any thread, one call at a time), the last call with
+// all of them just before storing. Returning false stops the import before anything is stored.
 using ImportObserver = std::function<bool(std::size_t fitted, std::size_t total)>;
 
 struct ImportedFile {
@@ -38,8 +40,14 @@ struct ImportedFile {
   bool stopped = false;                            // the observer stopped it: nothing stored
 };
 
+// With `job_id`, the running import job ends `succeeded` in the transaction that stores the
+// file, its result {"imported": count, "source": file, "format": name} (import_job_result).
 std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
                                                        std::string_view bytes, std::string_view source,
-                                                       ImportFormat format, const ImportObserver& observer = {});
+                                                       ImportFormat format, const ImportObserver& observer = {},
+                                                       std::optional<store::Id> job_id = std::nullopt);
+
+// The result an import job records: what it imported, from where.
+std::string import_job_result(std::size_t imported, std::string_view source, ImportFormat format);
 
 }  // namespace skinspec::records

@@ -157,6 +157,12 @@ class Subscription {
   virtual Result<std::vector<Notification>> wait(std::chrono::milliseconds timeout) = 0;
 };
 
+// The end of a job stored with what it made: the job `succeeded` with `result` (a JSON object).
+struct JobCompletion {
+  Id job_id = 0;
+  std::string result = "{}";
+};
+
 struct CompletedJob {
   Job job;  // succeeded, its result holding the ids below
   RecordedMeasurement ids;
@@ -205,9 +211,12 @@ class Store {
   // refused here: it is stored with the job's end, by complete_measurement_job.
   Result<RecordedMeasurement> record_measurement(const Measurement& measurement, const std::optional<Fit>& fit);
   // Several measurements, each with its fit when given, in one transaction: all of them or none
-  // (an imported file). Their ids in the order given.
+  // (an imported file). Their ids in the order given. With `job`, the running job that made
+  // them ends `succeeded` in the same transaction and each measurement names it (job_id), so
+  // an import the service acknowledged is stored whole with its job's end, or not at all.
   Result<std::vector<RecordedMeasurement>> record_measurements(
-      const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements);
+      const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements,
+      const std::optional<JobCompletion>& job = std::nullopt);
   // The end of a running job that measured: the measurement (its job_id set to `job_id`), its
   // fit when given, and the job `succeeded` with `result` (a JSON object, to which the store
   // adds "measurement_id" and "fit_id"), in one transaction: all of it or nothing. So a

@@ -198,6 +198,7 @@ enum class JobErrorCode {
   white_mismatch,  // the white reference was measured on another grid
   white_dark,      // the white reference has no signal at some wavelength
   store,           // the database failed a read or a write
+  bad_file,        // a file to import has a defect (its file, line and column in the message)
   internal,        // anything else
 };
 std::string_view to_string(JobErrorCode code);

@@ -1,0 +1,115 @@
+// `skinspec import` against a real skinspecd: files sent over HTTP as import jobs, a new session
+// opened for them, progress on stderr, a bad file reported by file and line with exit 2 while
+// the good ones are stored, a file larger than the JSON body limit accepted as an upload, and a
+// missing file refused before anything is sent.
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "support/acquisition_rig.hpp"
+#include "support/http_client.hpp"
+#include "support/store_samples.hpp"
+
+namespace skinspec::testing {
+namespace {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+class ImportCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), 0));
+    ASSERT_NE(rig_->port, 0) << rig_->logs();
+  }
+  ProcessResult skinspec(std::vector<std::string> args) const {
+    args.insert(args.end(), {"--server", rig_->url()});
+    return run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args, ProcessOptions{std::nullopt, 300s, {}});
+  }
+  std::string example(const std::string& name) const {
+    return std::string(SKINSPEC_TEST_DATA_DIR) + "/examples/" + name;
+  }
+  std::string write(const std::string& name, const std::string& text) const {
+    const auto path = dir_.file(name);
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  }
+  json session(long long id) const { return get_json(rig_->port, "/api/v1/sessions/" + std::to_string(id)); }
+
+  ScratchDirectory dir_;
+  std::unique_ptr<AcquisitionRig> rig_;
+};
+
+TEST_F(ImportCliTest, FilesOfEveryLayoutAreImportedIntoANewSession) {
+  const auto r = skinspec({"import", example("import-rows-percent.csv"), example("import-columns.csv"),
+                           example("import-argyll.ti3"), "--new-session", "forearm:archive-7"});
+  ASSERT_EQ(r.exit_status, 0) << r.describe() << rig_->logs();
+  EXPECT_NE(r.err.find("session 1 opened: site forearm, subject archive-7"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("import-rows-percent.csv: 3 spectra imported into session 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("import-columns.csv: 2 spectra imported into session 1"), std::string::npos) << r.out;
+  // Not a terminal: one line per change of each job, counting spectra.
+  EXPECT_EQ(r.err.find('\r'), std::string::npos);
+  EXPECT_NE(r.err.find("succeeded, done 3/3 spectra"), std::string::npos) << r.err;
+  const json s = session(1);
+  ASSERT_GE(s["measurements"].size(), 6u) << s;
+  EXPECT_EQ(s["measurements"].size(), s["fits"].size());
+  EXPECT_EQ(s["measurements"][0]["kind"], "imported");
+}
+
+TEST_F(ImportCliTest, ABadFileIsNamedByLineWithExit2AndTheOthersAreStored) {
+  const long long id = new_session(rig_->port, "S1");
+  ASSERT_GT(id, 0);
+  std::string bad = read_text(example("import-rows-percent.csv"));
+  bad.replace(bad.find("28.04"), 5, "2x.04");  // the second spectrum, line 3
+  const auto bad_path = write("bad.csv", bad);
+  const auto r = skinspec({"import", bad_path, example("import-columns.csv"), "--session", std::to_string(id)});
+  EXPECT_EQ(r.exit_status, 2) << r.describe();
+  EXPECT_NE(r.err.find("1 of 2 files not imported"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("bad.csv:3:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(bad_file)"), std::string::npos) << r.err;
+  EXPECT_EQ(session(id)["measurements"].size(), 2u);  // the columns file only
+}
+
+TEST_F(ImportCliTest, AFileLargerThanTheBodyLimitIsAnUpload) {
+  const long long id = new_session(rig_->port, "S2");
+  std::istringstream example_rows(read_text(example("import-rows-percent.csv")));
+  std::string header, row;
+  std::getline(example_rows, header);
+  std::getline(example_rows, row);
+  std::string big = header + "\n";
+  const std::string values = row.substr(row.find(','));
+  for (int i = 0; big.size() < 1300 * 1024; ++i) big += "\"s" + std::to_string(i) + "\"" + values + "\n";
+  const auto r = skinspec({"import", write("big.csv", big), "--session", std::to_string(id), "--json"});
+  ASSERT_EQ(r.exit_status, 0) << r.describe() << rig_->logs();
+  const json job = json::parse(r.out);
+  EXPECT_EQ(job["state"], "succeeded");
+  EXPECT_EQ(session(id)["measurements"].size(), job["result"]["imported"].get<std::size_t>());
+}
+
+TEST_F(ImportCliTest, WhatCannotBeSentIsRefusedBeforeAnything) {
+  const long long id = new_session(rig_->port, "S3");
+  auto r =
+      skinspec({"import", example("import-columns.csv"), dir_.file("missing.csv"), "--session", std::to_string(id)});
+  EXPECT_EQ(r.exit_status, 2) << r.describe();
+  EXPECT_NE(r.err.find("missing.csv: no such file"), std::string::npos) << r.err;
+  EXPECT_EQ(session(id)["measurements"].size(), 0u);
+  r = skinspec({"import", example("import-columns.csv")});
+  EXPECT_EQ(r.exit_status, 2) << r.describe();
+  r = skinspec({"import", example("import-columns.csv"), "--session", "1", "--new-session", "forearm:x"});
+  EXPECT_EQ(r.exit_status, 2) << r.describe();
+  r = skinspec({"import", example("import-columns.csv"), "--new-session", "forearm"});
+  EXPECT_EQ(r.exit_status, 2) << r.describe();
+  r = skinspec({"import", example("import-columns.csv"), "--session", "999"});
+  EXPECT_EQ(r.exit_status, 2) << r.describe();
+  EXPECT_NE(r.err.find("404"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace skinspec::testing
