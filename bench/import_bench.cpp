@@ -78,12 +78,29 @@ int main(int argc, char** argv) {
     if (!id) die(id.error().message);
 
     auto started = Clock::now();
-    const auto imported = records::import_file(*db, *fitter, *id, text, "archive.csv", records::ImportFormat::csv);
+    // The observer hears once when the file has been read and last when all are fitted.
+    double read_s = 0, fitted_s = 0;
+    const auto phases = [&](std::size_t fitted, std::size_t total) {
+      if (fitted == 0) read_s = seconds_since(started);
+      if (fitted == total) fitted_s = seconds_since(started);
+      return true;
+    };
+    const auto imported =
+        records::import_file(*db, *fitter, *id, text, "archive.csv", records::ImportFormat::csv, phases);
     if (!imported) die(imported.error().message());
     double seconds = seconds_since(started);
-    std::printf("imported %zu spectra (%.1f MB of CSV) with their fits in %.2f s: %.0f spectra/s\n",
-                imported->stored.size(), static_cast<double>(text.size()) / 1e6, seconds,
-                static_cast<double>(imported->stored.size()) / seconds);
+    std::printf(
+        "imported %zu spectra (%.1f MB of CSV) with their fits in %.2f s: %.0f spectra/s "
+        "(read %.2f s, fitted %.2f s, stored %.2f s)\n",
+        imported->stored.size(), static_cast<double>(text.size()) / 1e6, seconds,
+        static_cast<double>(imported->stored.size()) / seconds, read_s, fitted_s - read_s, seconds - fitted_s);
+
+    std::error_code ec;
+    const auto size_of = [&](const char* name) {
+      const auto bytes = std::filesystem::file_size(dir / name, ec);
+      return ec ? 0.0 : static_cast<double>(bytes) / 1e6;
+    };
+    std::printf("database %.1f MB, its write-ahead log %.1f MB\n", size_of("lab.db"), size_of("lab.db-wal"));
 
     // The refit's maker differs from the import's only by its model: the paper's.
     started = Clock::now();

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <future>
 #include <map>
 
 #include "skinspec/records/fit_record.hpp"
@@ -42,26 +43,59 @@ class Refit {
   Refit(store::Store& store, const Fitter& fitter, const RefitRequest& request)
       : store_(store), fitter_(fitter), request_(request) {}
 
+  // Batch n is stored on a thread of its own while batch n + 1 is fitted: the commit is mostly
+  // the disk's time, and the cores have fitting to do meanwhile.
   std::expected<RefitReport, store::StoreError> run(const RefitObserver& observer) {
     store::RefitQuery query{current_fit_maker(fitter_, request_.model), request_.session_id, 0, kBatch};
     auto total = store_.count_measurements_to_refit(query);
     if (!total) return std::unexpected(total.error());
     report_.progress.total = *total;
+    std::future<StoreOutcome> storing;
+    // The batch being stored counted once it is: the observer hears, and may stop the refit.
+    const auto settle = [&]() -> std::expected<bool, store::StoreError> {
+      if (!storing.valid()) return true;
+      auto outcome = storing.get();
+      if (!outcome) return std::unexpected(outcome.error());
+      report_.progress.done += *outcome;
+      return !observer || observer(progress_now());
+    };
     for (;;) {
       auto batch = store_.measurements_to_refit(query);
-      if (!batch) return std::unexpected(batch.error());
-      if (batch->empty()) return report_;
+      if (!batch) {
+        (void)settle();
+        return std::unexpected(batch.error());
+      }
+      if (batch->empty()) break;
       query.after_id = batch->back().id;
-      if (auto stored = fit_and_store(*batch); !stored) return std::unexpected(stored.error());
-      if (observer && !observer(progress_now())) {
+      auto fits = fit_batch(*batch);
+      if (!fits) {
+        (void)settle();
+        return std::unexpected(fits.error());
+      }
+      auto go_on = settle();
+      if (!go_on) return std::unexpected(go_on.error());
+      if (!*go_on) {
         report_.stopped = true;
         return report_;
       }
+      storing = std::async(std::launch::async, [this, fits = std::move(*fits)]() -> StoreOutcome {
+        if (fits.empty()) return 0;
+        auto stored = store_.add_fits(fits);
+        if (!stored) return std::unexpected(stored.error());
+        return static_cast<std::int64_t>(fits.size());
+      });
     }
+    auto go_on = settle();
+    if (!go_on) return std::unexpected(go_on.error());
+    report_.stopped = !*go_on;
+    return report_;
   }
 
  private:
-  std::expected<void, store::StoreError> fit_and_store(const std::vector<store::Measurement>& batch) {
+  using StoreOutcome = std::expected<std::int64_t, store::StoreError>;  // fits stored
+
+  // The batch's fits; the measurements the fitter refused counted and named in the report.
+  std::expected<std::vector<store::Fit>, store::StoreError> fit_batch(const std::vector<store::Measurement>& batch) {
     std::vector<FitOptions> options;
     for (const auto& m : batch) {
       auto o = options_for(m.session_id);
@@ -79,11 +113,7 @@ class Refit {
         if (report_.failures.size() < kFailuresKept) report_.failures.push_back(std::move(r.failure));
       }
     }
-    if (fits.empty()) return {};
-    auto stored = store_.add_fits(fits);
-    if (!stored) return std::unexpected(stored.error());
-    report_.progress.done += static_cast<std::int64_t>(fits.size());
-    return {};
+    return fits;
   }
 
   // A measurement is fitted with its session's site.
