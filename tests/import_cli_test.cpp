@@ -7,7 +7,9 @@
 
 #include <fstream>
 #include <sstream>
+#include <thread>
 
+#include "skinspec/store/store.hpp"
 #include "support/acquisition_rig.hpp"
 #include "support/http_client.hpp"
 #include "support/store_samples.hpp"
@@ -109,6 +111,57 @@ TEST_F(ImportCliTest, WhatCannotBeSentIsRefusedBeforeAnything) {
   r = skinspec({"import", example("import-columns.csv"), "--session", "999"});
   EXPECT_EQ(r.exit_status, 2) << r.describe();
   EXPECT_NE(r.err.find("404"), std::string::npos) << r.err;
+}
+
+// A refit job of the service killed with its daemon and posted again once the daemon is back:
+// the killed job is failed as interrupted, and between them the two runs refit every
+// measurement exactly once.
+TEST_F(ImportCliTest, ARefitKilledWithItsDaemonIsResumedByPostingItAgain) {
+  std::istringstream example_rows(read_text(example("import-rows-percent.csv")));
+  std::string header, row;
+  std::getline(example_rows, header);
+  std::getline(example_rows, row);
+  std::string archive = header + "\n";
+  for (int i = 0; i < 4000; ++i) archive += "\"s" + std::to_string(i) + "\"" + row.substr(row.find(',')) + "\n";
+  const auto imported = skinspec({"import", write("archive.csv", archive), "--new-session", "forearm:A1"});
+  ASSERT_EQ(imported.exit_status, 0) << imported.describe();
+
+  const json refit = json::parse(http_request(rig_->port, "POST", "/api/v1/refits", R"({"model": "paper"})",
+                                              {{"Content-Type", "application/json"}})
+                                     .body);
+  const auto job = "/api/v1/jobs/" + refit["id"].dump();
+  for (auto deadline = std::chrono::steady_clock::now() + 60s;
+       get_json(rig_->port, job)["progress"].value("spectra_done", 0) == 0;) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << get_json(rig_->port, job);
+    std::this_thread::sleep_for(2ms);
+  }
+  rig_->stop_daemon(SIGKILL);
+  rig_->restart_daemon();
+  ASSERT_NE(rig_->port, 0) << rig_->logs();
+  const json killed = get_json(rig_->port, job);
+  EXPECT_EQ(killed["state"], "failed") << killed;
+  EXPECT_EQ(killed["error"]["code"], "interrupted") << killed;
+  // Counted in the database itself (read-only beside the daemon): the session's answer would be
+  // tens of megabytes.
+  const auto paper_fits = [&] {
+    store::OpenOptions read_only;
+    read_only.mode = store::OpenMode::read_only;
+    auto db = value_of(store::Store::open(rig_->db_path(), read_only));
+    std::size_t n = 0;
+    for (const auto& f : value_of(db.session_detail(1)).fits) n += f.model == "paper";
+    return n;
+  };
+  const std::size_t before = paper_fits();
+  EXPECT_GT(before, 0u);
+  EXPECT_LT(before, 4000u);
+
+  const json again = json::parse(http_request(rig_->port, "POST", "/api/v1/refits", R"({"model": "paper"})",
+                                              {{"Content-Type", "application/json"}})
+                                     .body);
+  const json done = wait_for_job(rig_->port, again, 120s);
+  ASSERT_EQ(done["state"], "succeeded") << done;
+  EXPECT_EQ(done["result"]["refitted"].get<std::size_t>(), 4000 - before);
+  EXPECT_EQ(paper_fits(), 4000u);
 }
 
 }  // namespace
