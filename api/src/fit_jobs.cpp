@@ -144,8 +144,9 @@ std::optional<JobProgress> FitJobs::progress(store::Id job_id) const {
   if (it == live_.end()) return std::nullopt;
   JobProgress out = it->second;
   if (out.phase == JobPhase::queued) {
+    // Taken from the queue but not yet started, it is next: the end of the queue would be wrong.
     const auto at = std::ranges::find(queue_, job_id, &Queued::id);
-    out.position = static_cast<int>(at - queue_.begin()) + 1;
+    out.position = at == queue_.end() ? 1 : static_cast<int>(at - queue_.begin()) + 1;
   }
   return out;
 }

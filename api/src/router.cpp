@@ -807,6 +807,17 @@ bool Router::is_upload(const std::string& method, const std::string& target) {
   return route != nullptr && route->upload;
 }
 
+std::optional<ApiError> Router::refuse_upload(const Request& header) const {
+  const RouteInfo* route = route_of(header.method, header.target);
+  if (route == nullptr || !route->upload) return std::nullopt;
+  try {
+    check_access(context_.access, header, *route);
+  } catch (const detail::HandlerError& e) {
+    return e.error;
+  }
+  return std::nullopt;
+}
+
 Response Router::handle(const Request& request) const {
   const auto started = std::chrono::steady_clock::now();
   std::string route_label = "unmatched";

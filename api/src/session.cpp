@@ -87,11 +87,11 @@ void Session::on_header(const beast::error_code& ec) {
   if (auto refused = check_framing(parser_->get())) return send_error(*refused, parser_->get().version());
   const auto& header = parser_->get();
   if (Router::is_upload(std::string(header.method_string()), std::string(header.target()))) {
+    if (auto refused = state_->router.refuse_upload(to_request(header))) return send_error(*refused, header.version());
     limits_.body_limit = state_->options.upload_limit;
     stream_.expires_after(state_->options.upload_timeout);
-  } else if (parser_->content_length().value_or(0) > limits_.body_limit) {
-    return on_read_failure(http::error::body_limit);
   }
+  if (parser_->content_length().value_or(0) > limits_.body_limit) return on_read_failure(http::error::body_limit);
   parser_->body_limit(limits_.body_limit);  // a chunked body is counted as it comes
   http::async_read(stream_, buffer_, *parser_,
                    [self = shared_from_this()](beast::error_code read_ec, std::size_t) { self->on_read(read_ec); });

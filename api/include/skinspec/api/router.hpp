@@ -109,6 +109,9 @@ class Router {
   static bool is_heavy(const std::string& method, const std::string& target);
   // Whether `method` on `target` takes a file as its body (RouteInfo::upload).
   static bool is_upload(const std::string& method, const std::string& target);
+  // An upload's refusal for want of the token (401, 403), from its header alone, so that the
+  // server need not take in a large body that would be refused anyway.
+  std::optional<ApiError> refuse_upload(const Request& header) const;
   // OpenAPI 3.1, generated from routes(), with this build's version.
   static nlohmann::json openapi_document();
 
