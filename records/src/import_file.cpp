@@ -55,8 +55,10 @@ class FittedRows {
         std::thread([this, make] { parallel_for(spectra_.size(), 0, [&](std::size_t i) { fit_one(i, make); }); });
   }
 
-  // The next row in the file's order, once fitted; null after the last.
+  // The next row in the file's order, once fitted; null after the last. The row taken before is
+  // stored by then, and let go: a large file is not held twice over.
   const Row* next() {
+    if (taken_ > 0) rows_[taken_ - 1] = Row{};
     if (taken_ == rows_.size()) return nullptr;
     std::unique_lock lock(mutex_);
     ready_changed_.wait(lock, [&] { return ready_[taken_] || stop_; });
