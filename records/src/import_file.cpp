@@ -3,8 +3,6 @@
 #include <fmt/format.h>
 
 #include <atomic>
-#include <condition_variable>
-#include <thread>
 #include <mutex>
 #include <nlohmann/json.hpp>
 
@@ -21,89 +19,6 @@ constexpr std::size_t kReportEvery = 256;
 std::unexpected<ImportFailure> bad_file(std::string_view source, std::size_t line, std::string message) {
   return std::unexpected(ImportFailure{InputError{std::string(source), line, 0, std::move(message)}});
 }
-
-// The file's spectra fitted on every core by a thread of its own while the store takes them,
-// in the file's order, as they become ready: storing overlaps fitting. A spectrum the fitter
-// refuses, or the observer's stop, ends the taking by an exception, so that the store's
-// transaction stores nothing.
-class FittedRows {
- public:
-  using Row = std::pair<store::Measurement, std::optional<store::Fit>>;
-  struct Stopped {};
-  struct Refused {
-    std::size_t index;
-    std::string why;
-  };
-
-  FittedRows(const Fitter& fitter, const std::vector<ImportedSpectrum>& spectra, const FitOptions& options,
-             const ImportObserver& observer)
-      : fitter_(fitter),
-        spectra_(spectra),
-        options_(options),
-        observer_(observer),
-        rows_(spectra.size()),
-        refused_(spectra.size()),
-        ready_(spectra.size()) {}
-  ~FittedRows() {
-    stop_ = true;  // a taker that gave up leaves nothing for the fitting to do
-    if (fitting_.joinable()) fitting_.join();
-  }
-
-  template <typename MakeMeasurement>
-  void start(MakeMeasurement make) {
-    fitting_ =
-        std::thread([this, make] { parallel_for(spectra_.size(), 0, [&](std::size_t i) { fit_one(i, make); }); });
-  }
-
-  // The next row in the file's order, once fitted; null after the last. The row taken before is
-  // stored by then, and let go: a large file is not held twice over.
-  const Row* next() {
-    if (taken_ > 0) rows_[taken_ - 1] = Row{};
-    if (taken_ == rows_.size()) return nullptr;
-    std::unique_lock lock(mutex_);
-    ready_changed_.wait(lock, [&] { return ready_[taken_] || stop_; });
-    if (stop_) throw Stopped{};
-    const std::size_t i = taken_++;
-    if (!refused_[i].empty()) throw Refused{i, refused_[i]};
-    return &rows_[i];
-  }
-
- private:
-  template <typename MakeMeasurement>
-  void fit_one(std::size_t i, const MakeMeasurement& make) {
-    if (stop_) return;
-    // Nothing may leave a worker thread: whatever is thrown refuses this spectrum, by its line.
-    try {
-      rows_[i].first = make(spectra_[i]);
-      auto fit = fitted(fitter_, spectra_[i].reflectance, options_);
-      if (fit) rows_[i].second = std::move(*fit);
-      else refused_[i] = fit.error();
-    } catch (const std::exception& e) {
-      refused_[i] = e.what();
-    }
-    std::lock_guard lock(mutex_);
-    ready_[i] = true;
-    ++fitted_count_;
-    if (observer_ && (fitted_count_ % kReportEvery == 0 || fitted_count_ == rows_.size()) &&
-        !observer_(fitted_count_, rows_.size()))
-      stop_ = true;
-    ready_changed_.notify_all();
-  }
-
-  const Fitter& fitter_;
-  const std::vector<ImportedSpectrum>& spectra_;
-  const FitOptions& options_;
-  const ImportObserver& observer_;
-  std::vector<Row> rows_;
-  std::vector<std::string> refused_;  // why, for each spectrum the fitter refused
-  std::mutex mutex_;
-  std::condition_variable ready_changed_;
-  std::vector<bool> ready_;  // guarded by mutex_, as are the two below
-  std::size_t fitted_count_ = 0;
-  std::atomic<bool> stop_{false};
-  std::size_t taken_ = 0;  // the taker's own
-  std::thread fitting_;    // last: joined before the rest goes
-};
 
 }  // namespace
 
@@ -163,20 +78,39 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
       .model = *model, .site = session->site, .lateral_diffusion = true, .weights = {}, .held = {}};
   const auto now = store::Time(
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()));
-  FittedRows rows(fitter, *spectra, options, observer);
-  rows.start([&](const ImportedSpectrum& s) { return imported_measurement(s, session_id, source, format, now); });
+  std::vector<std::pair<store::Measurement, std::optional<store::Fit>>> rows(spectra->size());
+  std::vector<std::string> refused(spectra->size());
+  std::atomic<std::size_t> fitted_count{0};
+  std::atomic<bool> stop{false};
+  std::mutex observing;
+  parallel_for(spectra->size(), 0, [&](std::size_t i) {
+    if (stop) return;
+    const auto& s = (*spectra)[i];
+    // Nothing may leave a worker thread: whatever is thrown refuses this spectrum, by its line.
+    try {
+      rows[i].first = imported_measurement(s, session_id, source, format, now);
+      auto fit = fitted(fitter, s.reflectance, options);
+      if (fit) rows[i].second = std::move(*fit);
+      else refused[i] = fit.error();
+    } catch (const std::exception& e) {
+      refused[i] = e.what();
+    }
+    const auto done = ++fitted_count;
+    if (observer && (done % kReportEvery == 0 || done == rows.size())) {
+      std::lock_guard lock(observing);
+      if (!observer(done, rows.size())) stop = true;
+    }
+  });
+  if (stop) return ImportedFile{{}, true};
+  for (std::size_t i = 0; i < refused.size(); ++i)
+    if (!refused[i].empty())
+      return bad_file(source, (*spectra)[i].line,
+                      fmt::format("spectrum '{}' cannot be fitted: {}", (*spectra)[i].sample_id, refused[i]));
   std::optional<store::JobCompletion> completion;
-  if (job_id) completion = store::JobCompletion{*job_id, import_job_result(spectra->size(), source, format)};
-  try {
-    auto stored = store.record_measurements_as_ready([&] { return rows.next(); }, completion);
-    if (!stored) return std::unexpected(ImportFailure{stored.error()});
-    return ImportedFile{std::move(*stored), false};
-  } catch (const FittedRows::Stopped&) {
-    return ImportedFile{{}, true};
-  } catch (const FittedRows::Refused& refused) {
-    const auto& s = (*spectra)[refused.index];
-    return bad_file(source, s.line, fmt::format("spectrum '{}' cannot be fitted: {}", s.sample_id, refused.why));
-  }
+  if (job_id) completion = store::JobCompletion{*job_id, import_job_result(rows.size(), source, format)};
+  auto stored = store.record_measurements(rows, completion);
+  if (!stored) return std::unexpected(ImportFailure{stored.error()});
+  return ImportedFile{std::move(*stored), false};
 }
 
 }  // namespace skinspec::records
