@@ -104,7 +104,8 @@ void add_import_command(CLI::App& app) {
   fresh->excludes(session);
   command->add_option("--format", args->format, "csv or cgats (default: recognised from each file's content)")
       ->check(CLI::IsMember({"csv", "cgats"}));
-  add_model_option(*command, args->model);
+  auto* model = add_model_option(*command, args->model);
+  model->needs(fresh);  // an existing session's model is its own
   add_server_options(*command, *server);
   command->callback([server, args, session, fresh] {
     if (session->count() == 0 && fresh->count() == 0)

@@ -180,6 +180,7 @@ TEST_F(FitJobsTest, RequestsThatCannotBeImportedAreRefusedWithoutAJob) {
 
 TEST_F(FitJobsTest, AQueuedImportAndARunningOneAreCancelledWithNothingStored) {
   const json big = accepted(post_import(rows_file(20000)));
+  ASSERT_TRUE(wait_for_work(big["id"]));  // fitting: a job posted now waits behind it
   const json queued = accepted(post_import(rows_file(3)));
   EXPECT_EQ(get_job(queued["id"])["position"], 1);
   const auto first = cancel(queued["id"]);
@@ -187,7 +188,6 @@ TEST_F(FitJobsTest, AQueuedImportAndARunningOneAreCancelledWithNothingStored) {
   EXPECT_EQ(json::parse(first.body)["state"], "cancelled");
   EXPECT_EQ(cancel(queued["id"]).status, 200);  // again: it is cancelled
 
-  ASSERT_TRUE(wait_for_work(big["id"]));
   ASSERT_EQ(cancel(big["id"]).status, 200);
   const json last = follow(big["id"]).back();
   EXPECT_EQ(last["state"], "cancelled") << last;
@@ -226,6 +226,20 @@ TEST_F(FitJobsTest, ARefitCancelledThenPostedAgainRefitsEachMeasurementOnce) {
   EXPECT_EQ(cancel(nothing_left["id"]).status, 409);  // it has ended
 }
 
+TEST_F(FitJobsTest, StoppingTheServiceEndsTheRunningJobAndTheQueuedOnesAsStopped) {
+  const json big = accepted(post_import(rows_file(20000)));
+  ASSERT_TRUE(wait_for_work(big["id"]));
+  const json queued = accepted(post_refit({{"model", "paper"}}));
+  router_.reset();  // as skinspecd does when it stops
+  for (const auto& job : {big, queued}) {
+    const auto record = testing::value_of(db_->job(job["id"].get<store::Id>()));
+    EXPECT_EQ(record.state, store::JobState::cancelled) << job["id"];
+    ASSERT_TRUE(record.error);
+    EXPECT_EQ(record.error->code, store::JobErrorCode::stopped);
+  }
+  EXPECT_EQ(stored(session_), 0u);
+}
+
 TEST_F(FitJobsTest, RefitRequestsAreChecked) {
   EXPECT_EQ(post_refit({{"model", "nonsense"}}).status, 422);
   EXPECT_EQ(post_refit({{"session_id", "one"}}).status, 422);
@@ -242,6 +256,8 @@ TEST_F(FitJobsTest, RefitRequestsAreChecked) {
   const auto second = keyed();
   EXPECT_EQ(second.status, 200);
   EXPECT_EQ(json::parse(second.body)["id"], json::parse(first.body)["id"]);
+  // The key of a refit does not name an import.
+  EXPECT_EQ(post_import(rows_file(2), "", {{"content-type", "text/csv"}, {"idempotency-key", "k1"}}).status, 409);
 }
 
 }  // namespace

@@ -108,6 +108,8 @@ TEST_F(ImportCliTest, WhatCannotBeSentIsRefusedBeforeAnything) {
   EXPECT_EQ(r.exit_status, 2) << r.describe();
   r = skinspec({"import", example("import-columns.csv"), "--new-session", "forearm"});
   EXPECT_EQ(r.exit_status, 2) << r.describe();
+  r = skinspec({"import", example("import-columns.csv"), "--session", std::to_string(id), "--model", "paper"});
+  EXPECT_EQ(r.exit_status, 2) << r.describe();  // an existing session keeps its model
   r = skinspec({"import", example("import-columns.csv"), "--session", "999"});
   EXPECT_EQ(r.exit_status, 2) << r.describe();
   EXPECT_NE(r.err.find("404"), std::string::npos) << r.err;

@@ -97,18 +97,41 @@ std::expected<store::CreatedJob, ApiError> FitJobs::enqueue(store::Job job,
   if (!job.idempotency_key.empty()) {
     auto earlier = store_.job_by_idempotency_key(job.idempotency_key);
     if (!earlier) return std::unexpected(from_store_error(earlier.error()));
+    if (*earlier && (*earlier)->kind != job.kind)
+      return std::unexpected(
+          ApiError{ErrorKind::conflict, "conflict",
+                   fmt::format("the Idempotency-Key names job {}, a {} job", (*earlier)->id, (*earlier)->kind)});
     if (*earlier) return store::CreatedJob{**earlier, false};
   }
-  std::lock_guard lock(mutex_);  // queue order is the order of the jobs' ids
-  if (stopping_) return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"});
-  auto created = store_.create_job(job);
-  if (!created) return std::unexpected(from_store_error(created.error()));
-  if (created->created) {
-    queue_.push_back({created->job.id, std::move(work)});
-    live_[created->job.id] = JobProgress{};
-    changed();
-    wake_.notify_all();
+  const std::size_t bytes = held_bytes(work);
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"});
+    // Files wait in memory until their turn: more than this, and the next is refused for now.
+    if (held_bytes_ + bytes > kMaxHeldBytes)
+      return std::unexpected(
+          ApiError{ErrorKind::unavailable, "busy",
+                   fmt::format("{} MB of files wait to be imported already; send this one when they are done",
+                               held_bytes_ / 1000000)});
+    held_bytes_ += bytes;
   }
+  // The record is made without the lock: its write may wait for an import being stored, and
+  // followers of the other jobs must not wait with it.
+  auto created = store_.create_job(job);
+  std::lock_guard lock(mutex_);
+  if (!created || !created->created || stopping_) {
+    held_bytes_ -= bytes;
+    if (!created) return std::unexpected(from_store_error(created.error()));
+    if (created->created)  // made as the service stopped: never started
+      return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"});
+    return *created;
+  }
+  // In the order of the jobs' ids, which is the order they were posted in.
+  const auto at = std::ranges::upper_bound(queue_, created->job.id, {}, &Queued::id);
+  queue_.insert(at, {created->job.id, std::move(work)});
+  live_[created->job.id] = JobProgress{};
+  changed();
+  wake_.notify_all();
   return *created;
 }
 
@@ -117,6 +140,7 @@ std::expected<store::Job, ApiError> FitJobs::cancel(store::Id job_id) {
     std::unique_lock lock(mutex_);
     const auto queued = std::ranges::find(queue_, job_id, &Queued::id);
     if (queued != queue_.end()) {
+      held_bytes_ -= held_bytes(queued->work);
       queue_.erase(queued);
       lock.unlock();
       end(job_id, stopped_update(true));
@@ -124,13 +148,16 @@ std::expected<store::Job, ApiError> FitJobs::cancel(store::Id job_id) {
       cancel_running_ = true;  // the job ends at its next step
     }
   }
+  // Progress first, then the record (as current_job_json): a job that ends between the two
+  // reads is then seen ended, not taken for another program's.
+  const bool runs_here = progress(job_id).has_value();
   auto job = store_.job(job_id);
   if (!job) return std::unexpected(from_store_error(job.error()));
   if (job->state == store::JobState::queued || job->state == store::JobState::running) {
-    if (!progress(job_id))
-      return std::unexpected(
-          ApiError{ErrorKind::conflict, "conflict",
-                   fmt::format("job {} runs in the skinspecd of bench '{}'; cancel it there", job_id, job->bench)});
+    if (!runs_here)
+      return std::unexpected(ApiError{
+          ErrorKind::conflict, "conflict",
+          fmt::format("job {} is run by the skinspecd of bench '{}': cancel it through that one", job_id, job->bench)});
     return *job;
   }
   if (job->error && job->error->code == store::JobErrorCode::cancelled) return *job;
@@ -188,6 +215,7 @@ void FitJobs::work() {
     }
     run(job);
     std::lock_guard lock(mutex_);
+    held_bytes_ -= held_bytes(job.work);
     running_ = 0;
   }
   // What is still queued never starts. Its record would otherwise be failed as interrupted
@@ -201,14 +229,27 @@ void FitJobs::work() {
 }
 
 void FitJobs::run(const Queued& job) {
-  // A queued record another program cancelled, or that is gone, is not run.
-  if (auto started =
-          store_.update_job(job.id, {store::JobState::running, std::nullopt, std::nullopt, store::JobState::queued});
-      !started) {
-    return release(job.id);
+  auto started =
+      store_.update_job(job.id, {store::JobState::running, std::nullopt, std::nullopt, store::JobState::queued});
+  if (!started) {
+    // Cancelled by another program meanwhile (a conflict): not run. Otherwise the record could
+    // not be written and stays queued; shown failed while this program runs, and failed as
+    // interrupted when the database is next opened.
+    if (started.error().kind == store::StoreError::Kind::conflict) return release(job.id);
+    return release(job.id, job_error(store::JobErrorCode::store, started.error().message));
   }
-  if (const auto* upload = std::get_if<ImportUpload>(&job.work)) run_import(job.id, *upload);
-  else run_refit(job.id, std::get<records::RefitRequest>(job.work));
+  // Nothing thrown may leave this thread, which would end the whole service with it.
+  try {
+    if (const auto* upload = std::get_if<ImportUpload>(&job.work)) run_import(job.id, *upload);
+    else run_refit(job.id, std::get<records::RefitRequest>(job.work));
+  } catch (const std::exception& e) {
+    end(job.id, ended(store::JobState::failed, job_error(store::JobErrorCode::internal, e.what())));
+  }
+}
+
+std::size_t FitJobs::held_bytes(const std::variant<ImportUpload, records::RefitRequest>& work) {
+  const auto* upload = std::get_if<ImportUpload>(&work);
+  return upload ? upload->bytes.size() : 0;
 }
 
 FitJobs::Verdict FitJobs::report(store::Id id, const JobProgress& progress) {
@@ -220,7 +261,8 @@ FitJobs::Verdict FitJobs::report(store::Id id, const JobProgress& progress) {
 }
 
 void FitJobs::run_import(store::Id id, const ImportUpload& upload) {
-  report(id, {0, JobPhase::reading});
+  if (const auto first = report(id, {0, JobPhase::reading}); first != Verdict::go_on)
+    return end(id, stopped_update(first == Verdict::cancelled));
   const auto began = Clock::now();
   auto verdict = Verdict::go_on;
   const auto observer = [&](std::size_t fitted, std::size_t total) {
@@ -243,8 +285,8 @@ void FitJobs::run_import(store::Id id, const ImportUpload& upload) {
 }
 
 void FitJobs::run_refit(store::Id id, const records::RefitRequest& request) {
-  auto verdict = Verdict::go_on;
-  report(id, {0, JobPhase::fitting});
+  auto verdict = report(id, {0, JobPhase::fitting});
+  if (verdict != Verdict::go_on) return end(id, stopped_update(verdict == Verdict::cancelled));
   const auto observer = [&](const records::RefitProgress& at) {
     JobProgress p{0, JobPhase::fitting};
     p.spectra_done = at.done + at.failed;

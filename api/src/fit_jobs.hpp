@@ -75,6 +75,11 @@ class FitJobs final : public JobWatch {
   // Its live progress dropped (kept as a failure when its end could not be recorded).
   void release(store::Id id, std::optional<store::JobError> unrecorded = std::nullopt);
   void changed();  // with mutex_ held
+  // The bytes a queued job holds in memory: an import's file.
+  static std::size_t held_bytes(const std::variant<ImportUpload, records::RefitRequest>& work);
+
+  // Files queued or being imported, at most (they wait in memory).
+  static constexpr std::size_t kMaxHeldBytes = std::size_t{1} << 30;
 
   store::Store& store_;
   const Fitter& fitter_;
@@ -87,7 +92,8 @@ class FitJobs final : public JobWatch {
   bool cancel_running_ = false;
   bool stopping_ = false;
   std::uint64_t changes_ = 0;
-  std::thread worker_;  // last: started once everything above exists
+  std::size_t held_bytes_ = 0;  // of the queued and running jobs' files
+  std::thread worker_;          // last: started once everything above exists
 };
 
 }  // namespace skinspec::api

@@ -27,7 +27,10 @@ json progress_json(JobPhase phase, int done, int total, double fraction) {
 
 // An import's or a refit's progress: spectra rather than readings, and the time left.
 json spectra_progress_json(JobPhase phase, std::int64_t done, std::int64_t total, std::optional<double> remaining_s) {
-  const double fraction = phase == JobPhase::done ? 1.0 : total > 0 ? static_cast<double>(done) / total : 0.0;
+  // A refit also takes measurements stored after it began, so `done` may pass `total`.
+  const double fraction = phase == JobPhase::done ? 1.0
+                          : total > 0             ? std::min(1.0, static_cast<double>(done) / total)
+                                                  : 0.0;
   return {{"phase", std::string(to_string(phase))},
           {"spectra_done", done},
           {"spectra_total", total},

@@ -98,7 +98,11 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
     const auto done = ++fitted_count;
     if (observer && (done % kReportEvery == 0 || done == rows.size())) {
       std::lock_guard lock(observing);
-      if (!observer(done, rows.size())) stop = true;
+      try {
+        if (!observer(done, rows.size())) stop = true;
+      } catch (const std::exception&) {
+        stop = true;  // an observer that cannot hear any more stops the import; nothing leaves the thread
+      }
     }
   });
   if (stop) return ImportedFile{{}, true};
