@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <fmt/format.h>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -57,12 +59,19 @@ void expect_same_answers(ModelKind model) {
   const auto actual = testing::engine_answers(model);
   ASSERT_EQ(expected.size(), actual.size()) << file;
   int differences = 0;
+  double largest_parameter_change = 0;  // relative, for the record
   for (std::size_t i = 0; i < expected.size(); ++i) {
     const auto& e = expected[i];
     const auto& a = actual[i];
     ASSERT_EQ(e.spectrum + " " + e.quantity, a.spectrum + " " + a.quantity) << file << " line order";
     // How many steps the solver took is how it got there, not what it found.
     if (e.quantity == "iterations") continue;
+    if (e.quantity.starts_with("param.")) {
+      const auto before = finite_number(e.value), after = finite_number(a.value);
+      if (before && after && *before != *after)
+        largest_parameter_change = std::max(largest_parameter_change,
+                                            std::abs(*after - *before) / std::max(std::abs(*before), std::abs(*after)));
+    }
     if (!agree(e.quantity, e.value, a.value)) {
       ++differences;
       ADD_FAILURE() << e.model << " " << e.spectrum << " " << e.quantity << ": expected " << e.value << ", got "
@@ -70,6 +79,8 @@ void expect_same_answers(ModelKind model) {
     }
   }
   EXPECT_EQ(differences, 0);
+  ::testing::Test::RecordProperty("largest_relative_parameter_change", fmt::format("{:.3g}", largest_parameter_change));
+  std::printf("%s: largest relative parameter change %.3g\n", file.c_str(), largest_parameter_change);
 }
 
 TEST(FitEngineReference, ExtendedModelGivesTheRecordedAnswers) { expect_same_answers(ModelKind::extended); }
