@@ -115,7 +115,8 @@ std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) 
 template <int N>
 class Engine {
  public:
-  Engine(const Problem& problem) : problem_(problem), bounds_(bounds_of(problem.model)) {}
+  Engine(const Problem& problem, Workspace& work)
+      : problem_(problem), bounds_(bounds_of(problem.model)), model_(problem.model), work_(work) {}
 
   // Bounded least squares by active sets: solve; pin every parameter that crossed a bound at
   // that bound and solve again; release a pinned parameter whose gradient points back inside.
@@ -141,8 +142,9 @@ class Engine {
     const auto n = static_cast<Eigen::Index>(problem_.model.size());
     s.residuals.resize(n);
     s.jacobian.resize(n, N);
-    SpectrumResiduals(problem_.model, problem_.measured, problem_.sqrt_weights)
-        .evaluate(s.params.data(), s.residuals.data(), s.jacobian.data());
+    const SpectrumResiduals residuals(model_, problem_.measured, problem_.sqrt_weights);
+    residuals.evaluate(s.params.data(), work_, s.residuals.data());
+    residuals.jacobian(s.params.data(), work_, s.jacobian.data());
   }
 
   bool fixed(const Solution& s, std::size_t i) const { return problem_.held[i] || s.pinned[i] != Pin::none; }
@@ -168,9 +170,9 @@ class Engine {
       s.message = "every parameter held";
       return;
     }
-    const SpectrumResiduals residuals(problem_.model, problem_.measured, problem_.sqrt_weights,
+    const SpectrumResiduals residuals(model_, problem_.measured, problem_.sqrt_weights,
                                       Box{bounds_.solver_lower, bounds_.solver_upper});
-    LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper);
+    LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper, work_);
     s.params.assign(result.params.begin(), result.params.end());
     s.cost = result.cost;
     s.iterations = result.iterations;
@@ -208,6 +210,8 @@ class Engine {
 
   const Problem& problem_;
   Bounds bounds_;
+  SpectrumModel model_;
+  Workspace& work_;
 };
 
 // What to restart from when absorbers end at zero: in dark skin melanin can stand in for blood
@@ -224,7 +228,8 @@ bool restarts_at_zero(ModelKind kind, std::size_t i) {
 
 template <int N>
 Solution solve_with(const Problem& problem) {
-  const Engine<N> engine(problem);
+  thread_local Workspace work;  // reused by every fit on this thread
+  const Engine<N> engine(problem, work);
   Solution best;
   best.cost = std::numeric_limits<double>::infinity();
   for (const Params& start : coarse_starts(problem, model_spec(problem.model.kind()).starts)) {
