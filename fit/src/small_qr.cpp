@@ -1,5 +1,6 @@
 #include "small_qr.hpp"
 
+#include <Eigen/Core>
 #include <cmath>
 
 namespace skinspec::detail {
@@ -8,33 +9,12 @@ namespace {
 
 constexpr int kMaxColumns = 16;
 
-double dot(const double* x, const double* y, int n) {
-  double sum = 0;
-  for (int i = 0; i < n; ++i) sum += x[i] * y[i];
-  return sum;
-}
-
-// The dot products of x with each of the `count` vectors y[0..count), n entries each, in one
-// pass over the entries: four sums at a time run side by side instead of one after another,
-// each still adding its terms in order, so each equals dot(x, y[c], n) exactly.
+// The dot products of x with each of the `count` vectors y[0..count), n entries each, by
+// Eigen's vectorised reductions: several partial sums at once, rather than one sum whose every
+// addition waits on the one before.
 void dots(const double* x, double* const* y, int count, int n, double* out) {
-  for (int c = 0; c < count; c += 4) {
-    const int group = count - c < 4 ? count - c : 4;
-    // Short groups repeat their last vector; the repeated sums are dropped.
-    const double* y0 = y[c];
-    const double* y1 = y[c + (group > 1 ? 1 : 0)];
-    const double* y2 = y[c + (group > 2 ? 2 : group - 1)];
-    const double* y3 = y[c + group - 1];
-    double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
-    for (int i = 0; i < n; ++i) {
-      s0 += x[i] * y0[i];
-      s1 += x[i] * y1[i];
-      s2 += x[i] * y2[i];
-      s3 += x[i] * y3[i];
-    }
-    const double sums[] = {s0, s1, s2, s3};
-    for (int g = 0; g < group; ++g) out[c + g] = sums[g];
-  }
+  const Eigen::Map<const Eigen::VectorXd> v(x, n);
+  for (int c = 0; c < count; ++c) out[c] = v.dot(Eigen::Map<const Eigen::VectorXd>(y[c], n));
 }
 
 // y -= factor * v over n entries.
@@ -48,7 +28,7 @@ void triangularize(double* a, int rows, int cols, double* b) {
   for (int j = 0; j < cols; ++j) {
     double* v = a + j * rows + j;  // column j from the diagonal down, turned into the reflection
     const int length = rows - j;
-    const double norm2 = dot(v, v, length);
+    const double norm2 = Eigen::Map<const Eigen::VectorXd>(v, length).squaredNorm();
     if (norm2 == 0) continue;  // nothing to eliminate
     // The diagonal takes the sign opposite to v[0]'s, so that v[0] - diagonal does not cancel.
     const double diagonal = v[0] > 0 ? -std::sqrt(norm2) : std::sqrt(norm2);
