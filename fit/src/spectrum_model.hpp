@@ -10,23 +10,24 @@
 // (tests/model_test.cpp); they agree to rounding.
 
 #include <Eigen/Core>
+#include <cstdint>
 
 #include "skinspec/fit/model.hpp"
 
 namespace skinspec::detail {
 
-// Kubelka's layer at every sample (model.hpp, kubelka_layer): k = K / S, a = 1 + k,
+// Kubelka's layer at every sample (model.hpp, kubelka_layer): k = K / S (K times inverse_S), a = 1 + k,
 // b = sqrt(k (k + 2)), e1 = exp(-D S b), e = e1^2, R = (1 - e) / den, T = 2 b e1 / den with
 // den = a (1 - e) + b (1 + e).
 struct LayerColumns {
-  Eigen::ArrayXd k, a, b, e1, e, inverse_den, r, t;
+  Eigen::ArrayXd inverse_S, k, a, b, e1, e, inverse_den, r, t;
   void resize(Eigen::Index n);
 };
 
 // A layer's R and T as functions of k = K / S and c = D S b, each differentiated with the
-// other fixed, and a / b (db/dk).
+// other fixed, 1 / b and a / b (db/dk).
 struct LayerSlopes {
-  Eigen::ArrayXd r_k, t_k, r_c, t_c, a_over_b;
+  Eigen::ArrayXd r_k, t_k, r_c, t_c, inverse_b, a_over_b;
   void resize(Eigen::Index n);
 };
 
@@ -41,6 +42,12 @@ struct Workspace {
   Eigen::ArrayXd total, kept, lateral_exp;       // dermis over white, its share kept, exp(-mu_eff r)
   Eigen::ArrayXd under_surface;                  // X of R = (1 - rs) X + rs
   Eigen::ArrayXd scratch1, scratch2, scratch3, scratch4, scratch5, scratch6, scratch7, scratch8;
+  // Columns that depend on one parameter alone are kept while it stays the same (held, or
+  // pinned at a bound by the active-set loop): blood packed in vessels at an oxygen
+  // saturation, and the scattering's power law at an exponent. Which model (SpectrumModel's
+  // id, 0: none) and value they were computed for.
+  std::uint64_t packing_model = 0, power_law_model = 0;
+  double packing_saturation = 0, power_law_exponent = 0;
   void resize(Eigen::Index n);
 };
 
@@ -61,11 +68,14 @@ class SpectrumModel {
 
  private:
   void absorption_and_scattering(const double* p, Workspace& w) const;
+  void packed_blood(double saturation, Workspace& w) const;
 
   const SkinModel& model_;
+  std::uint64_t id_;  // unique among every SpectrumModel ever made, for Workspace to tell them apart
   Geometry geometry_;
   // The constants at each sample (OpticsAt), as columns.
   Eigen::ArrayXd Ke_, Se_, Kd_, Sd_, Km_, Kh_, Kdh_, Kb_, log_scattering_ratio_;
+  Eigen::ArrayXd inverse_Se_;
 };
 
 }  // namespace skinspec::detail
