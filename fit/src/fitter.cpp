@@ -47,6 +47,7 @@ std::expected<FittedSamples, std::string> samples_inside(const Spectrum& measure
   if (!options.weights.empty() && options.weights.size() != measured.size())
     return std::unexpected(fmt::format("{} weights for {} samples", options.weights.size(), measured.size()));
   FittedSamples s;
+  for (auto* column : {&s.wavelength_nm, &s.measured, &s.weights}) column->reserve(measured.size());
   for (std::size_t i = 0; i < measured.size(); ++i) {
     const double w = measured.wavelengths()[i];
     if (w < SkinOptics::kFirstNm || w > SkinOptics::kLastNm) {
@@ -157,7 +158,7 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   result.iterations = best.iterations;
   result.converged = best.converged;
   result.solver_message = best.message;
-  result.fitted = model.reflectance(best.params);
+  result.fitted = detail::reflectance(prepared->columns, best.params);
   auto uncertainty =
       detail::assess_uncertainty(options.model, best.jacobian, best.cost, best.params, problem.held, best.pinned);
   result.standard_error = std::move(uncertainty.standard_error);

@@ -220,10 +220,16 @@ bool restarts_at_zero(ModelKind kind, std::size_t i) {
   return i == static_cast<std::size_t>(kTotalHemoglobin);
 }
 
+// Room for the model's evaluations, reused by every fit on this thread, so that evaluating
+// the model allocates nothing.
+Workspace& thread_workspace() {
+  thread_local Workspace work;
+  return work;
+}
+
 template <int N>
 Solution solve_with(const Problem& problem) {
-  thread_local Workspace work;  // reused by every fit on this thread
-  const Engine<N> engine(problem, work);
+  const Engine<N> engine(problem, thread_workspace());
   Solution best;
   best.cost = std::numeric_limits<double>::infinity();
   for (const Params& start : coarse_starts(problem, model_spec(problem.model.kind()).starts)) {
@@ -266,6 +272,12 @@ CoarseLayers coarse_layers(const SkinModel& model, const std::vector<bool>& held
 Solution solve(const Problem& problem) {
   return problem.model.kind() == ModelKind::paper ? solve_with<kPaperParamCount>(problem)
                                                   : solve_with<kExtendedParamCount>(problem);
+}
+
+std::vector<double> reflectance(const SpectrumModel& columns, const Params& p) {
+  std::vector<double> r(static_cast<std::size_t>(columns.size()));
+  columns.reflectance(p.data(), thread_workspace(), r.data());
+  return r;
 }
 
 }  // namespace skinspec::detail

@@ -61,4 +61,7 @@ struct Solution {
 // when an absorber ends at zero; with its residuals and Jacobian.
 Solution solve(const Problem& problem);
 
+// The model's reflectance at every sample for p, as the solver computes it.
+std::vector<double> reflectance(const SpectrumModel& columns, const Params& p);
+
 }  // namespace skinspec::detail
