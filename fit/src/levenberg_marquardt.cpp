@@ -96,7 +96,8 @@ class Minimizer {
         continue;
       }
       std::swap(x_, candidate_);
-      factorize();
+      // A point outside the plausible range ends the solve at the top of the loop, unfactorised.
+      if (!left_plausible_range()) factorize();
       radius = std::min(kMaxRadius, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * quality - 1.0, 3)));
       shrink = 2;
     }
