@@ -38,6 +38,7 @@ class SpectrumResiduals {
   const std::vector<double>& measured_;
   const std::vector<double>& sqrt_weights_;
   std::optional<Box> box_;
+  bool unweighted_;  // every weight 1 (the default): multiplying by it changes nothing, so it is skipped
 };
 
 }  // namespace skinspec::detail
