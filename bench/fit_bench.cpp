@@ -1,9 +1,14 @@
 // Forward model, one fit, and a batch of fits on all cores, for each model, on 101-point
-// spectra (380-780 nm every 4 nm, the PR-650's native grid). Goals for `extended`, the
-// default: one fit median <= 1 ms; batch >= 4,000 spectra/s on 2 cores.
+// spectra (380-780 nm every 4 nm, the PR-650's native grid), and the memory of a million fits.
+// Goals for `extended`, the default (FitOne/extended:1, FitBatch/extended:1, FitMillion):
+// one fit median <= 150 us; batch >= 25,000 spectra/s on 2 cores; memory flat over 1,000,000
+// fits (FitMillion's max_rss_growth_kib near 0).
 
 #include <benchmark/benchmark.h>
 
+#include <sys/resource.h>
+
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -119,6 +124,42 @@ BENCHMARK(FitBatch)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(1);
+
+// The largest resident set of the process so far, in KiB.
+double max_rss_kib() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss);
+}
+
+// A million fits on all cores, each result dropped as soon as it is made, as a long refit or
+// import would: the largest resident set after 10,000 fits (everything warmed up) and after a
+// million more. Memory is flat when it does not grow.
+void FitMillion(benchmark::State& state) {
+  constexpr std::size_t kWarmUp = 10'000, kFits = 1'000'000;
+  const ModelKind kind = model_of(state);
+  const auto spectra = synthetic_spectra(kind, 64);
+  FitOptions options;
+  options.model = kind;
+  std::atomic<std::size_t> failed{0};
+  const auto fit_many = [&](std::size_t count) {
+    parallel_for(count, 0, [&](std::size_t i) {
+      if (!fitter().fit(spectra[i % spectra.size()], options)) ++failed;
+    });
+  };
+  for (auto _ : state) {
+    fit_many(kWarmUp);
+    const double before = max_rss_kib();
+    fit_many(kFits);
+    const double after = max_rss_kib();
+    state.counters["max_rss_before_kib"] = before;
+    state.counters["max_rss_after_kib"] = after;
+    state.counters["max_rss_growth_kib"] = after - before;
+  }
+  if (failed > 0) state.SkipWithError("a fit failed");
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * (kWarmUp + kFits)));
+}
+BENCHMARK(FitMillion)->ArgName("extended")->Arg(1)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
 
 }  // namespace
 }  // namespace skinspec

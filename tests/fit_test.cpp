@@ -538,5 +538,39 @@ TEST(FitOfTheModelItself, NoiselessSpectrumIsFittedExactly) {
     EXPECT_NEAR(fit->params[i], kOrdinarySkin[i], 1e-3 * kOrdinarySkin[i]) << kSpecs[i].name;
 }
 
+// A Fitter keeps what fits on one grid share (the model on the grid, its bounds, the coarse
+// search's layers) between fits. Spectra on other grids, on other sites, with and without
+// lateral diffusion and with parameters held, fitted in turn by one Fitter, get exactly what a
+// new Fitter gives each of them.
+TEST(FitterReuse, WhatAFitterKeepsBetweenFitsChangesNoAnswer) {
+  const Fitter reused(shipped_optics(), testing::colorimetry());
+  const std::vector<double> coarse_grid = Spectrum::uniform_grid(400, 760, 10);
+  struct Case {
+    Spectrum measured;
+    FitOptions options;
+  };
+  std::vector<Case> cases;
+  for (const bool lateral : {true, false}) {
+    cases.push_back({synthetic_measurement(kOrdinarySkin, 7, lateral), options_for(lateral)});
+    cases.push_back({spectrum(coarse_grid, with_noise(model_reflectance(kOrdinarySkin, lateral, coarse_grid), 8)),
+                     options_for(lateral)});
+    FitOptions held = options_for(lateral);
+    held.held = {{kMelanin, 4.0}};
+    cases.push_back({synthetic_measurement(kOrdinarySkin, 9, lateral), held});
+    FitOptions cheek = options_for(lateral);
+    cheek.site = "cheek";
+    cases.push_back({synthetic_measurement(kOrdinarySkin, 10, lateral), cheek});
+  }
+  for (int round = 0; round < 2; ++round)
+    for (const Case& c : cases) {
+      const auto again = reused.fit(c.measured, c.options);
+      const auto fresh = Fitter(shipped_optics(), testing::colorimetry()).fit(c.measured, c.options);
+      ASSERT_TRUE(again && fresh);
+      EXPECT_EQ(again->params, fresh->params);
+      EXPECT_EQ(again->iterations, fresh->iterations);
+      EXPECT_EQ(again->fitted, fresh->fitted);
+    }
+}
+
 }  // namespace
 }  // namespace skinspec

@@ -17,6 +17,7 @@
 #include "skinspec/spectral/spectrum.hpp"
 #include "support/data.hpp"
 #include "support/reference_model.hpp"
+#include "spectrum_model.hpp"  // fit/src: the solver's model at every sample at once
 
 namespace skinspec {
 namespace {
@@ -656,6 +657,39 @@ TEST(ModelGradientThroughLayers, EqualsAutomaticDifferentiationByEveryParameter)
     expect_model_gradient_is_automatic<kPaperParamCount>(SkinModel(paper, *paper.site("forearm"), grid, lateral),
                                                          kCheckPoints);
   }
+}
+
+// The solver evaluates the model at every sample at once (fit/src/spectrum_model.hpp), with
+// derivatives written out by hand: the same reflectance and derivatives as the model sample by
+// sample, to rounding.
+void expect_spectrum_model_is_the_model(const SkinModel& model, const std::vector<Params>& points) {
+  const detail::SpectrumModel columns(model);
+  detail::Workspace work;
+  const std::size_t n = model.size(), count = model.param_count();
+  std::vector<double> reflectance(n), jacobian(n * count);
+  std::array<double, kMaxParamCount> gradient{};
+  for (const Params& p : points) {
+    columns.reflectance(p.data(), work, reflectance.data());
+    columns.jacobian(p.data(), work, jacobian.data());
+    for (std::size_t i = 0; i < n; ++i) {
+      EXPECT_NEAR(reflectance[i], model.reflectance_and_gradient(i, p.data(), gradient.data()), 1e-14);
+      for (std::size_t k = 0; k < count; ++k)
+        EXPECT_NEAR(jacobian[k * n + i], gradient[k], 1e-10 * std::abs(gradient[k]) + 1e-15)
+            << model_spec(model.kind()).params[k].name << " at " << model.grid()[i] << " nm, melanin " << p[kMelanin];
+    }
+  }
+}
+
+TEST(SpectrumModel, EqualsTheModelSampleBySampleWithItsDerivatives) {
+  const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 3);
+  for (const bool lateral : {false, true})
+    // Shipped constants pack blood in vessels; textbook ones spread it evenly.
+    for (const SkinOptics* optics : {&shipped_optics(ModelKind::extended), &textbook_optics(ModelKind::extended),
+                                     &shipped_optics(ModelKind::paper), &textbook_optics(ModelKind::paper)}) {
+      const bool extended = optics->model() == ModelKind::extended;
+      expect_spectrum_model_is_the_model(SkinModel(*optics, *optics->site("cheek"), grid, lateral),
+                                         extended ? kExtendedSkins : kCheckPoints);
+    }
 }
 
 TEST(ModelDigest, EachModelHasItsOwnAndOnlyItsConstantsChangeIt) {

@@ -14,6 +14,10 @@ namespace {
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// Matrices of at most one row and column per parameter, kept in place rather than allocated.
+using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxParamCount, kMaxParamCount>;
+using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParamCount, 1>;
+
 // An imprecise parameter correlated above this with another is "correlated" with it: the
 // spectrum sees mainly a combination of the two (docs/model.md, "What the spectrum determines").
 constexpr double kCorrelationLimit = 0.9;
@@ -34,11 +38,11 @@ bool on_bound(const ParamSpec& spec, double value, Pin pin) {
 // parameters that merely have different units. A pseudo-inverse keeps parameters the data
 // cannot see (a dermis hidden by melanin) from poisoning the others: their variance is
 // infinite instead.
-Eigen::MatrixXd covariance(const Eigen::MatrixXd& j_free, double cost) {
+SmallMatrix covariance(const Eigen::MatrixXd& j_free, double cost) {
   const auto n = j_free.rows(), k = j_free.cols();
-  Eigen::MatrixXd c = Eigen::MatrixXd::Constant(k, k, kNaN);
+  SmallMatrix c = SmallMatrix::Constant(k, k, kNaN);
   if (k == 0) return c;
-  Eigen::VectorXd scale = j_free.colwise().norm().transpose();
+  SmallVector scale = j_free.colwise().norm().transpose();
   const double sigma2 = 2 * cost / static_cast<double>(std::max<Eigen::Index>(1, n - k));
   std::vector<bool> invisible(static_cast<std::size_t>(k));
   for (Eigen::Index i = 0; i < k; ++i) {
@@ -46,11 +50,11 @@ Eigen::MatrixXd covariance(const Eigen::MatrixXd& j_free, double cost) {
     if (!(scale(i) > 0)) scale(i) = 1;
   }
   const Eigen::MatrixXd scaled = j_free * scale.cwiseInverse().asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scaled.transpose() * scaled);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(Eigen::MatrixXd(scaled.transpose().lazyProduct(scaled)));
   const auto& values = eigen.eigenvalues();
   const auto& vectors = eigen.eigenvectors();
   const double tiny = values.maxCoeff() * 1e-14;
-  Eigen::MatrixXd inverse = Eigen::MatrixXd::Zero(k, k);
+  SmallMatrix inverse = SmallMatrix::Zero(k, k);
   std::vector<bool> in_null_space(invisible);
   for (Eigen::Index e = 0; e < k; ++e) {
     if (values(e) > tiny) {
@@ -129,11 +133,11 @@ Derivation blood_volume_fraction(ModelKind model, const Params& p) {
 
 struct Judged {
   std::vector<ParamDetermination> determination;
-  Eigen::MatrixXd covariance;  // all parameters; NaN rows for those not fitted
+  SmallMatrix covariance;  // all parameters; NaN rows for those not fitted
 };
 
 // The most correlated other parameter of j among `candidates`, and the correlation's size.
-std::pair<int, double> most_correlated(const Eigen::MatrixXd& c, std::size_t j,
+std::pair<int, double> most_correlated(const SmallMatrix& c, std::size_t j,
                                        const std::vector<std::size_t>& candidates) {
   std::pair<int, double> best{-1, 0.0};
   for (const std::size_t l : candidates) {
@@ -203,8 +207,8 @@ FitUncertainty assess_uncertainty(ModelKind model, const Eigen::MatrixXd& jacobi
   Eigen::MatrixXd j_free(jacobian.rows(), static_cast<Eigen::Index>(free.size()));
   for (std::size_t f = 0; f < free.size(); ++f)
     j_free.col(static_cast<Eigen::Index>(f)) = jacobian.col(static_cast<Eigen::Index>(free[f]));
-  const Eigen::MatrixXd c_free = covariance(j_free, cost);
-  judged.covariance = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n), kNaN);
+  const SmallMatrix c_free = covariance(j_free, cost);
+  judged.covariance = SmallMatrix::Constant(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n), kNaN);
   for (std::size_t a = 0; a < free.size(); ++a)
     for (std::size_t b = 0; b < free.size(); ++b)
       judged.covariance(static_cast<Eigen::Index>(free[a]), static_cast<Eigen::Index>(free[b])) =

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "determination.hpp"
+#include "prepared_model.hpp"
 #include "solver.hpp"
 
 namespace skinspec {
@@ -46,6 +47,7 @@ std::expected<FittedSamples, std::string> samples_inside(const Spectrum& measure
   if (!options.weights.empty() && options.weights.size() != measured.size())
     return std::unexpected(fmt::format("{} weights for {} samples", options.weights.size(), measured.size()));
   FittedSamples s;
+  for (auto* column : {&s.wavelength_nm, &s.measured, &s.weights}) column->reserve(measured.size());
   for (std::size_t i = 0; i < measured.size(); ++i) {
     const double w = measured.wavelengths()[i];
     if (w < SkinOptics::kFirstNm || w > SkinOptics::kLastNm) {
@@ -98,7 +100,8 @@ std::string coverage_note(const FitResult& r) {
 Fitter::Fitter(std::vector<SkinOptics> models, Colorimetry colorimetry)
     : models_(std::move(models)),
       colorimetry_(std::move(colorimetry)),
-      d65_(colorimetry_.weighting(*colorimetry_.illuminant("D65"))) {}
+      d65_(colorimetry_.weighting(*colorimetry_.illuminant("D65"))),
+      cache_(std::make_shared<detail::ModelCache>()) {}
 
 Fitter::Fitter(SkinOptics optics, Colorimetry colorimetry)
     : Fitter(std::vector<SkinOptics>{std::move(optics)}, std::move(colorimetry)) {}
@@ -116,6 +119,7 @@ Fitter Fitter::with_optics(SkinOptics optics) const {
   const auto it = std::ranges::find_if(copy.models_, [&](const SkinOptics& o) { return o.model() == optics.model(); });
   if (it == copy.models_.end()) copy.models_.push_back(std::move(optics));
   else *it = std::move(optics);
+  copy.cache_ = std::make_shared<detail::ModelCache>();
   return copy;
 }
 
@@ -135,18 +139,26 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   result.wavelength_nm = std::move(samples->wavelength_nm);
   result.measured = std::move(samples->measured);
   result.samples_ignored = samples->ignored;
-  const SkinModel model(skin, *site, result.wavelength_nm, options.lateral_diffusion);
+  const auto prepared = cache_->get(skin, *site, result.wavelength_nm, options.lateral_diffusion);
+  const SkinModel& model = prepared->model;
   std::vector<double> sqrt_weights(samples->weights.size());
   std::ranges::transform(samples->weights, sqrt_weights.begin(), [](double w) { return std::sqrt(w); });
-  const detail::Problem problem{model,        result.measured,        samples->weights,
-                                sqrt_weights, std::move(held->first), std::move(held->second)};
+  const auto& [held_flags, held_values] = *held;
+  const bool holds_any = std::ranges::any_of(held_flags, std::identity{});
+  // The coarse search's layers depend on what is held; the prepared ones hold nothing.
+  const detail::CoarseLayers coarse =
+      holds_any ? detail::coarse_layers(model, held_flags, held_values) : detail::CoarseLayers{};
+  const detail::Problem problem{
+      model,           prepared->columns, prepared->bounds, holds_any ? coarse : prepared->coarse,
+      result.measured, samples->weights,  sqrt_weights,     held_flags,
+      held_values};
 
   const detail::Solution best = detail::solve(problem);
   result.params = best.params;
   result.iterations = best.iterations;
   result.converged = best.converged;
   result.solver_message = best.message;
-  result.fitted = model.reflectance(best.params);
+  result.fitted = detail::reflectance(prepared->columns, best.params);
   auto uncertainty =
       detail::assess_uncertainty(options.model, best.jacobian, best.cost, best.params, problem.held, best.pinned);
   result.standard_error = std::move(uncertainty.standard_error);

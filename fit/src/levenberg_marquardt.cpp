@@ -37,8 +37,8 @@ template <int N>
 class Minimizer {
  public:
   Minimizer(const SpectrumResiduals& residuals, const std::array<bool, N>& free, const Params& plausible_lower,
-            const Params& plausible_upper)
-      : f_(residuals), plausible_lower_(plausible_lower), plausible_upper_(plausible_upper) {
+            const Params& plausible_upper, Workspace& work)
+      : f_(residuals), work_(work), plausible_lower_(plausible_lower), plausible_upper_(plausible_upper) {
     for (int i = 0; i < N; ++i)
       if (free[static_cast<std::size_t>(i)]) free_[k_++] = i;
     const auto rows = static_cast<Eigen::Index>(residuals.size());
@@ -54,7 +54,7 @@ class Minimizer {
 
   LmResult<N> run(const std::array<double, N>& start) {
     x_.p = start;
-    if (!evaluate(x_))
+    if (!evaluate(x_) || !differentiate(x_))
       return {start, std::numeric_limits<double>::infinity(), 0, LmEnd::failed, "the start could not be evaluated", {},
               {}};
     const double initial_cost = x_.cost;
@@ -87,7 +87,7 @@ class Minimizer {
       }
       if (step_norm() <= kParameterTolerance * (norm(x_.p) + kParameterTolerance))
         return {LmEnd::converged, "converged: parameter tolerance"};
-      const double candidate_cost = evaluate(candidate_) ? candidate_.cost : std::numeric_limits<double>::max();
+      const double candidate_cost = evaluate_candidate(predicted);
       if (std::abs(x_.cost - candidate_cost) <= kFunctionTolerance * x_.cost)
         return {LmEnd::converged, "converged: function tolerance"};
       const double quality = (x_.cost - candidate_cost) / predicted;
@@ -96,16 +96,37 @@ class Minimizer {
         continue;
       }
       std::swap(x_, candidate_);
-      factorize();
+      // A point outside the plausible range ends the solve at the top of the loop, unfactorised.
+      if (!left_plausible_range()) factorize();
       radius = std::min(kMaxRadius, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * quality - 1.0, 3)));
       shrink = 2;
     }
   }
 
-  bool evaluate(Point<N>& point) const {
-    if (!f_.evaluate(point.p.data(), point.residuals.data(), point.jacobian.data())) return false;
+  // The residuals and cost at the point; false where they cannot be had or are not finite.
+  bool evaluate(Point<N>& point) {
+    if (!f_.evaluate(point.p.data(), work_, point.residuals.data())) return false;
     point.cost = 0.5 * point.residuals.squaredNorm();
-    return std::isfinite(point.cost) && point.jacobian.allFinite();
+    return std::isfinite(point.cost);
+  }
+
+  // The Jacobian at the point last evaluated; false where it is not finite.
+  bool differentiate(Point<N>& point) {
+    f_.jacobian(point.p.data(), work_, point.jacobian.data());
+    return point.jacobian.allFinite();
+  }
+
+  // The candidate's cost, the largest double where it cannot be evaluated or its Jacobian is
+  // not finite. The Jacobian is computed only where the step ends the solve or is taken: a
+  // rejected step needs none, and about half the steps are rejected.
+  double evaluate_candidate(double predicted) {
+    constexpr double kRefused = std::numeric_limits<double>::max();
+    if (!evaluate(candidate_)) return kRefused;
+    const double cost = candidate_.cost;
+    const bool converges = std::abs(x_.cost - cost) <= kFunctionTolerance * x_.cost;
+    const bool taken = !((x_.cost - cost) / predicted <= kMinStepQuality);
+    if ((converges || taken) && !differentiate(candidate_)) return kRefused;
+    return cost;
   }
 
   // Each free column divided by 1 + its norm at the start, so that parameters of very
@@ -181,6 +202,7 @@ class Minimizer {
   }
 
   const SpectrumResiduals& f_;
+  Workspace& work_;
   const Params& plausible_lower_;
   const Params& plausible_upper_;
   std::array<int, N> free_{};  // the free parameters' indices, k_ of them
@@ -197,16 +219,16 @@ class Minimizer {
 template <int N>
 LmResult<N> levenberg_marquardt(const SpectrumResiduals& residuals, const std::array<double, N>& start,
                                 const std::array<bool, N>& free, const Params& plausible_lower,
-                                const Params& plausible_upper) {
-  return Minimizer<N>(residuals, free, plausible_lower, plausible_upper).run(start);
+                                const Params& plausible_upper, Workspace& work) {
+  return Minimizer<N>(residuals, free, plausible_lower, plausible_upper, work).run(start);
 }
 
 template LmResult<kPaperParamCount> levenberg_marquardt<kPaperParamCount>(const SpectrumResiduals&,
                                                                           const std::array<double, kPaperParamCount>&,
                                                                           const std::array<bool, kPaperParamCount>&,
-                                                                          const Params&, const Params&);
+                                                                          const Params&, const Params&, Workspace&);
 template LmResult<kExtendedParamCount> levenberg_marquardt<kExtendedParamCount>(
     const SpectrumResiduals&, const std::array<double, kExtendedParamCount>&,
-    const std::array<bool, kExtendedParamCount>&, const Params&, const Params&);
+    const std::array<bool, kExtendedParamCount>&, const Params&, const Params&, Workspace&);
 
 }  // namespace skinspec::detail

@@ -33,10 +33,11 @@ struct LmResult {
 // Minimises half the sum of squared `residuals` over the parameters marked `free`, from
 // `start`; the others stay at their start values. A step the residuals refuse (outside their
 // box) is rejected like one that does not lower the cost. The solve stops early, with the
-// point reached, when a free parameter leaves [plausible_lower, plausible_upper].
+// point reached, when a free parameter leaves [plausible_lower, plausible_upper]. `work` is
+// the model's room to evaluate in.
 template <int N>
 LmResult<N> levenberg_marquardt(const SpectrumResiduals& residuals, const std::array<double, N>& start,
                                 const std::array<bool, N>& free, const Params& plausible_lower,
-                                const Params& plausible_upper);
+                                const Params& plausible_upper, Workspace& work);
 
 }  // namespace skinspec::detail

@@ -107,6 +107,7 @@ std::optional<std::size_t> param_index(ModelKind kind, std::string_view name) {
 
 Params default_params(ModelKind kind) {
   Params p;
+  p.reserve(model_spec(kind).params.size());
   for (const ParamSpec& spec : model_spec(kind).params) p.push_back(spec.initial);
   return p;
 }

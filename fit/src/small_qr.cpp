@@ -1,15 +1,20 @@
 #include "small_qr.hpp"
 
+#include <Eigen/Core>
 #include <cmath>
 
 namespace skinspec::detail {
 
 namespace {
 
-double dot(const double* x, const double* y, int n) {
-  double sum = 0;
-  for (int i = 0; i < n; ++i) sum += x[i] * y[i];
-  return sum;
+constexpr int kMaxColumns = 16;
+
+// The dot products of x with each of the `count` vectors y[0..count), n entries each, by
+// Eigen's vectorised reductions: several partial sums at once, rather than one sum whose every
+// addition waits on the one before.
+void dots(const double* x, double* const* y, int count, int n, double* out) {
+  const Eigen::Map<const Eigen::VectorXd> v(x, n);
+  for (int c = 0; c < count; ++c) out[c] = v.dot(Eigen::Map<const Eigen::VectorXd>(y[c], n));
 }
 
 // y -= factor * v over n entries.
@@ -23,18 +28,21 @@ void triangularize(double* a, int rows, int cols, double* b) {
   for (int j = 0; j < cols; ++j) {
     double* v = a + j * rows + j;  // column j from the diagonal down, turned into the reflection
     const int length = rows - j;
-    const double norm2 = dot(v, v, length);
+    const double norm2 = Eigen::Map<const Eigen::VectorXd>(v, length).squaredNorm();
     if (norm2 == 0) continue;  // nothing to eliminate
     // The diagonal takes the sign opposite to v[0]'s, so that v[0] - diagonal does not cancel.
     const double diagonal = v[0] > 0 ? -std::sqrt(norm2) : std::sqrt(norm2);
     // The reflection I - 2 v v^T / |v|^2 with v = x - diagonal e1, |v|^2 = 2 (|x|^2 - x0 diagonal).
     const double half_v_norm2 = norm2 - v[0] * diagonal;
     v[0] -= diagonal;
-    for (int l = j + 1; l < cols; ++l) {
-      double* column = a + l * rows + j;
-      subtract(column, dot(v, column, length) / half_v_norm2, v, length);
-    }
-    subtract(b + j, dot(v, b + j, length) / half_v_norm2, v, length);
+    // The reflection applied to the columns right of j and to b.
+    double* targets[kMaxColumns + 1];
+    double products[kMaxColumns + 1];
+    int count = 0;
+    for (int l = j + 1; l < cols; ++l) targets[count++] = a + l * rows + j;
+    targets[count++] = b + j;
+    dots(v, targets, count, length, products);
+    for (int t = 0; t < count; ++t) subtract(targets[t], products[t] / half_v_norm2, v, length);
     v[0] = diagonal;
   }
 }

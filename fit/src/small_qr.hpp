@@ -5,7 +5,7 @@
 
 namespace skinspec::detail {
 
-// Triangularises the rows x cols column-major matrix `a` (cols <= rows) in place by Householder
+// Triangularises the rows x cols column-major matrix `a` (cols <= rows, cols <= 16) in place by Householder
 // reflections, R in its upper triangle (what lies below it is scratch), and applies the same
 // reflections to the vector `b` of `rows` entries: Q^T b.
 void triangularize(double* a, int rows, int cols, double* b);

@@ -11,14 +11,6 @@
 
 namespace skinspec::detail {
 
-namespace {
-
-// The plausible range of each parameter, and the wider box the solver may roam before the
-// active-set loop pins a parameter at the bound it crossed.
-struct Bounds {
-  Params lower, upper, solver_lower, solver_upper;
-};
-
 Bounds bounds_of(const SkinModel& model) {
   const ModelSpec& spec = model_spec(model.kind());
   const Params safe = model.lowest_safe_weights();
@@ -34,10 +26,12 @@ Bounds bounds_of(const SkinModel& model) {
   return b;
 }
 
+namespace {
+
 // A start point: melanin, an amount of blood and its oxygen share in each model's terms;
 // every other parameter at its default, held parameters at their values.
-Params start_point(const Problem& problem, double melanin, double blood, double oxygen_share) {
-  const ModelKind kind = problem.model.kind();
+Params start_point(ModelKind kind, const std::vector<bool>& held, const Params& held_values, double melanin,
+                   double blood, double oxygen_share) {
   Params p = default_params(kind);
   if (kind == ModelKind::paper) {
     p = {0.03, melanin, blood * oxygen_share, blood * (1 - oxygen_share), 1.0};
@@ -49,7 +43,7 @@ Params start_point(const Problem& problem, double melanin, double blood, double 
     p[kBilirubin] = 1.0;
   }
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (problem.held[i]) p[i] = problem.held_values[i];
+    if (held[i]) p[i] = held_values[i];
   return p;
 }
 
@@ -57,57 +51,57 @@ double blood_of(ModelKind kind, const Params& p) {
   return kind == ModelKind::paper ? p[kOxyhemoglobin] + p[kDeoxyhemoglobin] : p[kTotalHemoglobin];
 }
 
-// Start points for the solver: a coarse log-spaced search over what shapes skin most (melanin
-// and blood), on every fourth sample. Returns the best few, best first, each with a different
-// amount of blood: dark skin has a second basin where melanin explains the blue and
-// haemoglobin drops to zero, and starts from one blood level all fall into it. The epidermis
-// varies with melanin alone and the dermis with blood alone, so each layer is computed once per
-// level and the points of the grid only combine them.
+// The coarse search's grid: log-spaced levels of what shapes skin most (melanin and blood), on
+// every fourth sample.
+constexpr double kMelaninLevels[] = {0.25, 1, 3, 8, 20, 50, 120};
+constexpr double kBloodLevels[] = {0.25, 1, 3, 8, 20};
+constexpr double kOxygenShares[] = {0.4, 0.8};
+constexpr std::size_t kStride = 4;
+
+double melanin_level(ModelKind kind, double m) { return std::min(m, model_spec(kind).params[kMelanin].upper); }
+
+// Start points for the solver from a coarse search over melanin and blood. Returns the best
+// few, best first, each with a different amount of blood: dark skin has a second basin where
+// melanin explains the blue and haemoglobin drops to zero, and starts from one blood level all
+// fall into it. The epidermis varies with melanin alone and the dermis with blood alone, so
+// each layer is computed once per level (CoarseLayers, kept between fits of one model) and the
+// points of the grid only combine them.
 std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) {
-  constexpr double kMelaninLevels[] = {0.25, 1, 3, 8, 20, 50, 120};
-  constexpr double kBloodLevels[] = {0.25, 1, 3, 8, 20};
-  constexpr double kOxygenShares[] = {0.4, 0.8};
-  constexpr std::size_t kStride = 4;
-  const SkinModel& model = problem.model;
-  const ModelKind kind = model.kind();
-  const double melanin_limit = model_spec(kind).params[kMelanin].upper;
-  const auto melanin_level = [&](double m) { return std::min(m, melanin_limit); };
-
-  std::vector<ReflectanceTransmittance<double>> epidermis;
-  for (double m : kMelaninLevels) {
-    const Params p = start_point(problem, melanin_level(m), kBloodLevels[0], kOxygenShares[0]);
-    for (std::size_t i = 0; i < model.size(); i += kStride) epidermis.push_back(model.epidermis_at(i, p.data()));
-  }
-  std::vector<DermisRemittance<double>> dermis;
-  for (double blood : kBloodLevels)
-    for (double share : kOxygenShares) {
-      const Params p = start_point(problem, kMelaninLevels[0], blood, share);
-      for (std::size_t i = 0; i < model.size(); i += kStride) dermis.push_back(model.dermis_at(i, p.data()));
-    }
-
-  const std::size_t samples = epidermis.size() / std::size(kMelaninLevels);
-  std::vector<std::pair<double, Params>> scored;
+  const ModelKind kind = problem.model.kind();
+  const CoarseLayers& layers = problem.coarse;
+  const std::size_t samples = layers.epidermis.size() / std::size(kMelaninLevels);
+  const std::size_t dermis_levels = layers.dermis.size() / samples;
+  const double rs = start_point(kind, problem.held, problem.held_values, 0, 0, 0)[kSurfaceReflectance];
+  // Each point's weighted squared errors, then their sum in sample order.
+  std::vector<double> squared(samples);
+  struct Scored {
+    double score;
+    std::size_t epidermis, dermis;
+  };
+  std::vector<Scored> scored;
+  scored.reserve(std::size(kMelaninLevels) * dermis_levels);
   for (std::size_t e = 0; e < std::size(kMelaninLevels); ++e)
-    for (std::size_t d = 0; d < dermis.size() / samples; ++d) {
-      const double blood = kBloodLevels[d / std::size(kOxygenShares)];
-      const double share = kOxygenShares[d % std::size(kOxygenShares)];
-      const Params p = start_point(problem, melanin_level(kMelaninLevels[e]), blood, share);
-      double sum = 0;
+    for (std::size_t d = 0; d < dermis_levels; ++d) {
       for (std::size_t k = 0; k < samples; ++k) {
         const std::size_t i = k * kStride;
-        const double r =
-            combined_reflectance(p[kSurfaceReflectance], epidermis[e * samples + k], dermis[d * samples + k]) -
-            problem.measured[i];
-        sum += problem.weights[i] * r * r;
+        const double r = combined_reflectance(rs, layers.epidermis[e * samples + k], layers.dermis[d * samples + k]) -
+                         problem.measured[i];
+        squared[k] = problem.weights[i] * r * r;
       }
-      scored.emplace_back(sum, p);
+      double sum = 0;
+      for (const double s : squared) sum += s;
+      scored.push_back({sum, e, d});
     }
-  std::ranges::sort(scored, {}, &std::pair<double, Params>::first);
+  std::ranges::sort(scored, {}, &Scored::score);
   std::vector<Params> starts;
-  for (const auto& [score, p] : scored) {
+  for (const Scored& s : scored) {
     if (starts.size() == how_many) break;
-    if (std::ranges::none_of(starts, [&](const Params& s) { return blood_of(kind, s) == blood_of(kind, p); }))
-      starts.push_back(p);
+    const double blood = kBloodLevels[s.dermis / std::size(kOxygenShares)];
+    const double share = kOxygenShares[s.dermis % std::size(kOxygenShares)];
+    Params p = start_point(kind, problem.held, problem.held_values, melanin_level(kind, kMelaninLevels[s.epidermis]),
+                           blood, share);
+    if (std::ranges::none_of(starts, [&](const Params& q) { return blood_of(kind, q) == blood_of(kind, p); }))
+      starts.push_back(std::move(p));
   }
   return starts;
 }
@@ -115,7 +109,8 @@ std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) 
 template <int N>
 class Engine {
  public:
-  Engine(const Problem& problem) : problem_(problem), bounds_(bounds_of(problem.model)) {}
+  Engine(const Problem& problem, Workspace& work)
+      : problem_(problem), bounds_(problem.bounds), model_(problem.columns), work_(work) {}
 
   // Bounded least squares by active sets: solve; pin every parameter that crossed a bound at
   // that bound and solve again; release a pinned parameter whose gradient points back inside.
@@ -141,8 +136,9 @@ class Engine {
     const auto n = static_cast<Eigen::Index>(problem_.model.size());
     s.residuals.resize(n);
     s.jacobian.resize(n, N);
-    SpectrumResiduals(problem_.model, problem_.measured, problem_.sqrt_weights)
-        .evaluate(s.params.data(), s.residuals.data(), s.jacobian.data());
+    const SpectrumResiduals residuals(model_, problem_.measured, problem_.sqrt_weights);
+    residuals.evaluate(s.params.data(), work_, s.residuals.data());
+    residuals.jacobian(s.params.data(), work_, s.jacobian.data());
   }
 
   bool fixed(const Solution& s, std::size_t i) const { return problem_.held[i] || s.pinned[i] != Pin::none; }
@@ -168,9 +164,9 @@ class Engine {
       s.message = "every parameter held";
       return;
     }
-    const SpectrumResiduals residuals(problem_.model, problem_.measured, problem_.sqrt_weights,
+    const SpectrumResiduals residuals(model_, problem_.measured, problem_.sqrt_weights,
                                       Box{bounds_.solver_lower, bounds_.solver_upper});
-    LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper);
+    LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper, work_);
     s.params.assign(result.params.begin(), result.params.end());
     s.cost = result.cost;
     s.iterations = result.iterations;
@@ -207,7 +203,9 @@ class Engine {
   }
 
   const Problem& problem_;
-  Bounds bounds_;
+  const Bounds& bounds_;
+  const SpectrumModel& model_;
+  Workspace& work_;
 };
 
 // What to restart from when absorbers end at zero: in dark skin melanin can stand in for blood
@@ -222,9 +220,16 @@ bool restarts_at_zero(ModelKind kind, std::size_t i) {
   return i == static_cast<std::size_t>(kTotalHemoglobin);
 }
 
+// Room for the model's evaluations, reused by every fit on this thread, so that evaluating
+// the model allocates nothing.
+Workspace& thread_workspace() {
+  thread_local Workspace work;
+  return work;
+}
+
 template <int N>
 Solution solve_with(const Problem& problem) {
-  const Engine<N> engine(problem);
+  const Engine<N> engine(problem, thread_workspace());
   Solution best;
   best.cost = std::numeric_limits<double>::infinity();
   for (const Params& start : coarse_starts(problem, model_spec(problem.model.kind()).starts)) {
@@ -249,9 +254,30 @@ Solution solve_with(const Problem& problem) {
 
 }  // namespace
 
+CoarseLayers coarse_layers(const SkinModel& model, const std::vector<bool>& held, const Params& held_values) {
+  const ModelKind kind = model.kind();
+  CoarseLayers layers;
+  for (double m : kMelaninLevels) {
+    const Params p = start_point(kind, held, held_values, melanin_level(kind, m), kBloodLevels[0], kOxygenShares[0]);
+    for (std::size_t i = 0; i < model.size(); i += kStride) layers.epidermis.push_back(model.epidermis_at(i, p.data()));
+  }
+  for (double blood : kBloodLevels)
+    for (double share : kOxygenShares) {
+      const Params p = start_point(kind, held, held_values, kMelaninLevels[0], blood, share);
+      for (std::size_t i = 0; i < model.size(); i += kStride) layers.dermis.push_back(model.dermis_at(i, p.data()));
+    }
+  return layers;
+}
+
 Solution solve(const Problem& problem) {
   return problem.model.kind() == ModelKind::paper ? solve_with<kPaperParamCount>(problem)
                                                   : solve_with<kExtendedParamCount>(problem);
+}
+
+std::vector<double> reflectance(const SpectrumModel& columns, const Params& p) {
+  std::vector<double> r(static_cast<std::size_t>(columns.size()));
+  columns.reflectance(p.data(), thread_workspace(), r.data());
+  return r;
 }
 
 }  // namespace skinspec::detail

@@ -7,20 +7,41 @@
 #include <vector>
 
 #include "skinspec/fit/model.hpp"
+#include "spectrum_model.hpp"
 
 namespace skinspec::detail {
 
 // Where a parameter was left by the active-set loop.
 enum class Pin { none, lower, upper };
 
+// The plausible range of each parameter, and the wider box the solver may roam before the
+// active-set loop pins a parameter at the bound it crossed.
+struct Bounds {
+  Params lower, upper, solver_lower, solver_upper;
+};
+Bounds bounds_of(const SkinModel& model);
+
+// The coarse search's layers (solver.cpp, coarse_starts) on every fourth sample: the epidermis
+// at each melanin level and the dermis at each blood level and oxygen share, all other
+// parameters at their start values. They depend on the model and what is held, not on the
+// measurement.
+struct CoarseLayers {
+  std::vector<ReflectanceTransmittance<double>> epidermis;  // by melanin level, then sample
+  std::vector<DermisRemittance<double>> dermis;             // by blood level and share, then sample
+};
+CoarseLayers coarse_layers(const SkinModel& model, const std::vector<bool>& held, const Params& held_values);
+
 // One fit's least-squares problem: sqrt(w_i) (model_i(p) - measured_i) over the samples.
 struct Problem {
   const SkinModel& model;
+  const SpectrumModel& columns;  // the same model at every sample at once
+  const Bounds& bounds;          // bounds_of(model)
+  const CoarseLayers& coarse;    // coarse_layers(model, held, held_values)
   const std::vector<double>& measured;
   const std::vector<double>& weights;
   const std::vector<double>& sqrt_weights;
-  std::vector<bool> held;  // held at their given value, never fitted
-  Params held_values;      // the values of the held parameters (others unused)
+  const std::vector<bool>& held;  // held at their given value, never fitted
+  const Params& held_values;      // the values of the held parameters (others unused)
 };
 
 struct Solution {
@@ -39,5 +60,8 @@ struct Solution {
 // The best solution from the coarse search's best starts, refined once more from a restart
 // when an absorber ends at zero; with its residuals and Jacobian.
 Solution solve(const Problem& problem);
+
+// The model's reflectance at every sample for p, as the solver computes it.
+std::vector<double> reflectance(const SpectrumModel& columns, const Params& p);
 
 }  // namespace skinspec::detail

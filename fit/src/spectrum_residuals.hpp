@@ -1,11 +1,11 @@
 #pragma once
 // The fit's residuals sqrt(w_i) (model_i(p) - measured_i) and their Jacobian (private to fit/),
-// from the model's own derivatives (SkinModel::reflectance_and_gradient).
+// from the model at every sample at once (SpectrumModel).
 
 #include <optional>
 #include <vector>
 
-#include "skinspec/fit/model.hpp"
+#include "spectrum_model.hpp"
 
 namespace skinspec::detail {
 
@@ -20,22 +20,25 @@ struct Box {
 
 class SpectrumResiduals {
  public:
-  SpectrumResiduals(const SkinModel& model, const std::vector<double>& measured,
+  SpectrumResiduals(const SpectrumModel& model, const std::vector<double>& measured,
                     const std::vector<double>& sqrt_weights, std::optional<Box> box = std::nullopt);
 
-  std::size_t size() const { return model_.size(); }
-  std::size_t param_count() const { return model_.param_count(); }
+  std::size_t size() const { return static_cast<std::size_t>(model_.size()); }
+  std::size_t param_count() const { return static_cast<std::size_t>(model_.param_count()); }
 
-  // The residuals at p and, when `jacobian` is not null, d residual_i / d p_k at
-  // jacobian[k * size() + i] (column-major); false, with nothing written, where p lies outside
-  // the box.
-  bool evaluate(const double* p, double* residuals, double* jacobian) const;
+  // The residuals at p (size() of them); false, with nothing written, where p lies outside the
+  // box. `work` keeps what jacobian() needs.
+  bool evaluate(const double* p, Workspace& work, double* residuals) const;
+  // d residual_i / d p_k at jacobian[k * size() + i] (column-major) at the p of the last
+  // evaluate() into `work`.
+  void jacobian(const double* p, Workspace& work, double* jacobian) const;
 
  private:
-  const SkinModel& model_;
+  const SpectrumModel& model_;
   const std::vector<double>& measured_;
   const std::vector<double>& sqrt_weights_;
   std::optional<Box> box_;
+  bool unweighted_;  // every weight 1 (the default): multiplying by it changes nothing, so it is skipped
 };
 
 }  // namespace skinspec::detail

@@ -5,6 +5,7 @@
 // colorimetric judgement of the fit.
 
 #include <expected>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -17,6 +18,10 @@
 #include "skinspec/spectral/spectrum.hpp"
 
 namespace skinspec {
+
+namespace detail {
+class ModelCache;
+}
 
 // The least a spectrum must cover, inside the model's range, to be fitted: enough for the
 // haemoglobin bands, melanin's slope and the red where scattering shows.
@@ -109,6 +114,9 @@ class Fitter {
   std::vector<SkinOptics> models_;
   Colorimetry colorimetry_;
   ColourWeighting d65_;
+  // What fits on one grid share (fit/src/prepared_model.hpp); shared by copies, which fit with
+  // the same models, and replaced by with_optics.
+  std::shared_ptr<detail::ModelCache> cache_;
 };
 
 }  // namespace skinspec

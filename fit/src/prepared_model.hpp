@@ -1,0 +1,52 @@
+#pragma once
+// What a fit needs that depends on the model, the site and the samples' wavelengths but not on
+// the measured values (private to fit/): the model on that grid, its columns, the solver's
+// bounds and the coarse search's layers. Building them cost about as much as a third of a fit;
+// a batch of spectra from one instrument shares one grid, so each Fitter keeps the few it built
+// last (ModelCache) and its fits share them.
+
+#include <cstddef>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <vector>
+
+#include "skinspec/fit/model.hpp"
+#include "solver.hpp"
+#include "spectrum_model.hpp"
+
+namespace skinspec::detail {
+
+struct PreparedModel {
+  PreparedModel(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm, bool lateral_diffusion);
+  PreparedModel(const PreparedModel&) = delete;  // `columns` refers to `model`
+  PreparedModel& operator=(const PreparedModel&) = delete;
+
+  SkinModel model;
+  SpectrumModel columns;
+  Bounds bounds;
+  CoarseLayers coarse;  // with no parameter held
+};
+
+// The prepared models of the last few (model, site, grid, lateral diffusion) a Fitter fitted;
+// safe to use from several threads at once. Bounded, so that memory stays flat however many
+// grids pass through.
+class ModelCache {
+ public:
+  std::shared_ptr<const PreparedModel> get(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm,
+                                           bool lateral_diffusion);
+
+ private:
+  static constexpr std::size_t kCapacity = 8;
+  struct Entry {
+    ModelKind model;
+    Site site;
+    std::vector<double> grid_nm;
+    bool lateral_diffusion;
+    std::shared_ptr<const PreparedModel> prepared;
+  };
+  std::mutex mutex_;
+  std::vector<Entry> entries_;  // most recently built last
+};
+
+}  // namespace skinspec::detail
