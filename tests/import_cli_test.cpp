@@ -43,6 +43,18 @@ class ImportCliTest : public ::testing::Test {
     std::ofstream(path, std::ios::binary) << text;
     return path;
   }
+  // The example's first spectrum under new names: at least `rows` of them and `bytes` in all.
+  std::string archive(std::size_t rows, std::size_t bytes = 0) const {
+    std::istringstream example_rows(read_text(example("import-rows-percent.csv")));
+    std::string header, row;
+    std::getline(example_rows, header);
+    std::getline(example_rows, row);
+    const std::string values = row.substr(row.find(','));
+    std::string out = header + "\n";
+    for (std::size_t i = 0; i < rows || out.size() < bytes; ++i)
+      out += "\"s" + std::to_string(i) + "\"" + values + "\n";
+    return out;
+  }
   json session(long long id) const { return get_json(rig_->port, "/api/v1/sessions/" + std::to_string(id)); }
 
   ScratchDirectory dir_;
@@ -81,14 +93,8 @@ TEST_F(ImportCliTest, ABadFileIsNamedByLineWithExit2AndTheOthersAreStored) {
 
 TEST_F(ImportCliTest, AFileLargerThanTheBodyLimitIsAnUpload) {
   const long long id = new_session(rig_->port, "S2");
-  std::istringstream example_rows(read_text(example("import-rows-percent.csv")));
-  std::string header, row;
-  std::getline(example_rows, header);
-  std::getline(example_rows, row);
-  std::string big = header + "\n";
-  const std::string values = row.substr(row.find(','));
-  for (int i = 0; big.size() < 1300 * 1024; ++i) big += "\"s" + std::to_string(i) + "\"" + values + "\n";
-  const auto r = skinspec({"import", write("big.csv", big), "--session", std::to_string(id), "--json"});
+  const auto r =
+      skinspec({"import", write("big.csv", archive(0, 1300 * 1024)), "--session", std::to_string(id), "--json"});
   ASSERT_EQ(r.exit_status, 0) << r.describe() << rig_->logs();
   const json job = json::parse(r.out);
   EXPECT_EQ(job["state"], "succeeded");
@@ -119,13 +125,7 @@ TEST_F(ImportCliTest, WhatCannotBeSentIsRefusedBeforeAnything) {
 // the killed job is failed as interrupted, and between them the two runs refit every
 // measurement exactly once.
 TEST_F(ImportCliTest, ARefitKilledWithItsDaemonIsResumedByPostingItAgain) {
-  std::istringstream example_rows(read_text(example("import-rows-percent.csv")));
-  std::string header, row;
-  std::getline(example_rows, header);
-  std::getline(example_rows, row);
-  std::string archive = header + "\n";
-  for (int i = 0; i < 4000; ++i) archive += "\"s" + std::to_string(i) + "\"" + row.substr(row.find(',')) + "\n";
-  const auto imported = skinspec({"import", write("archive.csv", archive), "--new-session", "forearm:A1"});
+  const auto imported = skinspec({"import", write("archive.csv", archive(4000)), "--new-session", "forearm:A1"});
   ASSERT_EQ(imported.exit_status, 0) << imported.describe();
 
   const json refit = json::parse(http_request(rig_->port, "POST", "/api/v1/refits", R"({"model": "paper"})",

@@ -86,7 +86,9 @@ void Session::on_header(const beast::error_code& ec) {
   if (ec) return on_read_failure(ec);
   if (auto refused = check_framing(parser_->get())) return send_error(*refused, parser_->get().version());
   const auto& header = parser_->get();
-  if (Router::is_upload(std::string(header.method_string()), std::string(header.target()))) {
+  // Only a POST takes a file: every other request is spared the route lookup.
+  if (header.method() == http::verb::post &&
+      Router::is_upload(std::string(header.method_string()), std::string(header.target()))) {
     if (auto refused = state_->router.refuse_upload(to_request(header))) return send_error(*refused, header.version());
     limits_.body_limit = state_->options.upload_limit;
     stream_.expires_after(state_->options.upload_timeout);
