@@ -179,9 +179,10 @@ TEST_F(FitJobsTest, RequestsThatCannotBeImportedAreRefusedWithoutAJob) {
 }
 
 TEST_F(FitJobsTest, AQueuedImportAndARunningOneAreCancelledWithNothingStored) {
+  // Both posted at once: a job posted while an import stores waits for the database's writer.
   const json big = accepted(post_import(rows_file(20000)));
-  ASSERT_TRUE(wait_for_work(big["id"]));  // fitting: a job posted now waits behind it
   const json queued = accepted(post_import(rows_file(3)));
+  ASSERT_TRUE(wait_for_work(big["id"]));
   EXPECT_EQ(get_job(queued["id"])["position"], 1);
   const auto first = cancel(queued["id"]);
   ASSERT_EQ(first.status, 200) << first.body;
@@ -228,8 +229,8 @@ TEST_F(FitJobsTest, ARefitCancelledThenPostedAgainRefitsEachMeasurementOnce) {
 
 TEST_F(FitJobsTest, StoppingTheServiceEndsTheRunningJobAndTheQueuedOnesAsStopped) {
   const json big = accepted(post_import(rows_file(20000)));
-  ASSERT_TRUE(wait_for_work(big["id"]));
   const json queued = accepted(post_refit({{"model", "paper"}}));
+  ASSERT_TRUE(wait_for_work(big["id"]));
   router_.reset();  // as skinspecd does when it stops
   for (const auto& job : {big, queued}) {
     const auto record = testing::value_of(db_->job(job["id"].get<store::Id>()));

@@ -185,6 +185,28 @@ TEST_F(ImportFileTest, EverySpectrumIsStoredWithItsFitAndProvenance) {
   EXPECT_EQ(stored_measurements(), 5u);
 }
 
+TEST_F(ImportFileTest, MeasurementsStoredAsTheyAreReadyAreStoredWholeOrNotAtAll) {
+  std::vector<std::pair<store::Measurement, std::optional<store::Fit>>> rows;
+  for (const auto& s : read_ok(testing::data_file("examples/import-rows-percent.csv"), ImportFormat::csv))
+    rows.emplace_back(imported_measurement(s, session_, "lab.csv", ImportFormat::csv, store::Time{}), std::nullopt);
+  ASSERT_EQ(rows.size(), 3u);
+  struct Abandoned {};
+  std::size_t given = 0;
+  // Two stored, then the giver gives up: the exception leaves the store, and nothing stays.
+  EXPECT_THROW((void)store_.record_measurements_as_ready([&]() -> const auto* {
+    if (given == 2) throw Abandoned{};
+    return &rows[given++];
+  }),
+               Abandoned);
+  EXPECT_EQ(stored_measurements(), 0u);
+  given = 0;
+  const auto stored =
+      store_.record_measurements_as_ready([&] { return given < rows.size() ? &rows[given++] : nullptr; });
+  ASSERT_TRUE(stored) << stored.error().message;
+  EXPECT_EQ(stored->size(), 3u);
+  EXPECT_EQ(stored_measurements(), 3u);
+}
+
 TEST_F(ImportFileTest, AFileWithADefectOrASpectrumTheFitterRefusesStoresNothing) {
   std::string text = testing::data_file("examples/import-columns.csv");
   text.replace(text.find("0.28039"), 7, "0.2803x");
@@ -205,6 +227,17 @@ TEST_F(ImportFileTest, AClosedSessionOrAStoppedImportStoresNothing) {
   const auto stopped = import(text, [](std::size_t, std::size_t) { return false; });
   ASSERT_TRUE(stopped);
   EXPECT_TRUE(stopped->stopped);
+  EXPECT_EQ(stored_measurements(), 0u);
+  // Stopped once every spectrum is fitted, while the rows are being stored: still nothing.
+  std::size_t heard_all_fitted = 0;
+  const auto late = import(text, [&](std::size_t fitted, std::size_t total) {
+    if (fitted < total) return true;
+    ++heard_all_fitted;
+    return false;
+  });
+  ASSERT_TRUE(late);
+  EXPECT_TRUE(late->stopped);
+  EXPECT_GE(heard_all_fitted, 1u);
   EXPECT_EQ(stored_measurements(), 0u);
   testing::value_of(store_.update_session(session_, {.notes = std::nullopt, .state = store::SessionState::complete}));
   const auto closed = import(text);

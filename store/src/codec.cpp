@@ -138,8 +138,11 @@ void check_spectrum(const SpectralSamples& spectrum, std::string_view what, bool
 }
 
 void check_json_object(std::string_view json, std::string_view what) {
-  const auto parsed = nlohmann::json::parse(json, nullptr, false);
-  if (parsed.is_discarded() || !parsed.is_object()) invalid(fmt::format("{}: not a JSON object", what));
+  // Validated without building the document (a fit's assessment is checked on every store):
+  // valid JSON whose first token opens an object.
+  const auto first = json.find_first_not_of(" \t\n\r");
+  if (first == std::string_view::npos || json[first] != '{' || !nlohmann::json::accept(json))
+    invalid(fmt::format("{}: not a JSON object", what));
 }
 
 void check_not_empty(std::string_view text, std::string_view what) {

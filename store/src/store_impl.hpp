@@ -76,6 +76,19 @@ struct Store::Impl {
     });
   }
 
+  // write() without its second attempt, for a body that cannot run twice (it consumes its input
+  // as it goes).
+  template <typename F>
+  auto write_once(std::string_view what, F&& body) -> Result<std::invoke_result_t<F, detail::Connection&>> {
+    return detail::guarded(what, [&] {
+      auto connection = engine->writer();
+      detail::Transaction transaction(*connection, detail::TransactionKind::write);
+      auto value = body(*connection);
+      transaction.commit();
+      return value;
+    });
+  }
+
   // One read transaction (a consistent snapshot) on a pooled read connection. A read that
   // found its connection gone (a database server restarted) is run once more on a new one.
   template <typename F>

@@ -305,31 +305,49 @@ Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, cons
                       [&](Connection& c) { return insert_measurement_without_job(c, m, fit, impl_->now()); });
 }
 
+namespace {
+
+// The measurements `next` gives, with the end of their job when there is one, inside the
+// caller's transaction.
+std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store::NextMeasurement& next,
+                                                     const std::optional<JobCompletion>& job, Time now) {
+  std::vector<RecordedMeasurement> out;
+  if (!job) {
+    while (const auto* row = next()) out.push_back(insert_measurement_without_job(c, row->first, row->second, now));
+    return out;
+  }
+  const auto running = job_in(c, job->job_id);
+  if (running.state != JobState::running)
+    fail(Kind::conflict, fmt::format("job {} is {}, not running", job->job_id, to_string(running.state)));
+  while (const auto* row = next()) {
+    const auto& [m, fit] = *row;
+    if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
+    if (running.session_id != m.session_id)
+      invalid(fmt::format("job {} is not of session {}", job->job_id, m.session_id));
+    Measurement of_job = m;
+    of_job.job_id = job->job_id;
+    out.push_back(insert_measurement_and_fit(c, of_job, fit, now));
+  }
+  change_job(c, job->job_id, {.state = JobState::succeeded, .result = job->result}, now);
+  return out;
+}
+
+}  // namespace
+
 Result<std::vector<RecordedMeasurement>> Store::record_measurements(
     const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements,
     const std::optional<JobCompletion>& job) {
   return impl_->write(fmt::format("recording {} measurements", measurements.size()), [&](Connection& c) {
-    std::vector<RecordedMeasurement> out;
-    out.reserve(measurements.size());
-    const auto now = impl_->now();
-    if (!job) {
-      for (const auto& [m, fit] : measurements) out.push_back(insert_measurement_without_job(c, m, fit, now));
-      return out;
-    }
-    const auto running = job_in(c, job->job_id);
-    if (running.state != JobState::running)
-      fail(Kind::conflict, fmt::format("job {} is {}, not running", job->job_id, to_string(running.state)));
-    for (const auto& [m, fit] : measurements) {
-      if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
-      if (running.session_id != m.session_id)
-        invalid(fmt::format("job {} is not of session {}", job->job_id, m.session_id));
-      Measurement of_job = m;
-      of_job.job_id = job->job_id;
-      out.push_back(insert_measurement_and_fit(c, of_job, fit, now));
-    }
-    change_job(c, job->job_id, {.state = JobState::succeeded, .result = job->result}, now);
-    return out;
+    std::size_t given = 0;  // from the start again if the write is tried again
+    const NextMeasurement next = [&]() { return given < measurements.size() ? &measurements[given++] : nullptr; };
+    return insert_measurements(c, next, job, impl_->now());
   });
+}
+
+Result<std::vector<RecordedMeasurement>> Store::record_measurements_as_ready(const NextMeasurement& next,
+                                                                             const std::optional<JobCompletion>& job) {
+  return impl_->write_once("recording measurements",
+                           [&](Connection& c) { return insert_measurements(c, next, job, impl_->now()); });
 }
 
 Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measurement& m, const std::optional<Fit>& fit,

@@ -217,6 +217,15 @@ class Store {
   Result<std::vector<RecordedMeasurement>> record_measurements(
       const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements,
       const std::optional<JobCompletion>& job = std::nullopt);
+  // The same, the measurements handed over one at a time as they become ready (an import's, as
+  // they are fitted): `next` gives the next one (valid until it is called again), or null when
+  // there are no more. Each is stored as it comes and the transaction commits after the last:
+  // all or none. `next` may end it by throwing; the exception leaves this call and nothing is
+  // stored. The writer is held from the first call of `next` to the commit, and is not tried a
+  // second time.
+  using NextMeasurement = std::function<const std::pair<Measurement, std::optional<Fit>>*()>;
+  Result<std::vector<RecordedMeasurement>> record_measurements_as_ready(
+      const NextMeasurement& next, const std::optional<JobCompletion>& job = std::nullopt);
   // The end of a running job that measured: the measurement (its job_id set to `job_id`), its
   // fit when given, and the job `succeeded` with `result` (a JSON object, to which the store
   // adds "measurement_id" and "fit_id"), in one transaction: all of it or nothing. So a
