@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <deque>
 
 #include "finite_number.hpp"
 #include "skinspec/records/cgats.hpp"
@@ -27,22 +28,75 @@ bool is_reflectance(double value) { return value >= kLowestReflectance && value 
 
 struct Row {
   std::size_t line = 0;
-  std::vector<std::string> cells;
+  std::vector<std::string_view> cells;  // into the file, or into Rows::unescaped
 };
 
-std::string trimmed(std::string_view text) {
+// A file's rows. A cell is a view of the file's bytes, except one that was quoted, which is
+// kept unescaped here (a deque: what it holds never moves).
+struct Rows {
+  std::vector<Row> rows;
+  std::deque<std::string> unescaped;
+};
+
+std::string_view trimmed(std::string_view text) {
   const auto first = text.find_first_not_of(" \t");
   if (first == std::string_view::npos) return {};
   const auto last = text.find_last_not_of(" \t");
-  return std::string(text.substr(first, last - first + 1));
+  return text.substr(first, last - first + 1);
 }
+
+// The end of the run of characters from `i` that are none of a CSV's separators, quotes or
+// line ends.
+std::size_t plain_run_end(std::string_view bytes, std::size_t i) {
+  for (; i < bytes.size(); ++i) {
+    const char c = bytes[i];
+    if (c == ',' || c == '\n' || c == '\r' || c == '"') break;
+  }
+  return i;
+}
+
+// One cell as it is read: a slice of the file while it has no quotes, an unescaped copy once it
+// has one.
+class CellText {
+ public:
+  explicit CellText(std::string_view bytes) : bytes_(bytes) {}
+
+  void begin(std::size_t at) { start_ = end_ = at, quoted_ = false, copy_.clear(); }
+  // Plain characters [from, to) of the file.
+  void plain(std::size_t from, std::size_t to) {
+    if (quoted_) copy_.append(bytes_.substr(from, to - from));
+    else end_ = to;
+  }
+  // A character that the file holds escaped or that quotes keep (a quoted line end).
+  void unescaped(char c) {
+    to_copy();
+    copy_ += c;
+  }
+  void opens_quote() { to_copy(); }
+  std::string_view finish(std::deque<std::string>& unescaped) const {
+    if (!quoted_) return trimmed(bytes_.substr(start_, end_ - start_));
+    return trimmed(unescaped.emplace_back(copy_));
+  }
+
+ private:
+  void to_copy() {
+    if (!quoted_) copy_.assign(bytes_.substr(start_, end_ - start_)), quoted_ = true;
+  }
+
+  std::string_view bytes_;
+  std::size_t start_ = 0, end_ = 0;
+  bool quoted_ = false;
+  std::string copy_;
+};
 
 // RFC 4180 rows, quotes and doubled quotes in them. Blank lines are skipped, and so are lines
 // starting with '#' before the header (a comment there is not parsed for quotes); after the
 // header such a line is data, where '#12' may well be a sample's name.
-std::expected<std::vector<Row>, InputError> rows_of(std::string_view bytes, std::string_view source) {
-  std::vector<Row> rows;
+std::expected<Rows, InputError> rows_of(std::string_view bytes, std::string_view source) {
+  Rows out;
+  auto& rows = out.rows;
   std::size_t line = 1;
+  CellText cell(bytes);
   for (std::size_t i = 0; i < bytes.size();) {
     const auto text_start = bytes.find_first_not_of(" \t", i);
     if (rows.empty() && text_start != std::string_view::npos && bytes[text_start] == '#') {
@@ -52,21 +106,26 @@ std::expected<std::vector<Row>, InputError> rows_of(std::string_view bytes, std:
       continue;
     }
     Row row{line, {}};
-    std::string cell;
+    // Rows are mostly as wide as the one before: room for that many cells at once, not
+    // grown a cell at a time through the whole file.
+    if (!rows.empty()) row.cells.reserve(rows.back().cells.size());
+    cell.begin(i);
     bool quoted = false, any = false;
     for (; i < bytes.size(); ++i) {
       const char c = bytes[i];
       if (quoted) {
-        if (c == '"' && i + 1 < bytes.size() && bytes[i + 1] == '"') cell += '"', ++i;
+        if (c == '"' && i + 1 < bytes.size() && bytes[i + 1] == '"') cell.unescaped('"'), ++i;
         else if (c == '"') quoted = false;
         else {
           if (c == '\n') ++line;
-          cell += c;
+          cell.unescaped(c);
         }
       } else if (c == '"') {
         quoted = any = true;
+        cell.opens_quote();
       } else if (c == ',') {
-        row.cells.push_back(trimmed(cell)), cell.clear(), any = true;
+        row.cells.push_back(cell.finish(out.unescaped)), any = true;
+        cell.begin(i + 1);
       } else if (c == '\n') {
         ++i;
         break;
@@ -75,21 +134,24 @@ std::expected<std::vector<Row>, InputError> rows_of(std::string_view bytes, std:
                                           "a line ends in a carriage return alone: save the file with LF or CRLF "
                                           "line ends"});
       } else if (c != '\r') {
-        cell += c;
-        if (c != ' ' && c != '\t') any = true;
+        // The run of plain characters up to the next one of note, taken at once.
+        const std::size_t end = plain_run_end(bytes, i);
+        if (bytes.substr(i, end - i).find_first_not_of(" \t") != std::string_view::npos) any = true;
+        cell.plain(i, end);
+        i = end - 1;
       }
     }
     if (quoted) return std::unexpected(InputError{std::string(source), row.line, 0, "a quoted field is not closed"});
-    row.cells.push_back(trimmed(cell));
+    row.cells.push_back(cell.finish(out.unescaped));
     ++line;
     if (any) rows.push_back(std::move(row));
   }
-  return rows;
+  return out;
 }
 
 std::optional<double> wavelength_of(std::string_view header) {
-  std::string text = trimmed(header);
-  if (text.ends_with("nm")) text = trimmed(std::string_view(text).substr(0, text.size() - 2));
+  std::string_view text = trimmed(header);
+  if (text.ends_with("nm")) text = trimmed(text.substr(0, text.size() - 2));
   const auto value = detail::finite_number(text);
   if (!value || *value <= 0 || *value > 100000) return std::nullopt;
   return value;
@@ -104,11 +166,13 @@ bool names_wavelengths(std::string header) {
 
 class CsvReader {
  public:
-  CsvReader(std::vector<Row> rows, std::string_view source) : rows_(std::move(rows)), source_(source) {}
+  CsvReader(Rows rows, std::string_view source) : file_(std::move(rows)), rows_(file_.rows), source_(source) {}
+  CsvReader(const CsvReader&) = delete;  // rows_ refers into file_
+  CsvReader& operator=(const CsvReader&) = delete;
 
   std::expected<std::vector<ImportedSpectrum>, InputError> read() {
     if (rows_.size() < 2) return fail(rows_.empty() ? 0 : rows_[0].line, 0, "no header and data rows");
-    by_columns_ = names_wavelengths(rows_[0].cells[0]);
+    by_columns_ = names_wavelengths(std::string(rows_[0].cells[0]));
     auto spectra = by_columns_ ? by_columns() : by_rows();
     if (!spectra) return spectra;
     if (auto scaled = to_fractions(*spectra); !scaled) return std::unexpected(scaled.error());
@@ -142,7 +206,7 @@ class CsvReader {
     std::vector<ImportedSpectrum> out(header.size() - 1);
     for (std::size_t c = 1; c < header.size(); ++c) {
       if (header[c].empty()) return fail(rows_[0].line, c + 1, "a spectrum column without a name");
-      out[c - 1].sample_id = header[c];
+      out[c - 1].sample_id = std::string(header[c]);
       out[c - 1].line = rows_[1].line;
     }
     for (std::size_t r = 1; r < rows_.size(); ++r) {
@@ -181,7 +245,7 @@ class CsvReader {
     for (std::size_t r = 1; r < rows_.size(); ++r) {
       if (auto width = check_width(rows_[r]); !width) return std::unexpected(width.error());
       ImportedSpectrum spectrum;
-      spectrum.sample_id = first > 0 && !rows_[r].cells[0].empty() ? rows_[r].cells[0] : std::to_string(r);
+      spectrum.sample_id = first > 0 && !rows_[r].cells[0].empty() ? std::string(rows_[r].cells[0]) : std::to_string(r);
       spectrum.line = rows_[r].line;
       spectrum.reflectance.wavelength_nm = grid;
       for (std::size_t c = first; c < header.size(); ++c) {
@@ -229,7 +293,8 @@ class CsvReader {
     return {};
   }
 
-  std::vector<Row> rows_;
+  Rows file_;
+  const std::vector<Row>& rows_;  // file_.rows
   std::string_view source_;
   bool by_columns_ = false;
   std::size_t first_value_column_ = 0;  // of the rows layout: the first wavelength column
