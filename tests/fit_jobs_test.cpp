@@ -184,15 +184,17 @@ TEST_F(FitJobsTest, AQueuedImportAndARunningOneAreCancelledWithNothingStored) {
   const json queued = accepted(post_import(rows_file(3)));
   ASSERT_TRUE(wait_for_work(big["id"]));
   EXPECT_EQ(get_job(queued["id"])["position"], 1);
+  // The running one first: the queued one's end is a write, which would wait for the import.
+  ASSERT_EQ(cancel(big["id"]).status, 200);
   const auto first = cancel(queued["id"]);
   ASSERT_EQ(first.status, 200) << first.body;
   EXPECT_EQ(json::parse(first.body)["state"], "cancelled");
   EXPECT_EQ(cancel(queued["id"]).status, 200);  // again: it is cancelled
 
-  ASSERT_EQ(cancel(big["id"]).status, 200);
   const json last = follow(big["id"]).back();
   EXPECT_EQ(last["state"], "cancelled") << last;
   EXPECT_EQ(last["error"]["code"], "cancelled");
+  EXPECT_EQ(follow(queued["id"]).back()["state"], "cancelled");
   EXPECT_EQ(stored(session_), 0u);
   EXPECT_EQ(cancel(big["id"]).status, 200);
 }
