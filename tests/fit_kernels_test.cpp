@@ -89,6 +89,21 @@ TEST(FastExp, GivesZeroBelowTheNormalRangeInfinityAboveItAndKeepsNaN) {
   }
 }
 
+TEST(FastExp, OfNegativeArgumentsAgreesWithStdExpAndGivesZeroBelowTheNormalRange) {
+  for (const KernelSet set : available_sets()) {
+    const Function exp = detail::kernels_of(set).exp_of_negative;
+    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-707.7, 0, 200'000)), 2.0) << name_of(set);
+    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-1e-3, 0, 100'000)), 2.0) << name_of(set);
+    const std::vector<double> x = {-708, -745, -1e4,        -1e300, -std::numeric_limits<double>::infinity(),
+                                   -0.0, 0.0,  std::nan("")};
+    const auto y = applied(exp, x);
+    for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(y[i], 0.0) << name_of(set) << " exp(" << x[i] << ")";
+    EXPECT_EQ(y[5], 1.0) << name_of(set);
+    EXPECT_EQ(y[6], 1.0) << name_of(set);
+    EXPECT_TRUE(std::isnan(y[7])) << name_of(set);
+  }
+}
+
 TEST(FastExpm1, AgreesWithStdExpm1WithinThreeUlp) {
   for (const KernelSet set : available_sets()) {
     const Function expm1 = detail::kernels_of(set).expm1;

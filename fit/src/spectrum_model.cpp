@@ -16,9 +16,9 @@ void Workspace::resize(Eigen::Index n) {
   packing_model = power_law_model = 0;
   epidermis.resize(n);
   dermis.resize(n);
-  for (ArrayXd* column : {&dermis_K, &dermis_S, &dermis_inverse_S, &total, &kept, &lateral_exp, &under_surface,
-                          &unused_derivative1, &unused_derivative2, &packed_blood_K, &packed_blood_by_saturation,
-                          &scattering_power_law, &power_law_by_log_ratio})
+  for (ArrayXd* column : {&dermis_K, &dermis_S, &dermis_inverse_S, &dermis_t_over_1_minus_r, &inverse_q, &total, &kept,
+                          &lateral_exp, &under_surface, &unused_derivative1, &unused_derivative2, &packed_blood_K,
+                          &packed_blood_by_saturation, &scattering_power_law, &power_law_by_log_ratio})
     column->resize(n);
 }
 
@@ -34,9 +34,13 @@ LayerColumnsOut pointers_to(LayerColumns& l) {
 }
 
 KeptColumns pointers_to(Workspace& w) {
-  return {pointers_to(w.epidermis),  pointers_to(w.dermis), w.dermis_K.data(), w.dermis_S.data(),
-          w.dermis_inverse_S.data(), w.total.data(),        w.kept.data(),     w.lateral_exp.data(),
-          w.under_surface.data()};
+  KeptColumns kept;
+  kept.epidermis = pointers_to(w.epidermis), kept.dermis = pointers_to(w.dermis);
+  kept.dermis_K = w.dermis_K.data(), kept.dermis_S = w.dermis_S.data();
+  kept.dermis_inverse_S = w.dermis_inverse_S.data(), kept.dermis_t_over_1_minus_r = w.dermis_t_over_1_minus_r.data();
+  kept.inverse_q = w.inverse_q.data(), kept.total = w.total.data(), kept.kept = w.kept.data();
+  kept.lateral_exp = w.lateral_exp.data(), kept.under_surface = w.under_surface.data();
+  return kept;
 }
 
 }  // namespace

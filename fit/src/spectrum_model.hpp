@@ -29,7 +29,7 @@ struct LayerColumns {
 // sized.
 struct Workspace {
   LayerColumns epidermis, dermis;
-  Eigen::ArrayXd dermis_K, dermis_S, dermis_inverse_S;
+  Eigen::ArrayXd dermis_K, dermis_S, dermis_inverse_S, dermis_t_over_1_minus_r, inverse_q;
   Eigen::ArrayXd total, kept, lateral_exp;  // dermis over white, its share kept, exp(-mu_eff r)
   Eigen::ArrayXd under_surface;             // X of R = (1 - rs) X + rs
   Eigen::ArrayXd unused_derivative1, unused_derivative2;

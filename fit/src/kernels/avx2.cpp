@@ -16,11 +16,11 @@ namespace {
 #include "fast_exp.ipp"
 #include "model_kernels.ipp"
 #include "qr_kernels.ipp"
+#include "kernel_table.ipp"
 
 }  // namespace
 
-constinit const FitKernels avx2_fit_kernels{"avx2",     &reflectance,   &jacobian, &blood_packing,
-                                            &power_law, &triangularize, &exp_of,   &expm1_of};
+constinit const FitKernels avx2_fit_kernels = kernel_table("avx2");
 
 }  // namespace skinspec::detail
 

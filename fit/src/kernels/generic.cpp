@@ -10,10 +10,10 @@ namespace {
 #include "fast_exp.ipp"
 #include "model_kernels.ipp"
 #include "qr_kernels.ipp"
+#include "kernel_table.ipp"
 
 }  // namespace
 
-constinit const FitKernels generic_fit_kernels{"generic",  &reflectance,   &jacobian, &blood_packing,
-                                               &power_law, &triangularize, &exp_of,   &expm1_of};
+constinit const FitKernels generic_fit_kernels = kernel_table("generic");
 
 }  // namespace skinspec::detail

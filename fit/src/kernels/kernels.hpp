@@ -21,10 +21,12 @@ struct LayerColumnsOut {
 struct KeptColumns {
   LayerColumnsOut epidermis, dermis;
   double *dermis_K, *dermis_S, *dermis_inverse_S;
-  double* total;          // the dermis over white: R + T^2 / (1 - R)
-  double* kept;           // its share the instrument sees (1 without lateral diffusion)
-  double* lateral_exp;    // exp(-mu_eff r) of that loss (unused without lateral diffusion)
-  double* under_surface;  // X of R = (1 - rs) X + rs
+  double* dermis_t_over_1_minus_r;  // the dermis's T / (1 - R)
+  double* inverse_q;                // 1 / (1 - the epidermis's R times total)
+  double* total;                    // the dermis over white: R + T^2 / (1 - R)
+  double* kept;                     // its share the instrument sees (1 without lateral diffusion)
+  double* lateral_exp;              // exp(-mu_eff r) of that loss (unused without lateral diffusion)
+  double* under_surface;            // X of R = (1 - rs) X + rs
 };
 
 // One evaluation of eq. 1 at n samples. The epidermis: K = base + melanin * melanin_K over the
@@ -88,8 +90,10 @@ struct FitKernels {
   void (*power_law)(const PowerLawArgs&);
   // small_qr.hpp's triangularize.
   void (*triangularize)(double* a, int rows, int cols, double* b);
-  // The kernels' own exp and expm1 (kernels/fast_exp.ipp), element by element, for the tests.
+  // The kernels' own exp, exp of x <= 0 and expm1 (kernels/fast_exp.ipp), element by element,
+  // for the tests.
   void (*exp)(const double* x, int n, double* out);
+  void (*exp_of_negative)(const double* x, int n, double* out);
   void (*expm1)(const double* x, int n, double* out);
 };
 
