@@ -208,5 +208,39 @@ TEST(KernelSets, TriangulariseAsPlainHouseholderDoes) {
   }
 }
 
+TEST(KernelSets, ScaleColumnsAndTakeTheirNormsAndProductsAsPlainLoopsDo) {
+  std::mt19937_64 random(5);
+  std::normal_distribution<double> normal;
+  for (const int rows : {135, 101, 6, 3}) {
+    const int all = 7, out_rows = rows + 2;
+    std::vector<double> jacobian(static_cast<std::size_t>(rows * all)), residuals(static_cast<std::size_t>(rows));
+    for (double& x : jacobian) x = normal(random);
+    for (double& x : residuals) x = normal(random);
+    const std::vector<int> columns = {0, 2, 3, 6};
+    const std::vector<double> scales = {0.5, 2.0, 1e-3, 7.0};
+    for (const KernelSet set : available_sets()) {
+      const int count = static_cast<int>(columns.size());
+      std::vector<double> out(static_cast<std::size_t>(out_rows * count), -1.0), norms(columns.size()),
+          products(columns.size());
+      detail::kernels_of(set).scaled_columns({jacobian.data(), rows, columns.data(), count, scales.data(),
+                                              residuals.data(), out.data(), out_rows, norms.data(), products.data()});
+      for (std::size_t j = 0; j < columns.size(); ++j) {
+        double norm = 0, product = 0;
+        for (int i = 0; i < out_rows; ++i) {
+          const double want = i < rows ? scales[j] * jacobian[static_cast<std::size_t>(columns[j] * rows + i)] : 0.0;
+          EXPECT_EQ(out[j * static_cast<std::size_t>(out_rows) + static_cast<std::size_t>(i)], want)
+              << name_of(set) << " row " << i << " column " << j;
+          norm += want * want;
+          if (i < rows)
+            product +=
+                jacobian[static_cast<std::size_t>(columns[j] * rows + i)] * residuals[static_cast<std::size_t>(i)];
+        }
+        EXPECT_NEAR(norms[j], norm, 1e-13 * norm) << name_of(set) << " column " << j;
+        EXPECT_NEAR(products[j], product, 1e-12 * (1 + std::abs(product))) << name_of(set) << " column " << j;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace skinspec

@@ -3,6 +3,6 @@
 // namespace, so it includes nothing.
 
 constexpr FitKernels kernel_table(const char* name) {
-  return {name,           &reflectance, &jacobian,           &blood_packing, &power_law,
-          &triangularize, &exp_of,      &exp_of_negative_of, &expm1_of};
+  return {name,           &reflectance,    &jacobian, &blood_packing,      &power_law,
+          &triangularize, &scaled_columns, &exp_of,   &exp_of_negative_of, &expm1_of};
 }

@@ -82,6 +82,21 @@ struct PowerLawArgs {
   double *shape, *shape_by_log_ratio;
 };
 
+// Levenberg-Marquardt's columns to factorise (levenberg_marquardt.cpp, factorize): column j of
+// `out` (out_rows rows, column-major) is scales[j] times column columns[j] of `jacobian` (rows
+// rows), zero below row `rows`; squared_norms[j] is its squared norm and products[j] the
+// unscaled column's product with `residuals`. At most 16 columns.
+struct ScaledColumnsArgs {
+  const double* jacobian;
+  int rows;
+  const int* columns;
+  int count;
+  const double *scales, *residuals;
+  double* out;
+  int out_rows;
+  double *squared_norms, *products;
+};
+
 struct FitKernels {
   const char* name;
   void (*reflectance)(const ReflectanceArgs&);
@@ -90,6 +105,7 @@ struct FitKernels {
   void (*power_law)(const PowerLawArgs&);
   // small_qr.hpp's triangularize.
   void (*triangularize)(double* a, int rows, int cols, double* b);
+  void (*scaled_columns)(const ScaledColumnsArgs&);
   // The kernels' own exp, exp of x <= 0 and expm1 (kernels/fast_exp.ipp), element by element,
   // for the tests.
   void (*exp)(const double* x, int n, double* out);

@@ -109,3 +109,52 @@ void triangularize(double* a, int rows, int cols, double* b) {
     v[0] = diagonal;
   }
 }
+
+// ScaledColumnsArgs's columns, kCount at a time in one pass over the rows: each keeps its two
+// sums in registers of their own, so that the sums' additions do not wait on one another.
+template <int kCount>
+void scale_columns(const ScaledColumnsArgs& in, int first) {
+  const double* column[kCount];
+  double* out[kCount];
+  for (int c = 0; c < kCount; ++c) {
+    column[c] = in.jacobian + static_cast<long>(in.columns[first + c]) * in.rows;
+    out[c] = in.out + static_cast<long>(first + c) * in.out_rows;
+  }
+  Lanes squares[kCount] = {}, products[kCount] = {};
+  int i = 0;
+  for (; i + kLanes <= in.rows; i += kLanes) {
+    const Lanes r = load(in.residuals + i);
+    for (int c = 0; c < kCount; ++c) {
+      const Lanes x = load(column[c] + i), y = in.scales[first + c] * x;
+      store(out[c] + i, y);
+      squares[c] += y * y;
+      products[c] += x * r;
+    }
+  }
+  for (int c = 0; c < kCount; ++c) {
+    double tail_squares = 0, tail_products = 0;
+    for (int row = i; row < in.rows; ++row) {
+      const double y = in.scales[first + c] * column[c][row];
+      out[c][row] = y;
+      tail_squares += y * y;
+      tail_products += column[c][row] * in.residuals[row];
+    }
+    for (int row = in.rows; row < in.out_rows; ++row) out[c][row] = 0;
+    in.squared_norms[first + c] = sum_of(squares[c]) + tail_squares;
+    in.products[first + c] = sum_of(products[c]) + tail_products;
+  }
+}
+
+template <int kCount = kColumnsPerPass>
+void scale_columns_of(int count, const ScaledColumnsArgs& in, int first) {
+  if constexpr (kCount > 1)
+    if (count < kCount) return scale_columns_of<kCount - 1>(count, in, first);
+  scale_columns<kCount>(in, first);
+}
+
+void scaled_columns(const ScaledColumnsArgs& in) {
+  for (int first = 0; first < in.count; first += kColumnsPerPass) {
+    const int in_pass = in.count - first < kColumnsPerPass ? in.count - first : kColumnsPerPass;
+    scale_columns_of(in_pass, in, first);
+  }
+}
