@@ -33,7 +33,7 @@ foreach(line IN LISTS lines)
   set(type "${CMAKE_MATCH_1}")
   set(name "${CMAKE_MATCH_2}")
   # The sanitizers' own bookkeeping, in the instrumented build only.
-  if(name MATCHES "^_*(asan|ubsan|sanitizer)")
+  if(name MATCHES "^_*(asan|ubsan|sanitizer|odr_asan)")
     continue()
   endif()
   if(type MATCHES "^[WVu]$")
