@@ -1,7 +1,8 @@
 // The fit engine gives the answers it gave when tests/data/engine-reference/ was written
 // (its README says by which commit, and how to write it again): every parameter, standard
 // error, correlation, verdict and figure of the fits of the 50 NIST forearms, for each model.
-// A change meant only to make the engine faster must pass this unchanged.
+// A change meant only to make the engine faster must pass this unchanged. The tests run it twice:
+// on the kernels the processor chooses (fit/src/kernels/) and with SKINSPEC_FIT_KERNELS=generic.
 
 #include <gtest/gtest.h>
 
@@ -9,12 +10,14 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fmt/format.h>
 #include <fstream>
 #include <optional>
 #include <sstream>
 #include <string>
 
+#include "kernels/kernels.hpp"  // fit/src
 #include "support/engine_reference.hpp"
 
 namespace skinspec {
@@ -81,6 +84,18 @@ void expect_same_answers(ModelKind model) {
   EXPECT_EQ(differences, 0);
   ::testing::Test::RecordProperty("largest_relative_parameter_change", fmt::format("{:.3g}", largest_parameter_change));
   std::printf("%s: largest relative parameter change %.3g\n", file.c_str(), largest_parameter_change);
+}
+
+// The answers below come from the kernels asked for: the generic ones when SKINSPEC_FIT_KERNELS
+// says so, otherwise the best the processor runs, so that both runs mean what they say.
+TEST(FitEngineReference, RunsOnTheKernelsAskedFor) {
+  const char* asked = std::getenv("SKINSPEC_FIT_KERNELS");
+  const bool generic = asked != nullptr && std::string(asked) == "generic";
+  const auto expected = !generic && detail::kernel_set_available(detail::KernelSet::avx2) ? detail::KernelSet::avx2
+                                                                                          : detail::KernelSet::generic;
+  EXPECT_EQ(detail::active_kernel_set(), expected);
+  ::testing::Test::RecordProperty("kernels", detail::fit_kernels().name);
+  std::printf("kernels: %s\n", detail::fit_kernels().name);
 }
 
 TEST(FitEngineReference, ExtendedModelGivesTheRecordedAnswers) { expect_same_answers(ModelKind::extended); }

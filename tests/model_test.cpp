@@ -680,16 +680,24 @@ void expect_spectrum_model_is_the_model(const SkinModel& model, const std::vecto
   }
 }
 
+// On every kernel set the processor can run (fit/src/kernels/): the generic one and AVX2.
 TEST(SpectrumModel, EqualsTheModelSampleBySampleWithItsDerivatives) {
   const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 3);
-  for (const bool lateral : {false, true})
-    // Shipped constants pack blood in vessels; textbook ones spread it evenly.
-    for (const SkinOptics* optics : {&shipped_optics(ModelKind::extended), &textbook_optics(ModelKind::extended),
-                                     &shipped_optics(ModelKind::paper), &textbook_optics(ModelKind::paper)}) {
-      const bool extended = optics->model() == ModelKind::extended;
-      expect_spectrum_model_is_the_model(SkinModel(*optics, *optics->site("cheek"), grid, lateral),
-                                         extended ? kExtendedSkins : kCheckPoints);
-    }
+  const detail::KernelSet before = detail::active_kernel_set();
+  for (const detail::KernelSet set : {detail::KernelSet::generic, detail::KernelSet::avx2}) {
+    if (!detail::kernel_set_available(set)) continue;
+    detail::use_kernel_set(set);
+    SCOPED_TRACE(detail::fit_kernels().name);
+    for (const bool lateral : {false, true})
+      // Shipped constants pack blood in vessels; textbook ones spread it evenly.
+      for (const SkinOptics* optics : {&shipped_optics(ModelKind::extended), &textbook_optics(ModelKind::extended),
+                                       &shipped_optics(ModelKind::paper), &textbook_optics(ModelKind::paper)}) {
+        const bool extended = optics->model() == ModelKind::extended;
+        expect_spectrum_model_is_the_model(SkinModel(*optics, *optics->site("cheek"), grid, lateral),
+                                           extended ? kExtendedSkins : kCheckPoints);
+      }
+  }
+  detail::use_kernel_set(before);
 }
 
 TEST(ModelDigest, EachModelHasItsOwnAndOnlyItsConstantsChangeIt) {

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "skinspec/fit/model_spec.hpp"
+#include "kernels/kernels.hpp"
 #include "small_qr.hpp"
 
 namespace skinspec::detail {
@@ -33,6 +34,21 @@ struct Point {
   double cost = 0;
 };
 
+// A solve's matrices the size of the Jacobian that it does not hand back, kept by each thread
+// from one solve to the next: a fit runs several solves, and allocating them afresh each time
+// showed in the profile (and, with many threads fitting, in page faults as the heap grew and
+// shrank).
+struct SpareMatrices {
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd jacobian, r;
+  Eigen::VectorXd qtr;
+};
+
+SpareMatrices& thread_spares() {
+  thread_local SpareMatrices spares;
+  return spares;
+}
+
 template <int N>
 class Minimizer {
  public:
@@ -41,6 +57,7 @@ class Minimizer {
       : f_(residuals), work_(work), plausible_lower_(plausible_lower), plausible_upper_(plausible_upper) {
     for (int i = 0; i < N; ++i)
       if (free[static_cast<std::size_t>(i)]) free_[k_++] = i;
+    exchange_spares();
     const auto rows = static_cast<Eigen::Index>(residuals.size());
     for (Point<N>* point : {&x_, &candidate_}) {
       point->residuals.resize(rows);
@@ -51,6 +68,10 @@ class Minimizer {
     r_.setZero(std::max<Eigen::Index>(rows, k_), k_);
     qtr_.setZero(r_.rows());
   }
+  // x_'s matrices go to the result; the candidate's and R's stay for the thread's next solve.
+  ~Minimizer() { exchange_spares(); }
+  Minimizer(const Minimizer&) = delete;
+  Minimizer& operator=(const Minimizer&) = delete;
 
   LmResult<N> run(const std::array<double, N>& start) {
     x_.p = start;
@@ -110,10 +131,12 @@ class Minimizer {
     return std::isfinite(point.cost);
   }
 
-  // The Jacobian at the point last evaluated; false where it is not finite.
+  // The Jacobian at the point last evaluated; false where it is not finite. Every entry times 0
+  // is 0 unless it is infinite or NaN, so their sum is 0 exactly when all are finite: a sum
+  // Eigen vectorises, where allFinite() tests the entries one by one.
   bool differentiate(Point<N>& point) {
     f_.jacobian(point.p.data(), work_, point.jacobian.data());
-    return point.jacobian.allFinite();
+    return (point.jacobian.array() * 0.0).sum() == 0.0;
   }
 
   // The candidate's cost, the largest double where it cannot be evaluated or its Jacobian is
@@ -137,18 +160,20 @@ class Minimizer {
   }
 
   // R of the QR factorisation of the scaled free columns at x, Q^T r, the damping's diagonal
-  // and the gradient's largest component: what every step from x needs.
+  // and the gradient's largest component: what every step from x needs. The columns are
+  // scaled, and their norms and products taken, in one pass (a kernel, kernels.hpp).
   void factorize() {
+    const auto rows = static_cast<int>(x_.residuals.size());
+    std::array<double, N> squared_norms{}, products{};
+    fit_kernels().scaled_columns({x_.jacobian.data(), rows, free_.data(), k_, scale_.data(), x_.residuals.data(),
+                                  r_.data(), static_cast<int>(r_.rows()), squared_norms.data(), products.data()});
     gradient_max_ = 0;
     for (int j = 0; j < k_; ++j) {
-      const auto column = x_.jacobian.col(free_[j]);
-      r_.col(j).head(column.size()) = scale_[j] * column;
-      r_.col(j).tail(r_.rows() - column.size()).setZero();
-      diagonal_[j] = std::clamp(r_.col(j).squaredNorm(), kMinDiagonal, kMaxDiagonal);
-      gradient_max_ = std::max(gradient_max_, std::abs(column.dot(x_.residuals)));
+      diagonal_[j] = std::clamp(squared_norms[j], kMinDiagonal, kMaxDiagonal);
+      gradient_max_ = std::max(gradient_max_, std::abs(products[j]));
     }
-    qtr_.head(x_.residuals.size()) = x_.residuals;
-    qtr_.tail(qtr_.size() - x_.residuals.size()).setZero();
+    qtr_.head(rows) = x_.residuals;
+    qtr_.tail(qtr_.size() - rows).setZero();
     triangularize(r_.data(), static_cast<int>(r_.rows()), k_, qtr_.data());
   }
 
@@ -179,6 +204,14 @@ class Minimizer {
     candidate_.p = x_.p;
     for (int j = 0; j < k_; ++j) candidate_.p[free_[j]] += scale_[j] * s[j];
     return true;
+  }
+
+  void exchange_spares() {
+    SpareMatrices& spares = thread_spares();
+    candidate_.residuals.swap(spares.residuals);
+    candidate_.jacobian.swap(spares.jacobian);
+    r_.swap(spares.r);
+    qtr_.swap(spares.qtr);
   }
 
   double step_norm() const {

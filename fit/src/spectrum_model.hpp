@@ -1,7 +1,8 @@
 #pragma once
-// The model at every sample of a spectrum at once (private to fit/): eq. 1 as operations on
-// columns of samples (Eigen arrays, vectorised over the wavelengths) instead of one sample at a
-// time, with its Jacobian by derivatives written out by hand.
+// The model at every sample of a spectrum at once (private to fit/): eq. 1 in one loop over the
+// samples (the kernels of kernels/kernels.hpp, vectorised over the wavelengths, AVX2 where the
+// processor has it) instead of one call per sample, with its Jacobian by derivatives written
+// out by hand.
 //
 // The solver needs the reflectance at every point it tries but the Jacobian only at the points
 // it keeps (about half of them), so the two are apart: reflectance() keeps in a Workspace what
@@ -12,40 +13,33 @@
 #include <Eigen/Core>
 #include <cstdint>
 
+#include "kernels/kernels.hpp"
 #include "skinspec/fit/model.hpp"
 
 namespace skinspec::detail {
 
-// Kubelka's layer at every sample (model.hpp, kubelka_layer): k = K / S (K times inverse_S), a = 1 + k,
-// b = sqrt(k (k + 2)), e1 = exp(-D S b), e = e1^2, R = (1 - e) / den, T = 2 b e1 / den with
-// den = a (1 - e) + b (1 + e).
+// A Kubelka layer's columns at every sample, kept for the derivatives (kernels.hpp, LayerColumnsOut).
 struct LayerColumns {
-  Eigen::ArrayXd inverse_S, k, a, b, e1, e, inverse_den, r, t;
+  Eigen::ArrayXd k, b, e1, inverse_den, r, t;
   void resize(Eigen::Index n);
 };
 
-// A layer's R and T as functions of k = K / S and c = D S b, each differentiated with the
-// other fixed, 1 / b and a / b (db/dk).
-struct LayerSlopes {
-  Eigen::ArrayXd r_k, t_k, r_c, t_c, inverse_b, a_over_b;
-  void resize(Eigen::Index n);
-};
-
-// Columns of one evaluation: the layers and what combines them, kept for the derivatives, and
-// room for the derivatives' own columns, so that an evaluation allocates nothing once sized.
+// Columns of one evaluation: what the reflectance keeps for the derivatives, and room for the
+// columns of derivatives a model does not have, so that an evaluation allocates nothing once
+// sized.
 struct Workspace {
   LayerColumns epidermis, dermis;
-  LayerSlopes epidermis_slopes, dermis_slopes;
-  Eigen::ArrayXd epidermis_K, dermis_K, dermis_S;
-  Eigen::ArrayXd packed_blood_K, packing_slope;  // the extended model: blood in vessels, d packed / d spread
-  Eigen::ArrayXd scattering_power_law;           // the extended model: mu_s' / its amplitude, as S
-  Eigen::ArrayXd total, kept, lateral_exp;       // dermis over white, its share kept, exp(-mu_eff r)
-  Eigen::ArrayXd under_surface;                  // X of R = (1 - rs) X + rs
-  Eigen::ArrayXd scratch1, scratch2, scratch3, scratch4, scratch5, scratch6, scratch7, scratch8;
+  Eigen::ArrayXd dermis_K, dermis_S, dermis_inverse_S, dermis_t_over_1_minus_r, inverse_q;
+  Eigen::ArrayXd total, kept, lateral_exp;  // dermis over white, its share kept, exp(-mu_eff r)
+  Eigen::ArrayXd under_surface;             // X of R = (1 - rs) X + rs
+  Eigen::ArrayXd unused_derivative1, unused_derivative2;
   // Columns that depend on one parameter alone are kept while it stays the same (held, or
-  // pinned at a bound by the active-set loop): blood packed in vessels at an oxygen
-  // saturation, and the scattering's power law at an exponent. Which model (SpectrumModel's
-  // id, 0: none) and value they were computed for.
+  // pinned at a bound by the active-set loop): for the extended model, blood packed in vessels
+  // at an oxygen saturation and its derivative by the saturation; the scattering's power law
+  // at an exponent (mu_s' / its amplitude, as S), and that times ln(lambda / pivot). Which
+  // model (SpectrumModel's id, 0: none) and value they were computed for.
+  Eigen::ArrayXd packed_blood_K, packed_blood_by_saturation;
+  Eigen::ArrayXd scattering_power_law, power_law_by_log_ratio;
   std::uint64_t packing_model = 0, power_law_model = 0;
   double packing_saturation = 0, power_law_exponent = 0;
   void resize(Eigen::Index n);
@@ -67,8 +61,10 @@ class SpectrumModel {
   void jacobian(const double* p, Workspace& work, double* jacobian) const;
 
  private:
-  void absorption_and_scattering(const double* p, Workspace& w) const;
-  void packed_blood(double saturation, Workspace& w) const;
+  // The extended model's columns that depend on one parameter alone, where it changed.
+  void update_single_parameter_columns(const double* p, Workspace& w) const;
+  ReflectanceArgs reflectance_args(const double* p, Workspace& w, double* reflectance) const;
+  JacobianArgs jacobian_args(const double* p, Workspace& w, double* jacobian) const;
 
   const SkinModel& model_;
   std::uint64_t id_;  // unique among every SpectrumModel ever made, for Workspace to tell them apart

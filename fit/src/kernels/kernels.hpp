@@ -1,0 +1,134 @@
+#pragma once
+// The fit's arithmetic over every sample (the model, its derivatives, the least squares' QR) as
+// kernels over plain columns of doubles (private to fit/). They are compiled twice, for any
+// processor (generic.cpp) and for x86-64 processors with AVX2 and FMA (avx2.cpp), and one set
+// is chosen at run time (dispatch.cpp): the programs still run on any x86-64, and run faster
+// where AVX2 is found.
+//
+// The AVX2 file includes this header and so must not define anything another file also
+// defines: hence no Eigen and no standard library here, only plain structs and declarations.
+
+namespace skinspec::detail {
+
+// A Kubelka layer's columns, kept by the reflectance for the derivatives: k = K / S,
+// b = sqrt(k (k + 2)), e1 = exp(-D S b), 1 / den with den = a (1 - e) + b (1 + e) (a = 1 + k,
+// e = e1^2), its reflectance R = (1 - e) / den and transmittance T = 2 b e1 / den.
+struct LayerColumnsOut {
+  double *k, *b, *e1, *inverse_den, *r, *t;
+};
+
+// What the reflectance keeps for the derivatives besides the layers.
+struct KeptColumns {
+  LayerColumnsOut epidermis, dermis;
+  double *dermis_K, *dermis_S, *dermis_inverse_S;
+  double* dermis_t_over_1_minus_r;  // the dermis's T / (1 - R)
+  double* inverse_q;                // 1 / (1 - the epidermis's R times total)
+  double* total;                    // the dermis over white: R + T^2 / (1 - R)
+  double* kept;                     // its share the instrument sees (1 without lateral diffusion)
+  double* lateral_exp;              // exp(-mu_eff r) of that loss (unused without lateral diffusion)
+  double* under_surface;            // X of R = (1 - rs) X + rs
+};
+
+// One evaluation of eq. 1 at n samples. The epidermis: K = base + melanin * melanin_K over the
+// constant S. The dermis: K = base + the sum of the weighted absorbers, S = scale * shape.
+struct ReflectanceArgs {
+  int n;
+  const double *epidermis_base_K, *melanin_K, *epidermis_S, *epidermis_inverse_S;
+  double melanin;
+  const double* dermis_base_K;
+  const double* dermis_absorbers[3];
+  double dermis_weights[3];
+  const double* dermis_S_shape;
+  double dermis_S_scale;
+  double epidermis_mm, dermis_mm, lateral_radius_mm, surface_reflectance;
+  KeptColumns kept;
+  double* reflectance;
+};
+
+// The derivatives at the point of the last reflectance (whose kept columns they read): by the
+// surface reflectance, by melanin, and by up to three parameters the dermis's K depends on and
+// two its S depends on. Dermis parameter j's column is (1 - rs) dX/dK * factor_j * column_j
+// (dX/dS likewise); a model with fewer points the others at scratch columns.
+struct JacobianArgs {
+  int n;
+  const double *melanin_K, *epidermis_inverse_S;
+  double epidermis_mm, dermis_mm, lateral_radius_mm, surface_reflectance;
+  KeptColumns kept;
+  const double* by_dermis_K_columns[3];
+  double by_dermis_K_factors[3];
+  const double* by_dermis_S_columns[2];
+  double by_dermis_S_factors[2];
+  double *by_surface, *by_melanin;
+  double* by_dermis_K[3];
+  double* by_dermis_S[2];
+};
+
+// Weight 1 of blood at an oxygen saturation, packed in vessels of radius r (the extended model):
+// spread = s Kh + (1 - s) Kdh, packed = spread (1 - exp(-x)) / x with x = radius_factor * spread
+// (no packing where radius_factor is 0), and d packed / d s = exp(-x) (Kh - Kdh).
+struct BloodPackingArgs {
+  int n;
+  const double *oxy_K, *deoxy_K;
+  double saturation, radius_factor;
+  double *packed_K, *by_saturation;
+};
+
+// The extended model's dermal scattering shape: amplitude * exp(-power * log_ratio), and that
+// times log_ratio (for its derivative by the power).
+struct PowerLawArgs {
+  int n;
+  const double* log_ratio;
+  double power, amplitude;
+  double *shape, *shape_by_log_ratio;
+};
+
+// Levenberg-Marquardt's columns to factorise (levenberg_marquardt.cpp, factorize): column j of
+// `out` (out_rows rows, column-major) is scales[j] times column columns[j] of `jacobian` (rows
+// rows), zero below row `rows`; squared_norms[j] is its squared norm and products[j] the
+// unscaled column's product with `residuals`. At most 16 columns.
+struct ScaledColumnsArgs {
+  const double* jacobian;
+  int rows;
+  const int* columns;
+  int count;
+  const double *scales, *residuals;
+  double* out;
+  int out_rows;
+  double *squared_norms, *products;
+};
+
+struct FitKernels {
+  const char* name;
+  void (*reflectance)(const ReflectanceArgs&);
+  void (*jacobian)(const JacobianArgs&);
+  void (*blood_packing)(const BloodPackingArgs&);
+  void (*power_law)(const PowerLawArgs&);
+  // small_qr.hpp's triangularize.
+  void (*triangularize)(double* a, int rows, int cols, double* b);
+  void (*scaled_columns)(const ScaledColumnsArgs&);
+  // The kernels' own exp, exp of x <= 0 and expm1 (kernels/fast_exp.ipp), element by element,
+  // for the tests.
+  void (*exp)(const double* x, int n, double* out);
+  void (*exp_of_negative)(const double* x, int n, double* out);
+  void (*expm1)(const double* x, int n, double* out);
+};
+
+// Each kernel file's table, constant-initialised: no code of avx2.cpp runs before dispatch.cpp
+// has checked that the processor can run it.
+extern const FitKernels generic_fit_kernels;  // generic.cpp
+extern const FitKernels avx2_fit_kernels;     // avx2.cpp, on x86-64 only
+
+enum class KernelSet { generic, avx2 };
+
+// The set in use: AVX2 where the processor has AVX2 and FMA, unless the environment variable
+// SKINSPEC_FIT_KERNELS is `generic`; decided on first use.
+const FitKernels& fit_kernels();
+KernelSet active_kernel_set();
+// Whether this build and processor can run a set, and a set by name, for the tests.
+bool kernel_set_available(KernelSet set);
+const FitKernels& kernels_of(KernelSet set);
+// Switches the set in use (for the tests, which run both paths in one process); only a set
+// kernel_set_available says can run.
+void use_kernel_set(KernelSet set);
+
+}  // namespace skinspec::detail

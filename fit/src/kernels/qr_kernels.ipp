@@ -1,0 +1,160 @@
+// small_qr.hpp's Householder triangularisation as a kernel (kernels.hpp). Each reflection takes
+// two passes over its rows whatever the number of columns: one for every product it needs, one
+// to apply it to every column right of it and to b. The passes work on as many rows at a time as
+// a vector register holds (GCC's vector types: four with AVX, two otherwise). Included inside
+// each kernel file's anonymous namespace, so it includes nothing.
+
+constexpr int kMaxQrColumns = 16;
+// Columns a pass handles at once: each keeps a running sum in a register of its own.
+constexpr int kColumnsPerPass = 8;
+
+#if defined(__AVX__)
+constexpr int kLanes = 4;
+#else
+constexpr int kLanes = 2;
+#endif
+using Lanes = double __attribute__((vector_size(kLanes * sizeof(double))));
+
+inline Lanes load(const double* p) {
+  Lanes v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+
+inline void store(double* p, Lanes v) { __builtin_memcpy(p, &v, sizeof v); }
+
+inline double sum_of(Lanes v) {
+#if defined(__AVX__)
+  return (v[0] + v[1]) + (v[2] + v[3]);
+#else
+  return v[0] + v[1];
+#endif
+}
+
+// |v|^2 and v . y[t] for each of kCount columns y, over n rows.
+template <int kCount>
+void products(const double* v, double* const* y, int n, double& norm2, double* out) {
+  Lanes squares = {}, sums[kCount] = {};
+  int i = 0;
+  for (; i + kLanes <= n; i += kLanes) {
+    const Lanes x = load(v + i);
+    squares += x * x;
+    for (int t = 0; t < kCount; ++t) sums[t] += x * load(y[t] + i);
+  }
+  double tail_squares = 0, tails[kCount] = {};
+  for (; i < n; ++i) {
+    tail_squares += v[i] * v[i];
+    for (int t = 0; t < kCount; ++t) tails[t] += v[i] * y[t][i];
+  }
+  norm2 = sum_of(squares) + tail_squares;
+  for (int t = 0; t < kCount; ++t) out[t] = sum_of(sums[t]) + tails[t];
+}
+
+// y[t] -= factor[t] v for each of kCount columns y, over n rows.
+template <int kCount>
+void subtract(const double* v, double* const* y, int n, const double* factor) {
+  int i = 0;
+  for (; i + kLanes <= n; i += kLanes) {
+    const Lanes x = load(v + i);
+    for (int t = 0; t < kCount; ++t) store(y[t] + i, load(y[t] + i) - factor[t] * x);
+  }
+  for (; i < n; ++i)
+    for (int t = 0; t < kCount; ++t) y[t][i] -= factor[t] * v[i];
+}
+
+// The two passes for `count` columns (1 to kColumnsPerPass), each with its number of
+// registers known.
+template <int kCount = kColumnsPerPass>
+void products_of(int count, const double* v, double* const* y, int n, double& norm2, double* out) {
+  if constexpr (kCount > 1)
+    if (count < kCount) return products_of<kCount - 1>(count, v, y, n, norm2, out);
+  products<kCount>(v, y, n, norm2, out);
+}
+
+template <int kCount = kColumnsPerPass>
+void subtract_from(int count, const double* v, double* const* y, int n, const double* factor) {
+  if constexpr (kCount > 1)
+    if (count < kCount) return subtract_from<kCount - 1>(count, v, y, n, factor);
+  subtract<kCount>(v, y, n, factor);
+}
+
+void triangularize(double* a, int rows, int cols, double* b) {
+  for (int j = 0; j < cols; ++j) {
+    double* v = a + j * rows + j;  // column j from the diagonal down, turned into the reflection
+    const int length = rows - j;
+    // The columns right of j and b, from row j down: what the reflection applies to.
+    double* targets[kMaxQrColumns + 1];
+    double products[kMaxQrColumns + 1];
+    int count = 0;
+    for (int l = j + 1; l < cols; ++l) targets[count++] = a + l * rows + j;
+    targets[count++] = b + j;
+    double norm2 = 0;
+    for (int first = 0; first < count; first += kColumnsPerPass) {
+      const int in_pass = count - first < kColumnsPerPass ? count - first : kColumnsPerPass;
+      products_of(in_pass, v, targets + first, length, norm2, products + first);
+    }
+    if (norm2 == 0) continue;  // nothing to eliminate
+    // The diagonal takes the sign opposite to v[0]'s, so that v[0] - diagonal does not cancel.
+    const double diagonal = v[0] > 0 ? -__builtin_sqrt(norm2) : __builtin_sqrt(norm2);
+    // The reflection I - 2 v v^T / |v|^2 with v = x - diagonal e1, |v|^2 = 2 (|x|^2 - x0 diagonal);
+    // the products were taken with x, and v . y = x . y - diagonal y0.
+    const double half_v_norm2 = norm2 - v[0] * diagonal;
+    v[0] -= diagonal;
+    double factors[kMaxQrColumns + 1];
+    for (int t = 0; t < count; ++t) factors[t] = (products[t] - diagonal * targets[t][0]) / half_v_norm2;
+    for (int first = 0; first < count; first += kColumnsPerPass) {
+      const int in_pass = count - first < kColumnsPerPass ? count - first : kColumnsPerPass;
+      subtract_from(in_pass, v, targets + first, length, factors + first);
+    }
+    v[0] = diagonal;
+  }
+}
+
+// ScaledColumnsArgs's columns, kCount at a time in one pass over the rows: each keeps its two
+// sums in registers of their own, so that the sums' additions do not wait on one another.
+template <int kCount>
+void scale_columns(const ScaledColumnsArgs& in, int first) {
+  const double* column[kCount];
+  double* out[kCount];
+  for (int c = 0; c < kCount; ++c) {
+    column[c] = in.jacobian + static_cast<long>(in.columns[first + c]) * in.rows;
+    out[c] = in.out + static_cast<long>(first + c) * in.out_rows;
+  }
+  Lanes squares[kCount] = {}, products[kCount] = {};
+  int i = 0;
+  for (; i + kLanes <= in.rows; i += kLanes) {
+    const Lanes r = load(in.residuals + i);
+    for (int c = 0; c < kCount; ++c) {
+      const Lanes x = load(column[c] + i), y = in.scales[first + c] * x;
+      store(out[c] + i, y);
+      squares[c] += y * y;
+      products[c] += x * r;
+    }
+  }
+  for (int c = 0; c < kCount; ++c) {
+    double tail_squares = 0, tail_products = 0;
+    for (int row = i; row < in.rows; ++row) {
+      const double y = in.scales[first + c] * column[c][row];
+      out[c][row] = y;
+      tail_squares += y * y;
+      tail_products += column[c][row] * in.residuals[row];
+    }
+    for (int row = in.rows; row < in.out_rows; ++row) out[c][row] = 0;
+    in.squared_norms[first + c] = sum_of(squares[c]) + tail_squares;
+    in.products[first + c] = sum_of(products[c]) + tail_products;
+  }
+}
+
+template <int kCount = kColumnsPerPass>
+void scale_columns_of(int count, const ScaledColumnsArgs& in, int first) {
+  if constexpr (kCount > 1)
+    if (count < kCount) return scale_columns_of<kCount - 1>(count, in, first);
+  scale_columns<kCount>(in, first);
+}
+
+void scaled_columns(const ScaledColumnsArgs& in) {
+  for (int first = 0; first < in.count; first += kColumnsPerPass) {
+    const int in_pass = in.count - first < kColumnsPerPass ? in.count - first : kColumnsPerPass;
+    scale_columns_of(in_pass, in, first);
+  }
+}

@@ -1,0 +1,246 @@
+// The fit's kernels (fit/src/kernels/): their own exp and expm1 against the standard library's,
+// the choice of kernel set, and the sets' QR against a plain one. The model through each set is
+// checked against automatic differentiation in model_test, and the fits of real spectra through
+// each in engine_reference_test (run once with each set).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "kernels/kernels.hpp"  // fit/src
+
+namespace skinspec {
+namespace {
+
+using detail::KernelSet;
+
+std::vector<KernelSet> available_sets() {
+  std::vector<KernelSet> sets;
+  for (const KernelSet set : {KernelSet::generic, KernelSet::avx2})
+    if (detail::kernel_set_available(set)) sets.push_back(set);
+  return sets;
+}
+
+std::string name_of(KernelSet set) { return detail::kernels_of(set).name; }
+
+// The distance between want and the next double away from zero: one unit in the last place.
+double ulp_of(double want) {
+  return std::abs(std::nextafter(want, std::copysign(std::numeric_limits<double>::infinity(), want)) - want);
+}
+
+// Arguments over [from, to]: evenly spaced, then as many at random, then the ends.
+std::vector<double> arguments(double from, double to, int count) {
+  std::vector<double> x;
+  for (int i = 0; i <= count; ++i) x.push_back(from + (to - from) * i / count);
+  std::mt19937_64 random(7);
+  std::uniform_real_distribution<double> uniform(from, to);
+  for (int i = 0; i < count; ++i) x.push_back(uniform(random));
+  return x;
+}
+
+using Function = void (*)(const double*, int, double*);
+
+std::vector<double> applied(Function f, const std::vector<double>& x) {
+  std::vector<double> out(x.size());
+  f(x.data(), static_cast<int>(x.size()), out.data());
+  return out;
+}
+
+// The largest error of f against `reference` over x, in units in the last place of the reference.
+double worst_ulps(Function f, double (*reference)(double), const std::vector<double>& x) {
+  const std::vector<double> got = applied(f, x);
+  double worst = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double want = reference(x[i]);
+    worst = std::max(worst, want == got[i] ? 0.0 : std::abs(got[i] - want) / ulp_of(want));
+  }
+  return worst;
+}
+
+double std_exp(double x) { return std::exp(x); }
+double std_expm1(double x) { return std::expm1(x); }
+
+TEST(FastExp, AgreesWithStdExpWithinTwoUlpWhereverTheResultIsNormal) {
+  for (const KernelSet set : available_sets()) {
+    const Function exp = detail::kernels_of(set).exp;
+    // The model takes exp(-x) of x >= 0: optical depths, lateral losses; and of either sign
+    // (the scattering's power law).
+    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-707.7, 0, 200'000)), 2.0) << name_of(set);
+    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-1, 1, 100'000)), 2.0) << name_of(set);
+    EXPECT_LE(worst_ulps(exp, std_exp, arguments(0, 709.78, 100'000)), 2.0) << name_of(set);
+  }
+}
+
+TEST(FastExp, GivesZeroBelowTheNormalRangeInfinityAboveItAndKeepsNaN) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const std::vector<double> x = {-708, -745, -1e4, -1e300, -inf, 709.8, 1e300, inf, std::nan(""), 0.0, -0.0};
+  for (const KernelSet set : available_sets()) {
+    const auto y = applied(detail::kernels_of(set).exp, x);
+    for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(y[i], 0.0) << name_of(set) << " exp(" << x[i] << ")";
+    for (std::size_t i = 5; i < 8; ++i) EXPECT_EQ(y[i], inf) << name_of(set) << " exp(" << x[i] << ")";
+    EXPECT_TRUE(std::isnan(y[8])) << name_of(set);
+    EXPECT_EQ(y[9], 1.0) << name_of(set);
+    EXPECT_EQ(y[10], 1.0) << name_of(set);
+  }
+}
+
+TEST(FastExp, OfNegativeArgumentsAgreesWithStdExpAndGivesZeroBelowTheNormalRange) {
+  for (const KernelSet set : available_sets()) {
+    const Function exp = detail::kernels_of(set).exp_of_negative;
+    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-707.7, 0, 200'000)), 2.0) << name_of(set);
+    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-1e-3, 0, 100'000)), 2.0) << name_of(set);
+    const std::vector<double> x = {-708, -745, -1e4,        -1e300, -std::numeric_limits<double>::infinity(),
+                                   -0.0, 0.0,  std::nan("")};
+    const auto y = applied(exp, x);
+    for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(y[i], 0.0) << name_of(set) << " exp(" << x[i] << ")";
+    EXPECT_EQ(y[5], 1.0) << name_of(set);
+    EXPECT_EQ(y[6], 1.0) << name_of(set);
+    EXPECT_TRUE(std::isnan(y[7])) << name_of(set);
+  }
+}
+
+TEST(FastExpm1, AgreesWithStdExpm1WithinThreeUlp) {
+  for (const KernelSet set : available_sets()) {
+    const Function expm1 = detail::kernels_of(set).expm1;
+    // The model takes expm1(-x) of x >= 0 (blood packed in vessels), x from near 0 upwards.
+    EXPECT_LE(worst_ulps(expm1, std_expm1, arguments(-60, 0, 200'000)), 3.0) << name_of(set);
+    EXPECT_LE(worst_ulps(expm1, std_expm1, arguments(-1e-3, 1e-3, 100'000)), 3.0) << name_of(set);
+    EXPECT_LE(worst_ulps(expm1, std_expm1, arguments(0, 709.78, 100'000)), 3.0) << name_of(set);
+    std::vector<double> tiny;
+    for (double x = 1e-300; x < 1e-5; x *= 3.7) tiny.insert(tiny.end(), {x, -x});
+    EXPECT_LE(worst_ulps(expm1, std_expm1, tiny), 3.0) << name_of(set);
+  }
+}
+
+TEST(FastExpm1, IsMinusOneFarBelowZeroInfinityAboveTheRangeAndKeepsNaN) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const std::vector<double> x = {-50, -800, -1e300, -inf, 709.8, inf, std::nan("")};
+  for (const KernelSet set : available_sets()) {
+    const auto y = applied(detail::kernels_of(set).expm1, x);
+    for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(y[i], -1.0) << name_of(set) << " expm1(" << x[i] << ")";
+    for (std::size_t i = 4; i < 6; ++i) EXPECT_EQ(y[i], inf) << name_of(set) << " expm1(" << x[i] << ")";
+    EXPECT_TRUE(std::isnan(y[6])) << name_of(set);
+  }
+}
+
+bool generic_asked_for() {
+  const char* asked = std::getenv("SKINSPEC_FIT_KERNELS");
+  return asked != nullptr && std::string(asked) == "generic";
+}
+
+TEST(KernelSets, Avx2RunsWhereTheProcessorHasItUnlessGenericIsAskedFor) {
+  ASSERT_TRUE(detail::kernel_set_available(KernelSet::generic));
+#if defined(__x86_64__)
+  __builtin_cpu_init();
+  const bool has_avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  EXPECT_EQ(detail::kernel_set_available(KernelSet::avx2), has_avx2);
+#else
+  EXPECT_FALSE(detail::kernel_set_available(KernelSet::avx2));
+#endif
+  const KernelSet expected =
+      detail::kernel_set_available(KernelSet::avx2) && !generic_asked_for() ? KernelSet::avx2 : KernelSet::generic;
+  EXPECT_EQ(detail::active_kernel_set(), expected);
+  EXPECT_EQ(&detail::fit_kernels(), &detail::kernels_of(expected));
+}
+
+TEST(KernelSets, CanBeSwitchedForTheTests) {
+  const KernelSet before = detail::active_kernel_set();
+  for (const KernelSet set : available_sets()) {
+    detail::use_kernel_set(set);
+    EXPECT_EQ(detail::active_kernel_set(), set);
+  }
+  detail::use_kernel_set(before);
+}
+
+// Householder QR written plainly, one column and one sum at a time, as the kernels' reference.
+void plain_triangularize(std::vector<double>& a, int rows, int cols, std::vector<double>& b) {
+  const auto at = [&](int i, int j) -> double& { return a[static_cast<std::size_t>(j * rows + i)]; };
+  for (int j = 0; j < cols; ++j) {
+    double norm2 = 0;
+    for (int i = j; i < rows; ++i) norm2 += at(i, j) * at(i, j);
+    if (norm2 == 0) continue;
+    const double diagonal = at(j, j) > 0 ? -std::sqrt(norm2) : std::sqrt(norm2);
+    std::vector<double> v(static_cast<std::size_t>(rows), 0.0);
+    for (int i = j; i < rows; ++i) v[static_cast<std::size_t>(i)] = at(i, j);
+    v[static_cast<std::size_t>(j)] -= diagonal;
+    double v_norm2 = 0;
+    for (const double x : v) v_norm2 += x * x;
+    const auto reflect = [&](auto&& entry) {
+      double product = 0;
+      for (int i = j; i < rows; ++i) product += v[static_cast<std::size_t>(i)] * entry(i);
+      for (int i = j; i < rows; ++i) entry(i) -= 2 * product / v_norm2 * v[static_cast<std::size_t>(i)];
+    };
+    for (int l = j + 1; l < cols; ++l) reflect([&](int i) -> double& { return at(i, l); });
+    reflect([&](int i) -> double& { return b[static_cast<std::size_t>(i)]; });
+    at(j, j) = diagonal;
+  }
+}
+
+TEST(KernelSets, TriangulariseAsPlainHouseholderDoes) {
+  std::mt19937_64 random(3);
+  std::normal_distribution<double> normal;
+  // The fit's shapes: a spectrum's samples by the free parameters, and the damped steps' R over
+  // a diagonal; lengths that leave every remainder of the vector width.
+  for (const auto& [rows, cols] : {std::pair{133, 7}, {101, 5}, {14, 7}, {10, 5}, {7, 7}, {3, 1}, {40, 16}}) {
+    std::vector<double> a(static_cast<std::size_t>(rows * cols)), b(static_cast<std::size_t>(rows));
+    for (double& x : a) x = normal(random);
+    for (double& x : b) x = normal(random);
+    std::vector<double> plain_a = a, plain_b = b;
+    plain_triangularize(plain_a, rows, cols, plain_b);
+    for (const KernelSet set : available_sets()) {
+      std::vector<double> kernel_a = a, kernel_b = b;
+      detail::kernels_of(set).triangularize(kernel_a.data(), rows, cols, kernel_b.data());
+      for (int j = 0; j < cols; ++j) {
+        for (int i = 0; i <= j; ++i) {
+          const double want = plain_a[static_cast<std::size_t>(j * rows + i)];
+          EXPECT_NEAR(kernel_a[static_cast<std::size_t>(j * rows + i)], want, 1e-12 * (1 + std::abs(want)))
+              << name_of(set) << " " << rows << "x" << cols << " R(" << i << "," << j << ")";
+        }
+        EXPECT_NEAR(kernel_b[static_cast<std::size_t>(j)], plain_b[static_cast<std::size_t>(j)], 1e-12)
+            << name_of(set) << " " << rows << "x" << cols << " (Q^T b)(" << j << ")";
+      }
+    }
+  }
+}
+
+TEST(KernelSets, ScaleColumnsAndTakeTheirNormsAndProductsAsPlainLoopsDo) {
+  std::mt19937_64 random(5);
+  std::normal_distribution<double> normal;
+  for (const int rows : {135, 101, 6, 3}) {
+    const int all = 7, out_rows = rows + 2;
+    std::vector<double> jacobian(static_cast<std::size_t>(rows * all)), residuals(static_cast<std::size_t>(rows));
+    for (double& x : jacobian) x = normal(random);
+    for (double& x : residuals) x = normal(random);
+    const std::vector<int> columns = {0, 2, 3, 6};
+    const std::vector<double> scales = {0.5, 2.0, 1e-3, 7.0};
+    for (const KernelSet set : available_sets()) {
+      const int count = static_cast<int>(columns.size());
+      std::vector<double> out(static_cast<std::size_t>(out_rows * count), -1.0), norms(columns.size()),
+          products(columns.size());
+      detail::kernels_of(set).scaled_columns({jacobian.data(), rows, columns.data(), count, scales.data(),
+                                              residuals.data(), out.data(), out_rows, norms.data(), products.data()});
+      for (std::size_t j = 0; j < columns.size(); ++j) {
+        double norm = 0, product = 0;
+        for (int i = 0; i < out_rows; ++i) {
+          const double want = i < rows ? scales[j] * jacobian[static_cast<std::size_t>(columns[j] * rows + i)] : 0.0;
+          EXPECT_EQ(out[j * static_cast<std::size_t>(out_rows) + static_cast<std::size_t>(i)], want)
+              << name_of(set) << " row " << i << " column " << j;
+          norm += want * want;
+          if (i < rows)
+            product +=
+                jacobian[static_cast<std::size_t>(columns[j] * rows + i)] * residuals[static_cast<std::size_t>(i)];
+        }
+        EXPECT_NEAR(norms[j], norm, 1e-13 * norm) << name_of(set) << " column " << j;
+        EXPECT_NEAR(products[j], product, 1e-12 * (1 + std::abs(product))) << name_of(set) << " column " << j;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace skinspec
