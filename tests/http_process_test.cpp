@@ -297,9 +297,10 @@ TEST_F(HttpProcessTest, OutOfFileDescriptorsTheDaemonNeitherSpinsNorStopsAnsweri
   EXPECT_EQ(daemon.wait(30s).exit_status, 0);
 }
 
-std::string batch_fit_body(int spectra) {
+// A batch fit of `spectra` spectra of 380-780 nm every `step_nm`.
+std::string batch_fit_body(int spectra, double step_nm) {
   std::vector<double> wl;
-  for (int w = 380; w <= 780; w += 4) wl.push_back(w);
+  for (int i = 0; 380 + i * step_nm <= 780; ++i) wl.push_back(380 + i * step_nm);
   json all = json::object();
   for (int i = 0; i < spectra; ++i) {
     std::vector<double> r;
@@ -310,10 +311,11 @@ std::string batch_fit_body(int spectra) {
 }
 
 TEST_F(HttpProcessTest, HealthzStaysFastWhileFitsFillTheComputePoolAndTheOverflowGets503) {
-  auto d = start({"--compute-threads", "2", "--compute-queue", "2"});
+  // Four batch fits of 100 spectra of 1601 samples (half a second or more each, a fit's time
+  // growing with its samples; 1.5 MB of JSON): two run, two wait.
+  auto d = start({"--compute-threads", "2", "--compute-queue", "2", "--body-limit", "4000000"});
   ASSERT_NE(d.port, 0);
-  // Four batch fits of 40 spectra (a second or more each): two run, two wait.
-  const std::string body = batch_fit_body(40);
+  const std::string body = batch_fit_body(100, 0.25);
   std::vector<std::future<HttpReply>> fits;
   for (int i = 0; i < 4; ++i)
     fits.push_back(std::async(std::launch::async, [&] { return http_request(d.port, "POST", "/api/v1/fit", body); }));
@@ -340,7 +342,7 @@ TEST_F(HttpProcessTest, HealthzStaysFastWhileFitsFillTheComputePoolAndTheOverflo
   for (auto& f : fits) {
     const auto r = f.get();
     EXPECT_EQ(r.status, 200) << r.error;
-    EXPECT_EQ(r.json()["fits"].size(), 40u);
+    EXPECT_EQ(r.json()["fits"].size(), 100u);
   }
   std::cout << "healthz ms with the compute pool full: median " << ms[ms.size() / 2] << ", max " << ms.back() << '\n';
 }
