@@ -177,25 +177,42 @@ Job job_in(Connection& c, Id id) {
   return detail::read_job(row);
 }
 
-// Moves job `id` to the update's state, inside the caller's transaction.
-Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
-  check_job_update(update);
-  const JobState current = job_in(c, id).state;
-  if (update.only_from && current != *update.only_from)
-    fail(Kind::conflict, fmt::format("job {} is {}, not {}", id, to_string(current), to_string(*update.only_from)));
-  if (update.state != current && !job_transition_allowed(current, update.state)) {
-    fail(Kind::conflict, fmt::format("a job that is {} cannot become {}", to_string(current), to_string(update.state)));
+// Moves job `current` (its row read, and locked, in this transaction) to the update's state,
+// which check_job_update passed; returns the job as it is then.
+Job move_job(Connection& c, const Job& current, const JobUpdate& update, Time now) {
+  const auto from = current.state;
+  if (update.only_from && from != *update.only_from) {
+    fail(Kind::conflict,
+         fmt::format("job {} is {}, not {}", current.id, to_string(from), to_string(*update.only_from)));
   }
+  if (update.state != from && !job_transition_allowed(from, update.state))
+    fail(Kind::conflict, fmt::format("a job that is {} cannot become {}", to_string(from), to_string(update.state)));
   const bool finished = update.state != JobState::queued && update.state != JobState::running;
   const std::optional<std::string> error =
       update.error ? std::optional<std::string>(detail::encode_job_error(*update.error)) : std::nullopt;
-  c.prepare(
-       "UPDATE jobs SET state = ?2, error = ?3, result = coalesce(?4, result), "
-       "started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?5 ELSE started_at END, "
-       "finished_at = CASE WHEN ?6 AND finished_at IS NULL THEN ?5 ELSE finished_at END WHERE id = ?1")
-      .bind(id, to_string(update.state), error, update.result, now, finished)
-      .run();
-  return job_in(c, id);
+  static const std::string sql = fmt::format(
+      "UPDATE jobs SET state = ?2, error = ?3, result = coalesce(?4, result), "
+      "started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?5 ELSE started_at END, "
+      "finished_at = CASE WHEN ?6 AND finished_at IS NULL THEN ?5 ELSE finished_at END WHERE id = ?1 RETURNING {}",
+      detail::kJobColumns);
+  auto row = c.prepare(sql);
+  row.bind(current.id, to_string(update.state), error, update.result, now, finished);
+  if (!row.step()) fail(Kind::internal, fmt::format("job {} was not updated", current.id));
+  auto moved = detail::read_job(row);
+  row.run();
+  return moved;
+}
+
+// Moves job `current` to the update's state, inside the caller's transaction.
+Job change_job(Connection& c, const Job& current, const JobUpdate& update, Time now) {
+  check_job_update(update);
+  return move_job(c, current, update, now);
+}
+
+// Moves job `id` to the update's state, inside the caller's transaction.
+Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
+  check_job_update(update);
+  return move_job(c, job_in(c, id), update, now);
 }
 
 // A measurement and its fit, inside the caller's transaction, after the checks every
@@ -356,7 +373,7 @@ std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store:
     of_job.job_id = job->job_id;
     out.push_back(insert_measurement_and_fit(c, of_job, fit, now));
   }
-  change_job(c, job->job_id, {.state = JobState::succeeded, .result = job->result}, now);
+  change_job(c, running, {.state = JobState::succeeded, .result = job->result}, now);
   return out;
 }
 
@@ -392,7 +409,7 @@ Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measuremen
     const auto now = impl_->now();
     CompletedJob out;
     out.ids = insert_measurement_and_fit(c, of_job, fit, now);
-    out.job = change_job(c, job_id, {.state = JobState::succeeded, .result = with_ids(result, out.ids)}, now);
+    out.job = change_job(c, job, {.state = JobState::succeeded, .result = with_ids(result, out.ids)}, now);
     return out;
   });
 }
