@@ -269,6 +269,55 @@ TEST(PostgresqlConnectionTest, TheServersErrorsBecomeTheStoresKindsAndTheConnect
   EXPECT_EQ(c.query_integer("SELECT count(*) FROM u"), 1);
 }
 
+TEST(PostgresqlConnectionTest, StatementsSentGoOutWithTheNextOneSteppedInOrderAndAFailureStopsTheRest) {
+  Database db;
+  auto& c = *db.connection;
+  c.execute("CREATE TABLE u (k text UNIQUE)");
+  const auto stored = [&] { return postgres_cluster().text(db.name, "SELECT string_agg(k, ',' ORDER BY k) FROM u"); };
+
+  {  // Nothing goes out before a statement is stepped; then each runs in the order sent.
+    auto first = c.prepare("INSERT INTO u VALUES (?1) RETURNING k");
+    first.bind("a").send();
+    EXPECT_EQ(stored(), "");
+    auto count = c.prepare("SELECT count(*) FROM u");
+    ASSERT_TRUE(count.step());
+    EXPECT_EQ(count.integer(0), 1);
+    ASSERT_TRUE(first.step());
+    EXPECT_EQ(first.text(0), "a");
+  }
+  {  // In a transaction: a statement that fails stops those sent after it, which fail as it did.
+    c.begin(TransactionKind::write);
+    auto fine = c.prepare("INSERT INTO u VALUES (?1)");
+    fine.bind("b").send();
+    auto failing = c.prepare("INSERT INTO u VALUES (?1) RETURNING 1 / 0");
+    failing.bind("c").send();
+    auto after = c.prepare("INSERT INTO u VALUES (?1) RETURNING k");
+    after.bind("d").send();
+    EXPECT_FALSE(fine.step());
+    const auto failed = failure_of([&] { failing.step(); });
+    EXPECT_EQ(failed.error.sql_state, "22012");
+    const auto skipped = failure_of([&] { after.step(); });
+    EXPECT_EQ(skipped.error.sql_state, "22012");
+    EXPECT_EQ(skipped.error.message, failed.error.message);
+    EXPECT_EQ(failure_of([&] { c.commit(); }).error.kind, Kind::internal);  // rolled back, not committed
+    c.rollback();
+    EXPECT_EQ(stored(), "a");
+  }
+  {  // A statement sent and dropped before anything ran does not run; one sent and not stepped
+     // runs before COMMIT; the same statement cannot be bound again while it waits.
+    c.begin(TransactionKind::write);
+    c.prepare("INSERT INTO u VALUES (?1)").bind("dropped").send();
+    auto kept = c.prepare("INSERT INTO u VALUES (?1) RETURNING k");
+    kept.bind("kept").send();
+    EXPECT_EQ(failure_of([&] { c.prepare("INSERT INTO u VALUES (?1) RETURNING k"); }).error.kind, Kind::internal);
+    c.commit();
+    ASSERT_TRUE(kept.step());
+    EXPECT_EQ(kept.text(0), "kept");
+    EXPECT_EQ(stored(), "a,kept");
+    EXPECT_FALSE(c.in_transaction());
+  }
+}
+
 TEST(PostgresqlConnectionTest, ALostConnectionIsUnreachableAndOnlyAnUncommittedTransactionMayRunAgain) {
   Database db;
   db.connection->execute("CREATE TABLE t (x bigint)");

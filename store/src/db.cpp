@@ -6,6 +6,12 @@ namespace skinspec::store::detail {
 
 void fail(StoreError::Kind kind, std::string message) { throw Failure{StoreError{kind, std::move(message), 0}}; }
 
+std::string placeholders(int first, int count) {
+  std::string out;
+  for (int n = first; n < first + count; ++n) out += fmt::format("{}?{}", n == first ? "" : ", ", n);
+  return out;
+}
+
 void Statement::run() {
   while (step()) {
   }

@@ -22,6 +22,9 @@ struct Failure {
 
 [[noreturn]] void fail(StoreError::Kind kind, std::string message);
 
+// "?first, ?first+1, ..." for `count` parameters.
+std::string placeholders(int first, int count);
+
 // Raw bytes to bind as a BLOB (text binds as TEXT).
 struct Blob {
   std::string_view bytes;
@@ -48,7 +51,10 @@ class Cursor {
  public:
   virtual ~Cursor() = default;
   virtual void bind(int index, const Param& value) = 0;  // 1-based
-  virtual bool step() = 0;                               // true: a row is ready; false: done
+  // Bound and to run: where the engine is a server, it goes out with the next statement whose
+  // result is needed, in one round trip (SQLite has none to save: it runs at step()).
+  virtual void send() {}
+  virtual bool step() = 0;  // true: a row is ready; false: done
   virtual bool is_null(int column) const = 0;
   virtual std::int64_t integer(int column) const = 0;
   virtual double real(int column) const = 0;  // NULL reads as NaN
@@ -72,7 +78,12 @@ class Statement {
   // Binds ?1, ?2, ... in order; an empty optional binds NULL.
   template <typename... Args>
   Statement& bind(const Args&... args) {
-    int index = 0;
+    return bind_from(1, args...);
+  }
+  // Binds ?first, ?first+1, ... in order.
+  template <typename... Args>
+  Statement& bind_from(int first, const Args&... args) {
+    int index = first - 1;
     (cursor_->bind(++index, to_param(args)), ...);
     return *this;
   }
@@ -83,6 +94,15 @@ class Statement {
     return *this;
   }
 
+  // Lets the statement, bound, go out before its result is needed: with a server, it runs in
+  // the round trip of the next statement stepped, after the statements sent before it. Each
+  // statement sent must be stepped before it goes out of scope (one that was not may or may not
+  // have run); its step() gives its result, or throws its failure (or that of a statement sent
+  // before it, which kept it from running).
+  Statement& send() {
+    cursor_->send();
+    return *this;
+  }
   bool step() { return cursor_->step(); }
   void run();  // steps to the end, ignoring any rows
 

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "codec.hpp"
+#include "postgresql/statements.hpp"
 #include "rows.hpp"
 #include "store_impl.hpp"
 
@@ -78,41 +79,58 @@ void require_row(Connection& c, std::string_view sql, Id id, std::string_view wh
   if (!stmt.step()) fail(Kind::not_found, fmt::format("{} {} does not exist", what, id));
 }
 
-Id insert_fit(Connection& c, const Fit& f, Id measurement_id, Time now) {
-  const auto measured = detail::encode_spectrum({f.wavelength_nm, f.measured});
-  const auto fitted = detail::encode_spectrum({f.wavelength_nm, f.fitted});
-  return returned_id(
-      c.prepare(
-           "INSERT INTO fits (measurement_id, site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, "
-           "iterations, converged, solver_summary, options, model_version, tables_digest, constants_digest, measured, "
-           "fitted, samples_ignored, created_at) "
-           "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19) RETURNING id")
-          .bind(measurement_id, f.site, f.model, detail::encode_fit_params(f.params), f.assessment, f.rmse,
-                f.max_abs_error, f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options,
-                f.model_version, f.tables_digest, f.constants_digest, Blob{measured}, Blob{fitted}, f.samples_ignored,
-                now));
-}
+// A measurement's columns and a fit's but its measurement_id, as bind_measurement and
+// bind_fit bind them; each engine's INSERTs name them in this order.
+constexpr std::string_view kMeasurementColumns =
+    "session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, quality_code, quality, units, "
+    "settings, reading_count, radiance, radiance_sd, reflectance, warnings, raw_reply, started_at, finished_at, "
+    "created_at";
+constexpr int kMeasurementColumnCount = 20;
+constexpr std::string_view kFitColumns =
+    "site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, iterations, converged, solver_summary, "
+    "options, model_version, tables_digest, constants_digest, measured, fitted, samples_ignored, created_at";
+constexpr int kFitColumnCount = 18;
 
 std::optional<Blob> optional_blob(const SpectralSamples& spectrum, const std::string& bytes) {
   if (spectrum.empty()) return std::nullopt;
   return Blob{bytes};
 }
 
-Id insert_measurement(Connection& c, const Measurement& m, Time now) {
+void bind_measurement(detail::Statement& insert, int first, const Measurement& m, Time now) {
   const auto radiance = detail::encode_spectrum(m.radiance);
   const auto radiance_sd = detail::encode_spectrum(m.radiance_sd);
   const auto reflectance = detail::encode_spectrum(m.reflectance);
-  return returned_id(
-      c.prepare(
-           "INSERT INTO measurements (session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, "
-           "quality_code, quality, units, settings, reading_count, radiance, radiance_sd, reflectance, warnings, "
-           "raw_reply, started_at, finished_at, created_at) "
-           "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20) "
-           "RETURNING id")
-          .bind(m.session_id, to_string(m.kind), m.label, m.instrument_id, m.white_measurement_id, m.job_id,
-                m.simulated, m.quality_code, m.quality, m.units, m.settings, m.reading_count, Blob{radiance},
-                optional_blob(m.radiance_sd, radiance_sd), optional_blob(m.reflectance, reflectance),
-                detail::encode_text_list(m.warnings), Blob{m.raw_reply}, m.started_at, m.finished_at, now));
+  insert.bind_from(first, m.session_id, to_string(m.kind), m.label, m.instrument_id, m.white_measurement_id, m.job_id,
+                   m.simulated, m.quality_code, m.quality, m.units, m.settings, m.reading_count, Blob{radiance},
+                   optional_blob(m.radiance_sd, radiance_sd), optional_blob(m.reflectance, reflectance),
+                   detail::encode_text_list(m.warnings), Blob{m.raw_reply}, m.started_at, m.finished_at, now);
+}
+
+void bind_fit(detail::Statement& insert, int first, const Fit& f, Time now) {
+  const auto measured = detail::encode_spectrum({f.wavelength_nm, f.measured});
+  const auto fitted = detail::encode_spectrum({f.wavelength_nm, f.fitted});
+  insert.bind_from(first, f.site, f.model, detail::encode_fit_params(f.params), f.assessment, f.rmse, f.max_abs_error,
+                   f.delta_e00_d65, f.iterations, f.converged, f.solver_summary, f.options, f.model_version,
+                   f.tables_digest, f.constants_digest, Blob{measured}, Blob{fitted}, f.samples_ignored, now);
+}
+
+Id insert_fit(Connection& c, const Fit& f, Id measurement_id, Time now) {
+  static const std::string sql = fmt::format("INSERT INTO fits (measurement_id, {}) VALUES (?1, {}) RETURNING id",
+                                             kFitColumns, detail::placeholders(2, kFitColumnCount));
+  auto insert = c.prepare(sql);
+  insert.bind(measurement_id);
+  bind_fit(insert, 2, f, now);
+  return returned_id(insert);
+}
+
+// The INSERT of a measurement (RETURNING its id), or where the engine has one, the one
+// statement that inserts the measurement and its fit (RETURNING both ids).
+const std::string& measurement_insert(bool with_fit) {
+  static const std::string alone = fmt::format("INSERT INTO measurements ({}) VALUES ({}) RETURNING id",
+                                               kMeasurementColumns, detail::placeholders(1, kMeasurementColumnCount));
+  static const std::string together = postgresql::measurement_with_fit_insert(
+      kMeasurementColumns, kMeasurementColumnCount, kFitColumns, kFitColumnCount);
+  return with_fit ? together : alone;
 }
 
 bool session_transition_allowed(SessionState from, SessionState to) {
@@ -159,25 +177,42 @@ Job job_in(Connection& c, Id id) {
   return detail::read_job(row);
 }
 
-// Moves job `id` to the update's state, inside the caller's transaction.
-Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
-  check_job_update(update);
-  const JobState current = job_in(c, id).state;
-  if (update.only_from && current != *update.only_from)
-    fail(Kind::conflict, fmt::format("job {} is {}, not {}", id, to_string(current), to_string(*update.only_from)));
-  if (update.state != current && !job_transition_allowed(current, update.state)) {
-    fail(Kind::conflict, fmt::format("a job that is {} cannot become {}", to_string(current), to_string(update.state)));
+// Moves job `current` (its row read, and locked, in this transaction) to the update's state,
+// which check_job_update passed; returns the job as it is then.
+Job move_job(Connection& c, const Job& current, const JobUpdate& update, Time now) {
+  const auto from = current.state;
+  if (update.only_from && from != *update.only_from) {
+    fail(Kind::conflict,
+         fmt::format("job {} is {}, not {}", current.id, to_string(from), to_string(*update.only_from)));
   }
+  if (update.state != from && !job_transition_allowed(from, update.state))
+    fail(Kind::conflict, fmt::format("a job that is {} cannot become {}", to_string(from), to_string(update.state)));
   const bool finished = update.state != JobState::queued && update.state != JobState::running;
   const std::optional<std::string> error =
       update.error ? std::optional<std::string>(detail::encode_job_error(*update.error)) : std::nullopt;
-  c.prepare(
-       "UPDATE jobs SET state = ?2, error = ?3, result = coalesce(?4, result), "
-       "started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?5 ELSE started_at END, "
-       "finished_at = CASE WHEN ?6 AND finished_at IS NULL THEN ?5 ELSE finished_at END WHERE id = ?1")
-      .bind(id, to_string(update.state), error, update.result, now, finished)
-      .run();
-  return job_in(c, id);
+  static const std::string sql = fmt::format(
+      "UPDATE jobs SET state = ?2, error = ?3, result = coalesce(?4, result), "
+      "started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?5 ELSE started_at END, "
+      "finished_at = CASE WHEN ?6 AND finished_at IS NULL THEN ?5 ELSE finished_at END WHERE id = ?1 RETURNING {}",
+      detail::kJobColumns);
+  auto row = c.prepare(sql);
+  row.bind(current.id, to_string(update.state), error, update.result, now, finished);
+  if (!row.step()) fail(Kind::internal, fmt::format("job {} was not updated", current.id));
+  auto moved = detail::read_job(row);
+  row.run();
+  return moved;
+}
+
+// Moves job `current` to the update's state, inside the caller's transaction.
+Job change_job(Connection& c, const Job& current, const JobUpdate& update, Time now) {
+  check_job_update(update);
+  return move_job(c, current, update, now);
+}
+
+// Moves job `id` to the update's state, inside the caller's transaction.
+Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
+  check_job_update(update);
+  return move_job(c, job_in(c, id), update, now);
 }
 
 // A measurement and its fit, inside the caller's transaction, after the checks every
@@ -192,7 +227,14 @@ RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement&
       "SELECT s.state, (SELECT kind FROM measurements WHERE id = ?2), (SELECT count(*) FROM instruments WHERE id = "
       "?3) FROM sessions s WHERE s.id = ?1",
       detail::RowLock::share);
-  context.bind(m.session_id, m.white_measurement_id, m.instrument_id);
+  context.bind(m.session_id, m.white_measurement_id, m.instrument_id).send();
+  // Sent with the query, in its round trip where the engine is a server: the transaction is
+  // not committed when a check below fails, so the rows it wrote meanwhile are not kept.
+  const bool together = fit && c.dialect() == detail::Dialect::postgresql;
+  auto insert = c.prepare(measurement_insert(together));
+  bind_measurement(insert, 1, m, now);
+  if (together) bind_fit(insert, kMeasurementColumnCount + 1, *fit, now);
+  insert.send();
   if (!context.step()) fail(Kind::not_found, fmt::format("session {} does not exist", m.session_id));
   const auto state = context.text(0);
   if (state != to_string(SessionState::open))
@@ -205,9 +247,12 @@ RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement&
   }
   if (m.instrument_id && context.integer(2) == 0)
     fail(Kind::not_found, fmt::format("instrument {} does not exist", *m.instrument_id));
+  if (!insert.step()) fail(Kind::internal, "an insert returned no id");
   RecordedMeasurement ids;
-  ids.measurement_id = insert_measurement(c, m, now);
-  if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
+  ids.measurement_id = insert.integer(0);
+  if (together) ids.fit_id = insert.integer(1);
+  insert.run();
+  if (fit && !together) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
   return ids;
 }
 
@@ -328,7 +373,7 @@ std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store:
     of_job.job_id = job->job_id;
     out.push_back(insert_measurement_and_fit(c, of_job, fit, now));
   }
-  change_job(c, job->job_id, {.state = JobState::succeeded, .result = job->result}, now);
+  change_job(c, running, {.state = JobState::succeeded, .result = job->result}, now);
   return out;
 }
 
@@ -364,7 +409,7 @@ Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measuremen
     const auto now = impl_->now();
     CompletedJob out;
     out.ids = insert_measurement_and_fit(c, of_job, fit, now);
-    out.job = change_job(c, job_id, {.state = JobState::succeeded, .result = with_ids(result, out.ids)}, now);
+    out.job = change_job(c, job, {.state = JobState::succeeded, .result = with_ids(result, out.ids)}, now);
     return out;
   });
 }

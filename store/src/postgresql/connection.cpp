@@ -2,9 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
-#include <utility>
 #include <limits>
+#include <utility>
 
 #include "postgresql/errors.hpp"
 
@@ -146,17 +147,44 @@ void PgCursor::bind(int index, const Param& value) {
       value);
 }
 
-bool PgCursor::step() {
-  if (!result_) {
-    const auto n = parameter_types_.size();
-    std::vector<const char*> values(n);
-    std::vector<int> lengths(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      values[i] = nulls_[i] ? nullptr : values_[i].data();
-      lengths[i] = static_cast<int>(values_[i].size());
-    }
-    result_ = connection_->run_prepared(name_, static_cast<int>(n), values.data(), lengths.data(), sql_);
+PgCursor::Arguments PgCursor::arguments() const {
+  const auto n = parameter_types_.size();
+  Arguments out{std::vector<const char*>(n), std::vector<int>(n), std::vector<int>(n, 1)};
+  for (std::size_t i = 0; i < n; ++i) {
+    out.values[i] = nulls_[i] ? nullptr : values_[i].data();
+    out.lengths[i] = static_cast<int>(values_[i].size());
   }
+  return out;
+}
+
+ResultPtr PgCursor::execute_on(PGconn* connection) const {
+  const auto a = arguments();
+  return ResultPtr(PQexecPrepared(connection, name_.c_str(), static_cast<int>(a.values.size()), a.values.data(),
+                                  a.lengths.data(), a.formats.data(), 1),
+                   &PQclear);
+}
+
+bool PgCursor::send_on(PGconn* connection) const {
+  const auto a = arguments();
+  return PQsendQueryPrepared(connection, name_.c_str(), static_cast<int>(a.values.size()), a.values.data(),
+                             a.lengths.data(), a.formats.data(), 1) == 1;
+}
+
+void PgCursor::receive(ResultPtr result) { result_ = std::move(result); }
+
+void PgCursor::receive(const detail::Failure& failure) { failure_ = failure; }
+
+void PgCursor::send() {
+  if (result_ || failure_) detail::fail(Kind::internal, fmt::format("{}: sent again before it was reset", sql_));
+  connection_->queue(*this);
+}
+
+bool PgCursor::step() {
+  if (!result_ && !failure_) {
+    connection_->queue(*this);
+    connection_->run_queued();
+  }
+  if (failure_) throw *failure_;
   return ++row_ < PQntuples(result_.get());
 }
 
@@ -237,7 +265,9 @@ Time PgCursor::time(int column) const {
 }
 
 void PgCursor::reset() noexcept {
+  connection_->unqueue(*this);
   result_.reset();
+  failure_.reset();
   row_ = -1;
   std::fill(nulls_.begin(), nulls_.end(), true);
 }
@@ -274,6 +304,10 @@ Connection::Connection(const Target& target, const ConnectSettings& settings) : 
 }
 
 void Connection::fail(const PGresult* result, std::string_view what, bool committing) const {
+  throw failure(result, what, committing);
+}
+
+detail::Failure Connection::failure(const PGresult* result, std::string_view what, bool committing) const {
   const char* state_field = result ? PQresultErrorField(result, PG_DIAG_SQLSTATE) : nullptr;
   const std::string sql_state = state_field ? state_field : "";
   // libpq's own errors carry no SQLSTATE: on a connection that was working they mean it is
@@ -299,7 +333,7 @@ void Connection::fail(const PGresult* result, std::string_view what, bool commit
   } else {
     error.message = fmt::format("{} (while running {})", message, what);
   }
-  throw detail::Failure{std::move(error), retryable};
+  return detail::Failure{std::move(error), retryable};
 }
 
 // Set on the session rather than in libpq's `options`, which would replace any the URI gives
@@ -319,7 +353,12 @@ void Connection::apply(const ConnectSettings& settings) {
 Cursor& Connection::cursor(std::string_view sql, RowLock lock) {
   auto& cache = cache_[static_cast<std::size_t>(lock)];
   auto found = cache.find(sql);
-  if (found != cache.end()) return *found->second;
+  if (found != cache.end()) {
+    // Bound again, a statement sent and not run yet would run with the new values.
+    if (std::find(queued_.begin(), queued_.end(), found->second.get()) != queued_.end())
+      detail::fail(Kind::internal, fmt::format("{}: prepared again while sent and not run yet", sql));
+    return *found->second;
+  }
   const auto text = postgresql_sql(sql, lock);
   // Never a name used before: a statement whose describing failed may exist on the server.
   const auto name = fmt::format("s{}", ++statements_named_);
@@ -339,56 +378,87 @@ Cursor& Connection::cursor(std::string_view sql, RowLock lock) {
 
 namespace {
 
-using ResultPtr = std::unique_ptr<PGresult, decltype(&PQclear)>;
-
 bool succeeded(const PGresult* result) {
   const auto status = result ? PQresultStatus(result) : PGRES_FATAL_ERROR;
   return status == PGRES_TUPLES_OK || status == PGRES_COMMAND_OK;
 }
 
-}  // namespace
-
-ResultPtr Connection::run_prepared(const std::string& name, int count, const char* const* values, const int* lengths,
-                                   std::string_view what) {
-  if (pending_begin_) return run_pipelined(name, count, values, lengths, what);
-  const std::vector<int> formats(static_cast<std::size_t>(count), 1);
-  ResultPtr result(PQexecPrepared(handle(), name.c_str(), count, values, lengths, formats.data(), 1), &PQclear);
-  if (!succeeded(result.get())) fail(result.get(), what);
+// The next query's result in a pipeline, and past the null that ends its results.
+ResultPtr next_result(PGconn* connection) {
+  ResultPtr result(PQgetResult(connection), &PQclear);
+  while (auto* rest = PQgetResult(connection)) PQclear(rest);
   return result;
 }
 
-// BEGIN and the statement sent together, then their results read in order: BEGIN's, the
-// statement's (aborted if BEGIN failed), and the pipeline's end.
-ResultPtr Connection::run_pipelined(const std::string& name, int count, const char* const* values, const int* lengths,
-                                    std::string_view what) {
+}  // namespace
+
+void Connection::queue(PgCursor& cursor) {
+  if (std::find(queued_.begin(), queued_.end(), &cursor) == queued_.end()) queued_.push_back(&cursor);
+}
+
+void Connection::unqueue(const PgCursor& cursor) noexcept { std::erase(queued_, &cursor); }
+
+// One statement alone runs as it is; BEGIN and statements together go out in one pipeline.
+std::optional<detail::Failure> Connection::run_queued() {
+  const auto cursors = std::exchange(queued_, {});
   const char* begin = std::exchange(pending_begin_, nullptr);
-  const std::vector<int> formats(static_cast<std::size_t>(count), 1);
-  if (PQenterPipelineMode(handle()) != 1) fail(nullptr, what);
-  const bool sent = PQsendQueryParams(handle(), begin, 0, nullptr, nullptr, nullptr, nullptr, 1) == 1 &&
-                    PQsendQueryPrepared(handle(), name.c_str(), count, values, lengths, formats.data(), 1) == 1 &&
-                    PQpipelineSync(handle()) == 1;
-  ResultPtr begun(nullptr, &PQclear), result(nullptr, &PQclear);
+  if (begin || cursors.size() > 1) return run_pipelined(begin, cursors);
+  if (cursors.empty()) return std::nullopt;
+  auto result = cursors.front()->execute_on(handle());
+  if (succeeded(result.get())) {
+    cursors.front()->receive(std::move(result));
+    return std::nullopt;
+  }
+  auto failed = failure(result.get(), cursors.front()->sql());
+  cursors.front()->receive(failed);
+  return failed;
+}
+
+// BEGIN and the statements sent together, then their results read in order and the
+// pipeline's end. After a failure the server skips the rest of the pipeline: the statements
+// after it were not run, and fail as it did.
+std::optional<detail::Failure> Connection::run_pipelined(const char* begin, const std::vector<PgCursor*>& cursors) {
+  const std::string_view what = cursors.empty() ? std::string_view("BEGIN") : cursors.back()->sql();
+  const bool entered = PQenterPipelineMode(handle()) == 1;
+  bool sent = entered && (!begin || PQsendQueryParams(handle(), begin, 0, nullptr, nullptr, nullptr, nullptr, 1) == 1);
+  for (const auto* cursor : cursors) sent = sent && cursor->send_on(handle());
+  sent = sent && PQpipelineSync(handle()) == 1;
+  std::optional<detail::Failure> first;
   if (sent) {
-    begun.reset(PQgetResult(handle()));
-    while (auto* rest = PQgetResult(handle())) PQclear(rest);  // up to the end of BEGIN's results
-    result.reset(PQgetResult(handle()));
-    while (auto* rest = PQgetResult(handle())) PQclear(rest);
-    // The pipeline's end (PGRES_PIPELINE_SYNC), then leave pipeline mode.
+    if (begin) {
+      const auto begun = next_result(handle());
+      if (!succeeded(begun.get())) first = failure(begun.get(), "BEGIN");
+    }
+    for (auto* cursor : cursors) {
+      auto result = next_result(handle());
+      if (!first && !succeeded(result.get())) first = failure(result.get(), cursor->sql());
+      if (first) {
+        cursor->receive(*first);
+      } else {
+        cursor->receive(std::move(result));
+      }
+    }
     while (auto* rest = PQgetResult(handle())) {
       const bool synced = PQresultStatus(rest) == PGRES_PIPELINE_SYNC;
       PQclear(rest);
       if (synced) break;
     }
   }
-  if (PQexitPipelineMode(handle()) != 1) lost_ = true;  // stuck in pipeline mode: not usable again
-  if (!sent) fail(nullptr, what);
-  if (!succeeded(begun.get())) fail(begun.get(), "BEGIN");
-  if (!succeeded(result.get())) fail(result.get(), what);
-  return result;
+  if (entered && PQexitPipelineMode(handle()) != 1) lost_ = true;  // stuck in pipeline mode: not usable again
+  if (!sent) {
+    first = failure(nullptr, what);
+    for (auto* cursor : cursors) cursor->receive(*first);
+  }
+  return first;
 }
 
-void Connection::send_pending_begin() {
-  if (const char* begin = std::exchange(pending_begin_, nullptr)) run(begin, "BEGIN");
+// A script runs after what was sent before it.
+void Connection::run_before_script() {
+  if (queued_.empty()) {
+    if (const char* begin = std::exchange(pending_begin_, nullptr)) run(begin, "BEGIN");
+    return;
+  }
+  if (auto failed = run_queued()) throw *failed;
 }
 
 void Connection::run(const char* command, std::string_view what) {
@@ -398,7 +468,7 @@ void Connection::run(const char* command, std::string_view what) {
 }
 
 void Connection::execute(std::string_view script) {
-  send_pending_begin();
+  run_before_script();
   const std::string text(script);
   run(text.c_str(), "a script");
 }
@@ -409,8 +479,11 @@ void Connection::begin(TransactionKind kind) {
 }
 
 void Connection::commit() {
+  if (!queued_.empty()) {
+    if (auto failed = run_queued()) throw *failed;
+  }
   if (std::exchange(pending_begin_, nullptr)) return;  // nothing ran: nothing to commit
-  std::unique_ptr<PGresult, decltype(&PQclear)> result(PQexec(handle(), "COMMIT"), &PQclear);
+  ResultPtr result(PQexec(handle(), "COMMIT"), &PQclear);
   if (!result || PQresultStatus(result.get()) != PGRES_COMMAND_OK) fail(result.get(), "COMMIT", true);
   // PostgreSQL answers COMMIT of a transaction a statement failed in with ROLLBACK.
   if (std::string_view(PQcmdStatus(result.get())) == "ROLLBACK")
@@ -419,6 +492,7 @@ void Connection::commit() {
 
 void Connection::rollback() noexcept {
   pending_begin_ = nullptr;
+  queued_.clear();  // not run: nothing to undo
   if (!in_transaction()) return;
   // A failure here leaves nothing to do: the server rolls back a transaction whose
   // connection is gone, and a broken connection is not used again.

@@ -1,12 +1,15 @@
 #pragma once
 // The store's Connection over libpq: one PGconn, its statements prepared once (named, with
 // the parameter types the server inferred) and cached by their text, parameters and results in
-// binary. The store's SQL says ?1, ?2 ...; PostgreSQL is given $1, $2 ...
+// binary. The store's SQL says ?1, ?2 ...; PostgreSQL is given $1, $2 ... Statements sent
+// (Statement::send) wait until one is stepped, then go out with it in one pipeline, one round
+// trip: what the server does, it does in the order sent.
 
 #include <libpq-fe.h>
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -29,11 +32,14 @@ std::string postgresql_sql(std::string_view sql, RowLock lock);
 
 class Connection;
 
+using ResultPtr = std::unique_ptr<PGresult, decltype(&PQclear)>;
+
 class PgCursor final : public Cursor {
  public:
   PgCursor(Connection& connection, std::string name, std::string sql, std::vector<TypeId> parameter_types);
 
   void bind(int index, const Param& value) override;
+  void send() override;
   bool step() override;
   bool is_null(int column) const override;
   std::int64_t integer(int column) const override;
@@ -44,7 +50,22 @@ class PgCursor final : public Cursor {
   Time time(int column) const override;
   void reset() noexcept override;
 
+  const std::string& sql() const { return sql_; }
+  // Runs the statement with its bound values, binary parameters and results: at once
+  // (PQexecPrepared), or sent into the connection's pipeline (false: it could not be sent).
+  ResultPtr execute_on(PGconn* connection) const;
+  bool send_on(PGconn* connection) const;
+  // What running it gave: its rows, or its failure.
+  void receive(ResultPtr result);
+  void receive(const detail::Failure& failure);
+
  private:
+  struct Arguments {
+    std::vector<const char*> values;
+    std::vector<int> lengths;
+    std::vector<int> formats;
+  };
+  Arguments arguments() const;
   std::string_view value(int column) const;
   TypeId type(int column) const;
   [[noreturn]] void cannot_read(int column, std::string_view as) const;
@@ -55,7 +76,8 @@ class PgCursor final : public Cursor {
   std::vector<TypeId> parameter_types_;
   std::vector<std::string> values_;
   std::vector<bool> nulls_;
-  std::unique_ptr<PGresult, decltype(&PQclear)> result_{nullptr, &PQclear};
+  ResultPtr result_{nullptr, &PQclear};
+  std::optional<detail::Failure> failure_;
   int row_ = -1;
 };
 
@@ -83,14 +105,17 @@ class Connection final : public detail::Connection {
   int backend_pid() const { return backend_pid_; }
   PGconn* handle() const { return connection_.get(); }
 
-  // Runs the prepared statement `name` with binary parameters and results; BEGIN first, in
-  // the same pipeline, when begin() is pending. Throws what the server reports.
-  std::unique_ptr<PGresult, decltype(&PQclear)> run_prepared(const std::string& name, int count,
-                                                             const char* const* values, const int* lengths,
-                                                             std::string_view what);
+  // Statements sent (PgCursor::send) wait here until one is stepped; a cursor reset before
+  // then is taken out again.
+  void queue(PgCursor& cursor);
+  void unqueue(const PgCursor& cursor) noexcept;
+  // Runs the queued statements, BEGIN first when begin() is pending, each cursor given its
+  // result or failure; returns the first failure.
+  std::optional<detail::Failure> run_queued();
 
-  // Throws the failure `result` (null: the connection's own error) reports, for `what`.
+  // The failure `result` (null: the connection's own error) reports, for `what`.
   // `committing`: it was the reply to COMMIT, so a lost connection leaves the outcome unknown.
+  detail::Failure failure(const PGresult* result, std::string_view what, bool committing = false) const;
   [[noreturn]] void fail(const PGresult* result, std::string_view what, bool committing = false) const;
 
  protected:
@@ -99,15 +124,14 @@ class Connection final : public detail::Connection {
  private:
   void run(const char* command, std::string_view what);
   void apply(const ConnectSettings& settings);
-  void send_pending_begin();
-  std::unique_ptr<PGresult, decltype(&PQclear)> run_pipelined(const std::string& name, int count,
-                                                              const char* const* values, const int* lengths,
-                                                              std::string_view what);
+  void run_before_script();
+  std::optional<detail::Failure> run_pipelined(const char* begin, const std::vector<PgCursor*>& cursors);
 
   Target target_;
   std::unique_ptr<PGconn, decltype(&PQfinish)> connection_{nullptr, &PQfinish};
   mutable bool lost_ = false;            // a statement found the connection gone (fail())
   const char* pending_begin_ = nullptr;  // the BEGIN begin() asked for, not sent yet
+  std::vector<PgCursor*> queued_;        // sent, in order, not run yet
   std::uint64_t statements_named_ = 0;
   int backend_pid_ = 0;
   // By the store's text of the statement, one map per row lock.
