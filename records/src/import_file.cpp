@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <exception>
 #include <mutex>
 #include <thread>
 #include <nlohmann/json.hpp>
@@ -60,8 +61,17 @@ class FittedRows {
   template <typename MakeMeasurement>
   void start(MakeMeasurement make) {
     started_ = std::chrono::steady_clock::now();
-    fitting_ =
-        std::thread([this, make] { parallel_for(spectra_.size(), 0, [&](std::size_t i) { fit_one(i, make); }); });
+    fitting_ = std::thread([this, make] {
+      // Nothing may leave this thread (a thread the fitting could not start, say): the taker
+      // rethrows it instead.
+      try {
+        parallel_for(spectra_.size(), 0, [&](std::size_t i) { fit_one(i, make); });
+      } catch (...) {
+        std::lock_guard lock(mutex_);
+        failure_ = std::current_exception();
+      }
+      ready_changed_.notify_all();
+    });
   }
 
   // Waits until storing every row from now on would end no sooner than the fitting, at the
@@ -72,7 +82,7 @@ class FittedRows {
     const double storing_s = kStoreSecondsPerRow * static_cast<double>(rows_.size());
     std::unique_lock lock(mutex_);
     ready_changed_.wait(lock, [&] {
-      if (stop_ || refusal_known() || fitted_count_ == rows_.size()) return true;
+      if (ended() || fitted_count_ == rows_.size()) return true;
       if (fitted_count_ == 0) return false;
       const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
       const double fitting_left_s =
@@ -94,7 +104,7 @@ class FittedRows {
       if (stop_) throw Stopped{};
       return nullptr;
     }
-    ready_changed_.wait(lock, [&] { return ready_count_ > taken_ || stop_ || refusal_known(); });
+    ready_changed_.wait(lock, [&] { return ready_count_ > taken_ || ended(); });
     throw_if_ended();
     return &rows_[taken_++];
   }
@@ -112,6 +122,8 @@ class FittedRows {
       else refused_[i] = fit.error();
     } catch (const std::exception& e) {
       refused_[i] = e.what();
+    } catch (...) {
+      refused_[i] = "an unexpected error";
     }
     std::size_t done = 0;
     {
@@ -133,8 +145,11 @@ class FittedRows {
   // A refused spectrum with every one before it fitted: the file's first refused spectrum.
   bool refusal_known() const { return first_refused_ < ready_count_; }
 
-  // With mutex_ held: a stop, or the file's first refused spectrum, ends the taking.
+  // With mutex_ held: a stop, the fitting's failure or the file's first refused spectrum ends
+  // the taking.
+  bool ended() const { return stop_ || failure_ || refusal_known(); }
   void throw_if_ended() const {
+    if (failure_) std::rethrow_exception(failure_);
     if (stop_) throw Stopped{};
     if (refusal_known()) throw Refused{first_refused_, refused_[first_refused_]};
   }
@@ -145,7 +160,7 @@ class FittedRows {
     bool go_on = false;
     try {
       go_on = observer_(done, rows_.size());
-    } catch (const std::exception&) {
+    } catch (...) {
       // nothing leaves the thread
     }
     if (go_on) return;
@@ -169,6 +184,7 @@ class FittedRows {
   std::size_t fitted_count_ = 0;
   std::atomic<std::size_t> first_refused_;  // the lowest index refused so far, or size() for none
   std::atomic<bool> stop_{false};
+  std::exception_ptr failure_;  // what ended the fitting thread, guarded by mutex_
   std::chrono::steady_clock::time_point started_;
   std::size_t taken_ = 0;  // the taker's own
   std::thread fitting_;    // last: joined before the rest goes

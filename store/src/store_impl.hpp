@@ -76,16 +76,24 @@ struct Store::Impl {
     });
   }
 
-  // write() without its second attempt, for a body that cannot run twice (it consumes its input
-  // as it goes).
+  // write() for a body that cannot run twice, as it consumes its input as it goes: tried once
+  // more only while `consumed` (set by the body) is still false, as when the writer's
+  // connection turns out lost at the first statement.
   template <typename F>
-  auto write_once(std::string_view what, F&& body) -> Result<std::invoke_result_t<F, detail::Connection&>> {
+  auto write_once(std::string_view what, const bool& consumed, F&& body)
+      -> Result<std::invoke_result_t<F, detail::Connection&>> {
     return detail::guarded(what, [&] {
-      auto connection = engine->writer();
-      detail::Transaction transaction(*connection, detail::TransactionKind::write);
-      auto value = body(*connection);
-      transaction.commit();
-      return value;
+      for (int attempt = 1;; ++attempt) {
+        auto connection = engine->writer();
+        try {
+          detail::Transaction transaction(*connection, detail::TransactionKind::write);
+          auto value = body(*connection);
+          transaction.commit();
+          return value;
+        } catch (const detail::Failure& failure) {
+          if (!failure.retryable || consumed || attempt == 2) throw;
+        }
+      }
     });
   }
 

@@ -391,8 +391,13 @@ Result<std::vector<RecordedMeasurement>> Store::record_measurements(
 
 Result<std::vector<RecordedMeasurement>> Store::record_measurements_as_ready(const NextMeasurement& next,
                                                                              const std::optional<JobCompletion>& job) {
-  return impl_->write_once("recording measurements",
-                           [&](Connection& c) { return insert_measurements(c, next, job, impl_->now()); });
+  bool consumed = false;
+  const NextMeasurement taking = [&] {
+    consumed = true;
+    return next();
+  };
+  return impl_->write_once("recording measurements", consumed,
+                           [&](Connection& c) { return insert_measurements(c, taking, job, impl_->now()); });
 }
 
 Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measurement& m, const std::optional<Fit>& fit,

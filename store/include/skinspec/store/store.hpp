@@ -221,8 +221,9 @@ class Store {
   // they are fitted): `next` gives the next one (valid until it is called again), or null when
   // there are no more. Each is stored as it comes and the transaction commits after the last:
   // all or none. `next` may end it by throwing; the exception leaves this call and nothing is
-  // stored. The writer is held from the first call of `next` to the commit, and is not tried a
-  // second time.
+  // stored. The writer is held from this call to the commit (so `next` must not write to the
+  // store); the transaction is tried a second time only when it failed before `next` was
+  // first called (a lost connection found at the first statement).
   using NextMeasurement = std::function<const std::pair<Measurement, std::optional<Fit>>*()>;
   Result<std::vector<RecordedMeasurement>> record_measurements_as_ready(
       const NextMeasurement& next, const std::optional<JobCompletion>& job = std::nullopt);
