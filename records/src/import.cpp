@@ -166,13 +166,13 @@ bool names_wavelengths(std::string header) {
 
 class CsvReader {
  public:
-  CsvReader(Rows rows, std::string_view source) : file_(std::move(rows)), rows_(file_.rows), source_(source) {}
-  CsvReader(const CsvReader&) = delete;  // rows_ refers into file_
+  CsvReader(Rows rows, std::string_view source) : file_(std::move(rows)), source_(source) {}
+  CsvReader(const CsvReader&) = delete;  // a copy's cells would still view this one's unescaped text
   CsvReader& operator=(const CsvReader&) = delete;
 
   std::expected<std::vector<ImportedSpectrum>, InputError> read() {
-    if (rows_.size() < 2) return fail(rows_.empty() ? 0 : rows_[0].line, 0, "no header and data rows");
-    by_columns_ = names_wavelengths(std::string(rows_[0].cells[0]));
+    if (file_.rows.size() < 2) return fail(file_.rows.empty() ? 0 : file_.rows[0].line, 0, "no header and data rows");
+    by_columns_ = names_wavelengths(std::string(file_.rows[0].cells[0]));
     auto spectra = by_columns_ ? by_columns() : by_rows();
     if (!spectra) return spectra;
     if (auto scaled = to_fractions(*spectra); !scaled) return std::unexpected(scaled.error());
@@ -193,30 +193,30 @@ class CsvReader {
   }
 
   std::expected<void, InputError> check_width(const Row& row) const {
-    if (row.cells.size() != rows_[0].cells.size())
+    if (row.cells.size() != file_.rows[0].cells.size())
       return fail(row.line, 0,
-                  fmt::format("{} fields where the header has {}", row.cells.size(), rows_[0].cells.size()));
+                  fmt::format("{} fields where the header has {}", row.cells.size(), file_.rows[0].cells.size()));
     return {};
   }
 
   // One column per spectrum, one row per wavelength.
   std::expected<std::vector<ImportedSpectrum>, InputError> by_columns() {
-    const auto& header = rows_[0].cells;
-    if (header.size() < 2) return fail(rows_[0].line, 0, "no spectrum column after the wavelength column");
+    const auto& header = file_.rows[0].cells;
+    if (header.size() < 2) return fail(file_.rows[0].line, 0, "no spectrum column after the wavelength column");
     std::vector<ImportedSpectrum> out(header.size() - 1);
     for (std::size_t c = 1; c < header.size(); ++c) {
-      if (header[c].empty()) return fail(rows_[0].line, c + 1, "a spectrum column without a name");
+      if (header[c].empty()) return fail(file_.rows[0].line, c + 1, "a spectrum column without a name");
       out[c - 1].sample_id = std::string(header[c]);
-      out[c - 1].line = rows_[1].line;
+      out[c - 1].line = file_.rows[1].line;
     }
-    for (std::size_t r = 1; r < rows_.size(); ++r) {
-      if (auto width = check_width(rows_[r]); !width) return std::unexpected(width.error());
-      const auto wavelength = value_at(rows_[r], 0);
+    for (std::size_t r = 1; r < file_.rows.size(); ++r) {
+      if (auto width = check_width(file_.rows[r]); !width) return std::unexpected(width.error());
+      const auto wavelength = value_at(file_.rows[r], 0);
       if (!wavelength) return std::unexpected(wavelength.error());
       if (r > 1 && !(*wavelength > out[0].reflectance.wavelength_nm.back()))
-        return fail(rows_[r].line, 1, "the wavelengths must increase from row to row");
+        return fail(file_.rows[r].line, 1, "the wavelengths must increase from row to row");
       for (std::size_t c = 1; c < header.size(); ++c) {
-        const auto value = value_at(rows_[r], c);
+        const auto value = value_at(file_.rows[r], c);
         if (!value) return std::unexpected(value.error());
         out[c - 1].reflectance.wavelength_nm.push_back(*wavelength);
         out[c - 1].reflectance.values.push_back(*value);
@@ -227,29 +227,30 @@ class CsvReader {
 
   // One row per spectrum: text columns (the first the sample id), then wavelength columns.
   std::expected<std::vector<ImportedSpectrum>, InputError> by_rows() {
-    const auto& header = rows_[0].cells;
+    const auto& header = file_.rows[0].cells;
     std::size_t first = header.size();
     while (first > 0 && wavelength_of(header[first - 1])) --first;
     if (header.size() - first < 2)
-      return fail(rows_[0].line, 0,
+      return fail(file_.rows[0].line, 0,
                   "the header names no wavelengths: its first field is not wavelength_nm (one column per spectrum) "
                   "and it does not end in wavelength columns such as 400nm (one row per spectrum)");
     std::vector<double> grid;
     for (std::size_t c = first; c < header.size(); ++c) {
       grid.push_back(*wavelength_of(header[c]));
       if (grid.size() > 1 && !(grid.back() > grid[grid.size() - 2]))
-        return fail(rows_[0].line, c + 1, "the wavelengths must increase from column to column");
+        return fail(file_.rows[0].line, c + 1, "the wavelengths must increase from column to column");
     }
     first_value_column_ = first;
     std::vector<ImportedSpectrum> out;
-    for (std::size_t r = 1; r < rows_.size(); ++r) {
-      if (auto width = check_width(rows_[r]); !width) return std::unexpected(width.error());
+    for (std::size_t r = 1; r < file_.rows.size(); ++r) {
+      if (auto width = check_width(file_.rows[r]); !width) return std::unexpected(width.error());
       ImportedSpectrum spectrum;
-      spectrum.sample_id = first > 0 && !rows_[r].cells[0].empty() ? std::string(rows_[r].cells[0]) : std::to_string(r);
-      spectrum.line = rows_[r].line;
+      spectrum.sample_id =
+          first > 0 && !file_.rows[r].cells[0].empty() ? std::string(file_.rows[r].cells[0]) : std::to_string(r);
+      spectrum.line = file_.rows[r].line;
       spectrum.reflectance.wavelength_nm = grid;
       for (std::size_t c = first; c < header.size(); ++c) {
-        const auto value = value_at(rows_[r], c);
+        const auto value = value_at(file_.rows[r], c);
         if (!value) return std::unexpected(value.error());
         spectrum.reflectance.values.push_back(*value);
       }
@@ -260,8 +261,8 @@ class CsvReader {
 
   // Where value k of spectrum i was read (1-based line and column).
   std::pair<std::size_t, std::size_t> position(std::size_t i, std::size_t k) const {
-    if (by_columns_) return {rows_[k + 1].line, i + 2};
-    return {rows_[i + 1].line, first_value_column_ + k + 1};
+    if (by_columns_) return {file_.rows[k + 1].line, i + 2};
+    return {file_.rows[i + 1].line, first_value_column_ + k + 1};
   }
 
   // Percent when any value is above 1.5; then every value must be a reflectance, and every
@@ -294,7 +295,6 @@ class CsvReader {
   }
 
   Rows file_;
-  const std::vector<Row>& rows_;  // file_.rows
   std::string_view source_;
   bool by_columns_ = false;
   std::size_t first_value_column_ = 0;  // of the rows layout: the first wavelength column
