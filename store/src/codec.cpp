@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "db.hpp"
+#include "json_syntax.hpp"
 
 namespace skinspec::store::detail {
 
@@ -138,12 +139,7 @@ void check_spectrum(const SpectralSamples& spectrum, std::string_view what, bool
 }
 
 void check_json_object(std::string_view json, std::string_view what) {
-  // Validated without building the document (a fit's assessment is checked on every store):
-  // valid JSON whose first token opens an object.
-  constexpr std::string_view kByteOrderMark = "\xEF\xBB\xBF";  // which the JSON reader skips too
-  const auto first = json.find_first_not_of(" \t\n\r", json.starts_with(kByteOrderMark) ? kByteOrderMark.size() : 0);
-  if (first == std::string_view::npos || json[first] != '{' || !nlohmann::json::accept(json))
-    invalid(fmt::format("{}: not a JSON object", what));
+  if (!is_json_object(json)) invalid(fmt::format("{}: not a JSON object", what));
 }
 
 void check_not_empty(std::string_view text, std::string_view what) {
