@@ -166,5 +166,53 @@ TEST_F(ImportCliTest, ARefitKilledWithItsDaemonIsResumedByPostingItAgain) {
   EXPECT_EQ(paper_fits(), 4000u);
 }
 
+// An import job killed with its daemon, once while its spectra are fitted and once while the
+// last of them are stored (its transaction open, most rows written): the killed job is failed
+// as interrupted and nothing of the file is in its session (which the daemon's recovery marks
+// interrupted, as any open session of a killed daemon); the same file posted again to a new
+// session once the daemon is back is imported whole.
+TEST_F(ImportCliTest, AnImportKilledWithItsDaemonLeavesNothingOfTheFile) {
+  const std::string file = archive(20000);
+  const auto post = [&](long long session) {
+    const auto posted = http_request(rig_->port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/imports",
+                                     file, {{"Content-Type", "text/csv"}});
+    EXPECT_EQ(posted.status, 202) << posted.body;
+    return posted.json();
+  };
+  const auto stored_in = [&](long long session) {
+    store::OpenOptions read_only;
+    read_only.mode = store::OpenMode::read_only;
+    auto db = value_of(store::Store::open(rig_->db_path(), read_only));
+    const auto detail = value_of(db.session_detail(session));
+    return std::pair{detail.measurements.size(), detail.fits.size()};
+  };
+  for (const std::string phase : {"fitting", "storing"}) {
+    SCOPED_TRACE(phase);
+    const long long session = new_session(rig_->port, "K-" + phase);
+    ASSERT_GT(session, 0);
+    const auto job = "/api/v1/jobs/" + post(session)["id"].dump();
+    for (auto deadline = std::chrono::steady_clock::now() + 60s;;) {
+      const json now = get_json(rig_->port, job);
+      ASSERT_TRUE(now["state"] == "queued" || now["state"] == "running") << now;  // killed before it ends
+      const json& progress = now["progress"];
+      if (progress.value("phase", "") == phase && progress.value("spectra_done", 0) > 0) break;
+      ASSERT_LT(std::chrono::steady_clock::now(), deadline) << now;
+      std::this_thread::sleep_for(1ms);
+    }
+    rig_->stop_daemon(SIGKILL);
+    EXPECT_EQ(stored_in(session), (std::pair<std::size_t, std::size_t>{0, 0}));
+    rig_->restart_daemon();
+    ASSERT_NE(rig_->port, 0) << rig_->logs();
+    const json killed = get_json(rig_->port, job);
+    EXPECT_EQ(killed["state"], "failed") << killed;
+    EXPECT_EQ(killed["error"]["code"], "interrupted") << killed;
+    EXPECT_EQ(stored_in(session), (std::pair<std::size_t, std::size_t>{0, 0}));
+  }
+  const long long session = new_session(rig_->port, "K-again");
+  const json done = wait_for_job(rig_->port, post(session), 120s);
+  ASSERT_EQ(done["state"], "succeeded") << done;
+  EXPECT_EQ(stored_in(session), (std::pair<std::size_t, std::size_t>{20000, 20000}));
+}
+
 }  // namespace
 }  // namespace skinspec::testing
