@@ -2,7 +2,9 @@
 # (fit/src/kernels/avx2.cpp, with -mavx2 -mfma) is isolated: its one global definition is the
 # symbol named, and it defines nothing weak. A weak definition (W, V, or u: the inline and template
 # functions of Eigen or the standard library) may be the copy the linker keeps for every caller,
-# and would then run AVX instructions on any processor. Also checks that the object does use the
+# and would then run AVX instructions on any processor. Nor may it run anything when the program
+# loads (a dynamic initialiser, listed in .init_array or .ctors), which would run whatever the
+# processor, before the dispatch could choose. Also checks that the object does use the
 # wider registers and that BASELINE_OBJECT (the same code for any processor) does not: the
 # per-file flags took effect.
 # Usage: cmake -DNM=nm -DOBJDUMP=objdump -DOBJECT=avx2.o -DBASELINE_OBJECT=generic.o
@@ -54,6 +56,29 @@ if(NOT found_only_global)
   message(FATAL_ERROR "${OBJECT} does not define ${ONLY_GLOBAL}:\n${symbols}")
 endif()
 
+# Code run at load: the sections of initialisers, and what each entry points to. The sanitizers'
+# module constructors (the instrumented build only) register the object's globals and are the
+# only entries allowed.
+execute_process(COMMAND "${OBJDUMP}" -h "${OBJECT}" OUTPUT_VARIABLE headers RESULT_VARIABLE failed)
+if(failed)
+  message(FATAL_ERROR "check_isolated_object: ${OBJDUMP} -h failed on ${OBJECT}")
+endif()
+string(REGEX MATCHALL "[.](preinit_array|init_array|ctors)[.0-9]*" load_sections "${headers}")
+list(REMOVE_DUPLICATES load_sections)
+foreach(section IN LISTS load_sections)
+  execute_process(COMMAND "${OBJDUMP}" -r -j "${section}" "${OBJECT}" OUTPUT_VARIABLE entries)
+  string(REGEX MATCHALL "R_[A-Z0-9_]+ +[^\n]+" targets "${entries}")
+  foreach(target IN LISTS targets)
+    if(NOT target MATCHES "(asan|ubsan|sanitizer)")
+      list(APPEND offending "run at load (${section}): ${target}")
+    endif()
+  endforeach()
+endforeach()
+if(offending)
+  list(JOIN offending "\n  " listed)
+  message(FATAL_ERROR "${OBJECT} runs code when the program loads:\n  ${listed}")
+endif()
+
 function(count_register object result)
   execute_process(COMMAND "${OBJDUMP}" -d "${object}" OUTPUT_VARIABLE code RESULT_VARIABLE failed)
   if(failed)
@@ -71,4 +96,4 @@ endif()
 if(NOT baseline EQUAL 0)
   message(FATAL_ERROR "${BASELINE_OBJECT} uses ${REGISTER} registers (${baseline} times): it must run anywhere")
 endif()
-message(STATUS "${OBJECT}: only ${ONLY_GLOBAL} global, nothing weak, ${wide} uses of ${REGISTER}")
+message(STATUS "${OBJECT}: only ${ONLY_GLOBAL} global, nothing weak, nothing run at load, ${wide} uses of ${REGISTER}")
