@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
 
     // Refitted twice, each as a new maker of fits: the default model with one of its constants
     // retuned (a new constants digest), the refit a better model calls for; then the paper's
-    // model, which fits these spectra at about 1.5 times the cost.
+    // model, which these spectra were not made with.
     ModelConstants retuned = fitter->optics(ModelKind::extended).constants();
     retuned.epidermis_scattering_scale *= 1.01;
     const Fitter improved = fitter->with_optics(fitter->optics(ModelKind::extended).with_constants(retuned));

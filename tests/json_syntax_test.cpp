@@ -114,6 +114,18 @@ TEST(JsonSyntax, RefusesWhatJsonDoesNot) {
   }
 }
 
+// Numbers of more digits than an exponent limit would allow for: the first is 10^1000400 times
+// 10^-2000000 (zero, as the reader converts it), the second 10^-1000001 times 10^1000400 (past
+// a double's largest).
+TEST(JsonSyntax, NumbersOfAMillionDigitsAreJudgedByTheirValue) {
+  const std::string underflows = "{\"a\":1" + std::string(1'000'400, '0') + "e-2000000}";
+  EXPECT_TRUE(reference(underflows));
+  EXPECT_TRUE(is_json_object(underflows));
+  const std::string overflows = "{\"a\":0." + std::string(1'000'000, '0') + "1e1000400}";
+  EXPECT_FALSE(reference(overflows));
+  EXPECT_FALSE(is_json_object(overflows));
+}
+
 TEST(JsonSyntax, AnyDepthWithoutRecursion) {
   const int depth = 200000;
   std::string text = "{\"a\":" + std::string(depth, '[') + std::string(depth, ']') + "}";

@@ -137,7 +137,7 @@ TEST(Recordings, TranscriptsMatchTheProtocolReference) {
   // The reference's section 6, as the project ships it (tests/data/pr650/README.md).
   auto markdown = read_file(std::string(PR650_TEST_DATA_DIR) + "/transcripts.md");
   ASSERT_TRUE(markdown) << markdown.error();
-  auto transcripts = tools::transcripts_from_reference(*markdown, "pr650-protocol.md");
+  auto transcripts = tools::transcripts_from_reference(*markdown, "transcripts.md");
   ASSERT_TRUE(transcripts) << transcripts.error();
   for (const auto& [letter, expected] : *transcripts) {
     const Recording stored = load(fmt::format("transcript-{}.jsonl", static_cast<char>(std::tolower(letter))));

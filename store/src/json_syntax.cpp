@@ -39,6 +39,8 @@ class Reader {
     return true;
   }
 
+  static constexpr long kExponentCap = 100'000'000'000'000'000L;
+
   // -?(0|[1-9][0-9]*)(\.[0-9]+)?([eE][+-]?[0-9]+)?, of a magnitude a double can hold: the JSON
   // reader refuses a number that overflows to infinity. Only a number whose decimal exponent
   // comes near the limit is converted to find out.
@@ -64,8 +66,9 @@ class Reader {
     if (take('e') || take('E')) {
       const bool negative = !take('+') && take('-');
       if (!is_digit(peek())) return false;
+      // Held below 10^17: beyond the digits any text can have, and far from overflowing.
       long exponent = 0;
-      for (; at_ != end_ && is_digit(*at_); ++at_) exponent = std::min(exponent * 10 + (*at_ - '0'), 1'000'000L);
+      for (; at_ != end_ && is_digit(*at_); ++at_) exponent = std::min(exponent * 10 + (*at_ - '0'), kExponentCap);
       magnitude += negative ? -exponent : exponent;
     }
     return magnitude < 300 || fits_a_double(start);

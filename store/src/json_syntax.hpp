@@ -3,8 +3,11 @@
 // objects it keeps (a fit's assessment, a measurement's settings), on every write. It accepts
 // exactly what nlohmann::json::accept does (a leading byte-order mark, strings of UTF-8 with no
 // overlong forms, surrogates or raw control characters, \u escapes with paired surrogates, any
-// depth), which tests/fuzz/json_syntax_fuzz.cpp checks on arbitrary bytes, at a small part of
-// its cost: no token is copied and no number converted.
+// depth, numbers refused only where they overflow a double), which tests/json_syntax_test.cpp and
+// tests/fuzz/json_syntax_fuzz.cpp check, at a small part of its cost: no token is copied, and a
+// number is converted only when its decimal exponent comes near a double's limit. (One number of
+// hundreds of millions of digits may be judged differently: the conversions' exponent limits
+// differ there.)
 
 #include <string_view>
 
