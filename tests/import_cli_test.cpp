@@ -58,6 +58,14 @@ class ImportCliTest : public ::testing::Test {
     return out;
   }
   json session(long long id) const { return get_json(rig_->port, "/api/v1/sessions/" + std::to_string(id)); }
+  // A session as stored, read from the database itself (read-only beside the daemon): for
+  // sessions whose answer would be tens of megabytes, or while the daemon is down.
+  store::SessionDetail stored_session(long long id) const {
+    store::OpenOptions read_only;
+    read_only.mode = store::OpenMode::read_only;
+    auto db = value_of(store::Store::open(rig_->db_path(), read_only));
+    return value_of(db.session_detail(id));
+  }
 
   ScratchDirectory dir_;
   std::unique_ptr<AcquisitionRig> rig_;
@@ -145,14 +153,9 @@ TEST_F(ImportCliTest, ARefitKilledWithItsDaemonIsResumedByPostingItAgain) {
   const json killed = get_json(rig_->port, job);
   EXPECT_EQ(killed["state"], "failed") << killed;
   EXPECT_EQ(killed["error"]["code"], "interrupted") << killed;
-  // Counted in the database itself (read-only beside the daemon): the session's answer would be
-  // tens of megabytes.
   const auto paper_fits = [&] {
-    store::OpenOptions read_only;
-    read_only.mode = store::OpenMode::read_only;
-    auto db = value_of(store::Store::open(rig_->db_path(), read_only));
     std::size_t n = 0;
-    for (const auto& f : value_of(db.session_detail(1)).fits) n += f.model == "paper";
+    for (const auto& f : stored_session(1).fits) n += f.model == "paper";
     return n;
   };
   const std::size_t before = paper_fits();
@@ -182,10 +185,7 @@ TEST_F(ImportCliTest, AnImportKilledWithItsDaemonLeavesNothingOfTheFile) {
     return posted.json();
   };
   const auto stored_in = [&](long long session) {
-    store::OpenOptions read_only;
-    read_only.mode = store::OpenMode::read_only;
-    auto db = value_of(store::Store::open(rig_->db_path(), read_only));
-    const auto detail = value_of(db.session_detail(session));
+    const auto detail = stored_session(session);
     return std::pair{detail.measurements.size(), detail.fits.size()};
   };
   const auto log_bytes = [&] {

@@ -5,14 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "json_syntax.hpp"
+#include "support/store_samples.hpp"
 
 namespace skinspec::store::detail {
 namespace {
@@ -21,12 +20,8 @@ const std::string kSeeds = JSON_TEST_DATA_DIR;
 
 std::vector<std::string> seeds() {
   std::vector<std::string> out;
-  for (const auto& entry : std::filesystem::directory_iterator(kSeeds)) {
-    std::ifstream in(entry.path(), std::ios::binary);
-    std::ostringstream bytes;
-    bytes << in.rdbuf();
-    out.push_back(bytes.str());
-  }
+  for (const auto& entry : std::filesystem::directory_iterator(kSeeds))
+    out.push_back(testing::file_bytes(entry.path().string()));
   return out;
 }
 

@@ -73,9 +73,10 @@ class CellText {
     copy_ += c;
   }
   void opens_quote() { to_copy(); }
-  std::string_view finish(std::deque<std::string>& unescaped) const {
+  // Moves a quoted cell's text into `unescaped`: begin() starts the next cell afresh.
+  std::string_view finish(std::deque<std::string>& unescaped) {
     if (!quoted_) return trimmed(bytes_.substr(start_, end_ - start_));
-    return trimmed(unescaped.emplace_back(copy_));
+    return trimmed(unescaped.emplace_back(std::move(copy_)));
   }
 
  private:
@@ -136,7 +137,7 @@ std::expected<Rows, InputError> rows_of(std::string_view bytes, std::string_view
       } else if (c != '\r') {
         // The run of plain characters up to the next one of note, taken at once.
         const std::size_t end = plain_run_end(bytes, i);
-        if (bytes.substr(i, end - i).find_first_not_of(" \t") != std::string_view::npos) any = true;
+        if (!any && bytes.substr(i, end - i).find_first_not_of(" \t") != std::string_view::npos) any = true;
         cell.plain(i, end);
         i = end - 1;
       }

@@ -52,9 +52,12 @@ struct Store::Impl {
 
   // One write transaction around `body(connection)`, committed when it returns. A failure
   // that left nothing committed and may pass (a lost connection, a serialisation conflict) is
-  // tried once more.
+  // tried once more; for a body that consumes its input as it goes, only while `consumed` (set
+  // by the body) is still false, as when the writer's connection turns out lost at the first
+  // statement.
   template <typename F>
-  auto write(std::string_view what, F&& body) -> Result<std::invoke_result_t<F, detail::Connection&>> {
+  auto write(std::string_view what, F&& body, const bool* consumed = nullptr)
+      -> Result<std::invoke_result_t<F, detail::Connection&>> {
     return detail::guarded(what, [&] {
       for (int attempt = 1;; ++attempt) {
         auto connection = engine->writer();
@@ -70,28 +73,7 @@ struct Store::Impl {
             return value;
           }
         } catch (const detail::Failure& failure) {
-          if (!failure.retryable || attempt == 2) throw;
-        }
-      }
-    });
-  }
-
-  // write() for a body that cannot run twice, as it consumes its input as it goes: tried once
-  // more only while `consumed` (set by the body) is still false, as when the writer's
-  // connection turns out lost at the first statement.
-  template <typename F>
-  auto write_once(std::string_view what, const bool& consumed, F&& body)
-      -> Result<std::invoke_result_t<F, detail::Connection&>> {
-    return detail::guarded(what, [&] {
-      for (int attempt = 1;; ++attempt) {
-        auto connection = engine->writer();
-        try {
-          detail::Transaction transaction(*connection, detail::TransactionKind::write);
-          auto value = body(*connection);
-          transaction.commit();
-          return value;
-        } catch (const detail::Failure& failure) {
-          if (!failure.retryable || consumed || attempt == 2) throw;
+          if (!failure.retryable || attempt == 2 || (consumed && *consumed)) throw;
         }
       }
     });

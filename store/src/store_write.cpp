@@ -396,8 +396,9 @@ Result<std::vector<RecordedMeasurement>> Store::record_measurements_as_ready(con
     consumed = true;
     return next();
   };
-  return impl_->write_once("recording measurements", consumed,
-                           [&](Connection& c) { return insert_measurements(c, taking, job, impl_->now()); });
+  return impl_->write(
+      "recording measurements", [&](Connection& c) { return insert_measurements(c, taking, job, impl_->now()); },
+      &consumed);
 }
 
 Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measurement& m, const std::optional<Fit>& fit,

@@ -58,11 +58,15 @@ inline double clamp_to(double x, double lowest, double highest) {
   return x < lowest ? lowest : (x > highest ? highest : x);
 }
 
-inline double fast_exp(double x) {
-  const Reduced reduced = reduce(clamp_to(x, kExpLowest, kExpHighest));
+// e^x for x already reduced, within the range it may be reduced from.
+inline double exp_of_reduced(const Reduced& reduced) {
   const double r = reduced.r;
   const double exp_r = 1.0 + (r + r * r * expm1_tail(r));
-  const double y = exp_r * reduced.half_power_of_two * 2.0;
+  return exp_r * reduced.half_power_of_two * 2.0;
+}
+
+inline double fast_exp(double x) {
+  const double y = exp_of_reduced(reduce(clamp_to(x, kExpLowest, kExpHighest)));
   return x < kExpLowest ? 0.0 : (x > kExpHighest ? kInfinity : y);
 }
 
@@ -70,10 +74,8 @@ inline double fast_exp(double x) {
 // comparison serves both the clamp and the flush to 0, where fast_exp needs four for both ends.
 inline double fast_exp_of_negative(double x) {
   const bool below = x < kExpLowest;
-  const Reduced reduced = reduce(below ? kExpLowest : x);
-  const double r = reduced.r;
-  const double exp_r = 1.0 + (r + r * r * expm1_tail(r));
-  return below ? 0.0 : exp_r * reduced.half_power_of_two * 2.0;
+  const double y = exp_of_reduced(reduce(below ? kExpLowest : x));
+  return below ? 0.0 : y;
 }
 
 inline double fast_expm1(double x) {

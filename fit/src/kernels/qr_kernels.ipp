@@ -8,6 +8,11 @@ constexpr int kMaxQrColumns = 16;
 // Columns a pass handles at once: each keeps a running sum in a register of its own.
 constexpr int kColumnsPerPass = 8;
 
+// How many of `count` columns the pass from column `first` handles.
+constexpr int in_pass_of(int count, int first) {
+  return count - first < kColumnsPerPass ? count - first : kColumnsPerPass;
+}
+
 #if defined(__AVX__)
 constexpr int kLanes = 4;
 #else
@@ -90,7 +95,7 @@ void triangularize(double* a, int rows, int cols, double* b) {
     targets[count++] = b + j;
     double norm2 = 0;
     for (int first = 0; first < count; first += kColumnsPerPass) {
-      const int in_pass = count - first < kColumnsPerPass ? count - first : kColumnsPerPass;
+      const int in_pass = in_pass_of(count, first);
       products_of(in_pass, v, targets + first, length, norm2, products + first);
     }
     if (norm2 == 0) continue;  // nothing to eliminate
@@ -103,7 +108,7 @@ void triangularize(double* a, int rows, int cols, double* b) {
     double factors[kMaxQrColumns + 1];
     for (int t = 0; t < count; ++t) factors[t] = (products[t] - diagonal * targets[t][0]) / half_v_norm2;
     for (int first = 0; first < count; first += kColumnsPerPass) {
-      const int in_pass = count - first < kColumnsPerPass ? count - first : kColumnsPerPass;
+      const int in_pass = in_pass_of(count, first);
       subtract_from(in_pass, v, targets + first, length, factors + first);
     }
     v[0] = diagonal;
@@ -154,7 +159,7 @@ void scale_columns_of(int count, const ScaledColumnsArgs& in, int first) {
 
 void scaled_columns(const ScaledColumnsArgs& in) {
   for (int first = 0; first < in.count; first += kColumnsPerPass) {
-    const int in_pass = in.count - first < kColumnsPerPass ? in.count - first : kColumnsPerPass;
+    const int in_pass = in_pass_of(in.count, first);
     scale_columns_of(in_pass, in, first);
   }
 }
