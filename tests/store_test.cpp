@@ -680,6 +680,29 @@ TEST_P(StoreTest, OnlyOneWriterAtATimeButReadersMayJoin) {
   EXPECT_TRUE(reader->recovery().interrupted_sessions.empty());
 }
 
+// The write-ahead log is copied back into the file while the store stays open, and written
+// from its start again, even behind a writer that never pauses: it stays a few megabytes long
+// however much is written (it would hold everything, were nothing copied back; it would grow
+// without end, were it never caught up with).
+TEST_P(SqliteStoreTest, TheLogStaysShortBehindAWriterThatNeverPauses) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const std::string log = path_ + "-wal";
+  std::uintmax_t longest = 0;
+  int written = 0;
+  while (std::filesystem::file_size(path_) < 48'000'000) {
+    std::vector<std::pair<Measurement, std::optional<Fit>>> batch;
+    for (int i = 0; i < 10; ++i, ++written)
+      batch.emplace_back(sample_measurement(session, written), sample_fit(written));
+    ASSERT_TRUE(store.record_measurements(batch).has_value());
+    longest = std::max(longest, std::filesystem::file_size(log));
+    ASSERT_LT(written, 40'000) << "the file stays at " << std::filesystem::file_size(path_)
+                               << " bytes: the log is not copied into it";
+  }
+  EXPECT_LT(longest, 24'000'000u) << "after " << written << " measurements";
+  EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), written);
+}
+
 TEST_P(SqliteStoreTest, ReadOnlyOpeningNeedsAnExistingFile) {
   OpenOptions read_only;
   read_only.mode = OpenMode::read_only;

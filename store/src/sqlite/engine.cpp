@@ -39,6 +39,7 @@ bool FileIdentity::operator==(const FileIdentity& other) const {
 
 SqliteEngine::~SqliteEngine() {
   readers_.close();
+  checkpointer_.reset();
   writer_.reset();  // the last connection out checkpoints the WAL into the database
   if (lock_fd_ >= 0) ::close(lock_fd_);
 }

@@ -15,6 +15,7 @@
 #include "../connection_pool.hpp"
 #include "../engine.hpp"
 #include "skinspec/store/store.hpp"
+#include "sqlite/checkpointer.hpp"
 #include "sqlite/connection.hpp"
 
 namespace skinspec::store::sqlite {
@@ -53,6 +54,8 @@ class SqliteEngine final : public detail::Engine, private ConnectionLease::Owner
   const std::string& path() const { return path_; }
   void set_writer(std::unique_ptr<Connection> writer, int lock_fd);
   Connection& writer_connection() { return *writer_; }
+  // From here on the writer's checkpoints run beside it (once the file is migrated).
+  void start_checkpointer() { checkpointer_ = std::make_unique<Checkpointer>(path_, *writer_); }
   void freeze(const FileIdentity& identity) { frozen_ = identity; }
   detail::ConnectionPool& readers() { return readers_; }
 
@@ -65,7 +68,8 @@ class SqliteEngine final : public detail::Engine, private ConnectionLease::Owner
   // it is what the file was when opened, and a read fails as `busy` once it is not.
   std::optional<FileIdentity> frozen_;
   std::mutex writer_mutex_;
-  std::unique_ptr<Connection> writer_;  // null when read-only
+  std::unique_ptr<Connection> writer_;          // null when read-only
+  std::unique_ptr<Checkpointer> checkpointer_;  // null when read-only or still opening
   detail::ConnectionPool readers_;
 };
 
