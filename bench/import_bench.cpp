@@ -136,14 +136,17 @@ int main(int argc, char** argv) {
          {Refit{&improved, ModelKind::extended, "the default model, a constant retuned"},
           Refit{&*fitter, ModelKind::paper, "the paper's model"}}) {
       started = Clock::now();
+      const double refit_started_cpu_s = cpu_seconds();
       const auto report =
           records::refit(*db, *maker, {.model = model, .session_id = {}, .lateral_diffusion = true}, {});
       if (!report) die(report.error().message);
       seconds = seconds_since(started);
-      std::printf("refitted with %s: %lld of %lld (%lld refused) in %.2f s: %.0f measurements/s\n", name,
-                  static_cast<long long>(report->progress.done), static_cast<long long>(report->progress.total),
-                  static_cast<long long>(report->progress.failed), seconds,
-                  static_cast<double>(report->progress.done) / seconds);
+      std::printf(
+          "refitted with %s: %lld of %lld (%lld refused) in %.2f s: %.0f measurements/s (%.2f s of processor "
+          "time)\n",
+          name, static_cast<long long>(report->progress.done), static_cast<long long>(report->progress.total),
+          static_cast<long long>(report->progress.failed), seconds,
+          static_cast<double>(report->progress.done) / seconds, cpu_seconds() - refit_started_cpu_s);
     }
   }
   std::filesystem::remove_all(dir);

@@ -65,7 +65,7 @@ class FittedRows {
       // Nothing may leave this thread (a thread the fitting could not start, say): the taker
       // rethrows it instead.
       try {
-        parallel_for(spectra_.size(), 0, [&](std::size_t i) { fit_one(i, make); });
+        parallel_for_in_background(spectra_.size(), 0, [&](std::size_t i) { fit_one(i, make); });
       } catch (...) {
         std::lock_guard lock(mutex_);
         failure_ = std::current_exception();

@@ -43,8 +43,9 @@ class Refit {
   Refit(store::Store& store, const Fitter& fitter, const RefitRequest& request)
       : store_(store), fitter_(fitter), request_(request) {}
 
-  // Batch n is stored on a thread of its own while batch n + 1 is fitted: the commit is mostly
-  // the disk's time, and the cores have fitting to do meanwhile.
+  // Three things at once: batch n is stored on a thread of its own while batch n + 1 is fitted
+  // on threads of lower priority and batch n + 2 read on this one. The fitting is what takes
+  // longest; storing and reading, which it would wait for, go first.
   std::expected<RefitReport, store::StoreError> run(const RefitObserver& observer) {
     store::RefitQuery query{current_fit_maker(fitter_, request_.model), request_.session_id, 0, kBatch};
     auto total = store_.count_measurements_to_refit(query);
@@ -59,15 +60,16 @@ class Refit {
       report_.progress.done += *outcome;
       return !observer || observer(progress_now());
     };
+    auto batch = store_.measurements_to_refit(query);
     for (;;) {
-      auto batch = store_.measurements_to_refit(query);
       if (!batch) {
         (void)settle();
         return std::unexpected(batch.error());
       }
       if (batch->empty()) break;
       query.after_id = batch->back().id;
-      auto fits = fit_batch(*batch);
+      Batch next;
+      auto fits = fit_batch(*batch, [&] { next = store_.measurements_to_refit(query); });
       if (!fits) {
         (void)settle();
         return std::unexpected(fits.error());
@@ -84,6 +86,7 @@ class Refit {
         if (!stored) return std::unexpected(stored.error());
         return static_cast<std::int64_t>(fits.size());
       });
+      batch = std::move(next);
     }
     auto go_on = settle();
     if (!go_on) return std::unexpected(go_on.error());
@@ -94,8 +97,13 @@ class Refit {
  private:
   using StoreOutcome = std::expected<std::int64_t, store::StoreError>;  // fits stored
 
-  // The batch's fits; the measurements the fitter refused counted and named in the report.
-  std::expected<std::vector<store::Fit>, store::StoreError> fit_batch(const std::vector<store::Measurement>& batch) {
+  using Batch = std::expected<std::vector<store::Measurement>, store::StoreError>;
+
+  // The batch's fits, while `meanwhile` runs on this thread; the measurements the fitter refused
+  // counted and named in the report.
+  template <typename Meanwhile>
+  std::expected<std::vector<store::Fit>, store::StoreError> fit_batch(const std::vector<store::Measurement>& batch,
+                                                                      Meanwhile meanwhile) {
     std::vector<FitOptions> options;
     for (const auto& m : batch) {
       auto o = options_for(m.session_id);
@@ -103,7 +111,8 @@ class Refit {
       options.push_back(*o);
     }
     std::vector<Refitted> refitted(batch.size());
-    parallel_for(batch.size(), 0, [&](std::size_t i) { refitted[i] = refit_one(fitter_, batch[i], options[i]); });
+    parallel_for_in_background(
+        batch.size(), 0, [&](std::size_t i) { refitted[i] = refit_one(fitter_, batch[i], options[i]); }, meanwhile);
     std::vector<store::Fit> fits;
     for (auto& r : refitted) {
       if (r.fit) {
