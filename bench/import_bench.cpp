@@ -122,8 +122,10 @@ int main(int argc, char** argv) {
     };
     rusage usage{};
     ::getrusage(RUSAGE_SELF, &usage);
-    std::printf("database %.1f MB, its write-ahead log %.1f MB; the process's peak memory %.0f MB\n", size_of("lab.db"),
-                size_of("lab.db-wal"), static_cast<double>(usage.ru_maxrss) / 1024);
+    // The log holds the whole import until the store's checkpointer has copied it into the file.
+    std::printf(
+        "database %.1f MB, its write-ahead log %.1f MB (being copied into it); the process's peak memory %.0f MB\n",
+        size_of("lab.db"), size_of("lab.db-wal"), static_cast<double>(usage.ru_maxrss) / 1024);
 
     // Refitted twice, each as a new maker of fits: the default model with one of its constants
     // retuned (a new constants digest), the refit a better model calls for; then the paper's
