@@ -68,7 +68,8 @@ class Refit {
       }
       if (batch->empty()) break;
       query.after_id = batch->back().id;
-      Batch next;
+      // Read while this batch is fitted; an error, not an end, should that not happen.
+      Batch next = std::unexpected(store::StoreError{store::StoreError::Kind::internal, "the next batch was not read"});
       auto fits = fit_batch(*batch, [&] { next = store_.measurements_to_refit(query); });
       if (!fits) {
         (void)settle();

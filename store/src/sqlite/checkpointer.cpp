@@ -1,9 +1,14 @@
 #include "sqlite/checkpointer.hpp"
 
+#include <algorithm>
+
 namespace skinspec::store::sqlite {
 
-Checkpointer::Checkpointer(const std::string& path, Connection& writer)
+Checkpointer::Checkpointer(const std::string& path, Connection& writer, std::chrono::milliseconds busy_timeout)
     : connection_(path, SQLITE_OPEN_READWRITE), writer_(writer.handle()) {
+  sqlite3_busy_timeout(connection_.handle(), static_cast<int>(busy_timeout.count()));
+  // The file synced before the writer may write the log from its start again.
+  connection_.execute("PRAGMA synchronous = FULL");
   // Closing this connection must not checkpoint: the writer's, closed last, does.
   sqlite3_db_config(connection_.handle(), SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
   // A connection learns that the file is in WAL mode when it first reads it; until then a
@@ -19,12 +24,24 @@ Checkpointer::~Checkpointer() {
   thread_.join();
 }
 
+int Checkpointer::left_to_copy(int pages) {
+  if (pages < last_pages_) ++restarts_;
+  last_pages_ = pages;
+  const std::uint64_t copied = copied_.load();
+  if (copied >> 32 != restarts_.load()) return pages;  // copied from an earlier log, or never
+  return std::max(pages - static_cast<int>(copied & 0xffffffffu), 0);
+}
+
 // Called on the writer's thread after each commit, with the log's length in pages.
 int Checkpointer::on_commit(void* self, sqlite3* writer, const char* schema, int pages) {
-  if (pages < kPages) return SQLITE_OK;
   auto& checkpointer = *static_cast<Checkpointer*>(self);
-  if (pages >= kWriterPages && pages - checkpointer.copied_.load() < kPages) {
-    // The thread is not woken, so at most one commit finds it still copying (busy).
+  const int previous = checkpointer.last_pages_;
+  const int left = checkpointer.left_to_copy(pages);
+  if (pages < kPages) return SQLITE_OK;
+  const bool little_left = pages >= kWriterPages && left < std::max(kPages, pages / 4);
+  const bool too_long = previous >= kMostPages && pages >= previous;  // so over more than one commit
+  if (little_left || too_long) {
+    // Busy while the thread copies: the next commit tries again, without waking it.
     (void)sqlite3_wal_checkpoint_v2(writer, schema, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr);
     return SQLITE_OK;
   }
@@ -45,10 +62,12 @@ void Checkpointer::run(const std::stop_token& stop) {
     }
     // PASSIVE: copies what no reader still needs, and never waits for the writer nor the
     // readers. A log not copied whole is copied on the next call.
+    const std::uint64_t restarts = restarts_.load();
     int copied = 0;
     if (sqlite3_wal_checkpoint_v2(connection_.handle(), nullptr, SQLITE_CHECKPOINT_PASSIVE, nullptr, &copied) ==
-        SQLITE_OK)
-      copied_ = copied;
+            SQLITE_OK &&
+        copied >= 0)
+      copied_ = restarts << 32 | static_cast<std::uint32_t>(copied);
   }
 }
 

@@ -9,13 +9,16 @@
 // The log is written from its start again only when a checkpoint has copied all of it before
 // the writer's next transaction begins; behind a writer that never pauses, the thread's copy
 // always ends a commit or two short, and the log would grow without end. So once the log is
-// past kWriterPages and the thread has left less than kPages of it, the writer copies that
-// rest itself, as SQLite would have copied all of it.
+// past kWriterPages and the thread has copied most of it, the writer copies the rest itself,
+// as SQLite would have copied all of it; and past kMostPages it copies whatever is left, as
+// soon as the thread is not copying, should the thread fall behind for good.
 
 #include <sqlite3.h>
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
+#include <cstdint>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -29,16 +32,21 @@ class Checkpointer {
   // SQLite's own threshold: a log of this many pages is copied into the file.
   static constexpr int kPages = 1000;
   static constexpr int kWriterPages = 4 * kPages;
+  static constexpr int kMostPages = 64 * kPages;
 
-  // Opens its connection to `path` and takes over `writer`'s checkpoints (its commit hook).
-  Checkpointer(const std::string& path, Connection& writer);
-  // Stops after the checkpoint under way, if any, and gives the writer its own hook back.
+  // Opens its connection to `path` (durable and patient as the writer is) and takes over
+  // `writer`'s checkpoints (its commit hook).
+  Checkpointer(const std::string& path, Connection& writer, std::chrono::milliseconds busy_timeout);
+  // Stops once the checkpoint under way, if any, is done, and gives the writer its own hook back.
   ~Checkpointer();
   Checkpointer(const Checkpointer&) = delete;
   Checkpointer& operator=(const Checkpointer&) = delete;
 
  private:
-  static int on_commit(void* self, sqlite3* db, const char* schema, int pages);
+  static int on_commit(void* self, sqlite3* writer, const char* schema, int pages);
+  // On the writer's thread: the pages of a log of `pages` the thread has not copied, as far as
+  // it is known (all of them when not).
+  int left_to_copy(int pages);
   void run(const std::stop_token& stop);
 
   Connection connection_;
@@ -46,8 +54,14 @@ class Checkpointer {
   std::mutex mutex_;
   std::condition_variable_any due_changed_;
   bool due_ = false;
-  std::atomic<int> copied_{0};  // the log's pages in the file after the thread's last checkpoint
-  std::jthread thread_;         // last: started once everything it uses exists, stopped first
+  // The writer's: the log's length at the last commit, and how often it was written from its
+  // start again (a shorter log than before).
+  int last_pages_ = 0;
+  std::atomic<std::uint32_t> restarts_{0};
+  // The thread's last checkpoint: the restarts it began after (high half) and the pages it had
+  // copied (low half), in one word so that the writer never reads one without the other.
+  std::atomic<std::uint64_t> copied_{0};
+  std::jthread thread_;  // last: started once everything it uses exists, stopped first
 };
 
 }  // namespace skinspec::store::sqlite

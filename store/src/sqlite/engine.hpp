@@ -55,7 +55,9 @@ class SqliteEngine final : public detail::Engine, private ConnectionLease::Owner
   void set_writer(std::unique_ptr<Connection> writer, int lock_fd);
   Connection& writer_connection() { return *writer_; }
   // From here on the writer's checkpoints run beside it (once the file is migrated).
-  void start_checkpointer() { checkpointer_ = std::make_unique<Checkpointer>(path_, *writer_); }
+  void start_checkpointer(std::chrono::milliseconds busy_timeout) {
+    checkpointer_ = std::make_unique<Checkpointer>(path_, *writer_, busy_timeout);
+  }
   void freeze(const FileIdentity& identity) { frozen_ = identity; }
   detail::ConnectionPool& readers() { return readers_; }
 

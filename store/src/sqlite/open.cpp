@@ -180,7 +180,7 @@ void open_read_write(Store::Impl& impl, SqliteEngine& engine) {
   detail::migrate(writer, detail::latest_schema_version());
   impl.version = detail::latest_schema_version();
   impl.recovery = detail::recover(writer, impl.options.recovery, {}, impl.now());
-  engine.start_checkpointer();
+  engine.start_checkpointer(impl.options.busy_timeout);
   engine.readers().configure(reader_opener(path, SQLITE_OPEN_READONLY, impl.options.busy_timeout),
                              impl.options.max_readers);
 }

@@ -1,9 +1,6 @@
 #pragma once
 // Runs fn(i) for i in [0, n) on up to `threads` threads (0 = one per core); each index once.
 
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
@@ -20,6 +17,9 @@ template <typename Fn>
 void take_indices(std::atomic<std::size_t>& next, std::size_t n, Fn& fn) {
   for (std::size_t i; (i = next.fetch_add(1)) < n;) fn(i);
 }
+
+// Lowers the calling thread's scheduling priority by `steps` of nice(2), if it may.
+void lower_this_threads_priority(int steps);
 
 inline unsigned thread_count(unsigned threads) {
   return threads != 0 ? threads : std::max(1u, std::thread::hardware_concurrency());
@@ -51,8 +51,7 @@ template <typename Fn, typename Meanwhile>
 void parallel_for_in_background(std::size_t n, unsigned threads, Fn&& fn, Meanwhile&& meanwhile) {
   std::atomic<std::size_t> next{0};
   const auto worker = [&] {
-    const auto self = static_cast<id_t>(::gettid());
-    (void)::setpriority(PRIO_PROCESS, self, ::getpriority(PRIO_PROCESS, self) + kBackgroundNiceness);
+    detail::lower_this_threads_priority(kBackgroundNiceness);
     detail::take_indices(next, n, fn);
   };
   std::vector<std::jthread> workers;
