@@ -1,8 +1,12 @@
 #include "fit_json.hpp"
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <optional>
+#include <vector>
 
 namespace skinspec {
 
@@ -12,34 +16,105 @@ nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::js
 
 std::string_view param_name(ModelKind model, std::size_t i) { return model_spec(model).params[i].name; }
 
-nlohmann::json determination_json(const FitResult& fit, const ParamDetermination& d) {
-  nlohmann::json out = {{"determined", d.determined()}};
-  if (!d.determined()) out["reason"] = to_string(d.status);
+// JSON text written as it goes: no values built first, for the judgement every stored fit
+// keeps (an import or a refit writes thousands a second). Keys come in the order the callers
+// give, which is sorted, as the JSON library keeps an object's keys.
+class JsonText {
+ public:
+  JsonText& open(char bracket) {
+    separate();
+    out_ += bracket;
+    first_ = true;
+    return *this;
+  }
+  JsonText& close(char bracket) {
+    out_ += bracket;
+    first_ = false;
+    return *this;
+  }
+  JsonText& key(std::string_view name) {
+    string(name);
+    out_ += ':';
+    first_ = true;
+    return *this;
+  }
+  // The shortest text that reads back as `v`, with ".0" where it would read as an integer;
+  // null for a value that is not finite.
+  JsonText& number(double v) {
+    if (!std::isfinite(v)) return null();
+    separate();
+    char text[32];
+    const std::string_view written(std::begin(text), std::to_chars(std::begin(text), std::end(text), v).ptr);
+    out_ += written;
+    if (written.find_first_of(".e") == std::string_view::npos) out_ += ".0";
+    return *this;
+  }
+  JsonText& boolean(bool v) { return literal(v ? "true" : "false"); }
+  JsonText& null() { return literal("null"); }
+  // As it is between quotes when nothing in it needs escaping (names and reasons never do),
+  // else as the JSON library writes it (a note may hold anything).
+  JsonText& string(std::string_view text) {
+    separate();
+    const bool plain = std::ranges::all_of(text, [](char c) { return c >= 0x20 && c < 0x7f && c != '"' && c != '\\'; });
+    if (plain) {
+      out_ += '"';
+      out_ += text;
+      out_ += '"';
+    } else {
+      out_ += nlohmann::json(text).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    }
+    return *this;
+  }
+  std::string take() { return std::move(out_); }
+
+ private:
+  JsonText& literal(std::string_view text) {
+    separate();
+    out_ += text;
+    return *this;
+  }
+  void separate() {
+    if (!first_) out_ += ',';
+    first_ = false;
+  }
+
+  std::string out_;
+  bool first_ = true;
+};
+
+// {correlated_with?, determined, reason?}
+void write_determination(JsonText& out, const FitResult& fit, const ParamDetermination& d) {
+  out.open('{');
   if (d.correlated_with >= 0)
-    out["correlated_with"] = param_name(fit.model, static_cast<std::size_t>(d.correlated_with));
-  return out;
+    out.key("correlated_with").string(param_name(fit.model, static_cast<std::size_t>(d.correlated_with)));
+  out.key("determined").boolean(d.determined());
+  if (!d.determined()) out.key("reason").string(to_string(d.status));
+  out.close('}');
 }
 
-nlohmann::json derived_json(const DerivedQuantity& q) {
-  nlohmann::json out = {{"value", finite_or_null(q.value)},
-                        {"stderr", q.determined() ? finite_or_null(q.standard_error) : nlohmann::json()},
-                        {"determined", q.determined()}};
-  if (!q.determined()) out["reason"] = to_string(q.status);
-  return out;
+// {determined, reason?, stderr, value}
+void write_derived(JsonText& out, const DerivedQuantity& q) {
+  out.open('{').key("determined").boolean(q.determined());
+  if (!q.determined()) out.key("reason").string(to_string(q.status));
+  out.key("stderr");
+  if (q.determined()) out.number(q.standard_error);
+  else out.null();
+  out.key("value").number(q.value).close('}');
 }
 
 // The parameters' names in order, and their correlation matrix row by row (null where a
-// parameter was not fitted).
-nlohmann::json correlation_json(const FitResult& fit) {
+// parameter was not fitted): {matrix, params}.
+void write_correlation(JsonText& out, const FitResult& fit) {
   const std::size_t n = fit.params.size();
-  nlohmann::json names = nlohmann::json::array(), matrix = nlohmann::json::array();
+  out.open('{').key("matrix").open('[');
   for (std::size_t i = 0; i < n; ++i) {
-    names.push_back(param_name(fit.model, i));
-    nlohmann::json row = nlohmann::json::array();
-    for (std::size_t j = 0; j < n; ++j) row.push_back(finite_or_null(fit.correlation_between(i, j)));
-    matrix.push_back(std::move(row));
+    out.open('[');
+    for (std::size_t j = 0; j < n; ++j) out.number(fit.correlation_between(i, j));
+    out.close(']');
   }
-  return {{"params", names}, {"matrix", matrix}};
+  out.close(']').key("params").open('[');
+  for (std::size_t i = 0; i < n; ++i) out.string(param_name(fit.model, i));
+  out.close(']').close('}');
 }
 
 }  // namespace
@@ -50,21 +125,30 @@ nlohmann::json params_to_json(ModelKind model, const Params& params) {
   return out;
 }
 
-nlohmann::json assessment_to_json(const FitResult& fit) {
-  nlohmann::json out = nlohmann::json::object();
-  if (fit.determination.size() == fit.params.size() && !fit.params.empty()) {
-    nlohmann::json determination = nlohmann::json::object();
-    for (std::size_t i = 0; i < fit.params.size(); ++i)
-      determination[std::string(param_name(fit.model, i))] = determination_json(fit, fit.determination[i]);
-    out["determination"] = std::move(determination);
-    out["derived"] = {{"oxygen_saturation", derived_json(fit.oxygen_saturation)},
-                      {"blood_volume_fraction", derived_json(fit.blood_volume_fraction)}};
+std::string assessment_text(const FitResult& fit) {
+  const std::size_t n = fit.params.size();
+  JsonText out;
+  out.open('{');
+  if (fit.correlation.size() == n * n && n > 0) write_correlation(out.key("correlation"), fit);
+  if (fit.determination.size() == n && n > 0) {
+    out.key("derived").open('{');
+    write_derived(out.key("blood_volume_fraction"), fit.blood_volume_fraction);
+    write_derived(out.key("oxygen_saturation"), fit.oxygen_saturation);
+    out.close('}');
+    std::vector<std::size_t> by_name(n);
+    std::iota(by_name.begin(), by_name.end(), 0);
+    std::ranges::sort(by_name, {}, [&](std::size_t i) { return param_name(fit.model, i); });
+    out.key("determination").open('{');
+    for (const std::size_t i : by_name)
+      write_determination(out.key(param_name(fit.model, i)), fit, fit.determination[i]);
+    out.close('}');
   }
-  if (fit.correlation.size() == fit.params.size() * fit.params.size() && !fit.params.empty())
-    out["correlation"] = correlation_json(fit);
-  if (!fit.coverage_note.empty()) out["note"] = fit.coverage_note;
-  return out;
+  if (!fit.coverage_note.empty()) out.key("note").string(fit.coverage_note);
+  out.close('}');
+  return out.take();
 }
+
+nlohmann::json assessment_to_json(const FitResult& fit) { return nlohmann::json::parse(assessment_text(fit)); }
 
 namespace {
 

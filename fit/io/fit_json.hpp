@@ -3,6 +3,7 @@
 // print exactly the same fields.
 
 #include <nlohmann/json.hpp>
+#include <string>
 #include <string_view>
 
 #include "skinspec/fit/fitter.hpp"
@@ -17,8 +18,11 @@ namespace skinspec {
 // determination says why.
 nlohmann::json fit_to_json(std::string_view name, const FitResult& fit);
 
-// What the spectrum determined, as fit_to_json gives it: {determination, derived, correlation,
-// note}, each only when the fit has it. The stored form of a fit's judgement.
+// What the spectrum determined, as fit_to_json gives it: {correlation, derived, determination,
+// note}, each only when the fit has it; the stored form of a fit's judgement, written directly
+// as text (keys sorted, as the JSON library would write them).
+std::string assessment_text(const FitResult& fit);
+// The same as JSON values.
 nlohmann::json assessment_to_json(const FitResult& fit);
 
 // Reads assessment_to_json's object back into `fit` (whose model and params are set): its

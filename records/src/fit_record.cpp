@@ -42,7 +42,7 @@ store::Fit to_store_fit(const FitResult& result, const FitOptions& options, cons
   const auto specs = model_spec(result.model).params;
   for (std::size_t i = 0; i < result.params.size() && i < specs.size(); ++i)
     f.params.push_back({std::string(specs[i].name), result.params[i], result.standard_error[i]});
-  f.assessment = assessment_to_json(result).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  f.assessment = assessment_text(result);
   f.options = nlohmann::json{{"site", options.site}, {"lateral_diffusion", options.lateral_diffusion}}.dump();
   f.model_version = model_version();
   f.tables_digest = optics.tables_digest();
