@@ -20,7 +20,8 @@ nlohmann::json fit_to_json(std::string_view name, const FitResult& fit);
 
 // What the spectrum determined, as fit_to_json gives it: {correlation, derived, determination,
 // note}, each only when the fit has it; the stored form of a fit's judgement, written directly
-// as text (keys sorted, as the JSON library would write them).
+// as text, keys sorted as the JSON library keeps them. Its numbers read back exactly, though
+// not always in the library's words (1e-04 where it writes 0.0001).
 std::string assessment_text(const FitResult& fit);
 // The same as JSON values.
 nlohmann::json assessment_to_json(const FitResult& fit);
