@@ -150,6 +150,16 @@ double legendre(std::size_t n, double x) {
   return current;
 }
 
+// The constants' names and values as applied, hashed.
+std::string constants_digest_of(ModelKind model, const ModelConstants& constants) {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  const auto specs = model_spec(model).constants;
+  const auto values = constant_values(model, constants);
+  for (std::size_t i = 0; i < specs.size() && i < values.size(); ++i)
+    hash = fnv1a(hash, fmt::format("{}={:.17g};", specs[i].name, values[i]));
+  return fmt::format("{:016x}", hash);
+}
+
 }  // namespace
 
 std::expected<ModelConstants, InputError> parse_constants(const Table& t, ModelKind model) {
@@ -249,16 +259,8 @@ SkinOptics SkinOptics::with_constants(const ModelConstants& constants) const {
   SkinOptics copy = *this;
   copy.constants_ = constants;
   copy.optics_ = with_constants_applied(base_, constants);
+  copy.constants_digest_ = constants_digest_of(copy.model_, constants);
   return copy;
-}
-
-std::string SkinOptics::constants_digest() const {
-  std::uint64_t hash = 0xcbf29ce484222325ULL;
-  const auto specs = model_spec(model_).constants;
-  const auto values = constant_values(model_, constants_);
-  for (std::size_t i = 0; i < specs.size() && i < values.size(); ++i)
-    hash = fnv1a(hash, fmt::format("{}={:.17g};", specs[i].name, values[i]));
-  return fmt::format("{:016x}", hash);
 }
 
 std::vector<std::string> SkinOptics::site_names() const {

@@ -48,12 +48,18 @@ class Refit {
   // longest; storing and reading, which it would wait for, go first.
   std::expected<RefitReport, store::StoreError> run(const RefitObserver& observer) {
     store::RefitQuery query{current_fit_maker(fitter_, request_.model), request_.session_id, 0, kBatch};
-    auto total = store_.count_measurements_to_refit(query);
-    if (!total) return std::unexpected(total.error());
-    report_.progress.total = *total;
+    // Counted while the first batch is read and fitted: the count reads about as much as all
+    // the batches together, and done first it left a core idle for 0.2-0.3 s of a refit of
+    // 100,000.
+    auto counting = std::async(std::launch::async, [this, query] { return store_.count_measurements_to_refit(query); });
     std::future<StoreOutcome> storing;
     // The batch being stored counted once it is: the observer hears, and may stop the refit.
     const auto settle = [&]() -> std::expected<bool, store::StoreError> {
+      if (counting.valid()) {
+        auto total = counting.get();
+        if (!total) return std::unexpected(total.error());
+        report_.progress.total = *total;
+      }
       if (!storing.valid()) return true;
       auto outcome = storing.get();
       if (!outcome) return std::unexpected(outcome.error());

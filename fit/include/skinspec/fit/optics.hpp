@@ -94,8 +94,9 @@ class SkinOptics {
   // provenance.
   const std::string& tables_digest() const { return digest_; }
   // A hex digest of the tuned constants alone (their names and values as applied): two fits
-  // with the same constants digest used the same constants whatever else changed.
-  std::string constants_digest() const;
+  // with the same constants digest used the same constants whatever else changed. Every fit
+  // stored names it, so it is taken once, when the constants are applied.
+  const std::string& constants_digest() const { return constants_digest_; }
 
   // The same tables under other constants (used while tuning them).
   SkinOptics with_constants(const ModelConstants& constants) const;
@@ -107,6 +108,7 @@ class SkinOptics {
   std::vector<Site> sites_;
   ModelConstants constants_;
   std::string digest_;
+  std::string constants_digest_;
 };
 
 }  // namespace skinspec
