@@ -21,6 +21,7 @@ namespace skinspec {
 namespace {
 
 using namespace skinspec::store;
+using ::testing::AnyOf;
 using ::testing::HasSubstr;
 using testing::value_of;
 
@@ -158,11 +159,12 @@ TEST_F(RefitTest, StoppedAfterABatchAndRunAgainEachMeasurementIsRefittedOnce) {
         records::refit(store, testing::shipped_fitter(), {}, [](const records::RefitProgress&) { return false; });
     ASSERT_TRUE(first);
     EXPECT_TRUE(first->stopped);
-    EXPECT_EQ(first->progress.done, 512);
+    // The batch stored, and the next if it was already handed to storing.
+    EXPECT_THAT(first->progress.done, AnyOf(512, 1024));
     const auto rest = records::refit(store, testing::shipped_fitter(), {}, {});
     ASSERT_TRUE(rest);
-    EXPECT_EQ(rest->progress.total, 1100 - 512);
-    EXPECT_EQ(rest->progress.done, 1100 - 512);
+    EXPECT_EQ(rest->progress.total, 1100 - first->progress.done);
+    EXPECT_EQ(rest->progress.done, 1100 - first->progress.done);
   }
   expect_each_refitted_once();
 }

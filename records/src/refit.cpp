@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <deque>
 #include <future>
 #include <map>
 
@@ -45,66 +46,95 @@ class Refit {
 
   // Three things at once: batch n is stored on a thread of its own while batch n + 1 is fitted
   // on threads of lower priority and batch n + 2 read on this one. The fitting is what takes
-  // longest; storing and reading, which it would wait for, go first.
+  // longest; storing and reading, which it would wait for, go first. A batch may wait to be
+  // stored behind the one before it, so that a store slowed for a while (by the log being
+  // copied into the file after an import) does not stop the fitting.
   std::expected<RefitReport, store::StoreError> run(const RefitObserver& observer) {
     store::RefitQuery query{current_fit_maker(fitter_, request_.model), request_.session_id, 0, kBatch};
     // Counted while the first batch is read and fitted: the count reads about as much as all
     // the batches together, and done first it left a core idle for 0.2-0.3 s of a refit of
     // 100,000.
-    auto counting = std::async(std::launch::async, [this, query] { return store_.count_measurements_to_refit(query); });
-    std::future<StoreOutcome> storing;
-    // The batch being stored counted once it is: the observer hears, and may stop the refit.
-    const auto settle = [&]() -> std::expected<bool, store::StoreError> {
-      if (counting.valid()) {
-        auto total = counting.get();
-        if (!total) return std::unexpected(total.error());
-        report_.progress.total = *total;
-      }
-      if (!storing.valid()) return true;
-      auto outcome = storing.get();
-      if (!outcome) return std::unexpected(outcome.error());
-      report_.progress.done += *outcome;
-      return !observer || observer(progress_now());
-    };
+    counting_ = std::async(std::launch::async, [this, query] { return store_.count_measurements_to_refit(query); });
     auto batch = store_.measurements_to_refit(query);
     for (;;) {
-      if (!batch) {
-        (void)settle();
-        return std::unexpected(batch.error());
-      }
+      if (!batch) return finish(batch.error());
       if (batch->empty()) break;
       query.after_id = batch->back().id;
       // Read while this batch is fitted; an error, not an end, should that not happen.
       Batch next = std::unexpected(store::StoreError{store::StoreError::Kind::internal, "the next batch was not read"});
       auto fits = fit_batch(*batch, [&] { next = store_.measurements_to_refit(query); });
-      if (!fits) {
-        (void)settle();
-        return std::unexpected(fits.error());
-      }
-      auto go_on = settle();
-      if (!go_on) return std::unexpected(go_on.error());
+      if (!fits) return finish(fits.error());
+      auto go_on = settle(observer, kBatchesStoring - 1);
+      if (!go_on) return finish(go_on.error());
       if (!*go_on) {
         report_.stopped = true;
-        return report_;
+        return finish(std::nullopt);
       }
-      storing = std::async(std::launch::async, [this, fits = std::move(*fits)]() -> StoreOutcome {
-        if (fits.empty()) return 0;
-        auto stored = store_.add_fits(fits);
-        if (!stored) return std::unexpected(stored.error());
-        return static_cast<std::int64_t>(fits.size());
-      });
+      store_after_the_others(std::move(*fits));
       batch = std::move(next);
     }
-    auto go_on = settle();
-    if (!go_on) return std::unexpected(go_on.error());
+    auto go_on = settle(observer, 0);
+    if (!go_on) return finish(go_on.error());
     report_.stopped = !*go_on;
-    return report_;
+    return finish(std::nullopt);
   }
 
  private:
   using StoreOutcome = std::expected<std::int64_t, store::StoreError>;  // fits stored
-
   using Batch = std::expected<std::vector<store::Measurement>, store::StoreError>;
+
+  // At most this many batches handed to storing and not yet counted.
+  static constexpr std::size_t kBatchesStoring = 2;
+
+  // Stores `fits` on a thread of its own once the batch handed before has been: the batches
+  // commit in order.
+  void store_after_the_others(std::vector<store::Fit> fits) {
+    std::shared_future<StoreOutcome> before = storing_.empty() ? std::shared_future<StoreOutcome>{} : storing_.back();
+    storing_.push_back(std::async(std::launch::async, [this, before, fits = std::move(fits)]() -> StoreOutcome {
+                         if (before.valid()) before.wait();
+                         if (fits.empty()) return 0;
+                         auto stored = store_.add_fits(fits);
+                         if (!stored) return std::unexpected(stored.error());
+                         return static_cast<std::int64_t>(fits.size());
+                       }).share());
+  }
+
+  // Counts the batches stored so far, oldest first, waiting for the oldest while more than
+  // `left` are in hand (and for the count, the first time): the observer hears of each, and
+  // may stop the refit.
+  std::expected<bool, store::StoreError> settle(const RefitObserver& observer, std::size_t left) {
+    if (counting_.valid()) {
+      auto total = counting_.get();
+      if (!total) return std::unexpected(total.error());
+      report_.progress.total = *total;
+    }
+    while (!storing_.empty() && (storing_.size() > left || is_ready(storing_.front()))) {
+      const auto outcome = take_oldest();
+      if (!outcome) return std::unexpected(outcome.error());
+      if (observer && !observer(progress_now())) return false;
+    }
+    return true;
+  }
+
+  // The report, or `error`, once every batch handed to storing is stored and counted: however
+  // a refit ends, it leaves nothing running and reports all it stored.
+  std::expected<RefitReport, store::StoreError> finish(std::optional<store::StoreError> error) {
+    while (!storing_.empty()) (void)take_oldest();
+    if (counting_.valid()) counting_.wait();
+    if (error) return std::unexpected(std::move(*error));
+    return report_;
+  }
+
+  StoreOutcome take_oldest() {
+    StoreOutcome outcome = storing_.front().get();
+    storing_.pop_front();
+    if (outcome) report_.progress.done += *outcome;
+    return outcome;
+  }
+
+  static bool is_ready(const std::shared_future<StoreOutcome>& f) {
+    return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  }
 
   // The batch's fits, while `meanwhile` runs on this thread; the measurements the fitter refused
   // counted and named in the report.
@@ -163,6 +193,8 @@ class Refit {
   RefitReport report_;
   std::map<store::Id, std::string> sites_;
   Clock::time_point started_ = Clock::now();
+  std::future<std::expected<std::int64_t, store::StoreError>> counting_;
+  std::deque<std::shared_future<StoreOutcome>> storing_;  // oldest first
 };
 
 }  // namespace

@@ -31,7 +31,9 @@ struct RefitProgress {
   std::optional<double> remaining_s{};  // at the rate so far, once there is one
 };
 
-// Told after each batch is stored; returning false stops the refit there (what is stored stays).
+// Told after each batch is stored; returning false stops the refit there. What is stored
+// stays, and so does the batch already handed to storing behind it, if there is one: the
+// report counts it.
 using RefitObserver = std::function<bool(const RefitProgress&)>;
 
 struct RefitReport {
