@@ -6,6 +6,8 @@
 #include <deque>
 #include <future>
 #include <map>
+#include <optional>
+#include <utility>
 
 #include "skinspec/records/fit_record.hpp"
 #include "skinspec/spectral/parallel.hpp"
@@ -46,9 +48,9 @@ class Refit {
 
   // Three things at once: batch n is stored on a thread of its own while batch n + 1 is fitted
   // on threads of lower priority and batch n + 2 read on this one. The fitting is what takes
-  // longest; storing and reading, which it would wait for, go first. A batch may wait to be
-  // stored behind the one before it, so that a store slowed for a while (by the log being
-  // copied into the file after an import) does not stop the fitting.
+  // longest; storing and reading, which it would wait for, go first. Fitted batches may queue
+  // for storing (kBatchesStoring), so that a store slowed for a while does not stop the
+  // fitting.
   std::expected<RefitReport, store::StoreError> run(const RefitObserver& observer) {
     store::RefitQuery query{current_fit_maker(fitter_, request_.model), request_.session_id, 0, kBatch};
     // Counted while the first batch is read and fitted: the count reads about as much as all
@@ -83,20 +85,30 @@ class Refit {
   using StoreOutcome = std::expected<std::int64_t, store::StoreError>;  // fits stored
   using Batch = std::expected<std::vector<store::Measurement>, store::StoreError>;
 
-  // At most this many batches handed to storing and not yet counted.
-  static constexpr std::size_t kBatchesStoring = 2;
+  // At most this many batches handed to storing and not yet counted: 8,192 fits, about 40 MB,
+  // some 0.7 s of fitting on 2 cores. A commit can be held up about that long by the disk (by
+  // the file being synced after the log of an import of 100,000 was copied into it); with
+  // room for only one batch behind it, the fitting stopped that long.
+  static constexpr std::size_t kBatchesStoring = 16;
 
-  // Stores `fits` on a thread of its own once the batch handed before has been: the batches
-  // commit in order.
+  // Stores `fits` on a thread of its own once the batch handed before has been, and not at all
+  // if that one failed: the batches commit in order. The task lets go of the batch before and
+  // of its own fits when it ends, or each would hold every batch before it until the last.
   void store_after_the_others(std::vector<store::Fit> fits) {
     std::shared_future<StoreOutcome> before = storing_.empty() ? std::shared_future<StoreOutcome>{} : storing_.back();
-    storing_.push_back(std::async(std::launch::async, [this, before, fits = std::move(fits)]() -> StoreOutcome {
-                         if (before.valid()) before.wait();
-                         if (fits.empty()) return 0;
-                         auto stored = store_.add_fits(fits);
-                         if (!stored) return std::unexpected(stored.error());
-                         return static_cast<std::int64_t>(fits.size());
-                       }).share());
+    storing_.push_back(
+        std::async(std::launch::async, [this, before = std::move(before), fits = std::move(fits)]() mutable {
+          return store_in_turn(std::exchange(before, {}), std::exchange(fits, {}));
+        }).share());
+  }
+
+  StoreOutcome store_in_turn(std::shared_future<StoreOutcome> before, std::vector<store::Fit> fits) {
+    if (before.valid() && !before.get())
+      return std::unexpected(store::StoreError{store::StoreError::Kind::internal, "an earlier batch was not stored"});
+    if (fits.empty()) return 0;
+    auto stored = store_.add_fits(fits);
+    if (!stored) return std::unexpected(stored.error());
+    return static_cast<std::int64_t>(fits.size());
   }
 
   // Counts the batches stored so far, oldest first, waiting for the oldest while more than
@@ -116,10 +128,14 @@ class Refit {
     return true;
   }
 
-  // The report, or `error`, once every batch handed to storing is stored and counted: however
-  // a refit ends, it leaves nothing running and reports all it stored.
+  // The report, or the first error, once every batch handed to storing is stored and counted:
+  // however a refit ends, it leaves nothing running, reports all it stored, and does not keep
+  // quiet about a batch that failed after it was asked to stop.
   std::expected<RefitReport, store::StoreError> finish(std::optional<store::StoreError> error) {
-    while (!storing_.empty()) (void)take_oldest();
+    while (!storing_.empty()) {
+      auto outcome = take_oldest();
+      if (!outcome && !error) error = std::move(outcome.error());
+    }
     if (counting_.valid()) counting_.wait();
     if (error) return std::unexpected(std::move(*error));
     return report_;

@@ -31,9 +31,9 @@ struct RefitProgress {
   std::optional<double> remaining_s{};  // at the rate so far, once there is one
 };
 
-// Told after each batch is stored; returning false stops the refit there. What is stored
-// stays, and so does the batch already handed to storing behind it, if there is one: the
-// report counts it.
+// Told after each batch is stored, in order; returning false stops the refit there. What is
+// stored stays, and so do the batches already fitted and waiting to be stored (a few, and not
+// told of): the report counts them.
 using RefitObserver = std::function<bool(const RefitProgress&)>;
 
 struct RefitReport {
