@@ -174,8 +174,8 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
     result.max_abs_error = std::max(result.max_abs_error, std::abs(r));
   }
   result.rmse = std::sqrt(sum_squares / static_cast<double>(result.fitted.size()));
-  const auto measured_lab = Colorimetry::lab(*Spectrum::create(result.wavelength_nm, result.measured), d65_);
-  const auto fitted_lab = Colorimetry::lab(*Spectrum::create(result.wavelength_nm, result.fitted), d65_);
+  const auto measured_lab = Colorimetry::lab(result.wavelength_nm, result.measured, d65_);
+  const auto fitted_lab = Colorimetry::lab(result.wavelength_nm, result.fitted, d65_);
   result.delta_e00_d65 = delta_e2000(measured_lab, fitted_lab);
   result.coverage_note = coverage_note(result);
   return result;

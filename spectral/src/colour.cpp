@@ -5,6 +5,7 @@
 #include <numbers>
 #include <string>
 
+#include "resample.hpp"
 #include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec {
@@ -142,16 +143,22 @@ ColourWeighting Colorimetry::weighting(const Spectrum& illuminant) const {
   return w;
 }
 
-Xyz Colorimetry::xyz(const Spectrum& reflectance, const ColourWeighting& w) {
-  const Spectrum r = reflectance.resampled(observer_grid());
-  const auto values = r.values();
+Xyz Colorimetry::xyz(std::span<const double> wavelength_nm, std::span<const double> values, const ColourWeighting& w) {
   Xyz sum;
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    sum.x += values[i] * w.x[i];
-    sum.y += values[i] * w.y[i];
-    sum.z += values[i] * w.z[i];
-  }
+  detail::resample_onto(wavelength_nm, values, observer_grid(), [&](std::size_t i, double value) {
+    sum.x += value * w.x[i];
+    sum.y += value * w.y[i];
+    sum.z += value * w.z[i];
+  });
   return sum;
+}
+
+Lab Colorimetry::lab(std::span<const double> wavelength_nm, std::span<const double> values, const ColourWeighting& w) {
+  return xyz_to_lab(xyz(wavelength_nm, values, w), w.white);
+}
+
+Xyz Colorimetry::xyz(const Spectrum& reflectance, const ColourWeighting& w) {
+  return xyz(reflectance.wavelengths(), reflectance.values(), w);
 }
 
 Lab Colorimetry::lab(const Spectrum& reflectance, const ColourWeighting& w) {

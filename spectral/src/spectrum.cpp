@@ -4,6 +4,8 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include "resample.hpp"
+
 namespace skinspec {
 
 std::expected<Spectrum, std::string> Spectrum::create(std::vector<double> wavelength_nm, std::vector<double> values) {
@@ -44,25 +46,8 @@ double interpolate(std::span<const double> xs, std::span<const double> ys, doubl
 double Spectrum::at(double wavelength_nm) const { return interpolate(wavelength_nm_, values_, wavelength_nm); }
 
 Spectrum Spectrum::resampled(std::span<const double> grid_nm) const {
-  // One sweep along both grids when the target is ordered (the usual case), instead of a
-  // search per point.
   std::vector<double> values(grid_nm.size());
-  std::size_t upper = 1;
-  for (std::size_t i = 0; i < grid_nm.size(); ++i) {
-    const double w = grid_nm[i];
-    if (i > 0 && w < grid_nm[i - 1]) upper = 1;
-    if (w <= first_nm()) {
-      values[i] = values_.front();
-      continue;
-    }
-    if (w >= last_nm()) {
-      values[i] = values_.back();
-      continue;
-    }
-    while (wavelength_nm_[upper] < w) ++upper;
-    const double t = (w - wavelength_nm_[upper - 1]) / (wavelength_nm_[upper] - wavelength_nm_[upper - 1]);
-    values[i] = values_[upper - 1] + t * (values_[upper] - values_[upper - 1]);
-  }
+  detail::resample_onto(wavelength_nm_, values_, grid_nm, [&](std::size_t i, double v) { values[i] = v; });
   return Spectrum({grid_nm.begin(), grid_nm.end()}, std::move(values));
 }
 

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <expected>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -48,6 +49,12 @@ class Colorimetry {
   ColourWeighting weighting(const Spectrum& illuminant) const;
   static Xyz xyz(const Spectrum& reflectance, const ColourWeighting& weighting);
   static Lab lab(const Spectrum& reflectance, const ColourWeighting& weighting);
+  // The same of samples not made a Spectrum: `wavelength_nm` increasing, as long as `values`,
+  // at least two.
+  static Xyz xyz(std::span<const double> wavelength_nm, std::span<const double> values,
+                 const ColourWeighting& weighting);
+  static Lab lab(std::span<const double> wavelength_nm, std::span<const double> values,
+                 const ColourWeighting& weighting);
 
  private:
   Spectrum xbar_, ybar_, zbar_, d65_, a_;
