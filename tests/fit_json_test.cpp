@@ -192,6 +192,18 @@ TEST(AssessmentText, NotesOfAnyTextAndValuesThatAreNotNumbers) {
   EXPECT_EQ(read_back(fit, assessment_text(fit)).coverage_note, "a bad \xEF\xBF\xBD byte");
 }
 
+TEST(OptionsText, IsWhatTheJsonLibraryWritesForThem) {
+  for (const bool lateral : {true, false}) {
+    for (const char* site : {"forearm", "", "cheek \"left\"\\", "caf\xC3\xA9", "a bad \xFF byte"}) {
+      FitOptions options;
+      options.site = site;
+      options.lateral_diffusion = lateral;
+      const json reference{{"site", options.site}, {"lateral_diffusion", lateral}};
+      EXPECT_EQ(options_text(options), reference.dump(-1, ' ', false, json::error_handler_t::replace)) << site;
+    }
+  }
+}
+
 TEST(AssessmentText, AFitNotJudgedIsAnEmptyObject) {
   FitResult fit;
   fit.model = ModelKind::paper;

@@ -150,6 +150,12 @@ std::string assessment_text(const FitResult& fit) {
 
 nlohmann::json assessment_to_json(const FitResult& fit) { return nlohmann::json::parse(assessment_text(fit)); }
 
+std::string options_text(const FitOptions& options) {
+  JsonText out;
+  out.open('{').key("lateral_diffusion").boolean(options.lateral_diffusion).key("site").string(options.site);
+  return out.close('}').take();
+}
+
 namespace {
 
 double number_or_nan(const nlohmann::json& v) {

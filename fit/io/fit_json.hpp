@@ -26,6 +26,10 @@ std::string assessment_text(const FitResult& fit);
 // The same as JSON values.
 nlohmann::json assessment_to_json(const FitResult& fit);
 
+// The options a fit was made with, as a stored fit keeps them: {"lateral_diffusion", "site"},
+// written directly as text like assessment_text.
+std::string options_text(const FitOptions& options);
+
 // Reads assessment_to_json's object back into `fit` (whose model and params are set): its
 // determination, derived quantities, correlation and note. A field that is absent stays
 // empty (a fit stored before fits were judged); false when a field is malformed.

@@ -43,7 +43,7 @@ store::Fit to_store_fit(const FitResult& result, const FitOptions& options, cons
   for (std::size_t i = 0; i < result.params.size() && i < specs.size(); ++i)
     f.params.push_back({std::string(specs[i].name), result.params[i], result.standard_error[i]});
   f.assessment = assessment_text(result);
-  f.options = nlohmann::json{{"site", options.site}, {"lateral_diffusion", options.lateral_diffusion}}.dump();
+  f.options = options_text(options);
   f.model_version = model_version();
   f.tables_digest = optics.tables_digest();
   f.constants_digest = optics.constants_digest();
