@@ -193,6 +193,8 @@ TEST(AssessmentText, NotesOfAnyTextAndValuesThatAreNotNumbers) {
 }
 
 TEST(OptionsText, IsWhatTheJsonLibraryWritesForThem) {
+  // A bad byte, which only a site the fitter does not know could hold, is replaced, as in the
+  // service's other JSON (the library's default would throw).
   for (const bool lateral : {true, false}) {
     for (const char* site : {"forearm", "", "cheek \"left\"\\", "caf\xC3\xA9", "a bad \xFF byte"}) {
       FitOptions options;

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
 #include <chrono>
 #include <deque>
 #include <future>
@@ -85,10 +86,10 @@ class Refit {
   using StoreOutcome = std::expected<std::int64_t, store::StoreError>;  // fits stored
   using Batch = std::expected<std::vector<store::Measurement>, store::StoreError>;
 
-  // At most this many batches handed to storing and not yet counted: 8,192 fits, about 40 MB,
-  // some 0.7 s of fitting on 2 cores. A commit can be held up about that long by the disk (by
-  // the file being synced after the log of an import of 100,000 was copied into it); with
-  // room for only one batch behind it, the fitting stopped that long.
+  // At most this many batches handed to storing and not yet counted: 8,192 fits, about 40 MB
+  // (beside the batch being fitted and those being read), some 0.7 s of fitting on 2 cores. A commit can be held up
+  // about that long by the disk (by the file being synced after the log of an import of 100,000 was copied into it);
+  // with room for only one batch behind it, the fitting stopped that long.
   static constexpr std::size_t kBatchesStoring = 16;
 
   // Stores `fits` on a thread of its own once the batch handed before has been, and not at all
@@ -105,7 +106,9 @@ class Refit {
   StoreOutcome store_in_turn(std::shared_future<StoreOutcome> before, std::vector<store::Fit> fits) {
     if (before.valid() && !before.get())
       return std::unexpected(store::StoreError{store::StoreError::Kind::internal, "an earlier batch was not stored"});
-    if (fits.empty()) return 0;
+    // A refit that ends early stores no more than the batch under way: those waiting are
+    // fitted again by the next run.
+    if (fits.empty() || ending_) return 0;
     auto stored = store_.add_fits(fits);
     if (!stored) return std::unexpected(stored.error());
     return static_cast<std::int64_t>(fits.size());
@@ -128,10 +131,12 @@ class Refit {
     return true;
   }
 
-  // The report, or the first error, once every batch handed to storing is stored and counted:
-  // however a refit ends, it leaves nothing running, reports all it stored, and does not keep
-  // quiet about a batch that failed after it was asked to stop.
+  // The report, or the first error, once the batch being stored, if any, is stored and
+  // counted (and those waiting dropped): however a refit ends, it ends promptly, leaves nothing
+  // running, reports all it stored, and does not keep quiet about a batch that failed after it
+  // was asked to stop.
   std::expected<RefitReport, store::StoreError> finish(std::optional<store::StoreError> error) {
+    ending_ = true;
     while (!storing_.empty()) {
       auto outcome = take_oldest();
       if (!outcome && !error) error = std::move(outcome.error());
@@ -211,6 +216,7 @@ class Refit {
   Clock::time_point started_ = Clock::now();
   std::future<std::expected<std::int64_t, store::StoreError>> counting_;
   std::deque<std::shared_future<StoreOutcome>> storing_;  // oldest first
+  std::atomic<bool> ending_{false};
 };
 
 }  // namespace

@@ -32,8 +32,8 @@ struct RefitProgress {
 };
 
 // Told after each batch is stored, in order; returning false stops the refit there. What is
-// stored stays, and so do the batches already fitted and waiting to be stored (a few, and not
-// told of): the report counts them.
+// stored stays, and so does the batch being stored then, if any (not told of, but counted in
+// the report); batches fitted and waiting to be stored are dropped, for the next run.
 using RefitObserver = std::function<bool(const RefitProgress&)>;
 
 struct RefitReport {
