@@ -442,6 +442,30 @@ TEST_F(ApiRouterTest, AStoredFitIsServedOnceFromTheDatabaseThenFromItsCachedAnsw
   expect_error(Router(other).handle(req("GET", path)), 404, "not_found");
 }
 
+TEST_F(ApiRouterTest, OnlyAStoredFitServedBeforeIsAnsweredFromMemory) {
+  const auto session = db_->create_session(testing::sample_session(1));
+  ASSERT_TRUE(session);
+  const auto ids = db_->record_measurement(testing::sample_measurement(*session, 1), testing::sample_fit(1));
+  ASSERT_TRUE(ids && ids->fit_id);
+  const std::string id = std::to_string(*ids->fit_id);
+  const std::string path = "/api/v1/fits/" + id;
+  EXPECT_FALSE(router_->answered_from_memory(req("GET", path)));  // not served yet
+  ASSERT_EQ(call("GET", path).status, 200);
+  EXPECT_TRUE(router_->answered_from_memory(req("GET", path)));
+  EXPECT_TRUE(
+      router_->answered_from_memory(req("GET", "/api/v1/fits/%" + std::to_string(30 + id[0] - '0') + id.substr(1))));
+  for (const auto& [method, target] : std::vector<std::pair<std::string, std::string>>{
+           {"HEAD", path},
+           {"DELETE", path},
+           {"GET", path + "/render.png"},
+           {"GET", "/api/v1/fits/" + std::to_string(*ids->fit_id + 1)},
+           {"GET", "/api/v1/measurements/" + std::to_string(ids->measurement_id)},
+           {"GET", "/api/v1/fits/%zz"},
+           {"GET", "fits/" + id},
+       })
+    EXPECT_FALSE(router_->answered_from_memory(req(method, target))) << method << ' ' << target;
+}
+
 TEST(HttpCaching, TagsEncodingsAndConditions) {
   EXPECT_EQ(detail::etag_of(""), "\"cbf29ce484222325\"");
   EXPECT_TRUE(detail::etag_matches("*", "\"a\""));
@@ -457,6 +481,17 @@ TEST(HttpCaching, TagsEncodingsAndConditions) {
   EXPECT_FALSE(detail::accepts_gzip("deflate, br"));
   EXPECT_FALSE(detail::accepts_gzip("gzipped"));
   EXPECT_FALSE(detail::accepts_gzip(""));
+}
+
+TEST(RenderCache, AskingWhetherItHoldsAValueDoesNotCountAsAUse) {
+  RenderCache cache(25);
+  cache.put("a", std::string(10, 'a'));
+  cache.put("b", std::string(10, 'b'));
+  EXPECT_TRUE(cache.contains("a"));
+  cache.put("c", std::string(10, 'c'));  // a, the least recently used still, goes
+  EXPECT_FALSE(cache.contains("a"));
+  EXPECT_TRUE(cache.contains("b"));
+  EXPECT_TRUE(cache.contains("c"));
 }
 
 TEST(RenderCache, DropsTheLeastRecentlyUsedBeyondItsBudget) {

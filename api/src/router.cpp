@@ -27,6 +27,13 @@ using detail::fail;
 using detail::fail_store;
 using nlohmann::json;
 
+namespace {
+
+// Stored fit `id`'s key in the cache of answers.
+std::string fit_cache_key(store::Id id) { return "fit/" + std::to_string(id); }
+
+}  // namespace
+
 // What a matched route's handler gets: the request, the ids from its path, its query.
 struct Call {
   const Request& request;
@@ -498,7 +505,7 @@ struct Router::Handlers {
   // lets a client that holds it skip the body (304).
   static Response get_fit(const RouterContext& c, const Call& call) {
     no_query(call);
-    const std::string key = "fit/" + std::to_string(call.ids[0]);
+    const std::string key = fit_cache_key(call.ids[0]);
     auto cached = c.body_cache->find(key);
     if (!cached) {
       cached = std::make_shared<const CachedBody>(
@@ -800,6 +807,19 @@ const RouteInfo* Router::route_of(const std::string& method, const std::string& 
 bool Router::is_heavy(const std::string& method, const std::string& target) {
   const RouteInfo* route = route_of(method, target);
   return route != nullptr && route->heavy;
+}
+
+bool Router::answered_from_memory(const Request& request) const {
+  if (request.method != "GET") return false;
+  const std::string_view path = std::string_view(request.target).substr(0, request.target.find('?'));
+  if (path.empty() || path.front() != '/') return false;
+  const auto decoded = detail::percent_decode(path, false);
+  if (!decoded) return false;
+  std::vector<store::Id> ids;
+  std::string allow;
+  const Route* route = find_route(request.method, split_path(*decoded), ids, allow);
+  return route != nullptr && route->handler == &Handlers::get_fit &&
+         context_.body_cache->contains(fit_cache_key(ids[0]));
 }
 
 bool Router::is_upload(const std::string& method, const std::string& target) {

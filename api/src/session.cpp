@@ -113,6 +113,9 @@ void Session::on_read_failure(const beast::error_code& ec) {
 void Session::answer(const std::shared_ptr<RequestMessage>& message) {
   auto request = std::make_shared<Request>(to_request(*message));
   message->body() = std::string();  // the router's copy is the one needed
+  // Handing a request to a worker and its answer back costs two threads woken; an answer held
+  // in memory costs less than that to make here.
+  if (state_->router.answered_from_memory(*request)) return respond(*message, state_->router.handle(*request));
   // The guard keeps the I/O threads running while the router answers, even once the listener
   // has stopped and nothing else is pending, so that the answer is still written.
   auto work = [self = shared_from_this(), message, request,
