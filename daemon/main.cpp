@@ -96,7 +96,7 @@ int serve(const skinspec::daemon::Options& o) {
   options.compute_threads = o.compute_threads;
   options.compute_queue = o.compute_queue;
   options.read_timeout = std::chrono::milliseconds(o.read_timeout_ms);
-  options.io_threads = o.threads;
+  options.io_threads = o.io_threads;
   options.worker_threads = o.threads;
   api::Server server(router, options);
   if (auto ok = server.listen(); !ok) return spdlog::error("event=listen_failed message=\"{}\"", ok.error()), 1;
@@ -190,7 +190,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--read-timeout-ms", o.read_timeout_ms, "time a client has to send a whole request")
       ->capture_default_str();
-  app.add_option("--threads", o.threads, "I/O and worker threads each")
+  app.add_option("--threads", o.threads, "workers answering every request but fits and renders")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  app.add_option("--io-threads", o.io_threads,
+                 "threads reading requests and writing answers, each for the connections it is given")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
   app.add_option("--max-rejected-readings", o.measure.max_rejected_readings,

@@ -39,6 +39,7 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       else if (key == "compute_queue") o.compute_queue = v.get<std::size_t>();
       else if (key == "read_timeout_ms") o.read_timeout_ms = v.get<int>();
       else if (key == "threads") o.threads = v.get<int>();
+      else if (key == "io_threads") o.io_threads = v.get<int>();
       else if (key == "reconnect_initial_ms") o.reconnect_initial_ms = v.get<int>();
       else if (key == "reconnect_max_ms") o.reconnect_max_ms = v.get<int>();
       else if (key == "instrument_check_ms") o.instrument_check_ms = v.get<int>();

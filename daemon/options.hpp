@@ -26,7 +26,8 @@ struct Options {
   std::size_t max_connections = 512;
   std::size_t max_connections_per_client = 64;
   int read_timeout_ms = 10000;
-  int threads = 2;
+  int threads = 2;     // workers running the router for the light routes
+  int io_threads = 1;  // each with the connections it was given
   // Fits and renders: their threads, and the requests that may wait for one.
   std::size_t compute_threads = 2;
   std::size_t compute_queue = 8;

@@ -378,6 +378,7 @@ TEST_F(DaemonTest, ABadBenchOrLeaseIsABadOption) {
   EXPECT_EQ(short_lease.exit_status, 2) << short_lease.describe();
   EXPECT_NE(short_lease.err.find("--lease"), std::string::npos) << short_lease.err;
   EXPECT_EQ(run({"--threads", "0"}).exit_status, 2);
+  EXPECT_EQ(run({"--io-threads", "0"}).exit_status, 2);
   const std::string config = dir_.file("bench.json");
   std::ofstream(config) << R"({"bench": "a/b", "lease": 15})";
   EXPECT_EQ(run({"--config", config}).exit_status, 2);

@@ -41,9 +41,10 @@ void refuse_connection(tcp::socket& socket, std::string_view reply) {
   socket.close(ignored);
 }
 
-Listener::Listener(asio::io_context& ioc, Admit admit, std::function<void()> shed)
-    : ioc_(ioc),
-      strand_(asio::make_strand(ioc)),
+Listener::Listener(std::vector<asio::io_context*> contexts, Admit admit, std::function<void()> shed)
+    : contexts_(std::move(contexts)),
+      ioc_(*contexts_.front()),
+      strand_(asio::make_strand(ioc_)),
       acceptor_(strand_),
       pause_(strand_),
       admit_(std::move(admit)),
@@ -86,7 +87,7 @@ void Listener::close() {
 
 void Listener::accept() {
   if (closed_) return;
-  acceptor_.async_accept(asio::make_strand(ioc_),
+  acceptor_.async_accept(asio::make_strand(next_context()),
                          [self = shared_from_this()](boost::system::error_code ec, tcp::socket socket) {
                            if (self->closed_ || ec == asio::error::operation_aborted) return;
                            if (ec) return self->on_error(ec);
@@ -94,6 +95,8 @@ void Listener::accept() {
                            self->accept();
                          });
 }
+
+asio::io_context& Listener::next_context() { return *contexts_[next_++ % contexts_.size()]; }
 
 void Listener::on_error(const boost::system::error_code& ec) {
   if (out_of_descriptors(ec)) {

@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -28,8 +29,9 @@ void refuse_connection(boost::asio::ip::tcp::socket& socket, std::string_view re
 class Listener : public std::enable_shared_from_this<Listener> {
  public:
   using Admit = std::function<void(boost::asio::ip::tcp::socket)>;
-  // `admit` gets each accepted connection; `shed` is told of each one refused for want of descriptors.
-  Listener(boost::asio::io_context& ioc, Admit admit, std::function<void()> shed);
+  // `admit` gets each accepted connection, on each of `contexts` in turn (the first is the
+  // listener's own); `shed` is told of each one refused for want of descriptors.
+  Listener(std::vector<boost::asio::io_context*> contexts, Admit admit, std::function<void()> shed);
 
   std::expected<void, std::string> open(const boost::asio::ip::tcp::endpoint& endpoint);
   unsigned short port() const;
@@ -48,7 +50,12 @@ class Listener : public std::enable_shared_from_this<Listener> {
   bool shed_one();
   void pause();
 
-  boost::asio::io_context& ioc_;
+  // The next connection's context.
+  boost::asio::io_context& next_context();
+
+  std::vector<boost::asio::io_context*> contexts_;
+  std::size_t next_ = 0;          // on the strand
+  boost::asio::io_context& ioc_;  // the listener's own, the first
   boost::asio::strand<boost::asio::io_context::executor_type> strand_;
   boost::asio::ip::tcp::acceptor acceptor_;
   boost::asio::steady_timer pause_;

@@ -76,11 +76,17 @@ Server::State::State(const Router& r, ServerOptions o)
               }) {}
 
 Server::Server(const Router& router, ServerOptions options)
-    : state_(std::make_shared<State>(router, std::move(options))) {}
+    : state_(std::make_shared<State>(router, std::move(options))) {
+  for (int i = 1; i < state_->options.io_threads; ++i) {
+    more_contexts_.push_back(std::make_unique<asio::io_context>(1));
+    keep_running_.push_back(asio::make_work_guard(*more_contexts_.back()));
+  }
+}
 
 Server::~Server() {
   stop();
   ioc_.stop();
+  for (auto& context : more_contexts_) context->stop();
   state_->workers.join();
   state_->compute.join();
   state_->pullers.hang_up_and_join();
@@ -97,8 +103,10 @@ std::expected<void, std::string> Server::listen() {
     state_->connections.emplace(ConnectionTable::Limits{cap, state_->options.max_connections_per_client});
   }
   const std::weak_ptr<State> weak = state_;
+  std::vector<asio::io_context*> contexts{&ioc_};
+  for (auto& context : more_contexts_) contexts.push_back(context.get());
   state_->listener = std::make_shared<detail::Listener>(
-      ioc_,
+      std::move(contexts),
       [weak](tcp::socket socket) {
         if (const auto state = weak.lock()) admit(state, std::move(socket));
       },
@@ -118,7 +126,7 @@ ServerLimits Server::limits() const {
 
 void Server::run() {
   std::vector<std::thread> threads;
-  for (int i = 1; i < state_->options.io_threads; ++i) threads.emplace_back([this] { ioc_.run(); });
+  for (auto& context : more_contexts_) threads.emplace_back([&context] { context->run(); });
   ioc_.run();
   for (auto& t : threads) t.join();
   state_->workers.join();
@@ -138,6 +146,8 @@ void Server::stop() {
   if (state_->listener) state_->listener->close();
   for (auto& s : sessions) s->shut_down();
   state_->pullers.close_all();
+  // The other threads' contexts run on while connections on them are open, and no longer.
+  for (auto& guard : keep_running_) guard.reset();
 }
 
 }  // namespace skinspec::api

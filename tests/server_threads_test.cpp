@@ -1,0 +1,49 @@
+// The server's I/O threads, each with a context of its own: connections given to each in turn
+// are all served, and a stop ends every thread's work, idle connections and all, so that run()
+// returns.
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <future>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "skinspec/api/router.hpp"
+#include "skinspec/api/server.hpp"
+#include "support/http_client.hpp"
+
+namespace skinspec::api {
+namespace {
+
+using namespace std::chrono_literals;
+
+TEST(ServerThreads, ConnectionsOnEveryThreadAreServedAndAStopEndsThemAll) {
+  const Router router(RouterContext{});
+  ServerOptions options;
+  options.port = 0;
+  options.io_threads = 3;
+  options.worker_threads = 1;
+  Server server(router, options);
+  ASSERT_TRUE(server.listen());
+  auto running = std::async(std::launch::async, [&] { server.run(); });
+
+  // Seven connections over three threads: each thread holds two or three, kept open and idle.
+  std::vector<std::unique_ptr<testing::HttpConnection>> kept;
+  for (int i = 0; i < 7; ++i) {
+    kept.push_back(std::make_unique<testing::HttpConnection>(server.port()));
+    EXPECT_EQ(kept.back()->request("GET", "/healthz").status, 200) << "connection " << i;
+  }
+  for (auto& connection : kept) EXPECT_EQ(connection->request("GET", "/healthz").status, 200);
+
+  server.stop();
+  ASSERT_EQ(running.wait_for(10s), std::future_status::ready) << "run() still serving after stop()";
+  running.get();
+  // Closed once stopped, kept ones and new ones alike.
+  for (auto& connection : kept) EXPECT_NE(connection->request("GET", "/healthz").status, 200);
+  EXPECT_FALSE(testing::http_request(server.port(), "GET", "/healthz").error.empty());
+}
+
+}  // namespace
+}  // namespace skinspec::api
