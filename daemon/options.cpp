@@ -51,6 +51,10 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
   } catch (const json::exception& e) {
     return std::unexpected(std::string("config: ") + e.what());
   }
+  // As the command line's checks have them.
+  for (const auto& [key, value] : {std::pair{"threads", o.threads}, std::pair{"io_threads", o.io_threads}})
+    if (value < 1 || value > 64)
+      return std::unexpected(std::string("config: ") + key + " " + std::to_string(value) + " is not 1-64");
   return {};
 }
 

@@ -380,6 +380,10 @@ TEST_F(DaemonTest, ABadBenchOrLeaseIsABadOption) {
   EXPECT_EQ(run({"--threads", "0"}).exit_status, 2);
   EXPECT_EQ(run({"--io-threads", "0"}).exit_status, 2);
   const std::string config = dir_.file("bench.json");
+  std::ofstream(config) << R"({"io_threads": 0})";
+  const auto no_io_thread = run({"--config", config});
+  EXPECT_EQ(no_io_thread.exit_status, 2) << no_io_thread.describe();
+  EXPECT_NE(no_io_thread.err.find("io_threads 0 is not 1-64"), std::string::npos) << no_io_thread.err;
   std::ofstream(config) << R"({"bench": "a/b", "lease": 15})";
   EXPECT_EQ(run({"--config", config}).exit_status, 2);
   std::ofstream(config) << R"({"lease": 9999})";

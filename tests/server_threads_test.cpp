@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <future>
 #include <memory>
 #include <thread>
@@ -37,12 +38,16 @@ TEST(ServerThreads, ConnectionsOnEveryThreadAreServedAndAStopEndsThemAll) {
   }
   for (auto& connection : kept) EXPECT_EQ(connection->request("GET", "/healthz").status, 200);
 
+  const auto port = server.port();
   server.stop();
-  ASSERT_EQ(running.wait_for(10s), std::future_status::ready) << "run() still serving after stop()";
+  if (running.wait_for(10s) != std::future_status::ready) {
+    ADD_FAILURE() << "run() still serving 10 s after stop()";
+    std::_Exit(1);  // the server's threads would hold the test up for good
+  }
   running.get();
   // Closed once stopped, kept ones and new ones alike.
   for (auto& connection : kept) EXPECT_NE(connection->request("GET", "/healthz").status, 200);
-  EXPECT_FALSE(testing::http_request(server.port(), "GET", "/healthz").error.empty());
+  EXPECT_FALSE(testing::http_request(port, "GET", "/healthz").error.empty());
 }
 
 }  // namespace

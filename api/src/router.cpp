@@ -39,7 +39,11 @@ struct Call {
   const Request& request;
   std::vector<store::Id> ids;
   std::map<std::string, std::string> query;
+  bool from_memory_only = false;  // a handler that would need more throws NotInMemory
 };
+
+// Thrown by a handler asked for an answer from memory alone that does not hold it.
+struct NotInMemory {};
 
 struct Router::Handlers {
   using Fn = Response (*)(const RouterContext&, const Call&);
@@ -507,6 +511,7 @@ struct Router::Handlers {
     no_query(call);
     const std::string key = fit_cache_key(call.ids[0]);
     auto cached = c.body_cache->find(key);
+    if (!cached && call.from_memory_only) throw NotInMemory{};
     if (!cached) {
       cached = std::make_shared<const CachedBody>(
           detail::cacheable(detail::dump(records::to_json(value(store_of(c).fit(call.ids[0]))))));
@@ -809,19 +814,6 @@ bool Router::is_heavy(const std::string& method, const std::string& target) {
   return route != nullptr && route->heavy;
 }
 
-bool Router::answered_from_memory(const Request& request) const {
-  if (request.method != "GET") return false;
-  const std::string_view path = std::string_view(request.target).substr(0, request.target.find('?'));
-  if (path.empty() || path.front() != '/') return false;
-  const auto decoded = detail::percent_decode(path, false);
-  if (!decoded) return false;
-  std::vector<store::Id> ids;
-  std::string allow;
-  const Route* route = find_route(request.method, split_path(*decoded), ids, allow);
-  return route != nullptr && route->handler == &Handlers::get_fit &&
-         context_.body_cache->contains(fit_cache_key(ids[0]));
-}
-
 bool Router::is_upload(const std::string& method, const std::string& target) {
   const RouteInfo* route = route_of(method, target);
   return route != nullptr && route->upload;
@@ -838,7 +830,15 @@ std::optional<ApiError> Router::refuse_upload(const Request& header) const {
   return std::nullopt;
 }
 
-Response Router::handle(const Request& request) const {
+Response Router::handle(const Request& request) const { return *answer(request, false); }
+
+std::optional<Response> Router::answer_from_memory(const Request& request) const {
+  // Only a stored fit's answer is kept; every other request is spared the parsing here.
+  if (request.method != "GET" || !request.target.starts_with("/api/v1/fits/")) return std::nullopt;
+  return answer(request, true);
+}
+
+std::optional<Response> Router::answer(const Request& request, bool from_memory_only) const {
   const auto started = std::chrono::steady_clock::now();
   std::string route_label = "unmatched";
   Response response;
@@ -870,14 +870,17 @@ Response Router::handle(const Request& request) const {
           {ErrorKind::method_not_allowed, "", request.method + " is not allowed here; allowed: " + allow});
       response.headers.emplace_back("Allow", allow);
     } else {
+      if (from_memory_only && matched->handler != &Handlers::get_fit) return std::nullopt;
       route_label = matched->info.method + " " + matched->info.path;
       check_access(context_.access, request, matched->info);
       check_content_type(request, matched->info);
       auto query = detail::parse_query(qmark == std::string_view::npos ? std::string_view{} : target.substr(qmark + 1));
       if (!query)
         fail(ErrorKind::bad_request, "invalid_query", "the query string is malformed, repeats a name or is not UTF-8");
-      response = matched->handler(context_, Call{request, std::move(ids), std::move(*query)});
+      response = matched->handler(context_, Call{request, std::move(ids), std::move(*query), from_memory_only});
     }
+  } catch (const NotInMemory&) {
+    return std::nullopt;
   } catch (const detail::HandlerError& e) {
     response = error_response(e.error);
     if (e.error.kind == ErrorKind::unauthorized) response.headers.emplace_back("WWW-Authenticate", "Bearer");

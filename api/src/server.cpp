@@ -85,6 +85,10 @@ Server::Server(const Router& router, ServerOptions options)
 
 Server::~Server() {
   stop();
+  // The listener's accept, cancelled by stop(), holds a socket made for another thread's
+  // context, which goes first: it is let go of now.
+  ioc_.restart();
+  ioc_.poll();
   ioc_.stop();
   for (auto& context : more_contexts_) context->stop();
   state_->workers.join();

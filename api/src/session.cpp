@@ -115,7 +115,7 @@ void Session::answer(const std::shared_ptr<RequestMessage>& message) {
   message->body() = std::string();  // the router's copy is the one needed
   // Handing a request to a worker and its answer back costs two threads woken; an answer held
   // in memory costs less than that to make here.
-  if (state_->router.answered_from_memory(*request)) return respond(*message, state_->router.handle(*request));
+  if (auto answer = state_->router.answer_from_memory(*request)) return respond(*message, *answer);
   // The guard keeps the I/O threads running while the router answers, even once the listener
   // has stopped and nothing else is pending, so that the answer is still written.
   auto work = [self = shared_from_this(), message, request,

@@ -28,12 +28,6 @@ class LruCache {
     return it->second->second;
   }
 
-  // Whether a value is kept under `key`; its use is not counted.
-  bool contains(const std::string& key) const {
-    const std::lock_guard lock(mutex_);
-    return index_.contains(key);
-  }
-
   // Keeps `value` under `key`, most recent first; a value larger than the budget is not kept.
   void put(const std::string& key, Value value) {
     const std::size_t bytes = bytes_of_(value) + key.size();

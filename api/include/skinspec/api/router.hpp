@@ -107,10 +107,11 @@ class Router {
   static const std::vector<RouteInfo>& routes();
   // Whether `method` on `target` (as in a Request) is a heavy route.
   static bool is_heavy(const std::string& method, const std::string& target);
-  // Whether the answer to `request` is held in memory already (a stored fit served before): it
-  // is then made without the database, in microseconds, and the server makes it on the thread
-  // that read the request rather than handing it to a worker and back.
-  bool answered_from_memory(const Request& request) const;
+  // The answer to `request` when memory alone can give it (a stored fit served before, or a
+  // refusal of the request as it stands), as handle() would; nothing otherwise. It never waits
+  // for the database, so the server asks it on the thread that read the request, and hands
+  // the request to a worker only when it answers nothing.
+  std::optional<Response> answer_from_memory(const Request& request) const;
   // Whether `method` on `target` takes a file as its body (RouteInfo::upload).
   static bool is_upload(const std::string& method, const std::string& target);
   // An upload's refusal for want of the token (401, 403), from its header alone, so that the
@@ -124,6 +125,7 @@ class Router {
   struct Handlers;
 
  private:
+  std::optional<Response> answer(const Request& request, bool from_memory_only) const;
   // The route `method` on `target` (as in a Request) matches; null for none.
   static const RouteInfo* route_of(const std::string& method, const std::string& target);
   RouterContext context_;
