@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "kernels/kernels.hpp"  // fit/src
+#include "support/kernel_choice.hpp"
 
 namespace skinspec {
 namespace {
@@ -21,7 +22,7 @@ using detail::KernelSet;
 
 std::vector<KernelSet> available_sets() {
   std::vector<KernelSet> sets;
-  for (const KernelSet set : {KernelSet::generic, KernelSet::avx2})
+  for (const KernelSet set : detail::kKernelSets)
     if (detail::kernel_set_available(set)) sets.push_back(set);
   return sets;
 }
@@ -128,24 +129,15 @@ TEST(FastExpm1, IsMinusOneFarBelowZeroInfinityAboveTheRangeAndKeepsNaN) {
   }
 }
 
-bool generic_asked_for() {
-  const char* asked = std::getenv("SKINSPEC_FIT_KERNELS");
-  return asked != nullptr && std::string(asked) == "generic";
-}
-
-TEST(KernelSets, Avx2RunsWhereTheProcessorHasItUnlessGenericIsAskedFor) {
-  ASSERT_TRUE(detail::kernel_set_available(KernelSet::generic));
-#if defined(__x86_64__)
-  __builtin_cpu_init();
-  const bool has_avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  EXPECT_EQ(detail::kernel_set_available(KernelSet::avx2), has_avx2);
-#else
-  EXPECT_FALSE(detail::kernel_set_available(KernelSet::avx2));
-#endif
-  const KernelSet expected =
-      detail::kernel_set_available(KernelSet::avx2) && !generic_asked_for() ? KernelSet::avx2 : KernelSet::generic;
+// On x86-64 this build has every set: each the processor can run is available, and the one
+// asked for runs, or else the widest.
+TEST(KernelSets, TheWidestRunsWhereTheProcessorHasItUnlessAnotherIsAskedFor) {
+  EXPECT_EQ(available_sets(), testing::runnable_kernel_sets());
+  for (const KernelSet set : available_sets()) EXPECT_EQ(name_of(set), testing::kernel_set_name(set));
+  const KernelSet expected = testing::expected_kernel_set();
   EXPECT_EQ(detail::active_kernel_set(), expected);
   EXPECT_EQ(&detail::fit_kernels(), &detail::kernels_of(expected));
+  ::testing::Test::RecordProperty("kernels", name_of(expected));
 }
 
 TEST(KernelSets, CanBeSwitchedForTheTests) {

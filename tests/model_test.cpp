@@ -680,11 +680,11 @@ void expect_spectrum_model_is_the_model(const SkinModel& model, const std::vecto
   }
 }
 
-// On every kernel set the processor can run (fit/src/kernels/): the generic one and AVX2.
+// On every kernel set the processor can run (fit/src/kernels/): generic, AVX2, AVX-512.
 TEST(SpectrumModel, EqualsTheModelSampleBySampleWithItsDerivatives) {
   const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 3);
   const detail::KernelSet before = detail::active_kernel_set();
-  for (const detail::KernelSet set : {detail::KernelSet::generic, detail::KernelSet::avx2}) {
+  for (const detail::KernelSet set : detail::kKernelSets) {
     if (!detail::kernel_set_available(set)) continue;
     detail::use_kernel_set(set);
     SCOPED_TRACE(detail::fit_kernels().name);

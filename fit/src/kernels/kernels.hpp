@@ -1,12 +1,12 @@
 #pragma once
 // The fit's arithmetic over every sample (the model, its derivatives, the least squares' QR) as
-// kernels over plain columns of doubles (private to fit/). They are compiled twice, for any
-// processor (generic.cpp) and for x86-64 processors with AVX2 and FMA (avx2.cpp), and one set
-// is chosen at run time (dispatch.cpp): the programs still run on any x86-64, and run faster
-// where AVX2 is found.
+// kernels over plain columns of doubles (private to fit/). They are compiled three times: for any
+// processor (generic.cpp), and for x86-64 processors with AVX2 and FMA (avx2.cpp) or with
+// AVX-512 (avx512.cpp). One set is chosen at run time (dispatch.cpp): the programs still run on
+// any x86-64, and run faster where the wider instructions are found.
 //
-// The AVX2 file includes this header and so must not define anything another file also
-// defines: hence no Eigen and no standard library here, only plain structs and declarations.
+// The AVX files include this header and so must not define anything another file also defines:
+// hence no Eigen and no standard library here, only plain structs and declarations.
 
 namespace skinspec::detail {
 
@@ -113,21 +113,24 @@ struct FitKernels {
   void (*expm1)(const double* x, int n, double* out);
 };
 
-// Each kernel file's table, constant-initialised: no code of avx2.cpp runs before dispatch.cpp
-// has checked that the processor can run it.
+// Each kernel file's table, constant-initialised: no code of the AVX files runs before
+// dispatch.cpp has checked that the processor can run it.
 extern const FitKernels generic_fit_kernels;  // generic.cpp
 extern const FitKernels avx2_fit_kernels;     // avx2.cpp, on x86-64 only
+extern const FitKernels avx512_fit_kernels;   // avx512.cpp, on x86-64 only
 
-enum class KernelSet { generic, avx2 };
+// The sets, narrowest first; each kernel table's name is its set's name.
+enum class KernelSet { generic, avx2, avx512 };
+inline constexpr KernelSet kKernelSets[] = {KernelSet::generic, KernelSet::avx2, KernelSet::avx512};
 
-// The set in use: AVX2 where the processor has AVX2 and FMA, unless the environment variable
-// SKINSPEC_FIT_KERNELS is `generic`; decided on first use.
+// The set in use, decided on first use: the one the environment variable SKINSPEC_FIT_KERNELS
+// names (`generic`, `avx2`, `avx512`) if the processor can run it, otherwise the widest it can.
 const FitKernels& fit_kernels();
 KernelSet active_kernel_set();
-// Whether this build and processor can run a set, and a set by name, for the tests.
+// Whether this build and processor can run a set, and a set's kernels, for the tests.
 bool kernel_set_available(KernelSet set);
 const FitKernels& kernels_of(KernelSet set);
-// Switches the set in use (for the tests, which run both paths in one process); only a set
+// Switches the set in use (for the tests, which run every set in one process); only a set
 // kernel_set_available says can run.
 void use_kernel_set(KernelSet set);
 
