@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "support/data.hpp"
 
@@ -171,6 +172,32 @@ TEST(Colorimetry, ReflectanceIsInterpolatedLinearly) {
   EXPECT_NEAR(colorimetry().xyz(ramp, d65).x, colorimetry().xyz(tabulated, d65).x, 1e-12);
   // And the long-wavelength end of a ramp is redder than the short one.
   EXPECT_GT(colorimetry().lab(ramp, d65).a, 0);
+}
+
+// The weighting carried onto a grid gives each spectrum on it the colour the resampling sums
+// give: on the meter's grid, on one past both ends of the observer's range, on an uneven one
+// and on one of two samples.
+TEST(Colorimetry, WeightingOnTheSamplesGivesTheColourOfTheSpectrum) {
+  const ColourWeighting d65 = colorimetry().weighting(named_illuminant("D65"));
+  const std::vector<std::vector<double>> grids = {Spectrum::uniform_grid(380, 780, 4),
+                                                  Spectrum::uniform_grid(340, 850, 10),
+                                                  {361.5, 400, 402, 555.25, 600, 700.5, 829},
+                                                  {500, 510}};
+  for (const auto& grid : grids) {
+    const SampledWeighting on = Colorimetry::on_samples(grid, d65);
+    ASSERT_EQ(on.x.size(), grid.size());
+    for (const double phase : {0.0, 1.3, 2.9}) {
+      std::vector<double> values;
+      for (const double w : grid) values.push_back(0.4 + 0.3 * std::sin(w / 37 + phase));
+      const Xyz want = Colorimetry::xyz(*Spectrum::create(grid, values), d65);
+      const Xyz got = Colorimetry::xyz(values, on);
+      EXPECT_NEAR(got.x, want.x, 1e-14 * want.x) << grid.front() << "-" << grid.back() << " nm";
+      EXPECT_NEAR(got.y, want.y, 1e-14 * want.y) << grid.front() << "-" << grid.back() << " nm";
+      EXPECT_NEAR(got.z, want.z, 1e-14 * want.z) << grid.front() << "-" << grid.back() << " nm";
+      const Lab lab = Colorimetry::lab(values, on), want_lab = Colorimetry::lab(*Spectrum::create(grid, values), d65);
+      EXPECT_NEAR(delta_e2000(want_lab, lab), 0, 1e-12);
+    }
+  }
 }
 
 TEST(Colorimetry, UnknownIlluminantListsTheKnownOnes) {

@@ -101,7 +101,7 @@ Fitter::Fitter(std::vector<SkinOptics> models, Colorimetry colorimetry)
     : models_(std::move(models)),
       colorimetry_(std::move(colorimetry)),
       d65_(colorimetry_.weighting(*colorimetry_.illuminant("D65"))),
-      cache_(std::make_shared<detail::ModelCache>()) {}
+      cache_(std::make_shared<detail::ModelCache>(d65_)) {}
 
 Fitter::Fitter(SkinOptics optics, Colorimetry colorimetry)
     : Fitter(std::vector<SkinOptics>{std::move(optics)}, std::move(colorimetry)) {}
@@ -119,7 +119,7 @@ Fitter Fitter::with_optics(SkinOptics optics) const {
   const auto it = std::ranges::find_if(copy.models_, [&](const SkinOptics& o) { return o.model() == optics.model(); });
   if (it == copy.models_.end()) copy.models_.push_back(std::move(optics));
   else *it = std::move(optics);
-  copy.cache_ = std::make_shared<detail::ModelCache>();
+  copy.cache_ = std::make_shared<detail::ModelCache>(d65_);
   return copy;
 }
 
@@ -174,8 +174,8 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
     result.max_abs_error = std::max(result.max_abs_error, std::abs(r));
   }
   result.rmse = std::sqrt(sum_squares / static_cast<double>(result.fitted.size()));
-  const auto measured_lab = Colorimetry::lab(result.wavelength_nm, result.measured, d65_);
-  const auto fitted_lab = Colorimetry::lab(result.wavelength_nm, result.fitted, d65_);
+  const auto measured_lab = Colorimetry::lab(result.measured, prepared->d65);
+  const auto fitted_lab = Colorimetry::lab(result.fitted, prepared->d65);
   result.delta_e00_d65 = delta_e2000(measured_lab, fitted_lab);
   result.coverage_note = coverage_note(result);
   return result;

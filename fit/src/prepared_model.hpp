@@ -1,31 +1,35 @@
 #pragma once
 // What a fit needs that depends on the model, the site and the samples' wavelengths but not on
 // the measured values (private to fit/): the model on that grid, its columns, the solver's
-// bounds and the coarse search's layers. Building them cost about as much as a third of a fit;
-// a batch of spectra from one instrument shares one grid, so each Fitter keeps the few it built
-// last (ModelCache) and its fits share them.
+// bounds, the coarse search's layers and the colour weighting on the grid. Building them cost about as much as a third
+// of a fit; a batch of spectra from one instrument shares one grid, so each Fitter keeps the few it built last
+// (ModelCache) and its fits share them.
 
 #include <cstddef>
 #include <memory>
 #include <mutex>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "skinspec/fit/model.hpp"
+#include "skinspec/spectral/colour.hpp"
 #include "solver.hpp"
 #include "spectrum_model.hpp"
 
 namespace skinspec::detail {
 
 struct PreparedModel {
-  PreparedModel(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm, bool lateral_diffusion);
+  PreparedModel(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm, bool lateral_diffusion,
+                const ColourWeighting& d65);
   PreparedModel(const PreparedModel&) = delete;  // `columns` refers to `model`
   PreparedModel& operator=(const PreparedModel&) = delete;
 
   SkinModel model;
   SpectrumModel columns;
   Bounds bounds;
-  CoarseLayers coarse;  // with no parameter held
+  CoarseLayers coarse;   // with no parameter held
+  SampledWeighting d65;  // for the fit's colour difference
 };
 
 // The prepared models of the last few (model, site, grid, lateral diffusion) a Fitter fitted;
@@ -33,6 +37,9 @@ struct PreparedModel {
 // grids pass through.
 class ModelCache {
  public:
+  // Every model it prepares judges colour under `d65` (the Fitter's).
+  explicit ModelCache(ColourWeighting d65) : d65_(std::move(d65)) {}
+
   std::shared_ptr<const PreparedModel> get(const SkinOptics& optics, const Site& site, std::span<const double> grid_nm,
                                            bool lateral_diffusion);
 
@@ -45,6 +52,7 @@ class ModelCache {
     bool lateral_diffusion;
     std::shared_ptr<const PreparedModel> prepared;
   };
+  const ColourWeighting d65_;
   std::mutex mutex_;
   std::vector<Entry> entries_;  // most recently built last
 };

@@ -143,22 +143,48 @@ ColourWeighting Colorimetry::weighting(const Spectrum& illuminant) const {
   return w;
 }
 
-Xyz Colorimetry::xyz(std::span<const double> wavelength_nm, std::span<const double> values, const ColourWeighting& w) {
-  Xyz sum;
-  detail::resample_onto(wavelength_nm, values, observer_grid(), [&](std::size_t i, double value) {
-    sum.x += value * w.x[i];
-    sum.y += value * w.y[i];
-    sum.z += value * w.z[i];
+SampledWeighting Colorimetry::on_samples(std::span<const double> wavelength_nm, const ColourWeighting& w) {
+  SampledWeighting on;
+  on.x.assign(wavelength_nm.size(), 0.0);
+  on.y.assign(wavelength_nm.size(), 0.0);
+  on.z.assign(wavelength_nm.size(), 0.0);
+  on.white = w.white;
+  const auto gather = [&](std::size_t sample, std::size_t i, double share) {
+    on.x[sample] += share * w.x[i];
+    on.y[sample] += share * w.y[i];
+    on.z[sample] += share * w.z[i];
+  };
+  detail::place_onto(wavelength_nm, observer_grid(), [&](std::size_t i, std::size_t lower, double t, bool past_end) {
+    if (past_end) return gather(lower, i, 1.0);
+    gather(lower, i, 1 - t);
+    gather(lower + 1, i, t);
   });
+  return on;
+}
+
+Xyz Colorimetry::xyz(std::span<const double> values, const SampledWeighting& w) {
+  Xyz sum;
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    sum.x += values[k] * w.x[k];
+    sum.y += values[k] * w.y[k];
+    sum.z += values[k] * w.z[k];
+  }
   return sum;
 }
 
-Lab Colorimetry::lab(std::span<const double> wavelength_nm, std::span<const double> values, const ColourWeighting& w) {
-  return xyz_to_lab(xyz(wavelength_nm, values, w), w.white);
+Lab Colorimetry::lab(std::span<const double> values, const SampledWeighting& w) {
+  return xyz_to_lab(xyz(values, w), w.white);
 }
 
 Xyz Colorimetry::xyz(const Spectrum& reflectance, const ColourWeighting& w) {
-  return xyz(reflectance.wavelengths(), reflectance.values(), w);
+  Xyz sum;
+  detail::resample_onto(reflectance.wavelengths(), reflectance.values(), observer_grid(),
+                        [&](std::size_t i, double value) {
+                          sum.x += value * w.x[i];
+                          sum.y += value * w.y[i];
+                          sum.z += value * w.z[i];
+                        });
+  return sum;
 }
 
 Lab Colorimetry::lab(const Spectrum& reflectance, const ColourWeighting& w) {

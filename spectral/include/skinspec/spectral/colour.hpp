@@ -29,6 +29,15 @@ struct ColourWeighting {
   Xyz white;
 };
 
+// A ColourWeighting carried onto one grid of samples: a weight per sample, so that the
+// tristimulus values of any values on that grid are three dot products. Linear resampling is
+// linear in the values, so these are the sums Colorimetry::xyz takes, each point's weight
+// gathered onto the two samples it is interpolated from (the same to rounding).
+struct SampledWeighting {
+  std::vector<double> x, y, z;
+  Xyz white;
+};
+
 class Colorimetry {
  public:
   // cmf: columns wavelength_nm, xbar, ybar, zbar. illuminants: wavelength_nm, D65, A.
@@ -49,12 +58,11 @@ class Colorimetry {
   ColourWeighting weighting(const Spectrum& illuminant) const;
   static Xyz xyz(const Spectrum& reflectance, const ColourWeighting& weighting);
   static Lab lab(const Spectrum& reflectance, const ColourWeighting& weighting);
-  // The same of samples not made a Spectrum: `wavelength_nm` increasing, as long as `values`,
-  // at least two.
-  static Xyz xyz(std::span<const double> wavelength_nm, std::span<const double> values,
-                 const ColourWeighting& weighting);
-  static Lab lab(std::span<const double> wavelength_nm, std::span<const double> values,
-                 const ColourWeighting& weighting);
+  // For many spectra sampled alike: the weighting on their grid (`wavelength_nm` increasing, at
+  // least two), and the colour of values on it (as many as the grid has).
+  static SampledWeighting on_samples(std::span<const double> wavelength_nm, const ColourWeighting& weighting);
+  static Xyz xyz(std::span<const double> values, const SampledWeighting& weighting);
+  static Lab lab(std::span<const double> values, const SampledWeighting& weighting);
 
  private:
   Spectrum xbar_, ybar_, zbar_, d65_, a_;
