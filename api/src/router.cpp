@@ -39,7 +39,9 @@ struct Call {
   const Request& request;
   std::vector<store::Id> ids;
   std::map<std::string, std::string> query;
-  bool from_memory_only = false;  // a handler that would need more throws NotInMemory
+  // Set only for a route marked RouteInfo::from_memory, whose handler must then throw
+  // NotInMemory rather than go to the database: it runs on the thread that read the request.
+  bool from_memory_only = false;
 };
 
 // Thrown by a handler asked for an answer from memory alone that does not hold it.
@@ -631,7 +633,16 @@ const std::vector<Route>& route_table() {
           "RefitRequest", "Fit", 201, true},
          &H::refit,
          {}},
-        {{"GET", "/api/v1/fits/{id}", "One stored fit, with the fields of `skinspec fit`", false, "", "Fit", 200},
+        {{.method = "GET",
+          .path = "/api/v1/fits/{id}",
+          .summary = "One stored fit, with the fields of `skinspec fit`",
+          .mutating = false,
+          .request_schema = "",
+          .response_schema = "Fit",
+          .success_status = 200,
+          .heavy = false,
+          .upload = false,
+          .from_memory = true},
          &H::get_fit,
          {}},
         {{"GET", "/api/v1/instrument",
@@ -832,9 +843,26 @@ std::optional<ApiError> Router::refuse_upload(const Request& header) const {
 
 Response Router::handle(const Request& request) const { return *answer(request, false); }
 
+namespace {
+
+// The fixed beginnings of the paths of the routes that may be answered from memory (up to their
+// first {id}): every other request is spared the parsing on the thread that read it.
+const std::vector<std::string>& from_memory_prefixes() {
+  static const std::vector<std::string> prefixes = [] {
+    std::vector<std::string> out;
+    for (const Route& r : route_table())
+      if (r.info.from_memory) out.push_back(r.info.path.substr(0, r.info.path.find('{')));
+    return out;
+  }();
+  return prefixes;
+}
+
+}  // namespace
+
 std::optional<Response> Router::answer_from_memory(const Request& request) const {
-  // Only a stored fit's answer is kept; every other request is spared the parsing here.
-  if (request.method != "GET" || !request.target.starts_with("/api/v1/fits/")) return std::nullopt;
+  if (request.method != "GET" ||
+      std::ranges::none_of(from_memory_prefixes(), [&](const std::string& p) { return request.target.starts_with(p); }))
+    return std::nullopt;
   return answer(request, true);
 }
 
@@ -870,7 +898,7 @@ std::optional<Response> Router::answer(const Request& request, bool from_memory_
           {ErrorKind::method_not_allowed, "", request.method + " is not allowed here; allowed: " + allow});
       response.headers.emplace_back("Allow", allow);
     } else {
-      if (from_memory_only && matched->handler != &Handlers::get_fit) return std::nullopt;
+      if (from_memory_only && !matched->info.from_memory) return std::nullopt;
       route_label = matched->info.method + " " + matched->info.path;
       check_access(context_.access, request, matched->info);
       check_content_type(request, matched->info);

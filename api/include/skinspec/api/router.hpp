@@ -92,6 +92,9 @@ struct RouteInfo {
   bool heavy = false;
   // Takes a file as its body: the server allows it the upload limit instead of the body limit.
   bool upload = false;
+  // A GET its handler may answer from the cache of answers alone (a stored fit): the server
+  // asks for that on the thread that read the request (Router::answer_from_memory).
+  bool from_memory = false;
 };
 
 class Router {
@@ -107,8 +110,9 @@ class Router {
   static const std::vector<RouteInfo>& routes();
   // Whether `method` on `target` (as in a Request) is a heavy route.
   static bool is_heavy(const std::string& method, const std::string& target);
-  // The answer to `request` when memory alone can give it (a stored fit served before, or a
-  // refusal of the request as it stands), as handle() would; nothing otherwise. It never waits
+  // The answer to `request` for a route that may be answered from memory (RouteInfo::from_memory)
+  // when memory alone can give it (an answer served before, or a refusal of the request as it
+  // stands), as handle() would; nothing otherwise. It never waits
   // for the database, so the server asks it on the thread that read the request, and hands
   // the request to a worker only when it answers nothing.
   std::optional<Response> answer_from_memory(const Request& request) const;
