@@ -174,9 +174,22 @@ TEST(Colorimetry, ReflectanceIsInterpolatedLinearly) {
   EXPECT_GT(colorimetry().lab(ramp, d65).a, 0);
 }
 
-// The weighting carried onto a grid gives each spectrum on it the colour the resampling sums
-// give: on the meter's grid, on one past both ends of the observer's range, on an uneven one
-// and on one of two samples.
+// The tristimulus sums written out: the spectrum at each nanometre of the observer's range
+// (Spectrum::at, which interpolates on its own), times the weighting there.
+Xyz summed_at_each_nm(const Spectrum& spectrum, const ColourWeighting& w) {
+  Xyz sum;
+  for (std::size_t i = 0; i < w.x.size(); ++i) {
+    const double value = spectrum.at(360.0 + static_cast<double>(i));
+    sum.x += value * w.x[i];
+    sum.y += value * w.y[i];
+    sum.z += value * w.z[i];
+  }
+  return sum;
+}
+
+// The weighting carried onto a grid gives each spectrum on it the colour of the sums at each
+// nanometre, as the spectrum itself does: on the meter's grid, on one past both ends of the
+// observer's range, on an uneven one and on one of two samples.
 TEST(Colorimetry, WeightingOnTheSamplesGivesTheColourOfTheSpectrum) {
   const ColourWeighting d65 = colorimetry().weighting(named_illuminant("D65"));
   const std::vector<std::vector<double>> grids = {Spectrum::uniform_grid(380, 780, 4),
@@ -189,11 +202,13 @@ TEST(Colorimetry, WeightingOnTheSamplesGivesTheColourOfTheSpectrum) {
     for (const double phase : {0.0, 1.3, 2.9}) {
       std::vector<double> values;
       for (const double w : grid) values.push_back(0.4 + 0.3 * std::sin(w / 37 + phase));
-      const Xyz want = Colorimetry::xyz(*Spectrum::create(grid, values), d65);
-      const Xyz got = Colorimetry::xyz(values, on);
-      EXPECT_NEAR(got.x, want.x, 1e-14 * want.x) << grid.front() << "-" << grid.back() << " nm";
-      EXPECT_NEAR(got.y, want.y, 1e-14 * want.y) << grid.front() << "-" << grid.back() << " nm";
-      EXPECT_NEAR(got.z, want.z, 1e-14 * want.z) << grid.front() << "-" << grid.back() << " nm";
+      const Spectrum spectrum = *Spectrum::create(grid, values);
+      const Xyz want = summed_at_each_nm(spectrum, d65);
+      for (const Xyz& got : {Colorimetry::xyz(values, on), Colorimetry::xyz(spectrum, d65)}) {
+        EXPECT_NEAR(got.x, want.x, 1e-13 * want.x) << grid.front() << "-" << grid.back() << " nm";
+        EXPECT_NEAR(got.y, want.y, 1e-13 * want.y) << grid.front() << "-" << grid.back() << " nm";
+        EXPECT_NEAR(got.z, want.z, 1e-13 * want.z) << grid.front() << "-" << grid.back() << " nm";
+      }
       const Lab lab = Colorimetry::lab(values, on), want_lab = Colorimetry::lab(*Spectrum::create(grid, values), d65);
       EXPECT_NEAR(delta_e2000(want_lab, lab), 0, 1e-12);
     }

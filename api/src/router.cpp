@@ -851,7 +851,7 @@ const std::vector<std::string>& from_memory_prefixes() {
   static const std::vector<std::string> prefixes = [] {
     std::vector<std::string> out;
     for (const Route& r : route_table())
-      if (r.info.from_memory) out.push_back(r.info.path.substr(0, r.info.path.find('{')));
+      if (r.info.from_memory && r.info.method == "GET") out.push_back(r.info.path.substr(0, r.info.path.find('{')));
     return out;
   }();
   return prefixes;
