@@ -1,5 +1,5 @@
 # Checks that an object file compiled for a wider instruction set than the rest of the program
-# (fit/src/kernels/avx2.cpp, with -mavx2 -mfma) is isolated: its one global definition is the
+# (fit/src/kernels/avx2.cpp or avx512.cpp, with -mavx2 -mfma and more) is isolated: its one global definition is the
 # symbol named, and it defines nothing weak. A weak definition (W, V, or u: the inline and template
 # functions of Eigen or the standard library) may be the copy the linker keeps for every caller,
 # and would then run AVX instructions on any processor. Nor may it run anything when the program
@@ -8,7 +8,7 @@
 # wider registers and that BASELINE_OBJECT (the same code for any processor) does not: the
 # per-file flags took effect.
 # Usage: cmake -DNM=nm -DOBJDUMP=objdump -DOBJECT=avx2.o -DBASELINE_OBJECT=generic.o
-#              -DONLY_GLOBAL=symbol -DREGISTER=ymm -P check_isolated_object.cmake
+#              -DONLY_GLOBAL=symbol -DREGISTER=ymm -P check_isolated_object.cmake  (zmm for AVX-512)
 foreach(variable NM OBJDUMP OBJECT BASELINE_OBJECT ONLY_GLOBAL REGISTER)
   if(NOT DEFINED ${variable} OR "${${variable}}" STREQUAL "")
     message(FATAL_ERROR "check_isolated_object: ${variable} is not set")

@@ -1,7 +1,7 @@
 #pragma once
 // The model at every sample of a spectrum at once (private to fit/): eq. 1 in one loop over the
-// samples (the kernels of kernels/kernels.hpp, vectorised over the wavelengths, AVX2 where the
-// processor has it) instead of one call per sample, with its Jacobian by derivatives written
+// samples (the kernels of kernels/kernels.hpp, vectorised over the wavelengths, in the widest set
+// the processor runs) instead of one call per sample, with its Jacobian by derivatives written
 // out by hand.
 //
 // The solver needs the reflectance at every point it tries but the Jacobian only at the points

@@ -1,7 +1,7 @@
-// The kernels (kernels.hpp) for x86-64 processors with AVX-512 (F, VL and DQ): eight doubles at a
-// time. The build compiles this file alone with those flags, and prefers 512-bit vectors
-// (fit/CMakeLists.txt); it is isolated as avx2.cpp is, for the same reason, and the test
-// fit_avx512_kernels_self_contained checks its object file with nm.
+// The kernels (kernels.hpp) for x86-64 processors with AVX-512 (F, VL and DQ): the loops the
+// compiler vectorises eight doubles at a time, the QR's explicit vectors four. The build compiles this file alone with
+// those flags, and prefers 512-bit vectors (fit/CMakeLists.txt); it is isolated as avx2.cpp is, for the same reason,
+// and the test fit_avx512_kernels_self_contained checks its object file with nm.
 
 #if defined(__x86_64__)
 

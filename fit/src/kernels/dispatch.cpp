@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cstdlib>
+#include <iterator>
 #include <string_view>
 
 namespace skinspec::detail {
@@ -59,6 +60,7 @@ std::atomic<const FitKernels*>& active() {
 bool kernel_set_available(KernelSet set) {
   static const bool runs[] = {true, kBuiltWithAvx && processor_runs(KernelSet::avx2),
                               kBuiltWithAvx && processor_runs(KernelSet::avx512)};
+  static_assert(std::size(runs) == std::size(kKernelSets));
   return runs[static_cast<int>(set)];
 }
 

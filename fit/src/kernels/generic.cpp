@@ -1,6 +1,6 @@
 // The kernels (kernels.hpp) for any processor: on x86-64 the baseline's SSE2, two doubles at a
-// time. The build compiles this file with -fno-math-errno and -fno-trapping-math, like avx2.cpp
-// (fit/CMakeLists.txt), so that both vectorise the same code.
+// time. The build compiles this file with -fno-math-errno and -fno-trapping-math, like the AVX
+// files (fit/CMakeLists.txt), so that all three vectorise the same code.
 
 #include "kernels.hpp"
 

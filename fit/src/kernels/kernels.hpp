@@ -124,7 +124,8 @@ enum class KernelSet { generic, avx2, avx512 };
 inline constexpr KernelSet kKernelSets[] = {KernelSet::generic, KernelSet::avx2, KernelSet::avx512};
 
 // The set in use, decided on first use: the one the environment variable SKINSPEC_FIT_KERNELS
-// names (`generic`, `avx2`, `avx512`) if the processor can run it, otherwise the widest it can.
+// names (`generic`, `avx2`, `avx512`) if the processor can run it, otherwise (a set it cannot
+// run, another name) the widest it can.
 const FitKernels& fit_kernels();
 KernelSet active_kernel_set();
 // Whether this build and processor can run a set, and a set's kernels, for the tests.
