@@ -1,6 +1,6 @@
-// The server's I/O threads, each with a context of its own: connections given to each in turn
-// are all served, and a stop ends every thread's work, idle connections and all, so that run()
-// returns.
+// The server's I/O threads, each with a context of its own: connections are given to each in
+// turn (as /metrics counts them) and all served, and a stop ends every thread's work, idle
+// connections and all, so that run() returns.
 
 #include <gtest/gtest.h>
 
@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <future>
 #include <memory>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -37,6 +38,13 @@ TEST(ServerThreads, ConnectionsOnEveryThreadAreServedAndAStopEndsThemAll) {
     EXPECT_EQ(kept.back()->request("GET", "/healthz").status, 200) << "connection " << i;
   }
   for (auto& connection : kept) EXPECT_EQ(connection->request("GET", "/healthz").status, 200);
+  // In turn: the seven and this eighth, which asks, are three, three and two.
+  const auto metrics = testing::http_request(server.port(), "GET", "/metrics");
+  EXPECT_EQ(metrics.status, 200);
+  for (const char* line : {"skinspec_accepted_connections_total{io_thread=\"0\"} 3\n",
+                           "skinspec_accepted_connections_total{io_thread=\"1\"} 3\n",
+                           "skinspec_accepted_connections_total{io_thread=\"2\"} 2\n"})
+    EXPECT_NE(metrics.body.find(line), std::string::npos) << line << " not in\n" << metrics.body;
 
   const auto port = server.port();
   server.stop();

@@ -87,16 +87,15 @@ void Listener::close() {
 
 void Listener::accept() {
   if (closed_) return;
-  acceptor_.async_accept(asio::make_strand(next_context()),
-                         [self = shared_from_this()](boost::system::error_code ec, tcp::socket socket) {
+  const std::size_t context = next_++ % contexts_.size();
+  acceptor_.async_accept(asio::make_strand(*contexts_[context]),
+                         [self = shared_from_this(), context](boost::system::error_code ec, tcp::socket socket) {
                            if (self->closed_ || ec == asio::error::operation_aborted) return;
                            if (ec) return self->on_error(ec);
-                           self->admit_(std::move(socket));
+                           self->admit_(std::move(socket), context);
                            self->accept();
                          });
 }
-
-asio::io_context& Listener::next_context() { return *contexts_[next_++ % contexts_.size()]; }
 
 void Listener::on_error(const boost::system::error_code& ec) {
   if (out_of_descriptors(ec)) {

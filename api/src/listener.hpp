@@ -28,7 +28,8 @@ void refuse_connection(boost::asio::ip::tcp::socket& socket, std::string_view re
 
 class Listener : public std::enable_shared_from_this<Listener> {
  public:
-  using Admit = std::function<void(boost::asio::ip::tcp::socket)>;
+  // An accepted connection, and the index in `contexts` of the one it is on.
+  using Admit = std::function<void(boost::asio::ip::tcp::socket, std::size_t)>;
   // `admit` gets each accepted connection, on each of `contexts` in turn (the first is the
   // listener's own); `shed` is told of each one refused for want of descriptors.
   Listener(std::vector<boost::asio::io_context*> contexts, Admit admit, std::function<void()> shed);
@@ -49,9 +50,6 @@ class Listener : public std::enable_shared_from_this<Listener> {
   // Accepts one pending connection on the spare descriptor and refuses it; false when none could be.
   bool shed_one();
   void pause();
-
-  // The next connection's context.
-  boost::asio::io_context& next_context();
 
   std::vector<boost::asio::io_context*> contexts_;
   std::size_t next_ = 0;          // on the strand

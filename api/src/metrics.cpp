@@ -46,6 +46,11 @@ void Metrics::set_open_connections(std::int64_t n) {
   open_connections_ = n;
 }
 
+void Metrics::record_accepted_connection(std::size_t io_thread) {
+  std::lock_guard lock(mutex_);
+  ++accepted_by_io_thread_[io_thread];
+}
+
 void Metrics::record_rejected_connection() {
   std::lock_guard lock(mutex_);
   ++rejected_connections_;
@@ -92,7 +97,11 @@ std::string Metrics::prometheus_text() const {
       << "# HELP skinspec_open_connections Connections open now.\n"
          "# TYPE skinspec_open_connections gauge\n"
       << "skinspec_open_connections " << open_connections_ << '\n'
-      << "# HELP skinspec_rejected_connections_total Connections closed at once because the cap was reached.\n"
+      << "# HELP skinspec_accepted_connections_total Connections taken in, by the I/O thread that serves them.\n"
+         "# TYPE skinspec_accepted_connections_total counter\n";
+  for (const auto& [io_thread, n] : accepted_by_io_thread_)
+    out << "skinspec_accepted_connections_total{io_thread=\"" << io_thread << "\"} " << n << '\n';
+  out << "# HELP skinspec_rejected_connections_total Connections closed at once because the cap was reached.\n"
          "# TYPE skinspec_rejected_connections_total counter\n"
       << "skinspec_rejected_connections_total " << rejected_connections_ << '\n'
       << "# HELP skinspec_evicted_connections_total Idle connections closed to make room for new ones.\n"

@@ -30,7 +30,7 @@ ApiError refusal(ConnectionTable::Refusal why, const std::string& client) {
 
 // A new connection: admitted into the table (maybe in the place of an idle one, closed now)
 // and served, or refused with a 503.
-void admit(const std::shared_ptr<Server::State>& state, tcp::socket socket) {
+void admit(const std::shared_ptr<Server::State>& state, tcp::socket socket, std::size_t io_thread) {
   boost::system::error_code ec;
   const auto remote = socket.remote_endpoint(ec);
   const std::string client = ec ? std::string() : remote.address().to_string();
@@ -60,6 +60,7 @@ void admit(const std::shared_ptr<Server::State>& state, tcp::socket socket) {
     metrics.record_rejected_connection();
     return detail::refuse_connection(socket, detail::refusal_bytes(refusal(admission.refusal, client)));
   }
+  metrics.record_accepted_connection(io_thread);
   session->run();
 }
 
@@ -111,8 +112,8 @@ std::expected<void, std::string> Server::listen() {
   for (auto& context : more_contexts_) contexts.push_back(context.get());
   state_->listener = std::make_shared<detail::Listener>(
       std::move(contexts),
-      [weak](tcp::socket socket) {
-        if (const auto state = weak.lock()) admit(state, std::move(socket));
+      [weak](tcp::socket socket, std::size_t io_thread) {
+        if (const auto state = weak.lock()) admit(state, std::move(socket), io_thread);
       },
       [&metrics = state_->router.metrics()] { metrics.record_rejected_connection(); });
   if (auto opened = state_->listener->open(tcp::endpoint{address, state_->options.port}); !opened) return opened;

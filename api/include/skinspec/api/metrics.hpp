@@ -20,6 +20,8 @@ class Metrics {
   void record_error(const std::string& code);
   void record_fit(bool ok);
   void set_open_connections(std::int64_t n);
+  // A connection taken in by I/O thread `io_thread` (0 for the listener's own).
+  void record_accepted_connection(std::size_t io_thread);
   void record_rejected_connection();
   // An idle connection closed to make room for a newcomer.
   void record_evicted_connection();
@@ -40,6 +42,7 @@ class Metrics {
   std::map<std::pair<std::string, int>, std::uint64_t> requests_;
   std::map<std::string, Histogram> latency_;
   std::map<std::string, std::uint64_t> errors_;
+  std::map<std::size_t, std::uint64_t> accepted_by_io_thread_;
   std::uint64_t fits_ok_ = 0, fits_failed_ = 0, rejected_connections_ = 0, evicted_connections_ = 0;
   std::size_t compute_running_ = 0, compute_waiting_ = 0;
   std::int64_t open_connections_ = 0;
