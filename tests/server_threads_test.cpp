@@ -29,6 +29,9 @@ TEST(ServerThreads, ConnectionsOnEveryThreadAreServedAndAStopEndsThemAll) {
   options.worker_threads = 1;
   Server server(router, options);
   ASSERT_TRUE(server.listen());
+  // Every I/O thread is counted from the start, a thread without connections at 0.
+  EXPECT_NE(router.metrics().prometheus_text().find("skinspec_accepted_connections_total{io_thread=\"2\"} 0\n"),
+            std::string::npos);
   auto running = std::async(std::launch::async, [&] { server.run(); });
 
   // Seven connections over three threads: each thread holds two or three, kept open and idle.

@@ -87,11 +87,13 @@ void Listener::close() {
 
 void Listener::accept() {
   if (closed_) return;
-  const std::size_t context = next_++ % contexts_.size();
+  // The turn passes only to a connection accepted: after an error the same context is tried.
+  const std::size_t context = next_ % contexts_.size();
   acceptor_.async_accept(asio::make_strand(*contexts_[context]),
                          [self = shared_from_this(), context](boost::system::error_code ec, tcp::socket socket) {
                            if (self->closed_ || ec == asio::error::operation_aborted) return;
                            if (ec) return self->on_error(ec);
+                           ++self->next_;
                            self->admit_(std::move(socket), context);
                            self->accept();
                          });

@@ -46,6 +46,11 @@ void Metrics::set_open_connections(std::int64_t n) {
   open_connections_ = n;
 }
 
+void Metrics::set_io_threads(std::size_t count) {
+  std::lock_guard lock(mutex_);
+  for (std::size_t i = 0; i < count; ++i) accepted_by_io_thread_.try_emplace(i, 0);
+}
+
 void Metrics::record_accepted_connection(std::size_t io_thread) {
   std::lock_guard lock(mutex_);
   ++accepted_by_io_thread_[io_thread];

@@ -110,6 +110,7 @@ std::expected<void, std::string> Server::listen() {
   const std::weak_ptr<State> weak = state_;
   std::vector<asio::io_context*> contexts{&ioc_};
   for (auto& context : more_contexts_) contexts.push_back(context.get());
+  state_->router.metrics().set_io_threads(contexts.size());
   state_->listener = std::make_shared<detail::Listener>(
       std::move(contexts),
       [weak](tcp::socket socket, std::size_t io_thread) {

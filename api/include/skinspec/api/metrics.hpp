@@ -20,6 +20,8 @@ class Metrics {
   void record_error(const std::string& code);
   void record_fit(bool ok);
   void set_open_connections(std::int64_t n);
+  // The server's I/O threads, each counted from 0 before any connection comes.
+  void set_io_threads(std::size_t count);
   // A connection taken in by I/O thread `io_thread` (0 for the listener's own).
   void record_accepted_connection(std::size_t io_thread);
   void record_rejected_connection();
