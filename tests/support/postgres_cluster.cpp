@@ -202,13 +202,19 @@ std::string admin_uri(const fs::path& socket_dir, const std::string& database) {
   return "postgresql://admin@/" + database + "?host=" + socket_dir.string();
 }
 
+// The WAL's segment size of a template, in MB: 1 for tests, whose clusters are copied for each
+// test program and never wait for the disk; the server's default 16 for durable clusters, as a
+// lab's server has. With 1 MB segments a durable writer creates and flushes a new segment every
+// hundred-odd commits, which a lab's server does a sixteenth as often.
+int wal_segment_mb(bool durable) { return durable ? 16 : 1; }
+
 // initdb into a directory of its own, the settings, the roles; then moved into the build tree.
-void make_template(const fs::path& destination) {
+void make_template(const fs::path& destination, int segment_mb) {
   const auto work = make_directory(base_for({}), "skinspec-pg-template-");
   const auto data = work / "data";
   Guardian guardian(work, data);
   run_as_server_user("initdb", {"-D", data.string(), "-U", "admin", "--auth=trust", "--no-sync", "--no-instructions",
-                                "-E", "UTF8", "--locale=C.UTF-8", "--wal-segsize=1"});
+                                "-E", "UTF8", "--locale=C.UTF-8", "--wal-segsize=" + std::to_string(segment_mb)});
   append(data / "postgresql.conf", kTemplateSettings);
   {
     std::ofstream hba(data / "pg_hba.conf", std::ios::trunc | std::ios::binary);
@@ -226,10 +232,10 @@ void make_template(const fs::path& destination) {
 
 // The template of this build tree, made by the first test program that needs it while the
 // others wait on its lock.
-fs::path template_directory() {
+fs::path template_directory(int segment_mb) {
   const fs::path root = SKINSPEC_TEST_PG_TEMPLATE_ROOT;
-  const auto destination =
-      root / ("template-" + std::string(SKINSPEC_TEST_PG_VERSION) + "-" + std::string(kTemplateFormat));
+  const auto destination = root / ("template-" + std::string(SKINSPEC_TEST_PG_VERSION) + "-" +
+                                   std::string(kTemplateFormat) + "-wal" + std::to_string(segment_mb) + "mb");
   if (fs::exists(destination)) return destination;
   fs::create_directories(root);
   const auto lock_path = root / "template.lock";
@@ -238,7 +244,7 @@ fs::path template_directory() {
   while (::flock(lock, LOCK_EX) != 0 && errno == EINTR) {
   }
   try {
-    if (!fs::exists(destination)) make_template(destination);
+    if (!fs::exists(destination)) make_template(destination, segment_mb);
   } catch (...) {
     ::close(lock);
     throw;
@@ -265,7 +271,7 @@ struct PostgresCluster::Parts {
 
 PostgresCluster::PostgresCluster(ClusterSettings settings)
     : settings_(std::move(settings)), owner_(::getpid()), parts_(std::make_unique<Parts>()) {
-  const auto source = template_directory();
+  const auto source = template_directory(wal_segment_mb(settings_.durable));
   directory_ = make_directory(base_for(settings_), "skinspec-pg-");
   try {
     parts_->guardian.emplace(directory_, data());
@@ -324,9 +330,9 @@ void PostgresCluster::stop(std::string_view mode) {
 }
 
 void PostgresCluster::start() {
-  // Durable: as a lab's server would be set for steady writing, with room for the WAL between
-  // checkpoints (the template's segments are 1 MB, which would otherwise checkpoint every few
-  // hundred transactions and write each page whole again after each).
+  // Durable: as a lab's server would be set for steady writing, with room for 1 GB of WAL
+  // between checkpoints (initdb sets 64 MB where segments are 1 MB), so that no checkpoint,
+  // after which each page is written whole again, cuts a benchmark's run.
   const std::string durability = settings_.durable ? " -c fsync=on -c full_page_writes=on -c max_wal_size=1GB "
                                                      "-c checkpoint_timeout=15min"
                                                    : " -c fsync=off -c full_page_writes=off";
@@ -338,6 +344,8 @@ std::string PostgresCluster::log_tail() const {
   std::ifstream in(directory_ / "log", std::ios::binary);
   return tail_of(std::string((std::istreambuf_iterator<char>(in)), {}), 20);
 }
+
+std::string postgres_program(const std::string& name) { return program(name); }
 
 PostgresCluster& postgres_cluster() {
   static PostgresCluster cluster;

@@ -74,6 +74,9 @@ class PostgresCluster {
   int databases_ = 0;
 };
 
+// The path of a program of the PostgreSQL installation the clusters run (such as "pgbench").
+std::string postgres_program(const std::string& name);
+
 // The one cluster of this test program, started on first use (a test that never touches
 // PostgreSQL pays nothing) and stopped at exit.
 PostgresCluster& postgres_cluster();
