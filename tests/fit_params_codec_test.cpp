@@ -5,9 +5,13 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <string_view>
 #include <nlohmann/json.hpp>
 
 #include "codec.hpp"
+#include "db.hpp"
+#include "support/fit_params_document.hpp"
 
 namespace skinspec::store::detail {
 namespace {
@@ -59,6 +63,67 @@ TEST(FitParamsCodec, KeepsTheShapeOfTheJsonLibrary) {
   nlohmann::json library = nlohmann::json::array();
   library.push_back({{"name", "melanin"}, {"value", 23.80607722279907}, {"standard_error", 0.643163604822781}});
   EXPECT_EQ(nlohmann::json::parse(encode_fit_params(params)), library);
+}
+
+TEST(FitParamsCodec, ReadsAndRefusesWhatTheParsedDocumentWould) {
+  const char* const texts[] = {
+      R"([{"name":"m","value":1.5,"standard_error":0.5}])",
+      R"([{"standard_error":null,"value":-2,"name":"m"},{"name":"b","value":3e2,"standard_error":7}])",
+      R"([{"name":"m","value":1,"standard_error":1,"unit":"mg/ml","why":{"a":[1,{"name":2}],"b":null}}])",
+      R"([{"name":"m","value":1,"standard_error":1,"name":"n","value":2}])",
+      R"([{"name":"m","value":18446744073709551615,"standard_error":-9223372036854775808}])",
+      R"( [ {"name" : "m" , "value" : 1 , "standard_error" : 2 } ] )",
+      R"([])",
+      R"({})",
+      R"("m")",
+      R"(1)",
+      R"(null)",
+      R"([1])",
+      R"([[{"name":"m","value":1,"standard_error":1}]])",
+      R"([{"name":"m","value":1,"standard_error":1},2])",
+      R"([{"name":"m","value":1,"standard_error":1},null])",
+      R"([{"name":"m","value":1}])",
+      R"([{"name":"m","standard_error":1}])",
+      R"([{"value":1,"standard_error":1}])",
+      R"([{"name":1,"value":1,"standard_error":1}])",
+      R"([{"name":null,"value":1,"standard_error":1}])",
+      R"([{"name":["m"],"value":1,"standard_error":1}])",
+      R"([{"name":"m","value":"1","standard_error":1}])",
+      R"([{"name":"m","value":null,"standard_error":1}])",
+      R"([{"name":"m","value":true,"standard_error":1}])",
+      R"([{"name":"m","value":[1],"standard_error":1}])",
+      R"([{"name":"m","value":{"v":1},"standard_error":1}])",
+      R"([{"name":"m","value":1,"standard_error":1,"value":[2]}])",
+      R"([{"name":"m","value":1,"standard_error":1,"name":{"n":"x"}}])",
+      R"([{"name":"m","value":1,"standard_error":1,"standard_error":"1"}])",
+      R"([{"name":"m","value":1,"standard_error":"1"}])",
+      R"([{"name":"m","value":1,"standard_error":false}])",
+      R"([{"name":"m","value":1,"standard_error":{}}])",
+      R"([{"name":"m","value":1,"standard_error":[]}])",
+      R"([{"name":"m","value":1,"standard_error":1}] x)",
+      R"([{"name":"m","value":1,"standard_error":1})",
+      R"([{"name":"m","value":1e999,"standard_error":1}])",
+      R"([{"name":"m\u00e6","value":1,"standard_error":1}])",
+      "",
+  };
+  for (const std::string_view text : texts) {
+    const auto expected = testing::fit_params_through_a_document(text);
+    std::optional<std::vector<FitParam>> read;
+    try {
+      read = decode_fit_params(text, "the test's fit");
+    } catch (const Failure& failure) {
+      EXPECT_EQ(failure.error.kind, StoreError::Kind::corrupt) << text;
+      EXPECT_NE(failure.error.message.find("the test's fit: not a JSON array"), std::string::npos) << text;
+    }
+    ASSERT_EQ(read.has_value(), expected.has_value()) << text;
+    if (!read) continue;
+    ASSERT_EQ(read->size(), expected->size()) << text;
+    for (std::size_t i = 0; i < read->size(); ++i) {
+      EXPECT_EQ((*read)[i].name, (*expected)[i].name) << text;
+      EXPECT_EQ((*read)[i].value, (*expected)[i].value) << text;
+      EXPECT_EQ((*read)[i].standard_error, (*expected)[i].standard_error) << text;
+    }
+  }
 }
 
 }  // namespace

@@ -127,23 +127,108 @@ std::string encode_fit_params(const std::vector<FitParam>& params) {
   return out;
 }
 
-std::vector<FitParam> decode_fit_params(std::string_view json, std::string_view what) {
-  const auto parsed = nlohmann::json::parse(json, nullptr, false);
-  const auto corrupt = [&] {
-    fail(StoreError::Kind::corrupt, fmt::format("{}: not a JSON array of {{name, value, standard_error}}", what));
-  };
-  if (parsed.is_discarded() || !parsed.is_array() || parsed.empty()) corrupt();
+namespace {
+
+// A fit's parameters read as the parser meets them, without building the document: every read
+// of a fit does this. The array's objects need "name" (a string), "value" (a number) and
+// "standard_error" (a number, or null for one the spectrum does not determine); other members
+// are passed over whatever they hold, and of a member given twice the last counts, as in a
+// parsed document.
+class FitParamsReader final : public nlohmann::json::json_sax_t {
+ public:
   std::vector<FitParam> params;
-  for (const auto& item : parsed) {
-    if (!item.is_object() || !item.contains("name") || !item["name"].is_string() || !item.contains("value") ||
-        !item["value"].is_number() || !item.contains("standard_error"))
-      corrupt();
-    const auto& se = item["standard_error"];
-    if (!se.is_null() && !se.is_number()) corrupt();
-    params.push_back({item["name"].get<std::string>(), item["value"].get<double>(),
-                      se.is_null() ? std::numeric_limits<double>::infinity() : se.get<double>()});
+
+  bool null() override { return scalar(Kind::null, 0); }
+  bool boolean(bool) override { return scalar(Kind::other, 0); }
+  bool number_integer(number_integer_t v) override { return scalar(Kind::number, static_cast<double>(v)); }
+  bool number_unsigned(number_unsigned_t v) override { return scalar(Kind::number, static_cast<double>(v)); }
+  bool number_float(number_float_t v, const string_t&) override { return scalar(Kind::number, v); }
+  bool binary(binary_t&) override { return scalar(Kind::other, 0); }
+  bool string(string_t& text) override {
+    if (depth_ != 2 || member_ != Member::name) return scalar(Kind::other, 0);
+    name_ = std::move(text);
+    has_ |= kName;
+    return true;
   }
-  return params;
+  bool key(string_t& name) override {
+    if (depth_ == 2) member_ = member_named(name);
+    return true;
+  }
+  bool start_object(std::size_t) override {
+    if (depth_ == 1) has_ = 0;  // a parameter begins
+    return opened(depth_ == 1);
+  }
+  bool end_object() override {
+    if (--depth_ != 1) return true;
+    if (has_ != (kName | kValue | kError)) return false;
+    params.push_back({std::move(name_), value_, error_});
+    return true;
+  }
+  bool start_array(std::size_t) override { return opened(depth_ == 0); }
+  bool end_array() override {
+    --depth_;
+    return true;
+  }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
+
+ private:
+  enum class Member { name, value, standard_error, other };
+  enum class Kind { number, null, other };
+  static constexpr unsigned kName = 1, kValue = 2, kError = 4;
+
+  static Member member_named(std::string_view name) {
+    if (name == "name") return Member::name;
+    if (name == "value") return Member::value;
+    if (name == "standard_error") return Member::standard_error;
+    return Member::other;
+  }
+  // An array or object where it may stand: the array at the top, objects in it as the
+  // parameters, and anything as the value of a member passed over or deeper.
+  bool opened(bool where_the_shape_needs_it) {
+    const bool passed_over = depth_ > 2 || (depth_ == 2 && member_ == Member::other);
+    if (!where_the_shape_needs_it && !passed_over) return false;
+    ++depth_;
+    return true;
+  }
+  // Any other value: a parameter's member, or passed over deeper down; refused at the top and
+  // as an element of the array.
+  bool scalar(Kind kind, double number) {
+    if (depth_ > 2) return true;
+    if (depth_ != 2) return false;
+    switch (member_) {
+      case Member::name:
+        return false;
+      case Member::value:
+        if (kind != Kind::number) return false;
+        value_ = number;
+        has_ |= kValue;
+        return true;
+      case Member::standard_error:
+        if (kind == Kind::other) return false;
+        error_ = kind == Kind::null ? std::numeric_limits<double>::infinity() : number;
+        has_ |= kError;
+        return true;
+      case Member::other:
+        return true;
+    }
+    return false;
+  }
+
+  int depth_ = 0;
+  Member member_ = Member::other;
+  unsigned has_ = 0;
+  std::string name_;
+  double value_ = 0;
+  double error_ = 0;
+};
+
+}  // namespace
+
+std::vector<FitParam> decode_fit_params(std::string_view json, std::string_view what) {
+  FitParamsReader reader;
+  if (!nlohmann::json::sax_parse(json, &reader) || reader.params.empty())
+    fail(StoreError::Kind::corrupt, fmt::format("{}: not a JSON array of {{name, value, standard_error}}", what));
+  return std::move(reader.params);
 }
 
 std::string encode_job_error(const JobError& error) {
