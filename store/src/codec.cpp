@@ -129,11 +129,29 @@ std::string encode_fit_params(const std::vector<FitParam>& params) {
 
 namespace {
 
+// The members of a fit's parameter, and each one's bit in the set of those read.
+enum class ParamMember { name, value, standard_error, other };
+
+constexpr unsigned bit(ParamMember m) {
+  switch (m) {
+    case ParamMember::name:
+      return 1;
+    case ParamMember::value:
+      return 2;
+    case ParamMember::standard_error:
+      return 4;
+    case ParamMember::other:
+      return 0;
+  }
+  return 0;
+}
+
 // A fit's parameters read as the parser meets them, without building the document: every read
 // of a fit does this. The array's objects need "name" (a string), "value" (a number) and
 // "standard_error" (a number, or null for one the spectrum does not determine); other members
-// are passed over whatever they hold, and of a member given twice the last counts, as in a
-// parsed document.
+// are passed over whatever they hold. Of a member given more than once only the last counts,
+// as in a parsed document: a copy of the wrong kind is forgotten, not refused, and the
+// parameter is judged when its object closes.
 class FitParamsReader final : public nlohmann::json::json_sax_t {
  public:
   std::vector<FitParam> params;
@@ -147,7 +165,7 @@ class FitParamsReader final : public nlohmann::json::json_sax_t {
   bool string(string_t& text) override {
     if (depth_ != 2 || member_ != Member::name) return scalar(Kind::other, 0);
     name_ = std::move(text);
-    has_ |= kName;
+    has_ |= bit(Member::name);
     return true;
   }
   bool key(string_t& name) override {
@@ -160,7 +178,7 @@ class FitParamsReader final : public nlohmann::json::json_sax_t {
   }
   bool end_object() override {
     if (--depth_ != 1) return true;
-    if (has_ != (kName | kValue | kError)) return false;
+    if (has_ != kWhole) return false;  // a parameter ends without all it needs
     params.push_back({std::move(name_), value_, error_});
     return true;
   }
@@ -172,9 +190,10 @@ class FitParamsReader final : public nlohmann::json::json_sax_t {
   bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
 
  private:
-  enum class Member { name, value, standard_error, other };
+  using Member = ParamMember;
   enum class Kind { number, null, other };
-  static constexpr unsigned kName = 1, kValue = 2, kError = 4;
+
+  static constexpr unsigned kWhole = bit(Member::name) | bit(Member::value) | bit(Member::standard_error);
 
   static Member member_named(std::string_view name) {
     if (name == "name") return Member::name;
@@ -182,36 +201,31 @@ class FitParamsReader final : public nlohmann::json::json_sax_t {
     if (name == "standard_error") return Member::standard_error;
     return Member::other;
   }
-  // An array or object where it may stand: the array at the top, objects in it as the
-  // parameters, and anything as the value of a member passed over or deeper.
+  // An array or object: the array at the top and the parameters' objects in it, where the
+  // shape needs them; as a member's value, or deeper, it is passed over (and is no valid
+  // value of name, value or standard_error).
   bool opened(bool where_the_shape_needs_it) {
-    const bool passed_over = depth_ > 2 || (depth_ == 2 && member_ == Member::other);
-    if (!where_the_shape_needs_it && !passed_over) return false;
+    if (depth_ == 2) has_ &= ~bit(member_);
+    if (depth_ < 2 && !where_the_shape_needs_it) return false;
     ++depth_;
     return true;
   }
-  // Any other value: a parameter's member, or passed over deeper down; refused at the top and
-  // as an element of the array.
+  // Any other value: a parameter's member, kept when of the member's kind and forgotten when
+  // not; passed over deeper down; refused at the top and as an element of the array.
   bool scalar(Kind kind, double number) {
     if (depth_ > 2) return true;
     if (depth_ != 2) return false;
-    switch (member_) {
-      case Member::name:
-        return false;
-      case Member::value:
-        if (kind != Kind::number) return false;
-        value_ = number;
-        has_ |= kValue;
-        return true;
-      case Member::standard_error:
-        if (kind == Kind::other) return false;
-        error_ = kind == Kind::null ? std::numeric_limits<double>::infinity() : number;
-        has_ |= kError;
-        return true;
-      case Member::other:
-        return true;
+    const bool fits = (member_ == Member::value && kind == Kind::number) ||
+                      (member_ == Member::standard_error && kind != Kind::other);
+    if (!fits) {
+      has_ &= ~bit(member_);
+      return true;
     }
-    return false;
+    if (member_ == Member::value) value_ = number;
+    if (member_ == Member::standard_error)
+      error_ = kind == Kind::null ? std::numeric_limits<double>::infinity() : number;
+    has_ |= bit(member_);
+    return true;
   }
 
   int depth_ = 0;
