@@ -1,10 +1,11 @@
 // The store on each engine, durable, on the build machine's disk: committed
 // measurement-plus-fit transactions per second (each one on the disk before it returns: SQLite
 // with synchronous=FULL, PostgreSQL with fsync and synchronous_commit on, over its Unix socket)
-// from one and two threads, and fit reads per second, alone and while a writer keeps committing.
-// Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a throwaway
-// one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to measure. The
-// disk's own fdatasync time is printed first, as what bounds a commit.
+// from one and two threads, and fit reads per second, alone and while a writer keeps committing;
+// beside them PostgreSQL's own pgbench on the same cluster, and at the end the store's rates over
+// pgbench's. Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a
+// throwaway one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to measure.
+// The disk's own fdatasync time is printed first, as what bounds a commit.
 
 #include <benchmark/benchmark.h>
 #include <fcntl.h>
@@ -12,12 +13,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -27,6 +30,10 @@
 
 namespace skinspec::store {
 namespace {
+
+// How long each run measures, the store's and pgbench's alike: long enough to take in the
+// server's occasional stalls (a new WAL segment every 16 MB) as often in one as in the other.
+constexpr int kSeconds = 2;
 
 std::filesystem::path temporary_directory() {
   std::string pattern = (std::filesystem::temp_directory_path() / "skinspec-bench-XXXXXX").string();
@@ -132,7 +139,10 @@ void BM_CommitMeasurementWithFit(benchmark::State& state) {
   int n = state.thread_index() * 1'000'000;
   for (auto _ : state) {
     auto ids = scratch->store->record_measurement(measurement(scratch->session, n++), f);
-    if (!ids) state.SkipWithError(ids.error().message.c_str());
+    if (!ids) {
+      state.SkipWithError(ids.error().message.c_str());
+      break;
+    }
   }
   state.SetItemsProcessed(state.iterations());
   state.SetLabel(backend_of_run(state) == Backend::sqlite ? "sqlite" : "postgresql");
@@ -147,6 +157,7 @@ BENCHMARK(BM_CommitMeasurementWithFit)
     ->Arg(1)
     ->Threads(1)
     ->Threads(2)
+    ->MinTime(kSeconds)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
@@ -177,13 +188,22 @@ void BM_CommitOnEachBench(benchmark::State& state) {
   int n = 0;
   for (auto _ : state) {
     auto ids = store->record_measurement(measurement(session, n++), f);
-    if (!ids) state.SkipWithError(ids.error().message.c_str());
+    if (!ids) {
+      state.SkipWithError(ids.error().message.c_str());
+      break;
+    }
   }
   state.SetItemsProcessed(state.iterations());
   state.SetLabel("postgresql");
   if (state.thread_index() == 0) ready = 0;
 }
-BENCHMARK(BM_CommitOnEachBench)->Threads(1)->Threads(2)->Threads(4)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CommitOnEachBench)
+    ->Threads(1)
+    ->Threads(2)
+    ->Threads(4)
+    ->MinTime(kSeconds)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // PostgreSQL's own client, pgbench, on the same cluster in the same run: what the server and
 // this machine allow apart from the store. Its writes are the bytes of a measurement and its
@@ -208,51 +228,84 @@ constexpr std::string_view kReferenceCommit =
 
 constexpr std::string_view kReferenceRead = "\\set id random(1, 200)\nSELECT body FROM fit_bytes WHERE id = :id;\n";
 
+constexpr const char* kCommitScript = "commit.sql";
+constexpr const char* kReadScript = "read.sql";
+
 // The reference's database (as the superuser) and its two pgbench scripts.
-struct Reference {
+struct PgbenchReference {
   std::string uri;
   std::filesystem::path dir;
-  Reference() : dir(temporary_directory()) {
+  PgbenchReference() : dir(temporary_directory()) {
     const auto database = cluster().create_database("reference");
     cluster().execute(database, std::string(kReferenceTables));
     uri = cluster().uri(database, "admin");
-    std::ofstream(dir / "commit.sql") << kReferenceCommit;
-    std::ofstream(dir / "read.sql") << kReferenceRead;
+    write_file(dir / kCommitScript, kReferenceCommit);
+    write_file(dir / kReadScript, kReferenceRead);
   }
-  ~Reference() { std::filesystem::remove_all(dir); }
+  ~PgbenchReference() { std::filesystem::remove_all(dir); }
+
+  static void write_file(const std::filesystem::path& path, std::string_view text) {
+    std::ofstream out(path, std::ios::binary);
+    out << text;
+    if (!out.flush()) {
+      std::fprintf(stderr, "store_bench: cannot write %s\n", path.c_str());
+      std::exit(1);
+    }
+  }
 };
 
-const Reference& reference() {
-  static const Reference made;
+const PgbenchReference& pgbench_reference() {
+  static const PgbenchReference made;
   return made;
 }
 
-// Runs a pgbench script for 3 s on state.range(0) connections (and as many threads) as one
-// iteration, timed by what pgbench counts: its transactions and their rate.
-void run_pgbench(benchmark::State& state, const std::string& script) {
+// What pgbench printed of a run: its transactions and their rate, or nothing when either is
+// missing (the run failed, or printed something else).
+struct PgbenchRun {
+  long transactions = 0;
+  double per_second = 0;
+};
+
+std::optional<PgbenchRun> parse_pgbench(std::string_view out) {
+  const auto number_after = [&](std::string_view label, auto& value) {
+    const auto at = out.find(label);
+    if (at == std::string_view::npos) return false;
+    const auto text = out.substr(at + label.size());
+    return std::from_chars(text.data(), text.data() + text.size(), value).ec == std::errc{};
+  };
+  PgbenchRun run;
+  if (!number_after("number of transactions actually processed: ", run.transactions) ||
+      !number_after("tps = ", run.per_second) || run.transactions <= 0 || !(run.per_second > 0))
+    return std::nullopt;
+  return run;
+}
+
+// Runs a pgbench script for kSeconds on state.range(0) connections (and as many threads) as one
+// iteration, timed by what pgbench counts: its transactions over their rate. (The Time column
+// of these rows is so the whole run; compare their items per second.)
+void run_pgbench(benchmark::State& state, const char* script) {
   const auto clients = std::to_string(state.range(0));
-  const auto& r = reference();
+  const auto& reference = pgbench_reference();
+  testing::ProcessOptions options;
+  options.environment = {"LC_ALL=C"};  // a decimal point in its figures whatever the locale
   for (auto _ : state) {
-    const auto run = testing::run_process(
-        testing::postgres_program("pgbench"),
-        {"-n", "-M", "prepared", "-c", clients, "-j", clients, "-T", "3", "-f", (r.dir / script).string(), r.uri});
-    static constexpr std::string_view kProcessed = "number of transactions actually processed: ";
-    static constexpr std::string_view kRate = "tps = ";
-    const auto processed = run.out.find(kProcessed);
-    const auto tps = run.out.find(kRate);
-    if (!run.exited() || run.exit_status != 0 || processed == std::string::npos || tps == std::string::npos) {
+    const auto run =
+        testing::run_process(testing::postgres_program("pgbench"),
+                             {"-n", "-M", "prepared", "-c", clients, "-j", clients, "-T", std::to_string(kSeconds),
+                              "-f", (reference.dir / script).string(), reference.uri},
+                             options);
+    const auto parsed = run.exited() && run.exit_status == 0 ? parse_pgbench(run.out) : std::nullopt;
+    if (!parsed) {
       state.SkipWithError(("pgbench: " + run.describe()).c_str());
-      return;
+      break;
     }
-    const long transactions = std::stol(run.out.substr(processed + kProcessed.size()));
-    const double per_second = std::stod(run.out.substr(tps + kRate.size()));
-    state.SetIterationTime(static_cast<double>(transactions) / per_second);
-    state.SetItemsProcessed(transactions);
+    state.SetIterationTime(static_cast<double>(parsed->transactions) / parsed->per_second);
+    state.SetItemsProcessed(parsed->transactions);
   }
   state.SetLabel("pgbench");
 }
 
-void BM_PgbenchCommit(benchmark::State& state) { run_pgbench(state, "commit.sql"); }
+void BM_PgbenchCommit(benchmark::State& state) { run_pgbench(state, kCommitScript); }
 BENCHMARK(BM_PgbenchCommit)
     ->ArgName("clients")
     ->Arg(1)
@@ -291,7 +344,10 @@ void BM_ReadFit(benchmark::State& state) {
   std::uniform_int_distribution<std::size_t> pick(0, 199);
   for (auto _ : state) {
     auto read = scratch->store->fit(fits[pick(random)]);
-    if (!read) state.SkipWithError(read.error().message.c_str());
+    if (!read) {
+      state.SkipWithError(read.error().message.c_str());
+      break;
+    }
     benchmark::DoNotOptimize(read);
   }
   state.SetItemsProcessed(state.iterations());
@@ -311,10 +367,11 @@ BENCHMARK(BM_ReadFit)
     ->ArgsProduct({{0, 1}, {0, 1}})
     ->Threads(1)
     ->Threads(2)
+    ->MinTime(kSeconds)
     ->UseRealTime()
     ->Unit(benchmark::kMicrosecond);
 
-void BM_PgbenchRead(benchmark::State& state) { run_pgbench(state, "read.sql"); }
+void BM_PgbenchRead(benchmark::State& state) { run_pgbench(state, kReadScript); }
 BENCHMARK(BM_PgbenchRead)
     ->ArgName("clients")
     ->Arg(1)
@@ -344,20 +401,25 @@ double fdatasync_median_ms() {
   return ms[100];
 }
 
-// Passes each run on to the usual display, and keeps its items per second by run name.
-class KeepingRates : public benchmark::BenchmarkReporter {
+// Passes each run on to the usual display, and keeps its items per second by run name (with
+// --benchmark_repetitions, a run's median under its own name).
+class RateKeepingReporter : public benchmark::BenchmarkReporter {
  public:
-  explicit KeepingRates(benchmark::BenchmarkReporter* display) : display_(display) {}
+  explicit RateKeepingReporter(benchmark::BenchmarkReporter* display) : display_(display) {}
   bool ReportContext(const Context& context) override { return display_->ReportContext(context); }
   void ReportRuns(const std::vector<Run>& runs) override {
-    for (const auto& run : runs)
-      if (const auto found = run.counters.find("items_per_second"); found != run.counters.end() && !run.error_occurred)
-        rates_[run.benchmark_name()] = found->second.value;
+    for (const auto& run : runs) {
+      const auto found = run.counters.find("items_per_second");
+      if (found == run.counters.end() || run.error_occurred) continue;
+      const bool median = run.run_type == Run::RT_Aggregate && run.aggregate_name == "median";
+      if (run.run_type == Run::RT_Iteration || median) rates_[run.run_name.str()] = found->second.value;
+    }
     display_->ReportRuns(runs);
   }
   void Finalize() override { display_->Finalize(); }
 
-  // The store's rate over pgbench's, for the runs of both that ran.
+  // The store's rate over pgbench's, for the runs of both that ran. The runs' names are the
+  // benchmark library's (with kSeconds in them); a pair of which one side is missing says so.
   void print_comparison() const {
     struct Pair {
       const char* what;
@@ -365,19 +427,24 @@ class KeepingRates : public benchmark::BenchmarkReporter {
       const char* pgbench;
     };
     static constexpr Pair kPairs[] = {
-        {"commits, one connection", "BM_CommitMeasurementWithFit/postgresql:1/real_time/threads:1",
+        {"commits, one connection", "BM_CommitMeasurementWithFit/postgresql:1/min_time:2.000/real_time/threads:1",
          "BM_PgbenchCommit/clients:1/iterations:1/manual_time"},
-        {"commits, two connections", "BM_CommitOnEachBench/real_time/threads:2",
+        {"commits, two connections", "BM_CommitOnEachBench/min_time:2.000/real_time/threads:2",
          "BM_PgbenchCommit/clients:2/iterations:1/manual_time"},
-        {"reads, one connection", "BM_ReadFit/postgresql:1/writing:0/real_time/threads:1",
+        {"reads, one connection", "BM_ReadFit/postgresql:1/writing:0/min_time:2.000/real_time/threads:1",
          "BM_PgbenchRead/clients:1/iterations:1/manual_time"},
-        {"reads, two connections", "BM_ReadFit/postgresql:1/writing:0/real_time/threads:2",
+        {"reads, two connections", "BM_ReadFit/postgresql:1/writing:0/min_time:2.000/real_time/threads:2",
          "BM_PgbenchRead/clients:2/iterations:1/manual_time"},
     };
     for (const auto& pair : kPairs) {
       const auto store = rates_.find(pair.store);
       const auto pgbench = rates_.find(pair.pgbench);
-      if (store == rates_.end() || pgbench == rates_.end()) continue;
+      if (store == rates_.end() && pgbench == rates_.end()) continue;
+      if (store == rates_.end() || pgbench == rates_.end()) {
+        std::printf("PostgreSQL %s: only %s ran, nothing to compare\n", pair.what,
+                    store == rates_.end() ? pair.pgbench : pair.store);
+        continue;
+      }
       std::printf("PostgreSQL %s: the store %.0f/s, pgbench %.0f/s: %.2f of pgbench\n", pair.what, store->second,
                   pgbench->second, store->second / pgbench->second);
     }
@@ -396,7 +463,7 @@ int main(int argc, char** argv) {
               skinspec::store::fdatasync_median_ms());
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  skinspec::store::KeepingRates reporter(benchmark::CreateDefaultDisplayReporter());
+  skinspec::store::RateKeepingReporter reporter(benchmark::CreateDefaultDisplayReporter());
   benchmark::RunSpecifiedBenchmarks(&reporter);
   reporter.print_comparison();
   benchmark::Shutdown();

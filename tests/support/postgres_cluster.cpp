@@ -203,9 +203,9 @@ std::string admin_uri(const fs::path& socket_dir, const std::string& database) {
 }
 
 // The WAL's segment size of a template, in MB: 1 for tests, whose clusters are copied for each
-// test program and never wait for the disk; the server's default 16 for durable clusters, as a
-// lab's server has. With 1 MB segments a durable writer creates and flushes a new segment every
-// hundred-odd commits, which a lab's server does a sixteenth as often.
+// test program and never wait for the disk; the server's default of 16 for durable clusters, as
+// a lab's server has it. (A fresh cluster makes each segment new, where a server that has run a
+// while reuses old ones; with 1 MB segments it would make them sixteen times as often.)
 int wal_segment_mb(bool durable) { return durable ? 16 : 1; }
 
 // initdb into a directory of its own, the settings, the roles; then moved into the build tree.
@@ -330,10 +330,9 @@ void PostgresCluster::stop(std::string_view mode) {
 }
 
 void PostgresCluster::start() {
-  // Durable: as a lab's server would be set for steady writing, with room for 1 GB of WAL
-  // between checkpoints (initdb sets 64 MB where segments are 1 MB), so that no checkpoint,
-  // after which each page is written whole again, cuts a benchmark's run.
-  const std::string durability = settings_.durable ? " -c fsync=on -c full_page_writes=on -c max_wal_size=1GB "
+  // Durable: a checkpoint, after which each page is written whole again, comes only after 4 GB
+  // of WAL (one comes at about half of max_wal_size), more than a run of the benchmarks writes.
+  const std::string durability = settings_.durable ? " -c fsync=on -c full_page_writes=on -c max_wal_size=8GB "
                                                      "-c checkpoint_timeout=15min"
                                                    : " -c fsync=off -c full_page_writes=off";
   start_server(data(), directory_ / "log", "-k " + directory_.string() + durability + " -c synchronous_commit=on");
@@ -345,7 +344,7 @@ std::string PostgresCluster::log_tail() const {
   return tail_of(std::string((std::istreambuf_iterator<char>(in)), {}), 20);
 }
 
-std::string postgres_program(const std::string& name) { return program(name); }
+std::filesystem::path postgres_program(const std::string& name) { return program(name); }
 
 PostgresCluster& postgres_cluster() {
   static PostgresCluster cluster;

@@ -3,7 +3,8 @@
 // reached only through a Unix socket in that directory (no TCP port, so test programs running
 // side by side never meet), stopped and removed when the test program ends, however it ends.
 //
-// The cluster is a copy of a template made once per build tree by initdb. When the test runs
+// The cluster is a copy of a template made once per build tree by initdb (one with 1 MB WAL
+// segments for tests, one with the server's default 16 MB for durable clusters). When the test runs
 // as root, initdb and the server run as `nobody` (PostgreSQL refuses to run as root). Roles:
 // `admin` (superuser, what the helpers below connect as), `skinspec` (owns the databases
 // create_database makes), `skinspec_reader` (may log in, owns nothing) and `skinspec_pw`
@@ -21,7 +22,8 @@ namespace skinspec::testing {
 struct ClusterSettings {
   // false (tests): fsync and full-page writes off, so a commit does not wait for the disk
   // (synchronous_commit stays on; a server stopped with "immediate" still replays its WAL).
-  // true (benchmarks): every commit is flushed, the data directory on a real disk.
+  // true (benchmarks): every commit is flushed, the data directory on a real disk, the WAL in
+  // 16 MB segments as a lab's server has them, and no checkpoint before 4 GB of it.
   bool durable = false;
   // Where the temporary directory goes; empty: /dev/shm when it is usable and !durable, else
   // $TMPDIR or /tmp.
@@ -75,7 +77,7 @@ class PostgresCluster {
 };
 
 // The path of a program of the PostgreSQL installation the clusters run (such as "pgbench").
-std::string postgres_program(const std::string& name);
+std::filesystem::path postgres_program(const std::string& name);
 
 // The one cluster of this test program, started on first use (a test that never touches
 // PostgreSQL pays nothing) and stopped at exit.
