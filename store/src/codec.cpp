@@ -129,22 +129,10 @@ std::string encode_fit_params(const std::vector<FitParam>& params) {
 
 namespace {
 
-// The members of a fit's parameter, and each one's bit in the set of those read.
-enum class ParamMember { name, value, standard_error, other };
+// The members of a fit's parameter, each its own bit in the set of those read (other: none).
+enum class ParamMember : unsigned { other = 0, name = 1, value = 2, standard_error = 4 };
 
-constexpr unsigned bit(ParamMember m) {
-  switch (m) {
-    case ParamMember::name:
-      return 1;
-    case ParamMember::value:
-      return 2;
-    case ParamMember::standard_error:
-      return 4;
-    case ParamMember::other:
-      return 0;
-  }
-  return 0;
-}
+constexpr unsigned bit(ParamMember m) { return static_cast<unsigned>(m); }
 
 // A fit's parameters read as the parser meets them, without building the document: every read
 // of a fit does this. The array's objects need "name" (a string), "value" (a number) and
