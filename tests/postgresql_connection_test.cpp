@@ -318,6 +318,84 @@ TEST(PostgresqlConnectionTest, StatementsSentGoOutWithTheNextOneSteppedInOrderAn
   }
 }
 
+// A transaction's last statement takes the COMMIT with it, in its round trip; its rows are read
+// after, and nothing runs in the transaction after it.
+TEST(PostgresqlConnectionTest, TheLastStatementGoesOutWithTheCommitAndNothingRunsAfterIt) {
+  Database db;
+  auto& c = *db.connection;
+  c.execute("CREATE TABLE u (k text UNIQUE)");
+  const auto stored = [&] { return postgres_cluster().text(db.name, "SELECT string_agg(k, ',' ORDER BY k) FROM u"); };
+
+  {  // Committed with the statement: commit() has nothing left to do.
+    c.begin(TransactionKind::write);
+    auto first = c.prepare("INSERT INTO u VALUES (?1)");
+    first.bind("a").run();
+    auto last = c.prepare("INSERT INTO u VALUES (?1) RETURNING k || '!'");
+    last.bind("b").send_with_commit();
+    ASSERT_TRUE(last.step());
+    EXPECT_EQ(last.text(0), "b!");
+    EXPECT_FALSE(c.in_transaction());
+    EXPECT_EQ(stored(), "a,b");
+    EXPECT_EQ(failure_of([&] { c.prepare("SELECT 1").step(); }).error.kind, Kind::internal);
+    EXPECT_EQ(failure_of([&] { c.execute("SELECT 1"); }).error.kind, Kind::internal);
+    c.commit();
+    EXPECT_FALSE(c.in_transaction());
+  }
+  {  // A last statement that fails takes nothing with it: the transaction is rolled back.
+    c.begin(TransactionKind::write);
+    c.prepare("INSERT INTO u VALUES (?1)").bind("c").run();
+    auto last = c.prepare("INSERT INTO u VALUES (?1) RETURNING k");
+    last.bind("a").send_with_commit();  // "a" is taken
+    const auto failed = failure_of([&] { last.step(); });
+    EXPECT_EQ(failed.error.kind, Kind::conflict) << failed.error.message;
+    EXPECT_EQ(failed.error.sql_state, "23505");
+    EXPECT_FALSE(c.broken());
+    c.rollback();
+    EXPECT_EQ(stored(), "a,b");
+  }
+  {  // Sent and not stepped yet, it runs with the COMMIT when the transaction commits; dropped
+     // before anything ran, it does not run, and the COMMIT goes out alone.
+    c.begin(TransactionKind::write);
+    auto last = c.prepare("INSERT INTO u VALUES (?1)");
+    last.bind("d").send_with_commit();
+    c.commit();
+    EXPECT_FALSE(last.step());
+    EXPECT_EQ(stored(), "a,b,d");
+  }
+  {
+    c.begin(TransactionKind::write);
+    c.prepare("INSERT INTO u VALUES (?1)").bind("c").run();
+    c.prepare("INSERT INTO u VALUES (?1)").bind("dropped").send_with_commit();
+    c.commit();
+    EXPECT_EQ(stored(), "a,b,c,d");
+  }
+  // Outside a transaction there is no COMMIT to send it with.
+  EXPECT_EQ(failure_of([&] { c.prepare("INSERT INTO u VALUES (?1)").bind("e").send_with_commit(); }).error.kind,
+            Kind::internal);
+  EXPECT_EQ(stored(), "a,b,c,d");
+}
+
+// The server ended the connection between two requests: that is found before anything is sent
+// (the store's writer is replaced then), and a last statement sent on it regardless fails
+// without having gone out, so it may run again.
+TEST(PostgresqlConnectionTest, AConnectionTheServerEndedIsFoundSoBeforeALastStatementGoesOut) {
+  Database db;
+  db.connection->execute("CREATE TABLE t (x bigint)");
+  auto c = connect(db.uri);
+  EXPECT_TRUE(c->still_connected());
+  EXPECT_TRUE(c->still_connected());
+  postgres_cluster().execute("postgres", "SELECT pg_terminate_backend(" + std::to_string(c->backend_pid()) + ", 5000)");
+  EXPECT_FALSE(c->still_connected());
+  EXPECT_TRUE(c->broken());
+  c->begin(TransactionKind::write);
+  const auto lost = failure_of([&] { c->prepare("INSERT INTO t VALUES (?1)").bind(1).send_with_commit().step(); });
+  EXPECT_EQ(lost.error.kind, Kind::unreachable) << lost.error.message;
+  EXPECT_TRUE(lost.retryable);
+  EXPECT_EQ(lost.error.message.find("unknown"), std::string::npos) << lost.error.message;
+  c->rollback();
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM t"), 0);
+}
+
 TEST(PostgresqlConnectionTest, ALostConnectionIsUnreachableAndOnlyAnUncommittedTransactionMayRunAgain) {
   Database db;
   db.connection->execute("CREATE TABLE t (x bigint)");

@@ -1,10 +1,13 @@
 // Helper for the crash-safety test: runs measurement jobs on the database given as its
-// argument until it is killed (each job created, started, then ended with its measurement and
-// fit in one transaction), printing each one's ids only after its commit has returned. Lines:
+// argument until it is killed (each job created, started, then, a millisecond later as the
+// meter's reading would take, ended with its measurement and fit in one transaction), printing
+// each one's ids only after its commit has returned. Lines:
 //   session <session id>
 //   committed <measurement id> <fit id> <job id> <n>   (n: the sample number, see store_samples.hpp)
 
+#include <chrono>
 #include <cstdio>
+#include <thread>
 
 #include "skinspec/store/store.hpp"
 #include "support/store_samples.hpp"
@@ -39,6 +42,8 @@ int main(int argc, char** argv) {
     job.session_id = session;
     const Id job_id = must(store.create_job(job), "job").job.id;
     must(store.update_job(job_id, {.state = JobState::running}), "job start");
+    // A job runs for as long as its reading takes: kills land there as often as elsewhere.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
     const auto done = must(store.complete_measurement_job(job_id, skinspec::testing::sample_measurement(session, n),
                                                           skinspec::testing::sample_fit(n), R"({"readings":1})"),
                            "job end");

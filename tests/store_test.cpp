@@ -551,8 +551,8 @@ TEST_P(StoreTest, JobsFollowTheirStatesAndIdempotencyKeys) {
   EXPECT_FALSE(done.job.error);
   EXPECT_EQ(value_of(store.measurement(done.ids.measurement_id)).job_id, created.job.id);
   EXPECT_EQ(value_of(store.fit(*done.ids.fit_id)).measurement_id, done.ids.measurement_id);
-  EXPECT_EQ(done.job.result, R"({"fit_id":)" + std::to_string(*done.ids.fit_id) + R"(,"measurement_id":)" +
-                                 std::to_string(done.ids.measurement_id) + R"(,"readings":1})");
+  EXPECT_EQ(done.job.result, R"({"readings":1,"measurement_id":)" + std::to_string(done.ids.measurement_id) +
+                                 R"(,"fit_id":)" + std::to_string(*done.ids.fit_id) + "}");
   EXPECT_EQ(value_of(store.job(created.job.id)).result, done.job.result);
   EXPECT_EQ(store.update_job(created.job.id, {.state = JobState::running}).error().kind, Kind::conflict);
   // Only a running job ends with its measurement.
@@ -639,13 +639,61 @@ TEST_P(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
   of_another_job.job_id = job_id + 1;
   EXPECT_EQ(store.complete_measurement_job(job_id, of_another_job, std::nullopt, "{}").error().kind,
             Kind::invalid_argument);
+  EXPECT_EQ(store.complete_measurement_job(job_id + 1, m, sample_fit(1), "{}").error().kind, Kind::not_found);
+  const auto refused = [&](const Measurement& of_job) {
+    return store.complete_measurement_job(job_id, of_job, sample_fit(1), "{}").error().message;
+  };
+  auto no_such_white = m;
+  no_such_white.white_measurement_id = 555;
+  EXPECT_THAT(refused(no_such_white), HasSubstr("measurement 555 does not exist"));
+  auto no_such_instrument = m;
+  no_such_instrument.instrument_id = 556;
+  EXPECT_THAT(refused(no_such_instrument), HasSubstr("instrument 556 does not exist"));
+  const Id other_sample =
+      value_of(store.record_measurement(sample_measurement(other_session, 2), std::nullopt)).measurement_id;
+  auto not_white = m;
+  not_white.white_measurement_id = other_sample;
+  EXPECT_THAT(refused(not_white), HasSubstr("is not a white reading"));
   value_of(store.update_session(session, {.state = SessionState::complete}));
   EXPECT_EQ(store.complete_measurement_job(job_id, m, sample_fit(1), "{}").error().kind, Kind::conflict);
+  EXPECT_EQ(store.complete_measurement_job(job_id, m, std::nullopt, "{}").error().kind, Kind::conflict);
 
   EXPECT_EQ(value_of(store.job(job_id)).state, JobState::running);
   EXPECT_EQ(value_of(store.job(job_id)).result, "{}");
-  EXPECT_EQ(raw().integer("SELECT count(*) FROM measurements"), 0);
+  EXPECT_EQ(raw().integer("SELECT count(*) FROM measurements"), 1);  // other_sample
   EXPECT_EQ(raw().integer("SELECT count(*) FROM fits"), 0);
+}
+
+// The job's result is the caller's object, its members in order and any ids it had left out,
+// with the ids of the measurement and fit stored last: the same text whatever the engine.
+TEST_P(StoreTest, AJobsResultEndsWithTheIdsOfWhatItStored) {
+  auto store = open();
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const auto run_job = [&] {
+    Job job;
+    job.kind = "measure";
+    job.session_id = session;
+    const Id id = value_of(store.create_job(job)).job.id;
+    value_of(store.update_job(id, {.state = JobState::running}));
+    return id;
+  };
+  const Id with_fit = run_job();
+  const auto done =
+      value_of(store.complete_measurement_job(with_fit, sample_measurement(session, 1), sample_fit(1),
+                                              R"({"b": [1, 2], "a": "x", "fit_id": 99, "measurement_id": -1})"));
+  EXPECT_EQ(done.job.result, R"({"a":"x","b":[1,2],"measurement_id":)" + std::to_string(done.ids.measurement_id) +
+                                 R"(,"fit_id":)" + std::to_string(*done.ids.fit_id) + "}");
+  EXPECT_EQ(value_of(store.job(with_fit)).result, done.job.result);
+
+  const Id without_fit = run_job();
+  const auto bare =
+      value_of(store.complete_measurement_job(without_fit, sample_measurement(session, 2), std::nullopt, "{}"));
+  EXPECT_FALSE(bare.ids.fit_id);
+  EXPECT_EQ(bare.job.result, R"({"measurement_id":)" + std::to_string(bare.ids.measurement_id) + R"(,"fit_id":null})");
+  EXPECT_EQ(value_of(store.job(without_fit)).result, bare.job.result);
+  EXPECT_EQ(bare.job.state, JobState::succeeded);
+  EXPECT_TRUE(bare.job.finished_at);
+  EXPECT_EQ(value_of(store.measurement(bare.ids.measurement_id)).job_id, without_fit);
 }
 
 TEST_P(StoreTest, RecoveryCanTreatEveryOpenSessionAsRunning) {

@@ -54,6 +54,9 @@ class Cursor {
   // Bound and to run: where the engine is a server, it goes out with the next statement whose
   // result is needed, in one round trip (SQLite has none to save: it runs at step()).
   virtual void send() {}
+  // Sent as the write transaction's last statement: where the engine is a server, the COMMIT
+  // goes out with it, in its round trip. (SQLite commits when the write ends, as always.)
+  virtual void send_with_commit() {}
   virtual bool step() = 0;  // true: a row is ready; false: done
   virtual bool is_null(int column) const = 0;
   virtual std::int64_t integer(int column) const = 0;
@@ -101,6 +104,15 @@ class Statement {
   // before it, which kept it from running).
   Statement& send() {
     cursor_->send();
+    return *this;
+  }
+  // Makes the statement, bound, the last of its write transaction: with a server, the
+  // transaction commits in the statement's own round trip when it succeeds, and its rows are read
+  // after the commit. So what they show can no longer undo it: a statement sent so writes only
+  // what its own conditions allow, and nothing else runs in the transaction after it. Where the
+  // engine commits when the write ends (SQLite), a failure found in its rows still rolls back.
+  Statement& send_with_commit() {
+    cursor_->send_with_commit();
     return *this;
   }
   bool step() { return cursor_->step(); }

@@ -118,22 +118,24 @@ Fit read_fit(const Statement& row) {
   return out;
 }
 
-Job read_job(const Statement& row) {
+Job read_job(const Statement& row) { return read_job_from(row, 0); }
+
+Job read_job_from(const Statement& row, int first) {
   Job out;
-  out.id = row.integer(0);
-  out.kind = row.text(1);
-  out.request = row.text(2);
-  out.requested_by = row.text(3);
-  out.session_id = row.optional_integer(4);
-  out.idempotency_key = row.text(5);  // NULL reads as empty
-  const auto state = row.text(6);
+  out.id = row.integer(first);
+  out.kind = row.text(first + 1);
+  out.request = row.text(first + 2);
+  out.requested_by = row.text(first + 3);
+  out.session_id = row.optional_integer(first + 4);
+  out.idempotency_key = row.text(first + 5);  // NULL reads as empty
+  const auto state = row.text(first + 6);
   out.state = parsed(parse_job_state(state), state, "job state");
-  if (!row.is_null(7)) out.error = decode_job_error(row.text(7), "jobs.error");
-  out.result = row.text(8);
-  out.created_at = row.time(9);
-  out.started_at = row.optional_time(10);
-  out.finished_at = row.optional_time(11);
-  out.bench = row.text(12);
+  if (!row.is_null(first + 7)) out.error = decode_job_error(row.text(first + 7), "jobs.error");
+  out.result = row.text(first + 8);
+  out.created_at = row.time(first + 9);
+  out.started_at = row.optional_time(first + 10);
+  out.finished_at = row.optional_time(first + 11);
+  out.bench = row.text(first + 12);
   return out;
 }
 

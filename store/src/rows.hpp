@@ -49,6 +49,8 @@ Session read_session(const Statement& row);
 Measurement read_measurement(const Statement& row);
 Fit read_fit(const Statement& row);
 Job read_job(const Statement& row);
+// The job whose columns (kJobColumns) start at column `first`.
+Job read_job_from(const Statement& row, int first);
 Bench read_bench(const Statement& row);
 RejectedReading read_rejected_reading(const Statement& row);
 

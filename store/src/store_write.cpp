@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -123,14 +124,19 @@ Id insert_fit(Connection& c, const Fit& f, Id measurement_id, Time now) {
   return returned_id(insert);
 }
 
-// The INSERT of a measurement (RETURNING its id), or where the engine has one, the one
-// statement that inserts the measurement and its fit (RETURNING both ids).
-const std::string& measurement_insert(bool with_fit) {
-  static const std::string alone = fmt::format("INSERT INTO measurements ({}) VALUES ({}) RETURNING id",
-                                               kMeasurementColumns, detail::placeholders(1, kMeasurementColumnCount));
-  static const std::string together = postgresql::measurement_with_fit_insert(
-      kMeasurementColumns, kMeasurementColumnCount, kFitColumns, kFitColumnCount);
-  return with_fit ? together : alone;
+// PostgreSQL's one statement that records a measurement (with its fit when `fit`, and the end of
+// its job when `ends_job`), postgresql/statements.hpp.
+const std::string& recording_statement(bool fit, bool ends_job) {
+  static const auto make = [](bool with_fit, bool with_job) {
+    return postgresql::recording_statement({.measurement_columns = kMeasurementColumns,
+                                            .measurement_count = kMeasurementColumnCount,
+                                            .fit_columns = with_fit ? kFitColumns : "",
+                                            .fit_count = with_fit ? kFitColumnCount : 0,
+                                            .job_columns = with_job ? detail::kJobColumns : ""});
+  };
+  static const std::array<std::string, 4> statements{make(false, false), make(true, false), make(false, true),
+                                                     make(true, true)};
+  return statements[(fit ? 1 : 0) + (ends_job ? 2 : 0)];
 }
 
 bool session_transition_allowed(SessionState from, SessionState to) {
@@ -165,6 +171,32 @@ void check_job_update(const JobUpdate& update) {
     invalid(fmt::format("a job that becomes {} needs its error", to_string(update.state)));
   if (!ended_badly && update.error) invalid(fmt::format("a job that becomes {} has no error", to_string(update.state)));
   if (update.error) detail::check_not_empty(update.error->message, "the job error's message");
+}
+
+// That the job a measurement ends, found in state `state`, is running and of the measurement's
+// session.
+void check_job_ended_by(Id job_id, JobState state, std::optional<Id> job_session, Id session_id) {
+  if (state != JobState::running)
+    fail(Kind::conflict, fmt::format("job {} is {}, not running", job_id, to_string(state)));
+  if (job_session != session_id) invalid(fmt::format("job {} is not of session {}", job_id, session_id));
+}
+
+// That what the checks of measurement `m` read, from column `first` of `row` (the session's
+// state, NULL when there is none; the white reading's kind, NULL when there is none or it does
+// not exist; how many instruments have its instrument's id), allows storing it.
+void check_context(const detail::Statement& row, int first, const Measurement& m) {
+  if (row.is_null(first)) fail(Kind::not_found, fmt::format("session {} does not exist", m.session_id));
+  const auto state = row.text(first);
+  if (state != to_string(SessionState::open))
+    fail(Kind::conflict, fmt::format("session {} is {}, not open", m.session_id, state));
+  if (m.white_measurement_id) {
+    if (row.is_null(first + 1))
+      fail(Kind::not_found, fmt::format("measurement {} does not exist", *m.white_measurement_id));
+    if (row.text(first + 1) != to_string(MeasurementKind::white))
+      fail(Kind::conflict, fmt::format("measurement {} is not a white reading", *m.white_measurement_id));
+  }
+  if (m.instrument_id && row.integer(first + 2) == 0)
+    fail(Kind::not_found, fmt::format("instrument {} does not exist", *m.instrument_id));
 }
 
 // Job `id`, its row locked until the transaction ends where the engine has row locks: the
@@ -215,53 +247,87 @@ Job change_job(Connection& c, Id id, const JobUpdate& update, Time now) {
   return move_job(c, job_in(c, id), update, now);
 }
 
+struct Recorded {
+  RecordedMeasurement ids;
+  std::optional<Job> job;  // the job it ended
+};
+
+// PostgreSQL: measurement `m` and its fit (and, given the job's `result_head`, the end of its job)
+// by one statement, inside the caller's transaction; as its last statement when `last`, so that
+// the COMMIT goes with it. The statement writes only what the checks below allow: they read what
+// it found, and name what failed.
+Recorded record_by_one_statement(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
+                                 const std::optional<std::string>& result_head, bool last, Time now) {
+  check_measurement(m);
+  if (fit) check_fit(*fit);
+  using enum postgresql::RecordingColumn;
+  auto row = c.prepare(recording_statement(fit.has_value(), result_head.has_value()));
+  bind_measurement(row, 1, m, now);
+  if (fit) bind_fit(row, kMeasurementColumnCount + 1, *fit, now);
+  if (result_head) row.bind_at(kMeasurementColumnCount + (fit ? kFitColumnCount : 0) + 1, *result_head);
+  if (last) row.send_with_commit();
+  if (!row.step()) fail(Kind::internal, "recording a measurement returned no row");
+  if (result_head) {
+    if (row.is_null(job_state)) fail(Kind::not_found, fmt::format("job {} does not exist", *m.job_id));
+    const auto state = row.text(job_state);
+    const auto parsed = parse_job_state(state);
+    if (!parsed) fail(Kind::corrupt, fmt::format("job state '{}' is not one skinspec writes", state));
+    check_job_ended_by(*m.job_id, *parsed, row.optional_integer(job_session_id), m.session_id);
+  }
+  check_context(row, session_state, m);
+  if (row.is_null(new_measurement_id)) fail(Kind::internal, "a measurement that passed its checks was not stored");
+  Recorded out;
+  out.ids.measurement_id = row.integer(new_measurement_id);
+  if (fit) out.ids.fit_id = row.integer(new_fit_id);
+  if (result_head) out.job = detail::read_job_from(row, job_row);
+  row.run();
+  return out;
+}
+
 // A measurement and its fit, inside the caller's transaction, after the checks every
-// measurement passes.
+// measurement passes; `last`: the transaction's last statement.
 RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
-                                               Time now) {
+                                               Time now, bool last = false) {
+  if (c.dialect() == detail::Dialect::postgresql)
+    return record_by_one_statement(c, m, fit, std::nullopt, last, now).ids;
   check_measurement(m);
   if (fit) check_fit(*fit);
   // What the checks need, in one query: the session's state, the white reading's kind (NULL
   // when there is none or it does not exist) and whether the instrument exists.
   auto context = c.prepare(
       "SELECT s.state, (SELECT kind FROM measurements WHERE id = ?2), (SELECT count(*) FROM instruments WHERE id = "
-      "?3) FROM sessions s WHERE s.id = ?1",
-      detail::RowLock::share);
-  context.bind(m.session_id, m.white_measurement_id, m.instrument_id).send();
-  // Sent with the query, in its round trip where the engine is a server: the transaction is
-  // not committed when a check below fails, so the rows it wrote meanwhile are not kept.
-  const bool together = fit && c.dialect() == detail::Dialect::postgresql;
-  auto insert = c.prepare(measurement_insert(together));
-  bind_measurement(insert, 1, m, now);
-  if (together) bind_fit(insert, kMeasurementColumnCount + 1, *fit, now);
-  insert.send();
+      "?3) FROM sessions s WHERE s.id = ?1");
+  context.bind(m.session_id, m.white_measurement_id, m.instrument_id);
   if (!context.step()) fail(Kind::not_found, fmt::format("session {} does not exist", m.session_id));
-  const auto state = context.text(0);
-  if (state != to_string(SessionState::open))
-    fail(Kind::conflict, fmt::format("session {} is {}, not open", m.session_id, state));
-  if (m.white_measurement_id) {
-    if (context.is_null(1))
-      fail(Kind::not_found, fmt::format("measurement {} does not exist", *m.white_measurement_id));
-    if (context.text(1) != to_string(MeasurementKind::white))
-      fail(Kind::conflict, fmt::format("measurement {} is not a white reading", *m.white_measurement_id));
-  }
-  if (m.instrument_id && context.integer(2) == 0)
-    fail(Kind::not_found, fmt::format("instrument {} does not exist", *m.instrument_id));
-  if (!insert.step()) fail(Kind::internal, "an insert returned no id");
+  check_context(context, 0, m);
+  static const std::string insert_sql =
+      fmt::format("INSERT INTO measurements ({}) VALUES ({}) RETURNING id", kMeasurementColumns,
+                  detail::placeholders(1, kMeasurementColumnCount));
+  auto insert = c.prepare(insert_sql);
+  bind_measurement(insert, 1, m, now);
   RecordedMeasurement ids;
-  ids.measurement_id = insert.integer(0);
-  if (together) ids.fit_id = insert.integer(1);
-  insert.run();
-  if (fit && !together) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
+  ids.measurement_id = returned_id(insert);
+  if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
   return ids;
 }
 
-std::string with_ids(const std::string& result, const RecordedMeasurement& ids) {
+// A job's result without the ids its measurement got, as the text they complete: the caller's
+// object (any ids in it left out) without its closing brace, and a comma when it has members.
+std::string result_head(const std::string& result) {
   auto object = nlohmann::json::parse(result, nullptr, false);
   if (object.is_discarded() || !object.is_object()) invalid("the job's result: not a JSON object");
-  object["measurement_id"] = ids.measurement_id;
-  object["fit_id"] = ids.fit_id ? nlohmann::json(*ids.fit_id) : nlohmann::json(nullptr);
-  return object.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  object.erase("measurement_id");
+  object.erase("fit_id");
+  auto text = object.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  text.pop_back();
+  if (!object.empty()) text += ',';
+  return text;
+}
+
+// The job's result: its head and the ids, as PostgreSQL's recording statement writes it too.
+std::string with_ids(const std::string& head, const RecordedMeasurement& ids) {
+  return fmt::format(R"({}"measurement_id":{},"fit_id":{}}})", head, ids.measurement_id,
+                     ids.fit_id ? std::to_string(*ids.fit_id) : std::string("null"));
 }
 
 }  // namespace
@@ -338,16 +404,16 @@ namespace {
 // A measurement stored on its own (not a job's, which complete_measurement_job stores), with its
 // fit, inside the caller's transaction.
 RecordedMeasurement insert_measurement_without_job(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
-                                                   Time now) {
+                                                   Time now, bool last = false) {
   if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
-  return insert_measurement_and_fit(c, m, fit, now);
+  return insert_measurement_and_fit(c, m, fit, now, last);
 }
 
 }  // namespace
 
 Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, const std::optional<Fit>& fit) {
   return impl_->write("recording a measurement",
-                      [&](Connection& c) { return insert_measurement_without_job(c, m, fit, impl_->now()); });
+                      [&](Connection& c) { return insert_measurement_without_job(c, m, fit, impl_->now(), true); });
 }
 
 namespace {
@@ -367,8 +433,7 @@ std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store:
   while (const auto* row = next()) {
     const auto& [m, fit] = *row;
     if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
-    if (running.session_id != m.session_id)
-      invalid(fmt::format("job {} is not of session {}", job->job_id, m.session_id));
+    check_job_ended_by(job->job_id, running.state, running.session_id, m.session_id);
     Measurement of_job = m;
     of_job.job_id = job->job_id;
     out.push_back(insert_measurement_and_fit(c, of_job, fit, now));
@@ -406,16 +471,19 @@ Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measuremen
   return impl_->write(fmt::format("completing job {}", job_id), [&](Connection& c) {
     if (m.job_id && *m.job_id != job_id)
       invalid(fmt::format("the measurement is of job {}, not {}", *m.job_id, job_id));
-    const auto job = job_in(c, job_id);
-    if (job.state != JobState::running)
-      fail(Kind::conflict, fmt::format("job {} is {}, not running", job_id, to_string(job.state)));
-    if (job.session_id != m.session_id) invalid(fmt::format("job {} is not of session {}", job_id, m.session_id));
     Measurement of_job = m;
     of_job.job_id = job_id;
     const auto now = impl_->now();
+    const auto head = result_head(result);
+    if (c.dialect() == detail::Dialect::postgresql) {
+      auto recorded = record_by_one_statement(c, of_job, fit, head, true, now);
+      return CompletedJob{.job = std::move(*recorded.job), .ids = recorded.ids};
+    }
+    const auto job = job_in(c, job_id);
+    check_job_ended_by(job_id, job.state, job.session_id, m.session_id);
     CompletedJob out;
     out.ids = insert_measurement_and_fit(c, of_job, fit, now);
-    out.job = change_job(c, job, {.state = JobState::succeeded, .result = with_ids(result, out.ids)}, now);
+    out.job = change_job(c, job, {.state = JobState::succeeded, .result = with_ids(head, out.ids)}, now);
     return out;
   });
 }

@@ -179,6 +179,11 @@ void PgCursor::send() {
   connection_->queue(*this);
 }
 
+void PgCursor::send_with_commit() {
+  if (result_ || failure_) detail::fail(Kind::internal, fmt::format("{}: sent again before it was reset", sql_));
+  connection_->queue_last(*this);
+}
+
 bool PgCursor::step() {
   if (!result_ && !failure_) {
     connection_->queue(*this);
@@ -303,6 +308,15 @@ Connection::Connection(const Target& target, const ConnectSettings& settings) : 
   detail::fail(Kind::unreachable, fmt::format("cannot reach the database server at {}: {}", target_.display, why));
 }
 
+bool Connection::still_connected() {
+  // The first read takes what the server sent (its last error, when it ended the connection),
+  // the second finds the end that follows it.
+  for (int read = 0; read < 2 && !broken(); ++read) {
+    if (PQconsumeInput(handle()) != 1) lost_ = true;
+  }
+  return !broken();
+}
+
 void Connection::fail(const PGresult* result, std::string_view what, bool committing) const {
   throw failure(result, what, committing);
 }
@@ -383,7 +397,20 @@ bool succeeded(const PGresult* result) {
   return status == PGRES_TUPLES_OK || status == PGRES_COMMAND_OK;
 }
 
-// The next query's result in a pipeline, and past the null that ends its results.
+// Whether `result` is an error the server sent: the server stopped at that statement and ran
+// nothing after it (an error libpq made itself, such as a connection found closed, says
+// nothing of what the server did).
+bool server_error(const PGresult* result) {
+  const char* state = result ? PQresultErrorField(result, PG_DIAG_SQLSTATE) : nullptr;
+  return state && *state;
+}
+
+// A command without parameters, sent (into the pipeline, in pipeline mode).
+bool send_command(PGconn* connection, const char* command) {
+  return PQsendQueryParams(connection, command, 0, nullptr, nullptr, nullptr, nullptr, 1) == 1;
+}
+
+// The next query's result (in a pipeline, or alone), and past the null that ends its results.
 ResultPtr next_result(PGconn* connection) {
   ResultPtr result(PQgetResult(connection), &PQclear);
   while (auto* rest = PQgetResult(connection)) PQclear(rest);
@@ -393,16 +420,30 @@ ResultPtr next_result(PGconn* connection) {
 }  // namespace
 
 void Connection::queue(PgCursor& cursor) {
-  if (std::find(queued_.begin(), queued_.end(), &cursor) == queued_.end()) queued_.push_back(&cursor);
+  if (std::find(queued_.begin(), queued_.end(), &cursor) != queued_.end()) return;
+  if (commit_queued_ || committed_)
+    detail::fail(Kind::internal, fmt::format("{}: run after the transaction's last statement", cursor.sql()));
+  queued_.push_back(&cursor);
 }
 
-void Connection::unqueue(const PgCursor& cursor) noexcept { std::erase(queued_, &cursor); }
+void Connection::queue_last(PgCursor& cursor) {
+  if (!in_transaction())
+    detail::fail(Kind::internal, fmt::format("{}: sent as a transaction's last outside a transaction", cursor.sql()));
+  queue(cursor);
+  commit_queued_ = true;
+}
+
+void Connection::unqueue(const PgCursor& cursor) noexcept {
+  if (commit_queued_ && !queued_.empty() && queued_.back() == &cursor) commit_queued_ = false;
+  std::erase(queued_, &cursor);
+}
 
 // One statement alone runs as it is; BEGIN and statements together go out in one pipeline.
 std::optional<detail::Failure> Connection::run_queued() {
   const auto cursors = std::exchange(queued_, {});
   const char* begin = std::exchange(pending_begin_, nullptr);
-  if (begin || cursors.size() > 1) return run_pipelined(begin, cursors);
+  const bool commit = std::exchange(commit_queued_, false);
+  if (begin || commit || cursors.size() > 1) return run_pipelined(begin, cursors, commit);
   if (cursors.empty()) return std::nullopt;
   auto result = cursors.front()->execute_on(handle());
   if (succeeded(result.get())) {
@@ -414,29 +455,43 @@ std::optional<detail::Failure> Connection::run_queued() {
   return failed;
 }
 
-// BEGIN and the statements sent together, then their results read in order and the
-// pipeline's end. After a failure the server skips the rest of the pipeline: the statements
-// after it were not run, and fail as it did.
-std::optional<detail::Failure> Connection::run_pipelined(const char* begin, const std::vector<PgCursor*>& cursors) {
+// BEGIN and the statements sent together (and COMMIT after them, with the transaction's last),
+// then their results read in order and the pipeline's end. After a failure the server skips the
+// rest of the pipeline: the statements after it were not run, and fail as it did. Once COMMIT
+// is sent, a lost connection leaves the outcome unknown unless the server's own error for an
+// earlier statement shows that it stopped before COMMIT.
+std::optional<detail::Failure> Connection::run_pipelined(const char* begin, const std::vector<PgCursor*>& cursors,
+                                                         bool commit) {
   const std::string_view what = cursors.empty() ? std::string_view("BEGIN") : cursors.back()->sql();
-  const bool entered = PQenterPipelineMode(handle()) == 1;
-  bool sent = entered && (!begin || PQsendQueryParams(handle(), begin, 0, nullptr, nullptr, nullptr, nullptr, 1) == 1);
+  const bool sendable = !broken();  // else nothing goes out, and nothing is committed
+  const bool entered = sendable && PQenterPipelineMode(handle()) == 1;
+  bool sent = entered && (!begin || send_command(handle(), begin));
   for (const auto* cursor : cursors) sent = sent && cursor->send_on(handle());
+  sent = sent && (!commit || send_command(handle(), "COMMIT"));
   sent = sent && PQpipelineSync(handle()) == 1;
   std::optional<detail::Failure> first;
   if (sent) {
     if (begin) {
       const auto begun = next_result(handle());
-      if (!succeeded(begun.get())) first = failure(begun.get(), "BEGIN");
+      if (!succeeded(begun.get())) first = failure(begun.get(), "BEGIN", commit && !server_error(begun.get()));
     }
     for (auto* cursor : cursors) {
       auto result = next_result(handle());
-      if (!first && !succeeded(result.get())) first = failure(result.get(), cursor->sql());
+      if (!first && !succeeded(result.get()))
+        first = failure(result.get(), cursor->sql(), commit && !server_error(result.get()));
       if (first) {
         cursor->receive(*first);
       } else {
         cursor->receive(std::move(result));
       }
+    }
+    if (commit) {
+      if (first) {
+        next_result(handle());  // skipped: a statement before it failed
+      } else if ((first = read_commit())) {
+        for (auto* cursor : cursors) cursor->receive(*first);  // the transaction's outcome is theirs
+      }
+      committed_ = !first;
     }
     while (auto* rest = PQgetResult(handle())) {
       const bool synced = PQresultStatus(rest) == PGRES_PIPELINE_SYNC;
@@ -446,10 +501,20 @@ std::optional<detail::Failure> Connection::run_pipelined(const char* begin, cons
   }
   if (entered && PQexitPipelineMode(handle()) != 1) lost_ = true;  // stuck in pipeline mode: not usable again
   if (!sent) {
-    first = failure(nullptr, what);
+    first = failure(nullptr, what, commit && sendable);
     for (auto* cursor : cursors) cursor->receive(*first);
   }
   return first;
+}
+
+// COMMIT's reply in a pipeline: its failure, if it did not commit.
+std::optional<detail::Failure> Connection::read_commit() {
+  const auto result = next_result(handle());
+  if (!succeeded(result.get())) return failure(result.get(), "COMMIT", true);
+  // PostgreSQL answers COMMIT of a transaction a statement failed in with ROLLBACK.
+  if (std::string_view(PQcmdStatus(result.get())) == "ROLLBACK")
+    return detail::Failure{{Kind::internal, "the transaction had failed and was rolled back, not committed", 0}};
+  return std::nullopt;
 }
 
 // A script runs after what was sent before it.
@@ -468,6 +533,7 @@ void Connection::run(const char* command, std::string_view what) {
 }
 
 void Connection::execute(std::string_view script) {
+  if (committed_) detail::fail(Kind::internal, "a script run after the transaction's last statement");
   run_before_script();
   const std::string text(script);
   run(text.c_str(), "a script");
@@ -475,6 +541,7 @@ void Connection::execute(std::string_view script) {
 
 void Connection::begin(TransactionKind kind) {
   if (in_transaction()) detail::fail(Kind::internal, "a transaction is already open");
+  committed_ = false;
   pending_begin_ = kind == TransactionKind::write ? "BEGIN" : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY";
 }
 
@@ -482,17 +549,17 @@ void Connection::commit() {
   if (!queued_.empty()) {
     if (auto failed = run_queued()) throw *failed;
   }
+  if (std::exchange(committed_, false)) return;        // with its last statement
   if (std::exchange(pending_begin_, nullptr)) return;  // nothing ran: nothing to commit
-  ResultPtr result(PQexec(handle(), "COMMIT"), &PQclear);
-  if (!result || PQresultStatus(result.get()) != PGRES_COMMAND_OK) fail(result.get(), "COMMIT", true);
-  // PostgreSQL answers COMMIT of a transaction a statement failed in with ROLLBACK.
-  if (std::string_view(PQcmdStatus(result.get())) == "ROLLBACK")
-    detail::fail(Kind::internal, "the transaction had failed and was rolled back, not committed");
+  if (!send_command(handle(), "COMMIT")) fail(nullptr, "COMMIT", true);
+  if (auto failed = read_commit()) throw *failed;
 }
 
 void Connection::rollback() noexcept {
   pending_begin_ = nullptr;
   queued_.clear();  // not run: nothing to undo
+  commit_queued_ = false;
+  committed_ = false;
   if (!in_transaction()) return;
   // A failure here leaves nothing to do: the server rolls back a transaction whose
   // connection is gone, and a broken connection is not used again.

@@ -40,6 +40,7 @@ class PgCursor final : public Cursor {
 
   void bind(int index, const Param& value) override;
   void send() override;
+  void send_with_commit() override;
   bool step() override;
   bool is_null(int column) const override;
   std::int64_t integer(int column) const override;
@@ -101,16 +102,23 @@ class Connection final : public detail::Connection {
 
   // Whether the connection is gone: a pool drops it rather than hand it out again.
   bool broken() const { return lost_ || PQstatus(handle()) != CONNECTION_OK; }
+  // Whether it is still connected as far as can be told without a round trip: what the server
+  // sent since (the error and end of a connection it closed, as a restarted server does) is
+  // read first. A write sent with its COMMIT on a connection found dead only after sending
+  // could not tell whether it was stored.
+  bool still_connected();
   // The server process serving this connection, as it was when connected (also once broken).
   int backend_pid() const { return backend_pid_; }
   PGconn* handle() const { return connection_.get(); }
 
   // Statements sent (PgCursor::send) wait here until one is stepped; a cursor reset before
-  // then is taken out again.
+  // then is taken out again. The transaction's last (queue_last) takes the COMMIT with it.
   void queue(PgCursor& cursor);
+  void queue_last(PgCursor& cursor);
   void unqueue(const PgCursor& cursor) noexcept;
-  // Runs the queued statements, BEGIN first when begin() is pending, each cursor given its
-  // result or failure; returns the first failure.
+  // Runs the queued statements, BEGIN first when begin() is pending and COMMIT last when the
+  // last statement is among them, each cursor given its result or failure; returns the first
+  // failure.
   std::optional<detail::Failure> run_queued();
 
   // The failure `result` (null: the connection's own error) reports, for `what`.
@@ -125,13 +133,16 @@ class Connection final : public detail::Connection {
   void run(const char* command, std::string_view what);
   void apply(const ConnectSettings& settings);
   void run_before_script();
-  std::optional<detail::Failure> run_pipelined(const char* begin, const std::vector<PgCursor*>& cursors);
+  std::optional<detail::Failure> run_pipelined(const char* begin, const std::vector<PgCursor*>& cursors, bool commit);
+  std::optional<detail::Failure> read_commit();
 
   Target target_;
   std::unique_ptr<PGconn, decltype(&PQfinish)> connection_{nullptr, &PQfinish};
   mutable bool lost_ = false;            // a statement found the connection gone (fail())
   const char* pending_begin_ = nullptr;  // the BEGIN begin() asked for, not sent yet
   std::vector<PgCursor*> queued_;        // sent, in order, not run yet
+  bool commit_queued_ = false;           // the transaction's last statement is among them
+  bool committed_ = false;               // it ran with the COMMIT: the transaction has ended
   std::uint64_t statements_named_ = 0;
   int backend_pid_ = 0;
   // By the store's text of the statement, one map per row lock.

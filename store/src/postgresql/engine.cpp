@@ -87,7 +87,7 @@ Connection& PgEngine::connect_writer() {
 ConnectionLease PgEngine::writer() {
   if (!writes_) detail::fail(Kind::read_only, "the database was opened read-only");
   std::unique_lock lock(writer_mutex_);
-  if (!writer_ || writer_->broken()) connect_writer();
+  if (!writer_ || !writer_->still_connected()) connect_writer();
   lock.release();  // give_back unlocks it
   return ConnectionLease(*this, *writer_);
 }
