@@ -1,7 +1,8 @@
 // The store on each engine, durable, on the build machine's disk: committed
 // measurement-plus-fit transactions per second (each one on the disk before it returns: SQLite
 // with synchronous=FULL, PostgreSQL with fsync and synchronous_commit on, over its Unix socket)
-// from one and two threads, and fit reads per second, alone and while a writer keeps committing;
+// from one and two threads, the daemon's own commit at a measuring job's end (the measurement,
+// its fit and the job's end), and fit reads per second, alone and while a writer keeps committing;
 // beside them PostgreSQL's own pgbench on the same cluster, and at the end the store's rates over
 // pgbench's. Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a
 // throwaway one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to measure.
@@ -125,6 +126,44 @@ Fit fit() {
   return f;
 }
 
+// A started job in `session` for each iteration to come, made before the timing starts: each
+// timed commit is then the daemon's own at the end of a measuring job, the measurement, its fit
+// and the job's end in one transaction. (A job's creation and start are commits of their own,
+// made while the meter is still to read.) On a failure the run is marked skipped, so that its
+// loop does not run.
+std::vector<Id> started_jobs(benchmark::State& state, Store& store, Id session) {
+  std::vector<Id> jobs;
+  for (benchmark::IterationCount i = 0; i < state.max_iterations; ++i) {
+    Job job;
+    job.kind = "measure";
+    job.session_id = session;
+    auto created = store.create_job(job);
+    auto started = created ? store.update_job(created->job.id, {.state = JobState::running})
+                           : Result<Job>(std::unexpected(created.error()));
+    if (!started) {
+      state.SkipWithError(started.error().message.c_str());
+      break;
+    }
+    jobs.push_back(started->id);
+  }
+  return jobs;
+}
+
+// Ends each of `jobs` in turn with a measurement and its fit, one per iteration.
+void end_jobs(benchmark::State& state, Store& store, Id session, const std::vector<Id>& jobs) {
+  const auto f = fit();
+  std::size_t next = 0;
+  for (auto _ : state) {
+    const Id job = jobs[next];
+    auto done =
+        store.complete_measurement_job(job, measurement(session, static_cast<int>(next++)), f, R"({"readings":3})");
+    if (!done) {
+      state.SkipWithError(done.error().message.c_str());
+      break;
+    }
+  }
+}
+
 // Commits from state.threads() threads into one Store (its writes are serialised on one
 // connection; PostgreSQL's group commit can share a WAL flush only between connections).
 void BM_CommitMeasurementWithFit(benchmark::State& state) {
@@ -157,6 +196,22 @@ BENCHMARK(BM_CommitMeasurementWithFit)
     ->Arg(1)
     ->Threads(1)
     ->Threads(2)
+    ->MinTime(kSeconds)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The daemon's commit at the end of each measuring job: the measurement, its fit and the job's
+// end (succeeded, its result naming them) in one transaction.
+void BM_CommitJobEnd(benchmark::State& state) {
+  Scratch scratch(backend_of_run(state));
+  end_jobs(state, *scratch.store, scratch.session, started_jobs(state, *scratch.store, scratch.session));
+  state.SetItemsProcessed(state.iterations());
+  state.SetLabel(backend_of_run(state) == Backend::sqlite ? "sqlite" : "postgresql");
+}
+BENCHMARK(BM_CommitJobEnd)
+    ->ArgName("postgresql")
+    ->Arg(0)
+    ->Arg(1)
     ->MinTime(kSeconds)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
@@ -429,6 +484,8 @@ class RateKeepingReporter : public benchmark::BenchmarkReporter {
     };
     static constexpr Pair kPairs[] = {
         {"commits, one connection", "BM_CommitMeasurementWithFit/postgresql:1/min_time:2.000/real_time/threads:1",
+         "BM_PgbenchCommit/clients:1/iterations:1/manual_time"},
+        {"job ends, one connection", "BM_CommitJobEnd/postgresql:1/min_time:2.000/real_time",
          "BM_PgbenchCommit/clients:1/iterations:1/manual_time"},
         {"commits, two connections", "BM_CommitOnEachBench/min_time:2.000/real_time/threads:2",
          "BM_PgbenchCommit/clients:2/iterations:1/manual_time"},

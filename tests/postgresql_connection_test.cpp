@@ -6,11 +6,13 @@
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <thread>
 
 #include "db.hpp"
 #include "postgresql/connection.hpp"
@@ -382,6 +384,7 @@ TEST(PostgresqlConnectionTest, AConnectionTheServerEndedIsFoundSoBeforeALastStat
   Database db;
   db.connection->execute("CREATE TABLE t (x bigint)");
   auto c = connect(db.uri);
+  c->prepare("INSERT INTO t VALUES (?1)");  // prepared now: nothing below needs the server
   EXPECT_TRUE(c->still_connected());
   EXPECT_TRUE(c->still_connected());
   postgres_cluster().execute("postgres", "SELECT pg_terminate_backend(" + std::to_string(c->backend_pid()) + ", 5000)");
@@ -393,6 +396,35 @@ TEST(PostgresqlConnectionTest, AConnectionTheServerEndedIsFoundSoBeforeALastStat
   EXPECT_TRUE(lost.retryable);
   EXPECT_EQ(lost.error.message.find("unknown"), std::string::npos) << lost.error.message;
   c->rollback();
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM t"), 0);
+}
+
+// A connection lost while the last statement is out (the server stopped while the statement
+// waits on a lock it needs): unless the server's own error shows it stopped before COMMIT, the
+// outcome is unknown, which the failure says, and it is not run again.
+TEST(PostgresqlConnectionTest, AConnectionLostWhileTheLastStatementIsOutIsNotRunAgainUnlessKnownUncommitted) {
+  Database db;
+  db.connection->execute("CREATE TABLE t (x bigint PRIMARY KEY)");
+  auto holder = connect(db.uri);
+  holder->begin(TransactionKind::write);
+  holder->prepare("INSERT INTO t VALUES (?1)").bind(1).run();  // the key the statement below waits for
+  auto c = connect(db.uri);
+  c->begin(TransactionKind::write);
+  auto last = c->prepare("INSERT INTO t VALUES (?1)");
+  last.bind(1).send_with_commit();
+  std::thread stopper([] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    postgres_cluster().stop("immediate");
+  });
+  const auto lost = failure_of([&] { last.step(); });
+  stopper.join();
+  EXPECT_EQ(lost.error.kind, Kind::unreachable) << lost.error.message;
+  const bool unknown = lost.error.message.find("whether it was stored is unknown") != std::string::npos;
+  EXPECT_NE(unknown, lost.retryable) << lost.error.message;
+  EXPECT_TRUE(unknown || !lost.error.sql_state.empty()) << lost.error.message;  // retried only on the server's word
+  c->rollback();
+  holder->rollback();
+  postgres_cluster().start();
   EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM t"), 0);
 }
 

@@ -42,7 +42,8 @@ int main(int argc, char** argv) {
     job.session_id = session;
     const Id job_id = must(store.create_job(job), "job").job.id;
     must(store.update_job(job_id, {.state = JobState::running}), "job start");
-    // A job runs for as long as its reading takes: kills land there as often as elsewhere.
+    // A job runs for as long as its reading takes: kills land there as often as elsewhere (the
+    // job's end, one round trip on PostgreSQL, is too short a stretch of the cycle otherwise).
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
     const auto done = must(store.complete_measurement_job(job_id, skinspec::testing::sample_measurement(session, n),
                                                           skinspec::testing::sample_fit(n), R"({"readings":1})"),

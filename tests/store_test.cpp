@@ -664,8 +664,8 @@ TEST_P(StoreTest, AJobEndsWithItsMeasurementOrNotAtAll) {
   EXPECT_EQ(raw().integer("SELECT count(*) FROM fits"), 0);
 }
 
-// The job's result is the caller's object, its members in order and any ids it had left out,
-// with the ids of the measurement and fit stored last: the same text whatever the engine.
+// The job's result is the caller's object (its members sorted by name, any ids it had left out)
+// with the ids of the measurement and fit stored after them: the same text whatever the engine.
 TEST_P(StoreTest, AJobsResultEndsWithTheIdsOfWhatItStored) {
   auto store = open();
   const Id session = value_of(store.create_session(sample_session(1)));

@@ -429,6 +429,8 @@ void Connection::queue(PgCursor& cursor) {
 void Connection::queue_last(PgCursor& cursor) {
   if (!in_transaction())
     detail::fail(Kind::internal, fmt::format("{}: sent as a transaction's last outside a transaction", cursor.sql()));
+  if (std::find(queued_.begin(), queued_.end(), &cursor) != queued_.end())
+    detail::fail(Kind::internal, fmt::format("{}: sent as the transaction's last after it was sent", cursor.sql()));
   queue(cursor);
   commit_queued_ = true;
 }
