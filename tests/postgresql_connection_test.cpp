@@ -371,16 +371,6 @@ TEST(PostgresqlConnectionTest, TheLastStatementGoesOutWithTheCommitAndNothingRun
     c.commit();
     EXPECT_EQ(stored(), "a,b,c,d");
   }
-  {  // A transaction of that one statement is the statement alone, its own transaction on the
-     // server: refused, it leaves nothing, and the connection goes on.
-    c.begin(TransactionKind::write);
-    auto alone = c.prepare("INSERT INTO u VALUES (?1) RETURNING k");
-    alone.bind("a").send_with_commit();
-    EXPECT_EQ(failure_of([&] { alone.step(); }).error.sql_state, "23505");
-    EXPECT_FALSE(c.broken());
-    c.rollback();
-    EXPECT_FALSE(c.in_transaction());
-  }
   // Outside a transaction there is no COMMIT to send it with.
   EXPECT_EQ(failure_of([&] { c.prepare("INSERT INTO u VALUES (?1)").bind("e").send_with_commit(); }).error.kind,
             Kind::internal);

@@ -405,10 +405,6 @@ bool server_error(const PGresult* result) {
   return state && *state;
 }
 
-// What begin() sends for a write transaction, and for a read-only snapshot.
-constexpr const char* kBeginWrite = "BEGIN";
-constexpr const char* kBeginRead = "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY";
-
 // A command without parameters, sent (into the pipeline, in pipeline mode).
 bool send_command(PGconn* connection, const char* command) {
   return PQsendQueryParams(connection, command, 0, nullptr, nullptr, nullptr, nullptr, 1) == 1;
@@ -449,7 +445,6 @@ std::optional<detail::Failure> Connection::run_queued() {
   const auto cursors = std::exchange(queued_, {});
   const char* begin = std::exchange(pending_begin_, nullptr);
   const bool commit = std::exchange(commit_queued_, false);
-  if (commit && begin == kBeginWrite && cursors.size() == 1) return run_as_transaction(*cursors.front());
   if (begin || commit || cursors.size() > 1) return run_pipelined(begin, cursors, commit);
   if (cursors.empty()) return std::nullopt;
   auto result = cursors.front()->execute_on(handle());
@@ -459,22 +454,6 @@ std::optional<detail::Failure> Connection::run_queued() {
   }
   auto failed = failure(result.get(), cursors.front()->sql());
   cursors.front()->receive(failed);
-  return failed;
-}
-
-// A write transaction of one statement: the statement alone, which the server runs as its own
-// transaction (in the isolation BEGIN would have given it), committed when it succeeds. Its
-// reply is COMMIT's: once it is sent, a lost connection leaves the outcome unknown.
-std::optional<detail::Failure> Connection::run_as_transaction(PgCursor& cursor) {
-  const bool sendable = !broken();
-  auto result = cursor.execute_on(handle());
-  if (succeeded(result.get())) {
-    cursor.receive(std::move(result));
-    committed_ = true;
-    return std::nullopt;
-  }
-  auto failed = failure(result.get(), cursor.sql(), sendable);
-  cursor.receive(failed);
   return failed;
 }
 
@@ -565,7 +544,7 @@ void Connection::execute(std::string_view script) {
 void Connection::begin(TransactionKind kind) {
   if (in_transaction()) detail::fail(Kind::internal, "a transaction is already open");
   committed_ = false;
-  pending_begin_ = kind == TransactionKind::write ? kBeginWrite : kBeginRead;
+  pending_begin_ = kind == TransactionKind::write ? "BEGIN" : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY";
 }
 
 void Connection::commit() {

@@ -135,7 +135,6 @@ class Connection final : public detail::Connection {
   void run_before_script();
   std::optional<detail::Failure> run_pipelined(const char* begin, const std::vector<PgCursor*>& cursors, bool commit);
   std::optional<detail::Failure> read_commit();
-  std::optional<detail::Failure> run_as_transaction(PgCursor& cursor);
 
   Target target_;
   std::unique_ptr<PGconn, decltype(&PQfinish)> connection_{nullptr, &PQfinish};
