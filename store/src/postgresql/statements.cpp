@@ -50,7 +50,7 @@ std::string recording_statement(const Recording& shape) {
   }
   if (ends_job) {
     // The result's text is its head (the caller's result, all but its closing brace) and the
-    // new ids, so that it is the same text that the other engine stores (result_head()).
+    // new ids, the same text that store_write.cpp's with_ids() makes for the other engine.
     const int head = shape.measurement_count + shape.fit_count + 1;
     sql += fmt::format(
         ", done AS (UPDATE jobs SET state = 'succeeded', error = NULL, result = (?{0} || '\"measurement_id\":' || "

@@ -12,7 +12,8 @@ namespace skinspec::store::postgresql {
 // share, the job for update), and the rows are written only when those checks pass, so that it
 // can go out with its transaction's COMMIT. The measurement's `measurement_columns` take ?1 ...
 // ?`measurement_count`, the fit's `fit_columns` the next `fit_count` parameters, and when it ends
-// a job, the job's new result, all but the ids, the next one (result_head()).
+// a job, the next one is the head of the job's new result: the caller's result without its
+// closing brace (store_write.cpp, result_head()), which the statement completes with the ids.
 struct Recording {
   std::string_view measurement_columns;
   int measurement_count = 0;
