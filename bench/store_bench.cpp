@@ -137,9 +137,12 @@ std::vector<Id> started_jobs(benchmark::State& state, Store& store, Id session) 
     Job job;
     job.kind = "measure";
     job.session_id = session;
-    auto created = store.create_job(job);
-    auto started = created ? store.update_job(created->job.id, {.state = JobState::running})
-                           : Result<Job>(std::unexpected(created.error()));
+    const auto created = store.create_job(job);
+    if (!created) {
+      state.SkipWithError(created.error().message.c_str());
+      break;
+    }
+    const auto started = store.update_job(created->job.id, {.state = JobState::running});
     if (!started) {
       state.SkipWithError(started.error().message.c_str());
       break;

@@ -45,6 +45,12 @@ std::string_view type_name(TypeId type) {
   }
 }
 
+// The SQLSTATE of an error result, empty for none (no result, or an error libpq made itself).
+std::string_view sql_state_of(const PGresult* result) {
+  const char* state = result ? PQresultErrorField(result, PG_DIAG_SQLSTATE) : nullptr;
+  return state ? std::string_view(state) : std::string_view();
+}
+
 // Notices (such as "there is no transaction in progress") are for people at a terminal.
 void ignore_notice(void*, const PGresult*) {}
 
@@ -174,13 +180,17 @@ void PgCursor::receive(ResultPtr result) { result_ = std::move(result); }
 
 void PgCursor::receive(const detail::Failure& failure) { failure_ = failure; }
 
-void PgCursor::send() {
+void PgCursor::require_unsent() const {
   if (result_ || failure_) detail::fail(Kind::internal, fmt::format("{}: sent again before it was reset", sql_));
+}
+
+void PgCursor::send() {
+  require_unsent();
   connection_->queue(*this);
 }
 
 void PgCursor::send_with_commit() {
-  if (result_ || failure_) detail::fail(Kind::internal, fmt::format("{}: sent again before it was reset", sql_));
+  require_unsent();
   connection_->queue_last(*this);
 }
 
@@ -322,8 +332,7 @@ void Connection::fail(const PGresult* result, std::string_view what, bool commit
 }
 
 detail::Failure Connection::failure(const PGresult* result, std::string_view what, bool committing) const {
-  const char* state_field = result ? PQresultErrorField(result, PG_DIAG_SQLSTATE) : nullptr;
-  const std::string sql_state = state_field ? state_field : "";
+  const std::string sql_state(sql_state_of(result));
   // libpq's own errors carry no SQLSTATE: on a connection that was working they mean it is
   // gone (the server closed it, or the socket failed), whether or not libpq has noticed yet.
   const bool lost = broken() || connection_lost_sql_state(sql_state) || sql_state.empty();
@@ -400,10 +409,7 @@ bool succeeded(const PGresult* result) {
 // Whether `result` is an error the server sent: the server stopped at that statement and ran
 // nothing after it (an error libpq made itself, such as a connection found closed, says
 // nothing of what the server did).
-bool server_error(const PGresult* result) {
-  const char* state = result ? PQresultErrorField(result, PG_DIAG_SQLSTATE) : nullptr;
-  return state && *state;
-}
+bool server_error(const PGresult* result) { return !sql_state_of(result).empty(); }
 
 // A command without parameters, sent (into the pipeline, in pipeline mode).
 bool send_command(PGconn* connection, const char* command) {

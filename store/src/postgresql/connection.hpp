@@ -70,6 +70,7 @@ class PgCursor final : public Cursor {
   std::string_view value(int column) const;
   TypeId type(int column) const;
   [[noreturn]] void cannot_read(int column, std::string_view as) const;
+  void require_unsent() const;
 
   Connection* connection_;
   std::string name_;
