@@ -4,9 +4,10 @@
 // from one and two threads, the daemon's own commit at a measuring job's end (the measurement,
 // its fit and the job's end), and fit reads per second, alone and while a writer keeps committing;
 // beside them PostgreSQL's own pgbench on the same cluster, and at the end the store's rates over
-// pgbench's. Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a
-// throwaway one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to measure.
-// The disk's own fdatasync time is printed first, as what bounds a commit.
+// pgbench's, with what the server's processes spent of the processor on each transaction.
+// Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a throwaway
+// one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to measure. The
+// disk's own fdatasync time is printed first, as what bounds a commit.
 
 #include <benchmark/benchmark.h>
 #include <fcntl.h>
@@ -14,8 +15,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <charconv>
 #include <atomic>
+#include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -23,6 +25,8 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <sstream>
+#include <string>
 #include <thread>
 
 #include "skinspec/store/store.hpp"
@@ -47,6 +51,61 @@ testing::PostgresCluster& cluster() {
   static testing::PostgresCluster durable(testing::ClusterSettings{.durable = true, .base = {}});
   return durable;
 }
+
+// The processor time the PostgreSQL server has used so far, in seconds: the postmaster's own,
+// that of its processes that have ended (it waits for each, and the kernel then adds their time
+// to its children's) and that of the live ones (backends and background workers; one that has
+// ended and is not yet waited for still shows its own). The difference over a run is what the
+// whole server spent on it, the same way for the store's runs and pgbench's.
+double server_cpu_seconds() {
+  struct Times {
+    pid_t parent = 0;
+    long long own = 0;       // utime + stime
+    long long children = 0;  // cutime + cstime
+  };
+  const auto times_of = [](const std::filesystem::path& stat) -> std::optional<Times> {
+    std::ifstream in(stat);
+    std::string line;
+    if (!std::getline(in, line)) return std::nullopt;
+    const auto close = line.rfind(')');  // the command's name, in parentheses, may hold anything
+    if (close == std::string::npos) return std::nullopt;
+    std::istringstream fields(line.substr(close + 1));
+    std::string state;
+    Times t;
+    long long skip = 0, utime = 0, stime = 0, cutime = 0, cstime = 0;
+    fields >> state >> t.parent;  // fields 3 and 4
+    for (int field = 5; field <= 13; ++field) fields >> skip;
+    if (!(fields >> utime >> stime >> cutime >> cstime)) return std::nullopt;
+    t.own = utime + stime;
+    t.children = cutime + cstime;
+    return t;
+  };
+  const pid_t server = cluster().server_pid();
+  long long ticks = 0;
+  std::error_code ignored;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc", ignored)) {
+    const auto name = entry.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    if (const auto t = times_of(entry.path() / "stat"); t && t->parent == server) ticks += t->own;
+  }
+  const auto postmaster = times_of(std::filesystem::path("/proc") / std::to_string(server) / "stat");
+  if (!postmaster) return std::nan("");
+  ticks += postmaster->own + postmaster->children;
+  return static_cast<double>(ticks) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
+
+// The server's processor time a transaction over a run, as the counter server_us; made
+// just before the run's transactions and reported just after them.
+class ServerTime {
+ public:
+  ServerTime() : start_(server_cpu_seconds()) {}
+  void report(benchmark::State& state, double transactions) const {
+    if (transactions > 0) state.counters["server_us"] = (server_cpu_seconds() - start_) * 1e6 / transactions;
+  }
+
+ private:
+  double start_;
+};
 
 // benchmark's argument 0: the engine.
 Backend backend_of_run(const benchmark::State& state) {
@@ -156,6 +215,8 @@ std::vector<Id> started_jobs(benchmark::State& state, Store& store, Id session) 
 void end_jobs(benchmark::State& state, Store& store, Id session, const std::vector<Id>& jobs) {
   const auto f = fit();
   std::size_t next = 0;
+  std::optional<ServerTime> server;
+  if (backend_of_run(state) == Backend::postgresql) server.emplace();
   for (auto _ : state) {
     const Id job = jobs[next];
     auto done =
@@ -165,6 +226,7 @@ void end_jobs(benchmark::State& state, Store& store, Id session, const std::vect
       break;
     }
   }
+  if (server) server->report(state, static_cast<double>(next));
 }
 
 // Commits from state.threads() threads into one Store (its writes are serialised on one
@@ -179,6 +241,10 @@ void BM_CommitMeasurementWithFit(benchmark::State& state) {
   while (ready.load() == 0) std::this_thread::yield();
   const auto f = fit();
   int n = state.thread_index() * 1'000'000;
+  // One thread's run alone: the server's time is then its transactions'.
+  const bool timed_server = backend_of_run(state) == Backend::postgresql && state.threads() == 1;
+  std::optional<ServerTime> server;
+  if (timed_server) server.emplace();
   for (auto _ : state) {
     auto ids = scratch->store->record_measurement(measurement(scratch->session, n++), f);
     if (!ids) {
@@ -186,6 +252,7 @@ void BM_CommitMeasurementWithFit(benchmark::State& state) {
       break;
     }
   }
+  if (server) server->report(state, static_cast<double>(state.iterations()));
   state.SetItemsProcessed(state.iterations());
   state.SetLabel(backend_of_run(state) == Backend::sqlite ? "sqlite" : "postgresql");
   if (state.thread_index() == 0) {
@@ -348,6 +415,7 @@ void run_pgbench(benchmark::State& state, const char* script) {
   testing::ProcessOptions options;
   options.environment = {"LC_ALL=C"};  // a decimal point in its figures whatever the locale
   for (auto _ : state) {
+    const ServerTime server;
     const auto run =
         testing::run_process(testing::postgres_program("pgbench"),
                              {"-n", "-M", "prepared", "-c", clients, "-j", clients, "-T", std::to_string(kSeconds),
@@ -360,6 +428,9 @@ void run_pgbench(benchmark::State& state, const char* script) {
     }
     state.SetIterationTime(static_cast<double>(parsed->transactions) / parsed->per_second);
     state.SetItemsProcessed(parsed->transactions);
+    // Its connection's backend ends after pgbench does: let it end and be counted.
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    server.report(state, static_cast<double>(parsed->transactions));
   }
   state.SetLabel("pgbench");
 }
@@ -471,7 +542,10 @@ class RateKeepingReporter : public benchmark::BenchmarkReporter {
       const auto found = run.counters.find("items_per_second");
       if (found == run.counters.end() || run.error_occurred) continue;
       const bool median = run.run_type == Run::RT_Aggregate && run.aggregate_name == "median";
-      if (run.run_type == Run::RT_Iteration || median) rates_[run.run_name.str()] = found->second.value;
+      if (run.run_type != Run::RT_Iteration && !median) continue;
+      rates_[run.run_name.str()] = found->second.value;
+      if (const auto server = run.counters.find("server_us"); server != run.counters.end())
+        server_us_[run.run_name.str()] = server->second.value;
     }
     display_->ReportRuns(runs);
   }
@@ -506,14 +580,21 @@ class RateKeepingReporter : public benchmark::BenchmarkReporter {
                     store == rates_.end() ? pair.pgbench : pair.store);
         continue;
       }
-      std::printf("PostgreSQL %s: the store %.0f/s, pgbench %.0f/s: %.2f of pgbench\n", pair.what, store->second,
+      std::printf("PostgreSQL %s: the store %.0f/s, pgbench %.0f/s: %.2f of pgbench", pair.what, store->second,
                   pgbench->second, store->second / pgbench->second);
+      const auto store_server = server_us_.find(pair.store);
+      const auto pgbench_server = server_us_.find(pair.pgbench);
+      if (store_server != server_us_.end() && pgbench_server != server_us_.end())
+        std::printf("; the server's processor time a transaction: the store's %.0f us, pgbench's %.0f us",
+                    store_server->second, pgbench_server->second);
+      std::printf("\n");
     }
   }
 
  private:
   benchmark::BenchmarkReporter* display_;
   std::map<std::string, double> rates_;
+  std::map<std::string, double> server_us_;  // the server_us counter, where a run has it
 };
 
 }  // namespace

@@ -331,9 +331,11 @@ void PostgresCluster::stop(std::string_view mode) {
 
 void PostgresCluster::start() {
   // Durable: a checkpoint, after which each page is written whole again, comes only after 4 GB
-  // of WAL (one comes at about half of max_wal_size), more than a run of the benchmarks writes.
+  // of WAL (one comes at about half of max_wal_size), more than a run of the benchmarks writes;
+  // and no autovacuum, whose workers would take the processor from a run (and be counted as its
+  // server's time) at moments of their own.
   const std::string durability = settings_.durable ? " -c fsync=on -c full_page_writes=on -c max_wal_size=8GB "
-                                                     "-c checkpoint_timeout=15min"
+                                                     "-c checkpoint_timeout=15min -c autovacuum=off"
                                                    : " -c fsync=off -c full_page_writes=off";
   start_server(data(), directory_ / "log", "-k " + directory_.string() + durability + " -c synchronous_commit=on");
   running_ = true;

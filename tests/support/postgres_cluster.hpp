@@ -23,7 +23,7 @@ struct ClusterSettings {
   // false (tests): fsync and full-page writes off, so a commit does not wait for the disk
   // (synchronous_commit stays on; a server stopped with "immediate" still replays its WAL).
   // true (benchmarks): every commit is flushed, the data directory on a real disk, the WAL in
-  // 16 MB segments as a lab's server has them, and no checkpoint before 4 GB of it.
+  // 16 MB segments as a lab's server has them, no checkpoint before 4 GB of it, and no autovacuum.
   bool durable = false;
   // Where the temporary directory goes; empty: /dev/shm when it is usable and !durable, else
   // $TMPDIR or /tmp.
