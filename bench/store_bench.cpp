@@ -4,8 +4,8 @@
 // from one and two threads, the daemon's own commit at a measuring job's end (the measurement,
 // its fit and the job's end), and fit reads per second, alone and while a writer keeps committing;
 // beside them PostgreSQL's own pgbench on the same cluster, and at the end the store's rates over
-// pgbench's, with what the server's processes spent of the processor on each transaction.
-// Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a throwaway
+// pgbench's, with what the server's processes spent of the processor on each commit of one
+// connection. Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a throwaway
 // one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to measure. The
 // disk's own fdatasync time is printed first, as what bounds a commit.
 
@@ -52,59 +52,74 @@ testing::PostgresCluster& cluster() {
   return durable;
 }
 
-// The processor time the PostgreSQL server has used so far, in seconds: the postmaster's own,
-// that of its processes that have ended (it waits for each, and the kernel then adds their time
-// to its children's) and that of the live ones (backends and background workers; one that has
-// ended and is not yet waited for still shows its own). The difference over a run is what the
-// whole server spent on it, the same way for the store's runs and pgbench's.
-double server_cpu_seconds() {
-  struct Times {
-    pid_t parent = 0;
-    long long own = 0;       // utime + stime
-    long long children = 0;  // cutime + cstime
-  };
-  const auto times_of = [](const std::filesystem::path& stat) -> std::optional<Times> {
-    std::ifstream in(stat);
-    std::string line;
-    if (!std::getline(in, line)) return std::nullopt;
-    const auto close = line.rfind(')');  // the command's name, in parentheses, may hold anything
-    if (close == std::string::npos) return std::nullopt;
-    std::istringstream fields(line.substr(close + 1));
-    std::string state;
-    Times t;
-    long long skip = 0, utime = 0, stime = 0, cutime = 0, cstime = 0;
-    fields >> state >> t.parent;  // fields 3 and 4
-    for (int field = 5; field <= 13; ++field) fields >> skip;
-    if (!(fields >> utime >> stime >> cutime >> cstime)) return std::nullopt;
-    t.own = utime + stime;
-    t.children = cutime + cstime;
-    return t;
-  };
-  const pid_t server = cluster().server_pid();
-  long long ticks = 0;
-  std::error_code ignored;
-  for (const auto& entry : std::filesystem::directory_iterator("/proc", ignored)) {
-    const auto name = entry.path().filename().string();
-    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
-    if (const auto t = times_of(entry.path() / "stat"); t && t->parent == server) ticks += t->own;
-  }
-  const auto postmaster = times_of(std::filesystem::path("/proc") / std::to_string(server) / "stat");
-  if (!postmaster) return std::nan("");
-  ticks += postmaster->own + postmaster->children;
-  return static_cast<double>(ticks) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+// What /proc/PID/stat says of a process's processor time, in clock ticks.
+struct ProcessTimes {
+  pid_t parent = 0;
+  long long own = 0;       // utime + stime
+  long long children = 0;  // cutime + cstime: its children's, once it has waited for them
+};
+
+std::optional<ProcessTimes> process_times(pid_t pid) {
+  std::ifstream in(std::filesystem::path("/proc") / std::to_string(pid) / "stat");
+  std::string line;
+  if (!std::getline(in, line)) return std::nullopt;
+  const auto name_end = line.rfind(')');  // the command's name, in parentheses, may hold anything
+  if (name_end == std::string::npos) return std::nullopt;
+  std::istringstream fields(line.substr(name_end + 1));
+  std::string state;
+  long long skipped = 0, utime = 0, stime = 0, cutime = 0, cstime = 0;
+  ProcessTimes times;
+  fields >> state >> times.parent;  // fields 3 and 4 (a failure here fails the read below too)
+  for (int field = 5; field <= 13; ++field) fields >> skipped;
+  if (!(fields >> utime >> stime >> cutime >> cstime)) return std::nullopt;
+  times.own = utime + stime;
+  times.children = cutime + cstime;
+  return times;
 }
 
-// The server's processor time a transaction over a run, as the counter server_us; made
-// just before the run's transactions and reported just after them.
+// The processor time the PostgreSQL server has used so far, in seconds (nothing if its
+// postmaster cannot be read): the postmaster's own, that of its processes that have ended (it
+// waits for each, and the kernel then adds their time to its children's) and that of the live
+// ones (backends and background workers; one ended and not yet waited for still shows its
+// own). A process waited for during the scan would count twice, so the scan is made again
+// until the postmaster's children's time is the same on both sides of it. The kernel counts
+// in clock ticks (10 ms here), so a difference over a 2 s run is good to about 10 us a
+// transaction.
+std::optional<double> server_cpu_seconds() {
+  const pid_t server = cluster().server_pid();
+  if (server <= 0) return std::nullopt;
+  for (;;) {
+    const auto before = process_times(server);
+    if (!before) return std::nullopt;
+    long long ticks = 0;
+    std::error_code ignored;
+    for (const auto& entry : std::filesystem::directory_iterator("/proc", ignored)) {
+      const auto name = entry.path().filename().string();
+      if (name.empty() || name.find_first_not_of("0123456789") != std::string::npos) continue;
+      const auto times = process_times(static_cast<pid_t>(std::stol(name)));
+      if (times && times->parent == server) ticks += times->own;
+    }
+    const auto after = process_times(server);
+    if (!after) return std::nullopt;
+    if (after->children != before->children) continue;
+    ticks += after->own + after->children;
+    return static_cast<double>(ticks) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+  }
+}
+
+// The server's processor time a transaction over a run, as the counter server_us (left out
+// when the server cannot be read); made just before the run's transactions and reported just
+// after them.
 class ServerTime {
  public:
   ServerTime() : start_(server_cpu_seconds()) {}
   void report(benchmark::State& state, double transactions) const {
-    if (transactions > 0) state.counters["server_us"] = (server_cpu_seconds() - start_) * 1e6 / transactions;
+    const auto end = server_cpu_seconds();
+    if (start_ && end && transactions > 0) state.counters["server_us"] = (*end - *start_) * 1e6 / transactions;
   }
 
  private:
-  double start_;
+  std::optional<double> start_;
 };
 
 // benchmark's argument 0: the engine.
@@ -428,7 +443,7 @@ void run_pgbench(benchmark::State& state, const char* script) {
     }
     state.SetIterationTime(static_cast<double>(parsed->transactions) / parsed->per_second);
     state.SetItemsProcessed(parsed->transactions);
-    // Its connection's backend ends after pgbench does: let it end and be counted.
+    // Its connection's backend ends after pgbench has exited: the work of that end is counted too.
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     server.report(state, static_cast<double>(parsed->transactions));
   }
