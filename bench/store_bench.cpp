@@ -5,9 +5,9 @@
 // its fit and the job's end), and fit reads per second, alone and while a writer keeps committing;
 // beside them PostgreSQL's own pgbench on the same cluster, and at the end the store's rates over
 // pgbench's, with what the server's processes spent of the processor on each commit of one
-// connection. Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster (a throwaway
-// one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to measure. The
-// disk's own fdatasync time is printed first, as what bounds a commit.
+// connection. Run: build/release/bin/store_bench. The SQLite file and the PostgreSQL cluster
+// (a throwaway one, started here) go to $TMPDIR (or /tmp): put it on the disk you mean to
+// measure. The disk's own fdatasync time is printed first, as what bounds a commit.
 
 #include <benchmark/benchmark.h>
 #include <fcntl.h>
@@ -257,9 +257,8 @@ void BM_CommitMeasurementWithFit(benchmark::State& state) {
   const auto f = fit();
   int n = state.thread_index() * 1'000'000;
   // One thread's run alone: the server's time is then its transactions'.
-  const bool timed_server = backend_of_run(state) == Backend::postgresql && state.threads() == 1;
   std::optional<ServerTime> server;
-  if (timed_server) server.emplace();
+  if (backend_of_run(state) == Backend::postgresql && state.threads() == 1) server.emplace();
   for (auto _ : state) {
     auto ids = scratch->store->record_measurement(measurement(scratch->session, n++), f);
     if (!ids) {
