@@ -2,13 +2,14 @@
 // leaves untouched (an unreachable server, a refused role, another application's database, a
 // newer schema, a role that only reads), two programs opening one database at once, a server
 // that goes away mid-work or runs out of disk (a clear error, no partial rows, the next request
-// served again once it is back), and a copy refused part way. The records themselves are
-// store_test's, run on both engines.
+// served again once it is back), a network cut between a writer and its backend, and a copy
+// refused part way. The records themselves are store_test's, run on both engines.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
+#include <filesystem>
 #include <fstream>
 #include <future>
 #include <thread>
@@ -17,6 +18,7 @@
 #include "skinspec/store/store.hpp"
 #include "support/postgres_cluster.hpp"
 #include "support/store_samples.hpp"
+#include "support/unix_relay.hpp"
 
 namespace skinspec {
 namespace {
@@ -272,6 +274,66 @@ TEST(PostgresqlStoreTest, AWriterConnectionTheServerEndedIsReplacedAndTheWriteSt
   EXPECT_EQ(postgres_cluster().integer(
                 db.name, "SELECT count(*) FROM fits WHERE measurement_id = " + std::to_string(stored.measurement_id)),
             1);
+}
+
+// The backend holding `bench`'s writer lock on `db` (the store's two-key advisory lock: its
+// key 'SKSQ', then the bench's name hashed), or 0 if none does.
+long long writer_lock_holder(const Database& db, const std::string& bench) {
+  return postgres_cluster().integer(
+      db.name,
+      "SELECT coalesce(max(pid), 0) FROM pg_locks WHERE locktype = 'advisory' AND granted AND objsubid = 2 AND "
+      "classid::bigint = x'534B5351'::bigint AND objid::bigint = (hashtext('" +
+          bench + "')::bigint & 4294967295) AND database = (SELECT oid FROM pg_database WHERE datname = " +
+          "current_database())");
+}
+
+// The cluster's socket, as libpq names it in its directory.
+std::filesystem::path cluster_socket() {
+  for (const auto& entry : std::filesystem::directory_iterator(postgres_cluster().socket_dir())) {
+    const auto name = entry.path().filename().string();
+    if (name.starts_with(".s.PGSQL.") && !name.ends_with(".lock")) return entry.path();
+  }
+  throw std::runtime_error("no socket in " + postgres_cluster().socket_dir().string());
+}
+
+// The network between a Store and the server cut while the writer's backend lives on, still
+// holding the bench's writer lock (a server notices a vanished client only when it next reads
+// from it): the next write connects again, ends that backend and no other, takes the lock and
+// is stored once.
+TEST(PostgresqlStoreTest, AWriterCutOffFromItsBackendEndsThatBackendAndTakesItsLockAgain) {
+  Database db;
+  std::string relay_dir = (std::filesystem::temp_directory_path() / "skinspec-relay-XXXXXX").string();
+  ASSERT_NE(::mkdtemp(relay_dir.data()), nullptr);
+  const auto socket = cluster_socket();
+  {
+    testing::UnixRelay relay(std::filesystem::path(relay_dir) / socket.filename(), socket);
+    auto store = value_of(Store::open("postgresql://skinspec@/" + db.name + "?host=" + relay_dir));
+    const Id session = value_of(store.create_session(sample_session(1)));
+    OpenOptions other_bench;
+    other_bench.bench = "other";
+    auto other = value_of(Store::open(db.uri, other_bench));
+    const auto cut_backend = writer_lock_holder(db, "");
+    const auto other_backend = writer_lock_holder(db, "other");
+    ASSERT_NE(cut_backend, 0);
+    ASSERT_NE(other_backend, 0);
+
+    relay.cut_clients();
+    EXPECT_EQ(writer_lock_holder(db, ""), cut_backend);  // the server saw nothing of the cut
+    const auto stored = value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1)));
+    const auto new_backend = writer_lock_holder(db, "");
+    EXPECT_NE(new_backend, 0);
+    EXPECT_NE(new_backend, cut_backend);
+    EXPECT_EQ(postgres_cluster().integer(
+                  db.name, "SELECT count(*) FROM pg_stat_activity WHERE pid = " + std::to_string(cut_backend)),
+              0);
+    EXPECT_EQ(writer_lock_holder(db, "other"), other_backend);
+    EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
+    EXPECT_EQ(postgres_cluster().integer(
+                  db.name, "SELECT count(*) FROM fits WHERE measurement_id = " + std::to_string(stored.measurement_id)),
+              1);
+    value_of(other.create_session(sample_session(2)));  // the other bench's writer still writes
+  }
+  std::filesystem::remove_all(relay_dir);
 }
 
 // The server out of disk in the middle of a transaction (its error 53100, raised here by a
