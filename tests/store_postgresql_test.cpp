@@ -296,44 +296,68 @@ std::filesystem::path cluster_socket() {
   throw std::runtime_error("no socket in " + postgres_cluster().socket_dir().string());
 }
 
-// The network between a Store and the server cut while the writer's backend lives on, still
-// holding the bench's writer lock (a server notices a vanished client only when it next reads
-// from it): the next write connects again, ends that backend and no other, takes the lock and
-// is stored once.
-TEST(PostgresqlStoreTest, AWriterCutOffFromItsBackendEndsThatBackendAndTakesItsLockAgain) {
-  Database db;
-  std::string relay_dir = (std::filesystem::temp_directory_path() / "skinspec-relay-XXXXXX").string();
-  ASSERT_NE(::mkdtemp(relay_dir.data()), nullptr);
-  const auto socket = cluster_socket();
-  {
-    testing::UnixRelay relay(std::filesystem::path(relay_dir) / socket.filename(), socket);
-    auto store = value_of(Store::open("postgresql://skinspec@/" + db.name + "?host=" + relay_dir));
-    const Id session = value_of(store.create_session(sample_session(1)));
-    OpenOptions other_bench;
-    other_bench.bench = "other";
-    auto other = value_of(Store::open(db.uri, other_bench));
-    const auto cut_backend = writer_lock_holder(db, "");
-    const auto other_backend = writer_lock_holder(db, "other");
-    ASSERT_NE(cut_backend, 0);
-    ASSERT_NE(other_backend, 0);
-
-    relay.cut_clients();
-    EXPECT_EQ(writer_lock_holder(db, ""), cut_backend);  // the server saw nothing of the cut
-    const auto stored = value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1)));
-    const auto new_backend = writer_lock_holder(db, "");
-    EXPECT_NE(new_backend, 0);
-    EXPECT_NE(new_backend, cut_backend);
-    EXPECT_EQ(postgres_cluster().integer(
-                  db.name, "SELECT count(*) FROM pg_stat_activity WHERE pid = " + std::to_string(cut_backend)),
-              0);
-    EXPECT_EQ(writer_lock_holder(db, "other"), other_backend);
-    EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
-    EXPECT_EQ(postgres_cluster().integer(
-                  db.name, "SELECT count(*) FROM fits WHERE measurement_id = " + std::to_string(stored.measurement_id)),
-              1);
-    value_of(other.create_session(sample_session(2)));  // the other bench's writer still writes
+// A relay in front of the cluster's socket, in a directory of its own, and the URI of `db`
+// through it.
+struct RelayedDatabase {
+  testing::ScratchDirectory dir;
+  testing::UnixRelay relay{dir.path() / cluster_socket().filename(), cluster_socket()};
+  std::string uri(const Database& db) const {
+    return "postgresql://skinspec@/" + db.name + "?host=" + dir.path().string();
   }
-  std::filesystem::remove_all(relay_dir);
+};
+
+long long backends_with_pid(const Database& db, long long pid) {
+  return postgres_cluster().integer(db.name,
+                                    "SELECT count(*) FROM pg_stat_activity WHERE pid = " + std::to_string(pid));
+}
+
+// A Store that wrote through a relay, with a session, whose writer the relay has just cut off:
+// its backend lives on, still holding the bench's writer lock, since a server notices a
+// vanished client only when it next reads from it.
+struct CutOffWriter {
+  Database db;
+  RelayedDatabase relayed;
+  Store store = value_of(Store::open(relayed.uri(db)));
+  Id session = value_of(store.create_session(sample_session(1)));
+  long long backend = writer_lock_holder(db, "");
+  CutOffWriter() { relayed.relay.cut_clients(); }
+};
+
+// The next write connects again, ends the old backend, takes the lock and is stored once.
+TEST(PostgresqlStoreTest, AWriterCutOffFromItsBackendEndsThatBackendAndTakesItsLockAgain) {
+  CutOffWriter cut;
+  ASSERT_NE(cut.backend, 0);
+  EXPECT_EQ(writer_lock_holder(cut.db, ""), cut.backend);  // the server saw nothing of the cut
+  const auto stored = value_of(cut.store.record_measurement(sample_measurement(cut.session, 1), sample_fit(1)));
+  const auto new_backend = writer_lock_holder(cut.db, "");
+  EXPECT_NE(new_backend, 0);
+  EXPECT_NE(new_backend, cut.backend);
+  EXPECT_EQ(backends_with_pid(cut.db, cut.backend), 0);
+  EXPECT_EQ(postgres_cluster().integer(cut.db.name, "SELECT count(*) FROM measurements"), 1);
+  EXPECT_EQ(postgres_cluster().integer(cut.db.name, "SELECT count(*) FROM fits WHERE measurement_id = " +
+                                                        std::to_string(stored.measurement_id)),
+            1);
+}
+
+// By the time the cut-off Store writes again its old backend has gone and another program
+// serves the bench: that program's backend is not ended; the write is refused as `busy` and
+// stores nothing, and the other program goes on writing.
+TEST(PostgresqlStoreTest, AWriterCutOffWhoseBenchAnotherProgramTookIsBusyAndEndsNoBackend) {
+  CutOffWriter cut;
+  ASSERT_NE(cut.backend, 0);
+  postgres_cluster().execute("postgres", "SELECT pg_terminate_backend(" + std::to_string(cut.backend) + ", 5000)");
+  auto other = value_of(Store::open(cut.db.uri));
+  const auto other_backend = writer_lock_holder(cut.db, "");
+  ASSERT_NE(other_backend, 0);
+  ASSERT_NE(other_backend, cut.backend);
+
+  const auto refused = cut.store.record_measurement(sample_measurement(cut.session, 1), sample_fit(1));
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, Kind::busy) << refused.error().message;
+  EXPECT_EQ(writer_lock_holder(cut.db, ""), other_backend);
+  EXPECT_EQ(postgres_cluster().integer(cut.db.name, "SELECT count(*) FROM measurements"), 0);
+  value_of(other.record_measurement(sample_measurement(cut.session, 2), sample_fit(2)));
+  EXPECT_EQ(postgres_cluster().integer(cut.db.name, "SELECT count(*) FROM measurements"), 1);
 }
 
 // The server out of disk in the middle of a transaction (its error 53100, raised here by a

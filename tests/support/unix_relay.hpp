@@ -4,6 +4,8 @@
 // until cut_clients() closes the client sides of those open then. Their server sides stay open
 // and silent, as after a partition the server did not see: a PostgreSQL backend behind one
 // lives on, holding what it held, until it next hears from its client or is ended.
+// One thread carries every connection with blocking sends: it is meant for request and reply
+// traffic of some kilobytes, as a database client's, not for bulk streams both ways at once.
 
 #include <filesystem>
 #include <memory>
@@ -13,7 +15,7 @@ namespace skinspec::testing {
 class UnixRelay {
  public:
   // Listens on `listen_path` and carries each connection to `server_path`; throws
-  // std::runtime_error if it cannot listen.
+  // std::runtime_error if it cannot listen or a path is too long for a socket.
   UnixRelay(std::filesystem::path listen_path, std::filesystem::path server_path);
   // Stops carrying and closes every socket, server sides too.
   ~UnixRelay();
