@@ -25,7 +25,6 @@
 #include <map>
 #include <optional>
 #include <random>
-#include <sstream>
 #include <string>
 #include <thread>
 
@@ -52,31 +51,6 @@ testing::PostgresCluster& cluster() {
   return durable;
 }
 
-// What /proc/PID/stat says of a process's processor time, in clock ticks.
-struct ProcessTimes {
-  pid_t parent = 0;
-  long long own = 0;       // utime + stime
-  long long children = 0;  // cutime + cstime: its children's, once it has waited for them
-};
-
-std::optional<ProcessTimes> process_times(pid_t pid) {
-  std::ifstream in(std::filesystem::path("/proc") / std::to_string(pid) / "stat");
-  std::string line;
-  if (!std::getline(in, line)) return std::nullopt;
-  const auto name_end = line.rfind(')');  // the command's name, in parentheses, may hold anything
-  if (name_end == std::string::npos) return std::nullopt;
-  std::istringstream fields(line.substr(name_end + 1));
-  std::string state;
-  long long skipped = 0, utime = 0, stime = 0, cutime = 0, cstime = 0;
-  ProcessTimes times;
-  fields >> state >> times.parent;  // fields 3 and 4 (a failure here fails the read below too)
-  for (int field = 5; field <= 13; ++field) fields >> skipped;
-  if (!(fields >> utime >> stime >> cutime >> cstime)) return std::nullopt;
-  times.own = utime + stime;
-  times.children = cutime + cstime;
-  return times;
-}
-
 // The processor time the PostgreSQL server has used so far, in seconds (nothing if its
 // postmaster cannot be read): the postmaster's own, that of its processes that have ended (it
 // waits for each, and the kernel then adds their time to its children's) and that of the live
@@ -89,21 +63,20 @@ std::optional<double> server_cpu_seconds() {
   const pid_t server = cluster().server_pid();
   if (server <= 0) return std::nullopt;
   for (;;) {
-    const auto before = process_times(server);
+    const auto before = testing::process_stat(server);
     if (!before) return std::nullopt;
     long long ticks = 0;
     std::error_code ignored;
     for (const auto& entry : std::filesystem::directory_iterator("/proc", ignored)) {
       const auto name = entry.path().filename().string();
       if (name.empty() || name.find_first_not_of("0123456789") != std::string::npos) continue;
-      const auto times = process_times(static_cast<pid_t>(std::stol(name)));
-      if (times && times->parent == server) ticks += times->own;
+      const auto stat = testing::process_stat(static_cast<pid_t>(std::stol(name)));
+      if (stat && stat->parent == server) ticks += stat->own_ticks;
     }
-    const auto after = process_times(server);
+    const auto after = testing::process_stat(server);
     if (!after) return std::nullopt;
-    if (after->children != before->children) continue;
-    ticks += after->own + after->children;
-    return static_cast<double>(ticks) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+    if (after->children_ticks != before->children_ticks) continue;
+    return testing::ticks_to_seconds(ticks + after->own_ticks + after->children_ticks);
   }
 }
 

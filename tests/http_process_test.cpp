@@ -87,16 +87,9 @@ double metric(unsigned short port, const std::string& name) {
 
 // The CPU time the process has used so far (user and system), from /proc/PID/stat.
 std::chrono::milliseconds cpu_time(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  std::istringstream fields(text.substr(text.rfind(')') + 2));
-  std::string field;
-  long long utime = 0, stime = 0;
-  for (int i = 3; i <= 15 && fields >> field; ++i) {
-    if (i == 14) utime = std::stoll(field);
-    if (i == 15) stime = std::stoll(field);
-  }
-  return std::chrono::milliseconds((utime + stime) * 1000 / ::sysconf(_SC_CLK_TCK));
+  const auto stat = process_stat(pid);
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+      std::chrono::duration<double>(stat ? ticks_to_seconds(stat->own_ticks) : 0.0));
 }
 
 std::string healthz_from(const std::string& source, unsigned short port) {

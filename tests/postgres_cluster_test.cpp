@@ -26,10 +26,8 @@ using namespace std::chrono_literals;
 
 // Whether process `pid` is gone (a zombie nobody reaped counts as gone: it runs nothing).
 bool process_gone(pid_t pid) {
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string pid_field, name, state;
-  if (!(stat >> pid_field >> name >> state)) return true;
-  return state == "Z";
+  const auto stat = process_stat(pid);
+  return !stat || stat->state == 'Z';
 }
 
 std::string error_of(const std::function<void()>& action) {

@@ -257,25 +257,6 @@ TEST(PostgresqlStoreTest, AReadAfterARestartRunsAgainOnANewConnection) {
   EXPECT_EQ(read->subject, sample_session(1).subject);
 }
 
-// The server ended the writer's connection between two requests (an administrator, a
-// restart): the next write finds it gone before sending anything and runs on a new connection,
-// so the caller sees it stored, once. (A connection that ends while its write, sent with its
-// COMMIT, is out leaves the outcome unknown, and the error says so.)
-TEST(PostgresqlStoreTest, AWriterConnectionTheServerEndedIsReplacedAndTheWriteStoredOnce) {
-  Database db;
-  auto store = value_of(Store::open(db.uri));
-  const Id session = value_of(store.create_session(sample_session(1)));
-  const auto writer_pid =
-      postgres_cluster().integer(db.name, "SELECT pid FROM pg_stat_activity WHERE datname = '" + db.name +
-                                              "' AND application_name = 'skinspec' ORDER BY backend_start LIMIT 1");
-  postgres_cluster().execute("postgres", "SELECT pg_terminate_backend(" + std::to_string(writer_pid) + ", 5000)");
-  const auto stored = value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1)));
-  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
-  EXPECT_EQ(postgres_cluster().integer(
-                db.name, "SELECT count(*) FROM fits WHERE measurement_id = " + std::to_string(stored.measurement_id)),
-            1);
-}
-
 // The backend holding `bench`'s writer lock on `db` (the store's two-key advisory lock: its
 // key 'SKSQ', then the bench's name hashed), or 0 if none does.
 long long writer_lock_holder(const Database& db, const std::string& bench) {
@@ -285,6 +266,23 @@ long long writer_lock_holder(const Database& db, const std::string& bench) {
       "classid::bigint = x'534B5351'::bigint AND objid::bigint = (hashtext('" +
           bench + "')::bigint & 4294967295) AND database = (SELECT oid FROM pg_database WHERE datname = " +
           "current_database())");
+}
+
+// The server ended the writer's connection between two requests (an administrator, a
+// restart): the next write finds it gone before sending anything and runs on a new connection,
+// so the caller sees it stored, once. (A connection that ends while its write, sent with its
+// COMMIT, is out leaves the outcome unknown, and the error says so.)
+TEST(PostgresqlStoreTest, AWriterConnectionTheServerEndedIsReplacedAndTheWriteStoredOnce) {
+  Database db;
+  auto store = value_of(Store::open(db.uri));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const auto writer_pid = writer_lock_holder(db, "");
+  postgres_cluster().execute("postgres", "SELECT pg_terminate_backend(" + std::to_string(writer_pid) + ", 5000)");
+  const auto stored = value_of(store.record_measurement(sample_measurement(session, 1), sample_fit(1)));
+  EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM measurements"), 1);
+  EXPECT_EQ(postgres_cluster().integer(
+                db.name, "SELECT count(*) FROM fits WHERE measurement_id = " + std::to_string(stored.measurement_id)),
+            1);
 }
 
 // The cluster's socket, as libpq names it in its directory.
@@ -300,7 +298,8 @@ std::filesystem::path cluster_socket() {
 // through it.
 struct RelayedDatabase {
   testing::ScratchDirectory dir;
-  testing::UnixRelay relay{dir.path() / cluster_socket().filename(), cluster_socket()};
+  std::filesystem::path server = cluster_socket();
+  testing::UnixRelay relay{dir.path() / server.filename(), server};
   std::string uri(const Database& db) const {
     return "postgresql://skinspec@/" + db.name + "?host=" + dir.path().string();
   }

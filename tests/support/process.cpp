@@ -4,6 +4,9 @@
 #include <csignal>
 #include <cstring>
 #include <fcntl.h>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <poll.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -14,6 +17,27 @@
 extern char** environ;
 
 namespace skinspec::testing {
+
+std::optional<ProcessStat> process_stat(pid_t pid) {
+  std::ifstream in(std::filesystem::path("/proc") / std::to_string(pid) / "stat");
+  std::string line;
+  if (!std::getline(in, line)) return std::nullopt;
+  const auto name_end = line.rfind(')');  // the command's name, in parentheses, may hold anything
+  if (name_end == std::string::npos) return std::nullopt;
+  std::istringstream fields(line.substr(name_end + 1));
+  ProcessStat stat;
+  long long skipped = 0, utime = 0, stime = 0, cutime = 0, cstime = 0;
+  fields >> stat.state >> stat.parent;  // fields 3 and 4 (a failure here fails the read below too)
+  for (int field = 5; field <= 13; ++field) fields >> skipped;
+  if (!(fields >> utime >> stime >> cutime >> cstime)) return std::nullopt;
+  stat.own_ticks = utime + stime;
+  stat.children_ticks = cutime + cstime;
+  return stat;
+}
+
+double ticks_to_seconds(long long ticks) {
+  return static_cast<double>(ticks) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
 
 namespace {
 

@@ -1,7 +1,8 @@
 #pragma once
 // Test helpers: run a program as a child process, feed it standard input and collect its
 // standard output, standard error and exit status, killing it if it runs past a deadline; or
-// start a long-running one (a server), watch what it writes while it runs, signal it, stop it.
+// start a long-running one (a server), watch what it writes while it runs, signal it, stop it;
+// and read what the kernel says of any process.
 
 #include <sys/types.h>
 
@@ -15,6 +16,21 @@
 #include <vector>
 
 namespace skinspec::testing {
+
+// What /proc/PID/stat says of a process: its state ('Z' for a zombie nobody has waited for
+// yet), its parent, and its processor time in clock ticks (user and system), its own and its
+// children's once it has waited for them.
+struct ProcessStat {
+  char state = '?';
+  pid_t parent = 0;
+  long long own_ticks = 0;
+  long long children_ticks = 0;
+};
+
+// Nothing if the process is gone (or /proc cannot be read).
+std::optional<ProcessStat> process_stat(pid_t pid);
+// Clock ticks, as process_stat counts them, in seconds.
+double ticks_to_seconds(long long ticks);
 
 struct ProcessOptions {
   // Bytes written to the child's standard input, which is then closed. Without them the

@@ -143,12 +143,23 @@ struct UnixRelay::State {
     return true;
   }
 
-  void order(bool stop, std::promise<void>* cut) {
+  void tell_to_stop() {
     {
       std::lock_guard lock(orders);
-      stopping = stopping || stop;
-      if (cut) cuts.push_back(std::move(*cut));
+      stopping = true;
     }
+    wake_loop();
+  }
+
+  void tell_to_cut(std::promise<void> cut) {
+    {
+      std::lock_guard lock(orders);
+      cuts.push_back(std::move(cut));
+    }
+    wake_loop();
+  }
+
+  void wake_loop() {
     const char one = 1;
     if (::write(wake[1], &one, 1) < 0) {
       // Only a full pipe refuses a byte, and a full pipe wakes the loop already.
@@ -181,7 +192,7 @@ UnixRelay::UnixRelay(std::filesystem::path listen_path, std::filesystem::path se
 
 UnixRelay::~UnixRelay() {
   auto& s = *state_;
-  s.order(true, nullptr);
+  s.tell_to_stop();
   s.loop.join();
   std::error_code ignored;
   std::filesystem::remove(s.listen_path, ignored);
@@ -190,7 +201,7 @@ UnixRelay::~UnixRelay() {
 void UnixRelay::cut_clients() {
   std::promise<void> cut;
   auto done = cut.get_future();
-  state_->order(false, &cut);
+  state_->tell_to_cut(std::move(cut));
   done.wait();
 }
 
