@@ -22,10 +22,14 @@ std::string read_input(const std::string& path) {
   return *bytes;
 }
 
+SpectraFile read_spectra_file(const std::string& path, const SpectraLimits& limits) {
+  auto file = parse_spectra_file(read_input(path), input_name(path), limits);
+  if (!file) throw Failure{kBadInput, file.error().what()};
+  return std::move(*file);
+}
+
 std::vector<NamedSpectrum> read_spectra(const std::string& path, const SpectraLimits& limits) {
-  auto spectra = parse_spectra_csv(read_input(path), input_name(path), limits);
-  if (!spectra) throw Failure{kBadInput, spectra.error().what()};
-  return std::move(*spectra);
+  return read_spectra_file(path, limits).spectra;
 }
 
 Spectrum illuminant_from(const std::string& name) {
@@ -97,6 +101,22 @@ const Fitter& fitter() {
 CLI::Option* add_site_option(CLI::App& app, std::string& site) {
   return app.add_option("--site", site, "body site: forearm, back_of_hand, cheek, forehead, palm")
       ->capture_default_str();
+}
+
+CLI::Option* add_scale_option(CLI::App& app, ScaleRequest& scale, std::string_view more) {
+  const auto check = [](std::string& text) -> std::string {
+    if (parse_scale_request(text)) return {};
+    return fmt::format("must be {}, not {}", scale_request_names(), quote(text));
+  };
+  return app
+      .add_option_function<std::string>(
+          "--scale", [&scale](const std::string& text) { scale = *parse_scale_request(text); },
+          fmt::format("how the file writes reflectance: {}; auto reads percent when at least half its values "
+                      "exceed {}{}",
+                      scale_request_names(), kPercentAbove, more))
+      ->check(CLI::Validator(check, fmt::format("{{{},{},{}}}", to_string(ScaleRequest::automatic),
+                                                to_string(ScaleRequest::fraction), to_string(ScaleRequest::percent))))
+      ->default_str(std::string(to_string(scale)));
 }
 
 Failure store_failure(const store::StoreError& error) {

@@ -33,6 +33,8 @@ std::string read_input(const std::string& path);
 // "<stdin>" for "-", else the path itself: the name errors are reported under.
 std::string input_name(const std::string& path);
 std::vector<NamedSpectrum> read_spectra(const std::string& path, const SpectraLimits& limits = {});
+// The same, with how its values were read (limits.scale).
+SpectraFile read_spectra_file(const std::string& path, const SpectraLimits& limits);
 
 // D65, A, or a spectra CSV file whose first column is the illuminant's relative power.
 Spectrum illuminant_from(const std::string& name);
@@ -50,6 +52,9 @@ const Fitter& fitter();
 
 // Registers --site, validated against the shipped sites.
 CLI::Option* add_site_option(CLI::App& app, std::string& site);
+// Registers --scale auto|fraction|percent: how a file writes reflectance (reflectance_scale.hpp);
+// `more` ends its help.
+CLI::Option* add_scale_option(CLI::App& app, ScaleRequest& scale, std::string_view more = {});
 
 void add_fit_command(CLI::App& app);
 void add_model_command(CLI::App& app);

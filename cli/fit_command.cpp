@@ -6,6 +6,7 @@
 
 #include "common.hpp"
 #include "fit_json.hpp"
+#include "fit_text.hpp"
 #include "model_options.hpp"
 #include "skinspec/spectral/parallel.hpp"
 
@@ -20,6 +21,7 @@ struct FitArgs {
   bool no_lateral_diffusion = false;
   std::vector<std::string> fixes;
   std::string format = "json";
+  ScaleRequest scale = ScaleRequest::automatic;
 };
 
 // "4.2 ± 0.3"; "1.3 held" for a parameter held at a value; "n.d." where the spectrum does not
@@ -30,10 +32,14 @@ std::string with_error(double value, double error, const ParamDetermination& d) 
   return fmt::format("{:.4g} ± {:.2g}", value, error);
 }
 
-// A human-readable table: one row per spectrum, a column per parameter of the model.
+// A human-readable table: one row per spectrum, a column per parameter of the model; the units
+// above it, what "n.d." means below.
 void print_table(ModelKind model, const std::vector<NamedSpectrum>& spectra,
                  const std::vector<std::expected<FitResult, std::string>>& results) {
   const auto params = model_spec(model).params;
+  std::vector<std::string> names;
+  for (const ParamSpec& p : params) names.emplace_back(p.name);
+  std::cout << units_line(to_string(model), names, "rmse", "dE00") << '\n';
   std::cout << fmt::format("{:<14} ", "spectrum");
   for (const ParamSpec& p : params)
     std::cout << fmt::format("{:<{}} ", p.name, std::max<std::size_t>(16, p.name.size()));
@@ -46,6 +52,7 @@ void print_table(ModelKind model, const std::vector<NamedSpectrum>& spectra,
                                std::max<std::size_t>(16, params[p].name.size()));
     std::cout << fmt::format("{:>7.4f} {:>6.2f} {}\n", r.rmse, r.delta_e00_d65, r.converged ? "yes" : "no");
   }
+  std::cout << not_determined_line("--format json") << '\n';
 }
 
 // Fits every spectrum, spread over the machine's cores; results keep the input order.
@@ -60,7 +67,10 @@ void run_fit(const FitArgs& args) {
   SpectraLimits limits;
   limits.must_cover_from_nm = kMinCoverFromNm;
   limits.must_cover_to_nm = kMinCoverToNm;
-  const auto spectra = read_spectra(args.file, limits);
+  limits.scale = args.scale;
+  const auto [spectra, scale] = read_spectra_file(args.file, limits);
+  if (scale.scale == ReflectanceScale::percent)
+    std::cerr << "skinspec: " << input_name(args.file) << ": values read as " << describe(scale) << '\n';
   FitOptions options{.model = args.model,
                      .site = args.site,
                      .lateral_diffusion = !args.no_lateral_diffusion,
@@ -76,8 +86,11 @@ void run_fit(const FitArgs& args) {
   if (args.format == "table") {
     print_table(args.model, spectra, results);
   } else {
-    for (std::size_t i = 0; i < results.size(); ++i)
-      std::cout << fit_to_json(spectra[i].name, *results[i]).dump() << '\n';
+    for (std::size_t i = 0; i < results.size(); ++i) {
+      auto line = fit_to_json(spectra[i].name, *results[i]);
+      line["scale"] = to_string(scale.scale);
+      std::cout << line.dump() << '\n';
+    }
   }
   std::size_t ignored = 0;
   for (const auto& r : results) ignored = std::max(ignored, r->samples_ignored);
@@ -94,8 +107,9 @@ void add_fit_command(CLI::App& app) {
   auto args = std::make_shared<FitArgs>();
   auto* fit = app.add_subcommand("fit", "fit a skin model to reflectance spectra");
   fit->add_option("FILE", args->file,
-                  "CSV: wavelength_nm, then one reflectance column (0..1) per spectrum; - reads stdin")
+                  "CSV: wavelength_nm, then one reflectance column (0..1, or percent) per spectrum; - reads stdin")
       ->required();
+  add_scale_option(*fit, args->scale);
   add_model_option(*fit, args->model);
   add_site_option(*fit, args->site);
   fit->add_flag("--no-lateral-diffusion", args->no_lateral_diffusion,

@@ -1,5 +1,7 @@
 #include "fit_text.hpp"
 
+#include <fmt/format.h>
+
 #include "skinspec/fit/model_spec.hpp"
 
 namespace skinspec::cli {
@@ -25,6 +27,28 @@ std::optional<std::string> not_determined(const nlohmann::json& fit, const std::
   if (d.contains("correlated_with") && d["correlated_with"].is_string())
     reason += " with " + d["correlated_with"].get<std::string>();
   return reason;
+}
+
+std::string param_unit(std::string_view model, std::string_view name) {
+  const auto kind = parse_model_kind(model);
+  if (!kind) return {};
+  const auto index = param_index(*kind, name);
+  if (!index) return {};
+  return fmt::format("[{}]", model_spec(*kind).params[*index].unit);
+}
+
+std::string units_line(std::string_view model, const std::vector<std::string>& names, std::string_view rmse_column,
+                       std::string_view delta_e00_column) {
+  std::string line = "units:";
+  for (const auto& name : names)
+    if (const auto unit = param_unit(model, name); !unit.empty()) line += fmt::format(" {} {};", name, unit);
+  return line + fmt::format(" {} {}; {} {}", rmse_column, kRmseUnit, delta_e00_column, kDeltaE00Unit);
+}
+
+std::string not_determined_line(std::string_view reasons_in) {
+  const auto where = reasons_in.empty() ? std::string() : fmt::format("reason in {}; ", reasons_in);
+  return fmt::format("n.d.: not determined by this spectrum ({}docs/model.md, \"What the spectrum determines\")",
+                     where);
 }
 
 }  // namespace skinspec::cli

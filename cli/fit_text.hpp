@@ -1,10 +1,12 @@
 #pragma once
-// A fit as the service returns it (JSON), for the session commands' tables: its parameters in
-// its model's order, and what the spectrum did not determine.
+// Fits as the command line prints them: the parameters of a fit as the service returns it
+// (JSON) for the session commands, and what every table of fits says of its units and of
+// "n.d.".
 
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace skinspec::cli {
@@ -16,5 +18,21 @@ std::vector<std::string> param_names(const nlohmann::json& fit);
 // Why the spectrum did not determine the parameter ("at_bound", "correlated with melanin", ...);
 // nullopt when it did.
 std::optional<std::string> not_determined(const nlohmann::json& fit, const std::string& name);
+
+// The unit of a parameter of `model` (ParamSpec::unit), "[fraction]"; empty for a model or a
+// parameter this version does not know.
+std::string param_unit(std::string_view model, std::string_view name);
+// What a fit's rmse and CIEDE2000 difference are given in.
+inline constexpr std::string_view kRmseUnit = "[reflectance, as a fraction]";
+inline constexpr std::string_view kDeltaE00Unit = "[CIEDE2000 of measured and fitted colour under D65]";
+
+// A table's units line: "units: melanin [x 1 % melanosomes in the epidermis]; ...; rmse
+// [reflectance, as a fraction]; dE00 [CIEDE2000 ...]", its columns named as the table names them.
+std::string units_line(std::string_view model, const std::vector<std::string>& names, std::string_view rmse_column,
+                       std::string_view delta_e00_column);
+
+// The line that ends a table showing fits: what "n.d." means, and where to read why
+// (`reasons_in`: "--format json"; empty where the reasons are printed beside).
+std::string not_determined_line(std::string_view reasons_in);
 
 }  // namespace skinspec::cli

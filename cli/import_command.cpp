@@ -26,6 +26,7 @@ struct ImportArgs {
   std::string new_session;  // SITE:SUBJECT
   ModelKind model = kDefaultModel;
   std::string format;  // empty: recognised by the service from the content
+  ScaleRequest scale = ScaleRequest::automatic;
 };
 
 // Every file readable before anything is sent, so that a mistyped name does not leave half an
@@ -54,12 +55,22 @@ long long open_session(const ApiClient& client, const ImportArgs& args) {
 }
 
 // Imports one file; the job as it ended.
-json import_one(const ApiClient& client, long long session, const std::string& path, const std::string& format) {
+json import_one(const ApiClient& client, long long session, const std::string& path, const ImportArgs& args) {
   std::string target = fmt::format("/api/v1/sessions/{}/imports?name={}", session,
                                    url_encode(std::filesystem::path(path).filename().string()));
-  if (!format.empty()) target += "&format=" + format;
+  if (!args.format.empty()) target += "&format=" + args.format;
+  // auto, the service's default, is left unsaid: a service older than --scale takes the file.
+  if (args.scale != ScaleRequest::automatic) target += fmt::format("&scale={}", to_string(args.scale));
   const json accepted = client.post_text(target, read_input(path), "text/plain; charset=utf-8");
   return follow_job(client, accepted.value("id", 0LL));
+}
+
+// ", values read as percent (auto)", as the job's result says; nothing for a CGATS file, whose
+// SPECTRAL_NORM gives its scale.
+std::string how_read(const json& result, ScaleRequest asked) {
+  const auto scale = result.contains("scale") && result["scale"].is_string() ? result["scale"].get<std::string>() : "";
+  if (scale.empty()) return {};
+  return fmt::format(", values read as {}{}", printable(scale), asked == ScaleRequest::automatic ? " (auto)" : "");
 }
 
 void run_import(const ServerArgs& server, const ImportArgs& args) {
@@ -69,12 +80,13 @@ void run_import(const ServerArgs& server, const ImportArgs& args) {
   std::vector<std::string> failures;
   bool bad_file = false;
   for (const auto& path : args.files) {
-    const json job = import_one(client, session, path, args.format);
+    const json job = import_one(client, session, path, args);
     if (server.json) std::cout << job.dump() << '\n';
     if (job["state"] == "succeeded") {
       if (!server.json)
-        std::cout << fmt::format("{}: {} spectra imported into session {} (job {})\n", printable(path),
-                                 job["result"].value("imported", 0LL), session, job.value("id", 0LL));
+        std::cout << fmt::format("{}: {} spectra imported into session {} (job {}){}\n", printable(path),
+                                 job["result"].value("imported", 0LL), session, job.value("id", 0LL),
+                                 how_read(job["result"], args.scale));
       continue;
     }
     bad_file = bad_file || (job["error"].is_object() && job["error"].value("code", "") == "bad_file");
@@ -104,6 +116,7 @@ void add_import_command(CLI::App& app) {
   fresh->excludes(session);
   command->add_option("--format", args->format, "csv or cgats (default: recognised from each file's content)")
       ->check(CLI::IsMember({"csv", "cgats"}));
+  add_scale_option(*command, args->scale, "; a CGATS file gives its own (SPECTRAL_NORM)");
   auto* model = add_model_option(*command, args->model);
   model->needs(fresh);  // an existing session's model is its own
   add_server_options(*command, *server);

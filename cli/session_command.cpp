@@ -52,10 +52,12 @@ std::string param_cell(const json& fit, const std::string& name) {
   return v.is_number() ? fmt::format("{:.4g}", v.get<double>()) : std::string("-");
 }
 
-// The session's fits of one model, one column per parameter of that model.
+// The session's fits of one model, one column per parameter of that model; the units above,
+// what "n.d." means below.
 void print_fits(const json& fits, const std::string& model) {
   const auto names = param_names({{"model", model}});
-  std::string header = fmt::format("\nfits, model {}\n{:>6} {:>11}", model, "fit", "measurement");
+  std::string header = fmt::format("\nfits, model {}\n{}\n{:>6} {:>11}", model,
+                                   units_line(model, names, "rmse", "dE2000"), "fit", "measurement");
   for (const auto& name : names) header += fmt::format(" {:>{}}", name, std::max<std::size_t>(9, name.size()));
   std::cout << header << fmt::format(" {:>8} {:>7}\n", "rmse", "dE2000");
   for (const auto& f : fits) {
@@ -65,6 +67,7 @@ void print_fits(const json& fits, const std::string& model) {
       row += fmt::format(" {:>{}}", param_cell(f, name), std::max<std::size_t>(9, name.size()));
     std::cout << row << fmt::format(" {:>8.4f} {:>7.2f}\n", f.value("rmse", 0.0), f.value("delta_e00_d65", 0.0));
   }
+  std::cout << not_determined_line("--json") << '\n';
 }
 
 void print_session_detail(const json& s) {

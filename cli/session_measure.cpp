@@ -29,23 +29,31 @@ std::string id_text(const json& value) {
   return value.is_number_integer() ? std::to_string(value.get<long long>()) : "-";
 }
 
+// One parameter a line with its unit; "n.d." and why where the spectrum did not determine it.
 void print_fit(const json& fit) {
-  std::cout << fmt::format("  model {}\n", fit.value("model", "-"));
+  const std::string model = fit.value("model", "-");
+  std::cout << fmt::format("  model {}\n", model);
+  bool any_not_determined = false;
   for (const auto& name : param_names(fit)) {
     const json& value = fit["params"][name];
     const json& error = fit["stderr"][name];
+    std::string line;
     if (const auto reason = not_determined(fit, name)) {
-      std::cout << fmt::format("  {:<24} {:>12} ({})\n", name, "n.d.", *reason);
+      line = fmt::format("  {:<24} {:>12} ({})", name, "n.d.", *reason);
+      any_not_determined = true;
+    } else if (value.is_number()) {
+      line = fmt::format("  {:<24} {:>12.6g}", name, value.get<double>());
+      if (error.is_number()) line += fmt::format(" ± {:.6g}", error.get<double>());
+    } else {
       continue;
     }
-    if (!value.is_number()) continue;
-    std::cout << fmt::format("  {:<24} {:>12.6g}", name, value.get<double>());
-    if (error.is_number()) std::cout << fmt::format(" ± {:.6g}", error.get<double>());
-    std::cout << '\n';
+    if (const auto unit = param_unit(model, name); !unit.empty()) line += "  " + unit;
+    std::cout << line << '\n';
   }
-  std::cout << fmt::format("  rmse {:.6g}   max |error| {:.6g}   dE2000 (D65) {:.6g}   converged {}\n",
-                           fit.value("rmse", 0.0), fit.value("max_abs_error", 0.0), fit.value("delta_e00_d65", 0.0),
-                           fit.value("converged", false));
+  std::cout << fmt::format("  rmse {:.6g}   max |error| {:.6g} {}   dE2000 (D65) {:.6g}   converged {}\n",
+                           fit.value("rmse", 0.0), fit.value("max_abs_error", 0.0), kRmseUnit,
+                           fit.value("delta_e00_d65", 0.0), fit.value("converged", false));
+  if (any_not_determined) std::cout << "  " << not_determined_line({}) << '\n';
 }
 
 void print_result(const json& job, const json& fit) {

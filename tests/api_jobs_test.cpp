@@ -318,11 +318,12 @@ TEST_F(ApiJobsTest, TheOpenApiJobSchemaHasPositionAndProgress) {
   EXPECT_EQ(doc["components"]["schemas"]["JobProgress"]["properties"]["phase"]["enum"],
             json({"queued", "connecting", "measuring", "reading", "fitting", "storing", "done"}));
   EXPECT_EQ(job["kind"]["enum"], json({"measure", "import", "refit"}));
-  // An import takes the file itself as its body, with its format and name in the query.
+  // An import takes the file itself as its body, with its format, scale and name in the query.
   const json& import = doc["paths"]["/api/v1/sessions/{id}/imports"]["post"];
   EXPECT_TRUE(import["requestBody"]["content"].contains("text/plain")) << import;
   EXPECT_EQ(import["responses"]["202"]["content"]["application/json"]["schema"]["$ref"], "#/components/schemas/Job");
-  EXPECT_EQ(import["parameters"].size(), 3u) << import;  // id, format, name
+  EXPECT_EQ(import["parameters"].size(), 4u) << import;  // id, format, scale, name
+  EXPECT_EQ(import["parameters"][2]["schema"]["enum"], json({"auto", "fraction", "percent"})) << import;
   EXPECT_EQ(doc["paths"]["/api/v1/refits"]["post"]["requestBody"]["content"]["application/json"]["schema"]["$ref"],
             "#/components/schemas/RefitJobRequest");
 }

@@ -327,7 +327,9 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   const auto csv = call("GET", "/api/v1/sessions/1/export.csv");
   ASSERT_EQ(csv.status, 200);
   EXPECT_EQ(csv.content_type.rfind("text/csv", 0), 0u);
-  EXPECT_EQ(csv.body.rfind("session_id,", 0), 0u);
+  // The units' comment line first, then the header.
+  EXPECT_EQ(csv.body.rfind("# units,", 0), 0u);
+  EXPECT_EQ(csv.body.find("\nsession_id,"), csv.body.find('\n'));
   EXPECT_GT(std::count(csv.body.begin(), csv.body.end(), '\n'), 100);
   expect_error(call("GET", "/api/v1/sessions/7/export.csv"), 404, "not_found");
   const auto cgats = call("GET", "/api/v1/sessions/1/export.cgats");

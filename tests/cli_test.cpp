@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
@@ -565,6 +566,82 @@ TEST_F(CliFit, HeldParametersAreShownAsHeld) {
   expect_refused(skinspec({"fit", "--fix", "oxyhemoglobin=1", file}), HasSubstr("oxyhemoglobin"));
   expect_refused(skinspec({"fit", "--fix", "bilirubin=lots", file}), HasSubstr("lots"));
   expect_refused(skinspec({"fit", "--fix", "oxygen_saturation=0.99", file}), HasSubstr("oxygen_saturation"));
+}
+
+// The same spectrum in percent, as many instruments write it: auto reads it as percent, as does
+// --scale percent, and both give the fit of its fractions; --scale fraction refuses it.
+TEST_F(CliFit, APercentFileIsFittedAsItsFractions) {
+  const auto spectrum = model_output(extended_model_args("380:780:4"));
+  auto in_percent = spectrum;
+  for (auto& value : in_percent.reflectance) {
+    std::ostringstream percent;
+    percent << std::setprecision(15) << std::stod(value) * 100;
+    value = percent.str();
+  }
+  const auto fraction_file = write("fraction.csv", spectra_csv({{"skin", spectrum}}));
+  const auto percent_file = write("percent.csv", spectra_csv({{"skin", in_percent}}));
+
+  const auto as_fractions = skinspec({"fit", fraction_file});
+  ASSERT_EQ(as_fractions.exit_status, 0) << as_fractions.describe();
+  EXPECT_THAT(as_fractions.err, IsEmpty()) << "fractions need no note";
+  const Json expected = json_lines(as_fractions.out).at(0);
+  EXPECT_EQ(expected["scale"], "fraction");
+
+  const std::pair<std::string, std::string> scales[] = {{"auto", "percent (auto)"}, {"percent", "percent"}};
+  for (const auto& [scale, note] : scales) {
+    SCOPED_TRACE(scale);
+    const auto run =
+        scale == "auto" ? skinspec({"fit", percent_file}) : skinspec({"fit", "--scale", scale, percent_file});
+    ASSERT_EQ(run.exit_status, 0) << run.describe();
+    EXPECT_EQ(run.err, "skinspec: " + percent_file + ": values read as " + note + "\n");
+    const Json r = json_lines(run.out).at(0);
+    EXPECT_EQ(r["scale"], "percent");
+    const auto measured = doubles(r["measured"]), expected_measured = doubles(expected["measured"]);
+    ASSERT_EQ(measured.size(), expected_measured.size());
+    for (std::size_t i = 0; i < measured.size(); ++i) EXPECT_DOUBLE_EQ(measured[i], expected_measured[i]) << i;
+    for (const auto& [name, value] : expected["params"].items())
+      EXPECT_NEAR(r["params"][name].get<double>(), value.get<double>(), 1e-6 * std::abs(value.get<double>())) << name;
+    EXPECT_NEAR(r["rmse"].get<double>(), expected["rmse"].get<double>(), 1e-9);
+  }
+
+  // The first value of the file, at 380 nm, is above 1.5: refused there, file and line named.
+  expect_refused(skinspec({"fit", "--scale", "fraction", percent_file}),
+                 AllOf(StartsWith("skinspec: " + percent_file + ":2:5: value "),
+                       HasSubstr("is outside the allowed range [0, 1.5]")));
+}
+
+TEST_F(CliRefuses, AnUnknownScale) {
+  const auto file = write("good.csv", kGoodSpectra);
+  for (const char* scale : {"percentage", "", "Auto"}) {
+    SCOPED_TRACE(scale);
+    expect_refused(skinspec({"fit", "--scale", scale, file}),
+                   AllOf(HasSubstr("--scale"), HasSubstr("auto, fraction or percent")));
+    expect_refused(skinspec({"import", "--scale", scale, "--session", "1", "--server", "http://127.0.0.1:1", file}),
+                   AllOf(HasSubstr("--scale"), HasSubstr("auto, fraction or percent")));
+  }
+}
+
+TEST_F(CliFit, TheTableGivesItsUnitsAndSaysWhatNdMeans) {
+  const auto spectrum = model_output(extended_model_args("380:780:4"));
+  const auto file = write("skin.csv", spectra_csv({{"skin", spectrum}}));
+  const auto run = skinspec({"fit", "--format", "table", "--fix", "bilirubin", file});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  const auto lines = lines_of(run.out);
+  ASSERT_EQ(lines.size(), 4u) << run.out;
+  // Every column's unit, in the columns' order; the parameters' as the model states them.
+  EXPECT_THAT(lines[0], StartsWith("units: surface_reflectance [fraction]; melanin [x 1 % melanosomes in the "
+                                   "epidermis]; total_hemoglobin [x 0.2 % blood (150 g/L haemoglobin) in the dermis]; "
+                                   "oxygen_saturation [fraction]; bilirubin [x 0.005 g/L in the dermis]; "
+                                   "dermis_scattering ["));
+  EXPECT_THAT(lines[0], HasSubstr("cm-1"));
+  EXPECT_THAT(lines[0], HasSubstr("]; dermis_scattering_power ["));
+  EXPECT_THAT(lines[0], ::testing::EndsWith("]; rmse [reflectance, as a fraction]; dE00 [CIEDE2000 of measured and "
+                                            "fitted colour under D65]"));
+  EXPECT_THAT(lines[1], StartsWith("spectrum"));
+  EXPECT_THAT(lines[2], AllOf(StartsWith("skin"), HasSubstr("1 held")));
+  EXPECT_EQ(lines[3],
+            "n.d.: not determined by this spectrum (reason in --format json; docs/model.md, \"What the spectrum "
+            "determines\")");
 }
 
 TEST_F(CliFit, AParameterOfTheOtherModelIsRefused) {

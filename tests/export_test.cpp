@@ -187,11 +187,30 @@ TEST_F(ExportTest, CsvHasOneRowPerWavelengthOfEachMeasurementAndFit) {
   auto store = make_database();
   const auto result = skinspec({"export", "--db", path_, "--format", "csv"});
   ASSERT_EQ(result.exit_status, 0) << result.describe();
-  const auto lines = lines_of(result.out);
-  ASSERT_FALSE(lines.empty());
+  auto lines = lines_of(result.out);
+  ASSERT_GE(lines.size(), 2u);
+  // A comment line first, the columns' units beneath which their names stand.
+  const auto units = fields_of(lines[0]);
+  lines.erase(lines.begin());
   const auto header = fields_of(lines[0]);
   EXPECT_EQ(header.front(), "session_id");
   EXPECT_EQ(header.back(), "fitted");
+  ASSERT_EQ(units.size(), header.size()) << result.out.substr(0, 2000);
+  std::map<std::string, std::string> unit_of;
+  for (std::size_t i = 0; i < header.size(); ++i) unit_of[header[i]] = units[i];
+  EXPECT_EQ(units[0], "# units");
+  // A parameter's unit is its model's.
+  for (const auto model : kModelKinds)
+    for (const auto& p : model_spec(model).params) EXPECT_EQ(unit_of[std::string(p.name)], p.unit) << p.name;
+  EXPECT_EQ(unit_of["melanin"], "x 1 % melanosomes in the epidermis");
+  EXPECT_EQ(unit_of["surface_reflectance"], "fraction");
+  EXPECT_EQ(unit_of["rmse"], "reflectance (fraction)");
+  EXPECT_EQ(unit_of["delta_e00_d65"], "CIEDE2000");
+  EXPECT_EQ(unit_of["wavelength_nm"], "nm");
+  EXPECT_EQ(unit_of["radiance"], "as in units");
+  EXPECT_EQ(unit_of["reflectance"], "fraction");
+  EXPECT_EQ(unit_of["fitted"], "fraction");
+  EXPECT_EQ(unit_of["subject"], "");
   // white (no fit), sample x 2 fits, unfitted sample; second session's fitted sample: 5 x 101.
   ASSERT_EQ(lines.size(), 1u + 5u * 101u);
   const auto column = [&](const std::string& name) {
@@ -205,6 +224,7 @@ TEST_F(ExportTest, CsvHasOneRowPerWavelengthOfEachMeasurementAndFit) {
     EXPECT_EQ(row[column("subject")], row[0] == std::to_string(first_) ? "S-1000, left" : "S-1004");
     if (row[column("measurement_id")] != std::to_string(sample_id_) || row[column("wavelength_nm")] != "400") continue;
     EXPECT_EQ(std::stod(row[column("radiance")]), expected.radiance.values[5]);
+    EXPECT_EQ(row[column("units")], expected.units);
     EXPECT_EQ(std::stod(row[column("reflectance")]), expected.reflectance.values[5]);
     EXPECT_EQ(row[column("tables_digest")], "3f2a9c0d");
     const int n = row[column("fit_id")] == "1" ? 1 : 2;
@@ -220,8 +240,8 @@ TEST_F(ExportTest, CsvHasOneRowPerWavelengthOfEachMeasurementAndFit) {
 
   const auto one = skinspec({"export", "--db", path_, "--session", std::to_string(second_), "--format", "csv"});
   ASSERT_EQ(one.exit_status, 0) << one.describe();
-  EXPECT_EQ(lines_of(one.out).size(), 1u + 101u);
-  EXPECT_EQ(lines_of(one.out)[0], lines[0]);
+  EXPECT_EQ(lines_of(one.out).size(), 2u + 101u);
+  EXPECT_EQ(lines_of(one.out)[1], lines[0]);
 }
 
 // The CGATS export is read by ArgyllCMS's own spec2cie, which writes CIE values beside the
@@ -230,6 +250,8 @@ TEST_F(ExportTest, CgatsIsReadByArgyllsSpec2cie) {
   auto store = make_database();
   const auto result = skinspec({"export", "--db", path_, "--session", std::to_string(first_), "--format", "cgats"});
   ASSERT_EQ(result.exit_status, 0) << result.describe();
+  // The unit of the spectra in a comment, which ArgyllCMS's reader passes over.
+  EXPECT_THAT(result.out, HasSubstr("\n# SPEC_nnn: reflectance at nnn nm in percent"));
   const auto ti3 = dir_.file("session.ti3"), converted = dir_.file("cie.ti3");
   std::ofstream(ti3, std::ios::binary) << result.out;
   const auto argyll = testing::run_process(SKINSPEC_TEST_SPEC2CIE, {"-i", "D65", "-o", "1931_2", ti3, converted});
@@ -456,11 +478,11 @@ TEST_F(ExportTest, ExportsWhileAnotherProcessWritesAndAfterItDied) {
   ASSERT_EQ(result.exit_status, 0) << result.describe();
   EXPECT_TRUE(testing::file_bytes(path_) == database);
   EXPECT_TRUE(testing::file_bytes(path_ + "-wal") == log);
-  // 101 rows per measurement (its fit on the same grid), below the header; the last commit
+  // 101 rows per measurement (its fit on the same grid), below the units and the header; the last commit
   // may have landed without being reported.
   const auto stored = testing::sqlite_integer(path_, "SELECT count(*) FROM measurements");
   EXPECT_GE(stored, reported);
-  EXPECT_EQ(static_cast<long long>(lines_of(result.out).size()), 1 + 101 * stored);
+  EXPECT_EQ(static_cast<long long>(lines_of(result.out).size()), 2 + 101 * stored);
 }
 
 TEST_F(ExportTest, TheCommandIsListedWhenAnotherIsMistyped) {

@@ -162,9 +162,35 @@ TEST_F(FitJobsTest, TheFormatIsRecognisedOrGivenAndCgatsImports) {
   EXPECT_EQ(follow(forced["id"]).back()["error"]["code"], "bad_file");
 }
 
+// The scale of a CSV file's values, auto unless said: kept with the request, and how the job
+// read the file in its result.
+TEST_F(FitJobsTest, TheScaleIsAutoOrGiven) {
+  const json automatic = accepted(post_import(rows_file(2)));
+  EXPECT_EQ(automatic["request"]["scale"], "auto");
+  const json read = follow(automatic["id"]).back();
+  ASSERT_EQ(read["state"], "succeeded") << read;
+  EXPECT_EQ(read["result"]["scale"], "percent");
+  // Percent said to be fractions: refused at the first value, in the fourth field of line 2.
+  const json fractions = accepted(post_import(rows_file(2), "?name=lab.csv&scale=fraction"));
+  EXPECT_EQ(fractions["request"]["scale"], "fraction");
+  const json refused = follow(fractions["id"]).back();
+  EXPECT_EQ(refused["error"]["code"], "bad_file") << refused;
+  EXPECT_NE(refused["error"]["message"].get<std::string>().find("lab.csv:2:4: 25.03 is not a reflectance"),
+            std::string::npos)
+      << refused;
+  const json argyll = accepted(post_import(testing::data_file("examples/import-argyll.ti3"), "?scale=auto", {}));
+  const json cgats = follow(argyll["id"]).back();
+  ASSERT_EQ(cgats["state"], "succeeded") << cgats;
+  EXPECT_TRUE(cgats["result"]["scale"].is_null()) << cgats;
+  EXPECT_EQ(stored(session_), 2u + 2u);
+}
+
 TEST_F(FitJobsTest, RequestsThatCannotBeImportedAreRefusedWithoutAJob) {
   const std::string file = rows_file(2);
   EXPECT_EQ(post_import(file, "?format=xlsx").status, 400);
+  const auto scale = post_import(file, "?scale=percentage");
+  EXPECT_EQ(scale.status, 400);
+  EXPECT_NE(scale.body.find("'scale' must be auto, fraction or percent"), std::string::npos) << scale.body;
   EXPECT_EQ(post_import(file, "?sheet=1").status, 400);
   EXPECT_EQ(post_import(file, "?name=").status, 400);
   EXPECT_EQ(post_import(file, "?name=a%0Ab").status, 400);

@@ -3,6 +3,7 @@
 // the good ones are stored, a file larger than the JSON body limit accepted as an upload, and a
 // missing file refused before anything is sent.
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -20,6 +21,7 @@ namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using ::testing::HasSubstr;
 using namespace std::chrono_literals;
 
 std::string read_text(const std::string& path) {
@@ -76,8 +78,12 @@ TEST_F(ImportCliTest, FilesOfEveryLayoutAreImportedIntoANewSession) {
                            example("import-argyll.ti3"), "--new-session", "forearm:archive-7"});
   ASSERT_EQ(r.exit_status, 0) << r.describe() << rig_->logs();
   EXPECT_NE(r.err.find("session 1 opened: site forearm, subject archive-7"), std::string::npos) << r.err;
-  EXPECT_NE(r.out.find("import-rows-percent.csv: 3 spectra imported into session 1"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("import-columns.csv: 2 spectra imported into session 1"), std::string::npos) << r.out;
+  // How each file's values were read; nothing for CGATS, which gives its own scale.
+  EXPECT_THAT(r.out, HasSubstr("import-rows-percent.csv: 3 spectra imported into session 1 (job 1), values read "
+                               "as percent (auto)\n"));
+  EXPECT_THAT(r.out, HasSubstr("import-columns.csv: 2 spectra imported into session 1 (job 2), values read as "
+                               "fraction (auto)\n"));
+  EXPECT_THAT(r.out, HasSubstr("import-argyll.ti3: 2 spectra imported into session 1 (job 3)\n"));
   // Not a terminal: one line per change of each job, counting spectra.
   EXPECT_EQ(r.err.find('\r'), std::string::npos);
   EXPECT_NE(r.err.find("succeeded, done 3/3 spectra"), std::string::npos) << r.err;
@@ -99,6 +105,34 @@ TEST_F(ImportCliTest, ABadFileIsNamedByLineWithExit2AndTheOthersAreStored) {
   EXPECT_NE(r.err.find("bad.csv:3:"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("(bad_file)"), std::string::npos) << r.err;
   EXPECT_EQ(session(id)["measurements"].size(), 2u);  // the columns file only
+}
+
+// --scale reaches the service: fractions said to be percent are imported as a hundredth of
+// them, and percent said to be fractions is refused by its line.
+TEST_F(ImportCliTest, TheScaleAskedForIsHowTheServiceReadsTheFile) {
+  const long long id = new_session(rig_->port, "S4");
+  const auto percent = example("import-rows-percent.csv");
+  const auto refused = skinspec({"import", percent, "--session", std::to_string(id), "--scale", "fraction"});
+  EXPECT_EQ(refused.exit_status, 2) << refused.describe();
+  EXPECT_THAT(refused.err, HasSubstr("import-rows-percent.csv:2:4: 25.03 is not a reflectance (-0.05 to 1.5)"));
+  EXPECT_EQ(session(id)["measurements"].size(), 0u);
+
+  const auto r = skinspec({"import", percent, "--session", std::to_string(id), "--scale", "percent", "--json"});
+  ASSERT_EQ(r.exit_status, 0) << r.describe() << rig_->logs();
+  const json job = json::parse(r.out);
+  EXPECT_EQ(job["request"]["scale"], "percent") << job;
+  EXPECT_EQ(job["result"]["scale"], "percent") << job;
+  const json s = session(id);
+  ASSERT_EQ(s["measurements"].size(), 3u) << s;
+  const auto first = s["measurements"][0]["id"].get<long long>();
+  const json m = get_json(rig_->port, "/api/v1/measurements/" + std::to_string(first));
+  EXPECT_DOUBLE_EQ(m["reflectance"]["values"][0].get<double>(), 0.2503);
+  EXPECT_EQ(m["provenance"]["settings"]["source"]["scale"], "percent") << m;
+
+  const auto cgats =
+      skinspec({"import", example("import-argyll.ti3"), "--session", std::to_string(id), "--scale", "percent"});
+  EXPECT_EQ(cgats.exit_status, 2) << cgats.describe();
+  EXPECT_THAT(cgats.err, HasSubstr("import-argyll.ti3: scale percent is for CSV files"));
 }
 
 TEST_F(ImportCliTest, AFileLargerThanTheBodyLimitIsAnUpload) {

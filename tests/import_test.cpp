@@ -127,8 +127,44 @@ TEST(ImportTest, QuotedFieldsCommentsAndBlankLinesAreRead) {
   EXPECT_EQ(spectra[0].reflectance.values[1], 0.2);
 }
 
+// The scale asked for (reflectance_scale.hpp): auto, as above, or said; a CGATS file gives its own.
+TEST(ImportTest, AScaleAskedForIsHowTheValuesAreRead) {
+  const auto text = testing::data_file("examples/import-rows-percent.csv");
+  const auto as_auto = read_ok(text, ImportFormat::csv);
+  EXPECT_EQ(as_auto[0].scale, ReflectanceScale::percent);
+  const auto as_percent = read_import(text, "f.csv", ImportFormat::csv, ScaleRequest::percent);
+  ASSERT_TRUE(as_percent) << as_percent.error().what();
+  EXPECT_EQ((*as_percent)[2].reflectance.values, as_auto[2].reflectance.values);
+  EXPECT_EQ((*as_percent)[2].scale, ReflectanceScale::percent);
+  // The first value of the first spectrum, on line 2 after three text columns.
+  const auto as_fractions = read_import(text, "f.csv", ImportFormat::csv, ScaleRequest::fraction);
+  ASSERT_FALSE(as_fractions);
+  EXPECT_EQ(as_fractions.error().what(), "f.csv:2:4: 25.03 is not a reflectance (-0.05 to 1.5)");
+
+  const auto columns = testing::data_file("examples/import-columns.csv");
+  EXPECT_EQ(read_ok(columns, ImportFormat::csv)[0].scale, ReflectanceScale::fraction);
+  const auto columns_in_percent = read_import(columns, "f.csv", ImportFormat::csv, ScaleRequest::percent);
+  ASSERT_TRUE(columns_in_percent) << columns_in_percent.error().what();
+  EXPECT_DOUBLE_EQ((*columns_in_percent)[1].reflectance.values[0], 0.0028026);
+
+  // A stray value among fractions is refused, not taken for percent; dark skin in percent is not.
+  EXPECT_EQ(read_refused("id,400nm,500nm,600nm\nP1,0.1,2.5,0.3\n").what(),
+            "f.csv:2:3: 2.5 is not a reflectance (-0.05 to 1.5); values read as fraction (auto), as fewer than half "
+            "of them exceed 1.5");
+  const auto dark = read_ok("id,400nm,500nm,600nm\nP1,1.2,4.5,12\n", ImportFormat::csv);
+  EXPECT_EQ(dark[0].scale, ReflectanceScale::percent);
+  EXPECT_DOUBLE_EQ(dark[0].reflectance.values[0], 0.012);
+
+  const auto argyll = testing::data_file("examples/import-argyll.ti3");
+  EXPECT_EQ(read_ok(argyll, ImportFormat::cgats)[0].scale, std::nullopt);
+  const auto cgats_in_percent = read_import(argyll, "f.ti3", ImportFormat::cgats, ScaleRequest::percent);
+  ASSERT_FALSE(cgats_in_percent);
+  EXPECT_EQ(cgats_in_percent.error().what(),
+            "f.ti3: scale percent is for CSV files: a CGATS file gives its own (SPECTRAL_NORM)");
+}
+
 TEST(ImportTest, AnImportedSpectrumBecomesAMeasurementWithItsProvenance) {
-  ImportedSpectrum s{"P-1", 7, "CM-700d", {{400, 500}, {0.3, 0.4}}};
+  ImportedSpectrum s{"P-1", 7, "CM-700d", {{400, 500}, {0.3, 0.4}}, ReflectanceScale::percent};
   const auto m = imported_measurement(s, 12, "lab.csv", ImportFormat::csv, store::Time(std::chrono::seconds(5)));
   EXPECT_EQ(m.session_id, 12);
   EXPECT_EQ(m.kind, store::MeasurementKind::imported);
@@ -140,6 +176,13 @@ TEST(ImportTest, AnImportedSpectrumBecomesAMeasurementWithItsProvenance) {
   EXPECT_EQ(source["format"], "csv");
   EXPECT_EQ(source["line"], 7);
   EXPECT_EQ(source["instrument"], "CM-700d");
+  EXPECT_EQ(source["scale"], "percent");
+  s.scale = std::nullopt;  // CGATS
+  EXPECT_TRUE(
+      nlohmann::json::parse(imported_measurement(s, 12, "lab.ti3", ImportFormat::cgats, {}).settings)["source"]["scale"]
+          .is_null());
+  EXPECT_EQ(nlohmann::json::parse(import_job_result(3, "lab.csv", ImportFormat::csv, ReflectanceScale::fraction)),
+            (nlohmann::json{{"imported", 3}, {"source", "lab.csv"}, {"format", "csv"}, {"scale", "fraction"}}));
   EXPECT_EQ(parse_import_format("cgats"), ImportFormat::cgats);
   EXPECT_FALSE(parse_import_format("xlsx"));
 }
@@ -154,9 +197,10 @@ class ImportFileTest : public ::testing::Test {
     session_ = testing::value_of(store_.create_session(session));
   }
 
-  std::expected<ImportedFile, ImportFailure> import(std::string_view bytes, const ImportObserver& observer = {}) {
+  std::expected<ImportedFile, ImportFailure> import(std::string_view bytes, const ImportObserver& observer = {},
+                                                    ScaleRequest scale = ScaleRequest::automatic) {
     return import_file(store_, testing::shipped_fitter(), session_, bytes, "lab.csv", recognise_import_format(bytes),
-                       observer);
+                       observer, std::nullopt, scale);
   }
   std::size_t stored_measurements() { return testing::value_of(store_.session_detail(session_)).measurements.size(); }
 
@@ -176,6 +220,7 @@ TEST_F(ImportFileTest, EverySpectrumIsStoredWithItsFitAndProvenance) {
   EXPECT_EQ(m.kind, store::MeasurementKind::imported);
   EXPECT_EQ(m.label, "forearm P-02");
   EXPECT_EQ(nlohmann::json::parse(m.settings)["source"]["line"], 3);
+  EXPECT_EQ(nlohmann::json::parse(m.settings)["source"]["scale"], "percent");
   EXPECT_EQ(detail.fits[1].measurement_id, m.id);
   EXPECT_EQ(detail.fits[1].model, "extended");
   EXPECT_EQ(detail.fits[1].site, detail.session.site);
@@ -219,6 +264,11 @@ TEST_F(ImportFileTest, AFileWithADefectOrASpectrumTheFitterRefusesStoresNothing)
   ASSERT_FALSE(narrow);
   EXPECT_TRUE(narrow.error().bad_file());
   EXPECT_THAT(narrow.error().message(), HasSubstr("lab.csv:2: spectrum 'a' cannot be fitted"));
+  // Percent said to be fractions.
+  const auto percent = import(testing::data_file("examples/import-rows-percent.csv"), {}, ScaleRequest::fraction);
+  ASSERT_FALSE(percent);
+  EXPECT_TRUE(percent.error().bad_file());
+  EXPECT_THAT(percent.error().message(), HasSubstr("lab.csv:2:4: 25.03 is not a reflectance"));
   EXPECT_EQ(stored_measurements(), 0u);
 }
 

@@ -1,6 +1,7 @@
 // `skinspec session new|measure|show|list` against a real skinspecd driving skinspec-sim: what
 // it prints, its exit statuses, and the fitted parameters equal to the service's stored fit.
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <sstream>
@@ -13,6 +14,8 @@ namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using ::testing::EndsWith;
+using ::testing::HasSubstr;
 using namespace std::chrono_literals;
 
 class SessionCliTest : public ::testing::Test {
@@ -89,6 +92,12 @@ TEST_F(SessionCliTest, NewMeasureShowAndListASession) {
     EXPECT_NEAR(*value, stored.get<double>(), 1e-5 * std::abs(stored.get<double>())) << name;
     EXPECT_NE(sample.out.substr(line, end - line).find("± "), std::string::npos) << name << ": no standard error";
   }
+  // Each parameter with its unit, from the model's table.
+  const auto melanin = sample.out.find("  melanin ");
+  ASSERT_NE(melanin, std::string::npos) << sample.out;
+  EXPECT_THAT(sample.out.substr(melanin, sample.out.find('\n', melanin) - melanin),
+              EndsWith("  [x 1 % melanosomes in the epidermis]"));
+  EXPECT_THAT(sample.out, HasSubstr(" [reflectance, as a fraction]   dE2000 (D65) "));
   EXPECT_TRUE(printed_value(sample.out, "rmse")) << sample.out;
   EXPECT_NEAR(*printed_value(sample.out, "rmse"), fit["rmse"].get<double>(), 1e-5 * fit["rmse"].get<double>());
   EXPECT_NE(sample.out.find("dE2000"), std::string::npos);
@@ -101,6 +110,13 @@ TEST_F(SessionCliTest, NewMeasureShowAndListASession) {
   EXPECT_NE(show.out.find("model extended"), std::string::npos) << show.out;
   EXPECT_NE(show.out.find("fits, model extended"), std::string::npos) << show.out;
   EXPECT_NE(show.out.find("dermis_scattering_power"), std::string::npos) << show.out;
+  // The fits' table: its units above, what "n.d." means below.
+  EXPECT_THAT(show.out, HasSubstr("fits, model extended\nunits: surface_reflectance [fraction]; melanin [x 1 % "
+                                  "melanosomes in the epidermis]; "));
+  EXPECT_THAT(show.out, HasSubstr("; rmse [reflectance, as a fraction]; dE2000 [CIEDE2000 of measured and fitted "
+                                  "colour under D65]\n"));
+  EXPECT_THAT(show.out, EndsWith("n.d.: not determined by this spectrum (reason in --json; docs/model.md, \"What "
+                                 "the spectrum determines\")\n"));
   const auto shown = json::parse(skinspec({"session", "show", "1", "--json"}).out, nullptr, false);
   EXPECT_EQ(shown["measurements"].size(), 2u) << shown;
   EXPECT_EQ(shown["fits"].size(), 1u);

@@ -219,6 +219,118 @@ TEST(SpectraCsv, LimitsAreConfigurable) {
   EXPECT_THAT(narrow.message, HasSubstr("450-650 nm is needed"));
 }
 
+// ---------------------------------------------------------------------------------------------
+// The scale of the values: fractions, percent, or auto (reflectance_scale.hpp).
+
+std::expected<SpectraFile, InputError> read_as(std::string_view bytes, ScaleRequest scale) {
+  return parse_spectra_file(bytes, "data.csv", SpectraLimits{.scale = scale});
+}
+
+InputError refused_as(std::string_view bytes, ScaleRequest scale) {
+  const auto result = read_as(bytes, scale);
+  if (result) {
+    ADD_FAILURE() << "accepted as " << to_string(scale) << ":\n" << bytes;
+    return {};
+  }
+  return result.error();
+}
+
+// Dark skin in percent: below 1.5 at 400 nm, above it everywhere else.
+constexpr std::string_view kDarkPercent = "wavelength_nm,dark,light\n400,1.2,20.5\n550,4.5,35\n700,22,61.25\n";
+
+TEST(SpectraCsvScale, AutoReadsPercentWhenMostValuesExceedOnePointFive) {
+  const auto file = read_as(kDarkPercent, ScaleRequest::automatic);
+  ASSERT_TRUE(file) << file.error().what();
+  EXPECT_EQ(file->scale.scale, ReflectanceScale::percent);
+  EXPECT_TRUE(file->scale.automatic);
+  EXPECT_EQ(describe(file->scale), "percent (auto)");
+  EXPECT_DOUBLE_EQ(file->spectra[0].spectrum.values()[0], 0.012);
+  EXPECT_DOUBLE_EQ(file->spectra[1].spectrum.values()[2], 0.6125);
+
+  const auto fractions = read_as(kThreeSubjects, ScaleRequest::automatic);
+  ASSERT_TRUE(fractions) << fractions.error().what();
+  EXPECT_EQ(describe(fractions->scale), "fraction (auto)");
+  EXPECT_DOUBLE_EQ(fractions->spectra[0].spectrum.values()[1], 0.45);
+}
+
+TEST(SpectraCsvScale, PercentAskedForDividesEveryValueThenChecksTheRange) {
+  const auto file = read_as(kDarkPercent, ScaleRequest::percent);
+  ASSERT_TRUE(file) << file.error().what();
+  EXPECT_EQ(describe(file->scale), "percent");
+  EXPECT_DOUBLE_EQ(file->spectra[0].spectrum.values()[1], 0.045);
+  // Fractions read as percent are taken at their word: a hundredth of them.
+  const auto small = read_as(kThreeSubjects, ScaleRequest::percent);
+  ASSERT_TRUE(small) << small.error().what();
+  EXPECT_DOUBLE_EQ(small->spectra[0].spectrum.values()[1], 0.0045);
+  const auto above = refused_as("wavelength_nm,a\n400,20\n700,150.5\n", ScaleRequest::percent);
+  EXPECT_EQ(above.what(),
+            "data.csv:3:5: value 150.5 in column 'a' is outside the allowed range [0, 150]; values read as percent");
+}
+
+TEST(SpectraCsvScale, FractionsAskedForRefuseAPercentFileAtItsFirstValueAboveOnePointFive) {
+  const auto refused = refused_as(kDarkPercent, ScaleRequest::fraction);
+  EXPECT_EQ(refused.what(), "data.csv:2:9: value 20.5 in column 'light' is outside the allowed range [0, 1.5]");
+  EXPECT_FALSE(parse(kDarkPercent)) << "fractions are what a caller gets unless it asks";
+}
+
+TEST(SpectraCsvScale, AutoReadsFractionsWithAFewStrayValuesAndRefusesThem) {
+  // One typing error among fractions: too few values above 1.5 for percent.
+  const auto refused = refused_as("wavelength_nm,a\n400,0.1\n550,1.51\n700,0.2\n", ScaleRequest::automatic);
+  EXPECT_EQ(refused.line, 3u);
+  EXPECT_EQ(refused.column, 5u);
+  EXPECT_EQ(refused.message,
+            "value 1.51 in column 'a' is outside the allowed range [0, 1.5]; values read as fraction (auto), as "
+            "fewer than half of them exceed 1.5");
+  // Exactly half above 1.5 is percent.
+  const auto half = read_as("wavelength_nm,a\n400,1\n700,2\n", ScaleRequest::automatic);
+  ASSERT_TRUE(half) << half.error().what();
+  EXPECT_EQ(half->scale.scale, ReflectanceScale::percent);
+}
+
+TEST(SpectraCsvScale, AutoRefusesAColumnOfFractionsAmongPercent) {
+  const auto refused =
+      refused_as("wavelength_nm,a,b,c\n400,20,0.2,30\n550,30,0.3,40\n700,40,0.4,50\n", ScaleRequest::automatic);
+  EXPECT_EQ(refused.what(),
+            "data.csv:1:17: spectrum 'b' stays at or below 1.5 while the file holds percent elsewhere: its values are "
+            "on another scale");
+  // Above 150 percent is no reflectance either way.
+  const auto bright = refused_as("wavelength_nm,a\n400,20\n700,151\n", ScaleRequest::automatic);
+  EXPECT_EQ(bright.line, 3u);
+  EXPECT_THAT(bright.message, HasSubstr("[0, 150]; values read as percent (auto)"));
+}
+
+TEST(ReflectanceScale, RequestsByName) {
+  for (const auto request : {ScaleRequest::automatic, ScaleRequest::fraction, ScaleRequest::percent})
+    EXPECT_EQ(parse_scale_request(to_string(request)), request);
+  EXPECT_EQ(to_string(ScaleRequest::automatic), "auto");
+  EXPECT_FALSE(parse_scale_request("Percent"));
+  EXPECT_FALSE(parse_scale_request(""));
+  EXPECT_EQ(scale_request_names(), "auto, fraction or percent");
+}
+
+TEST(ReflectanceScale, AutoCountsEveryValueOfEverySpectrum) {
+  const std::vector<double> fractions = {0.2, 0.3, 0.4}, percent = {1.0, 20, 40}, bright = {20, 30, 40},
+                            stray = {0.1, 3.0, 0.2};
+  const auto decide = [](std::vector<std::span<const double>> spectra) {
+    return decide_scale(ScaleRequest::automatic, spectra);
+  };
+  EXPECT_EQ(decide({fractions})->scale, ReflectanceScale::fraction);
+  EXPECT_EQ(decide({percent})->scale, ReflectanceScale::percent);
+  EXPECT_EQ(decide({stray})->scale, ReflectanceScale::fraction);
+  // Six of nine values above 1.5, every spectrum above it somewhere: percent.
+  EXPECT_EQ(decide({percent, stray, bright})->scale, ReflectanceScale::percent);
+  // Three of nine: fractions, whose range then refuses the values above 1.5.
+  EXPECT_EQ(decide({percent, stray, fractions})->scale, ReflectanceScale::fraction);
+  // Six of nine: percent, but the fractions are on another scale.
+  const auto mixed = decide({bright, bright, fractions});
+  ASSERT_FALSE(mixed);
+  EXPECT_EQ(mixed.error().spectrum, 2u);
+  EXPECT_EQ(decide({})->scale, ReflectanceScale::fraction);
+  EXPECT_EQ(decide_scale(ScaleRequest::fraction, std::vector<std::span<const double>>{percent})->scale,
+            ReflectanceScale::fraction);
+  EXPECT_FALSE(decide_scale(ScaleRequest::percent, std::vector<std::span<const double>>{fractions})->automatic);
+}
+
 }  // namespace
 }  // namespace skinspec
 

@@ -71,8 +71,10 @@ std::expected<store::CreatedJob, ApiError> FitJobs::submit_import(ImportUpload u
   job.kind = std::string(to_string(JobKind::import));
   job.session_id = upload.session_id;
   job.idempotency_key = idempotency_key;
-  job.request = compact(
-      {{"source", upload.source}, {"format", records::to_string(upload.format)}, {"bytes", upload.bytes.size()}});
+  job.request = compact({{"source", upload.source},
+                         {"format", records::to_string(upload.format)},
+                         {"scale", to_string(upload.scale)},
+                         {"bytes", upload.bytes.size()}});
   return enqueue(std::move(job), std::move(upload));
 }
 
@@ -275,7 +277,7 @@ void FitJobs::run_import(store::Id id, const ImportUpload& upload) {
     return verdict == Verdict::go_on;
   };
   const auto imported = records::import_file(store_, fitter_, upload.session_id, upload.bytes, upload.source,
-                                             upload.format, observer, id);
+                                             upload.format, observer, id, upload.scale);
   if (!imported) {
     const auto code = imported.error().bad_file() ? store::JobErrorCode::bad_file : store::JobErrorCode::store;
     return end(id, ended(store::JobState::failed, job_error(code, imported.error().message())));

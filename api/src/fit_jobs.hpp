@@ -29,6 +29,7 @@ struct ImportUpload {
   std::string bytes;   // the file as sent
   std::string source;  // its name, kept with each spectrum as provenance
   records::ImportFormat format = records::ImportFormat::csv;
+  ScaleRequest scale = ScaleRequest::automatic;  // how a CSV file writes its values
 };
 
 class FitJobs final : public JobWatch {

@@ -417,6 +417,13 @@ json import_parameters() {
         {"required", false},
         {"schema", {{"type", "string"}, {"enum", {"csv", "cgats"}}}},
         {"description", "recognised from the content when absent: CGATS when it starts with a CGATS file type"}},
+       {{"name", "scale"},
+        {"in", "query"},
+        {"required", false},
+        {"schema", {{"type", "string"}, {"enum", {"auto", "fraction", "percent"}}, {"default", "auto"}}},
+        {"description",
+         "how a CSV file writes reflectance; auto: percent when at least half its values exceed 1.5 "
+         "(docs/store.md, \"Imports\"); a CGATS file gives its own (SPECTRAL_NORM)"}},
        {{"name", "name"},
         {"in", "query"},
         {"required", false},

@@ -158,7 +158,8 @@ struct Router::Handlers {
     const std::string key = idempotency_key(call);
     return accepted(c, acquisition_of(c).submit(call.ids[0], request, key));
   }
-  // POST /api/v1/sessions/{id}/imports?format=csv|cgats&name=FILE, the file as the body
+  // POST /api/v1/sessions/{id}/imports?format=csv|cgats&scale=auto|fraction|percent&name=FILE, the
+  // file as the body
   static Response import_spectra(const RouterContext& c, const Call& call) {
     ImportUpload upload;
     upload.session_id = call.ids[0];
@@ -168,6 +169,10 @@ struct Router::Handlers {
       if (name == "format") {
         format = records::parse_import_format(text);
         if (!format) fail(ErrorKind::bad_request, "invalid_parameter", "'format' must be csv or cgats");
+      } else if (name == "scale") {
+        const auto scale = parse_scale_request(text);
+        if (!scale) fail(ErrorKind::bad_request, "invalid_parameter", "'scale' must be " + scale_request_names());
+        upload.scale = *scale;
       } else if (name == "name") {
         if (text.empty() || text.size() > 255 || std::ranges::any_of(text, [](unsigned char ch) { return ch < 0x20; }))
           fail(ErrorKind::bad_request, "invalid_parameter", "'name' must be 1 to 255 characters without controls");

@@ -52,6 +52,7 @@ void write_table(const store::Session& session, const std::vector<double>& grid,
       << fmt::format("SPECTRAL_BANDS \"{}\"\nSPECTRAL_START_NM \"{}\"\nSPECTRAL_END_NM \"{}\"\n", grid.size(),
                      grid.front(), grid.back())
       << "SPECTRAL_NORM \"100\"\n\n"
+      << "# SPEC_nnn: reflectance at nnn nm in percent (over SPECTRAL_NORM: as a fraction)\n"
       << "NUMBER_OF_FIELDS " << names.size() + 2 << "\nBEGIN_DATA_FORMAT\nSAMPLE_ID SAMPLE_NAME";
   for (const auto& name : names) out << ' ' << name;
   out << "\nEND_DATA_FORMAT\n\nNUMBER_OF_SETS " << sets.size() << "\nBEGIN_DATA\n";

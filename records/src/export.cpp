@@ -101,6 +101,42 @@ const std::vector<std::string>& parameter_columns() {
   return columns;
 }
 
+struct CsvColumn {
+  std::string name;
+  std::string unit;  // empty for text, counts, flags and times
+};
+
+// The CSV's columns with their units: a parameter's from its model (ParamSpec::unit, the same in
+// every model that has it), a radiance's the measurement's own (its units column).
+std::vector<CsvColumn> csv_columns() {
+  std::vector<CsvColumn> columns;
+  for (const char* name : {"session_id", "subject", "site", "session_state", "measurement_id", "kind", "label",
+                           "simulated", "quality_code", "reading_count", "units", "started_at", "fit_id", "model"})
+    columns.push_back({name, ""});
+  for (const auto& name : parameter_columns()) {
+    for (const auto model : kModelKinds)
+      if (const auto i = param_index(model, name)) {
+        columns.push_back({name, std::string(model_spec(model).params[*i].unit)});
+        break;
+      }
+  }
+  const std::string reflectance = "reflectance (fraction)", radiance = "as in units";
+  columns.insert(columns.end(), {{"not_determined", ""},
+                                 {"rmse", reflectance},
+                                 {"max_abs_error", reflectance},
+                                 {"delta_e00_d65", "CIEDE2000"},
+                                 {"converged", ""},
+                                 {"model_version", ""},
+                                 {"tables_digest", ""},
+                                 {"constants_digest", ""},
+                                 {"wavelength_nm", "nm"},
+                                 {"radiance", radiance},
+                                 {"radiance_sd", radiance},
+                                 {"reflectance", "fraction"},
+                                 {"fitted", "fraction"}});
+  return columns;
+}
+
 std::string value_of(const Fit& fit, const std::string& name) {
   const auto found = std::ranges::find(fit.params, name, &store::FitParam::name);
   return found == fit.params.end() ? std::string() : number(found->value);
@@ -129,9 +165,10 @@ void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, c
   for (const auto* column : {&radiance, &sd, &reflectance, &fitted})
     for (const auto& [w, v] : *column) grid[w] = true;
 
-  std::string prefix = fmt::format("{},{},{},{},{},{},{},{},{},{},{},", s.id, csv_field(s.subject), csv_field(s.site),
-                                   to_string(s.state), m.id, to_string(m.kind), csv_field(m.label), m.simulated ? 1 : 0,
-                                   m.quality_code, m.reading_count, json_time(m.started_at));
+  std::string prefix =
+      fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},", s.id, csv_field(s.subject), csv_field(s.site),
+                  to_string(s.state), m.id, to_string(m.kind), csv_field(m.label), m.simulated ? 1 : 0, m.quality_code,
+                  m.reading_count, csv_field(m.units), json_time(m.started_at));
   if (fit) {
     prefix += fmt::format("{},{},", fit->id, csv_field(fit->model));
     for (const auto& name : parameter_columns()) prefix += value_of(*fit, name) + ",";
@@ -151,11 +188,12 @@ void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, c
 }  // namespace
 
 void write_csv_header(std::ostream& out) {
-  out << "session_id,subject,site,session_state,measurement_id,kind,label,simulated,quality_code,reading_count,"
-         "started_at,fit_id,model,";
-  for (const auto& name : parameter_columns()) out << name << ',';
-  out << "not_determined,rmse,max_abs_error,delta_e00_d65,converged,model_version,tables_digest,constants_digest,"
-         "wavelength_nm,radiance,radiance_sd,reflectance,fitted\n";
+  const auto columns = csv_columns();
+  out << "# units";
+  for (std::size_t i = 1; i < columns.size(); ++i) out << ',' << csv_field(columns[i].unit);
+  out << '\n';
+  for (std::size_t i = 0; i < columns.size(); ++i) out << (i == 0 ? "" : ",") << columns[i].name;
+  out << '\n';
 }
 
 Result<void> export_session(const Store& store, Id session_id, ExportFormat format, std::ostream& out) {

@@ -6,23 +6,25 @@
 #include <array>
 #include <cmath>
 #include <deque>
+#include <span>
 
 #include "finite_number.hpp"
 #include "skinspec/records/cgats.hpp"
+#include "skinspec/spectral/enum_names.hpp"
 #include "skinspec/spectral/utf8.hpp"
 
 namespace skinspec::records {
 
 namespace {
 
-constexpr std::array<std::pair<ImportFormat, std::string_view>, 2> kFormats = {{
+constexpr EnumNames<ImportFormat, 2> kFormats = {{
     {ImportFormat::csv, "csv"},
     {ImportFormat::cgats, "cgats"},
 }};
 
-// Above this a CSV file's values are percent; below it (after scaling) none may fall.
-constexpr double kPercentAbove = 1.5;
-constexpr double kLowestReflectance = -0.05;  // a little below 0: spectrometer noise over black
+// A reflectance lies from a little below 0 (spectrometer noise over black) to 1.5, above which a
+// value is no fraction (reflectance_scale.hpp).
+constexpr double kLowestReflectance = -0.05;
 
 bool is_reflectance(double value) { return value >= kLowestReflectance && value <= kPercentAbove; }
 
@@ -167,7 +169,8 @@ bool names_wavelengths(std::string header) {
 
 class CsvReader {
  public:
-  CsvReader(Rows rows, std::string_view source) : file_(std::move(rows)), source_(source) {}
+  CsvReader(Rows rows, std::string_view source, ScaleRequest scale)
+      : file_(std::move(rows)), source_(source), scale_(scale) {}
   CsvReader(const CsvReader&) = delete;  // a copy's cells would still view this one's unescaped text
   CsvReader& operator=(const CsvReader&) = delete;
 
@@ -266,30 +269,33 @@ class CsvReader {
     return {file_.rows[i + 1].line, first_value_column_ + k + 1};
   }
 
-  // Percent when any value is above 1.5; then every value must be a reflectance, and every
-  // spectrum must reach above 1.5 percent somewhere: one below it throughout is on another
-  // scale than the rest of the file (a file of fractions with one typing error, say).
+  // Every value divided as the file's scale says (reflectance_scale.hpp), then held to a
+  // reflectance.
   std::expected<void, InputError> to_fractions(std::vector<ImportedSpectrum>& spectra) const {
-    double largest = 0;
-    for (const auto& s : spectra)
-      for (const double v : s.reflectance.values) largest = std::max(largest, v);
-    const bool percent = largest > kPercentAbove;
-    const double scale = percent ? 0.01 : 1.0;
+    std::vector<std::span<const double>> values;
+    for (const auto& s : spectra) {
+      if (s.reflectance.values.size() < 2) return fail(s.line, 0, "a spectrum needs at least two wavelengths");
+      values.emplace_back(s.reflectance.values);
+    }
+    const auto scale = decide_scale(scale_, values);
+    if (!scale) {
+      const auto& stray = spectra[scale.error().spectrum];
+      return fail(stray.line, 0, describe_conflict(stray.sample_id));
+    }
+    const double divisor = scale->divisor();
     for (std::size_t i = 0; i < spectra.size(); ++i) {
-      auto& values = spectra[i].reflectance.values;
-      if (values.size() < 2) return fail(spectra[i].line, 0, "a spectrum needs at least two wavelengths");
-      if (percent && *std::ranges::max_element(values) <= kPercentAbove)
-        return fail(spectra[i].line, 0,
-                    fmt::format("spectrum '{}' stays at or below {} while the file holds percent elsewhere: its "
-                                "values are on another scale",
-                                spectra[i].sample_id, kPercentAbove));
-      for (std::size_t k = 0; k < values.size(); ++k) {
-        values[k] *= scale;
-        if (is_reflectance(values[k])) continue;
+      spectra[i].scale = scale->scale;
+      for (std::size_t k = 0; k < spectra[i].reflectance.values.size(); ++k) {
+        double& value = spectra[i].reflectance.values[k];
+        if (is_reflectance(value / divisor)) {
+          value /= divisor;
+          continue;
+        }
         const auto [line, column] = position(i, k);
         return fail(line, column,
-                    fmt::format("{} is not a reflectance ({} to {}{})", values[k] / scale, kLowestReflectance / scale,
-                                kPercentAbove / scale, percent ? " percent, as the file holds percent" : ""));
+                    fmt::format("{} is not a reflectance ({} to {}{}){}", value, kLowestReflectance * divisor,
+                                kPercentAbove * divisor, scale->scale == ReflectanceScale::percent ? " percent" : "",
+                                out_of_range_note(*scale, value)));
       }
     }
     return {};
@@ -297,6 +303,7 @@ class CsvReader {
 
   Rows file_;
   std::string_view source_;
+  ScaleRequest scale_;
   bool by_columns_ = false;
   std::size_t first_value_column_ = 0;  // of the rows layout: the first wavelength column
 };
@@ -313,24 +320,16 @@ std::expected<std::vector<ImportedSpectrum>, InputError> read_cgats(std::string_
                        fmt::format("{} at {} nm is not a reflectance ({} to {}, over SPECTRAL_NORM)", s.reflectance[k],
                                    s.wavelength_nm[k], kLowestReflectance, kPercentAbove)});
     out.push_back({std::move(s.sample_id), s.line, std::move(s.instrument),
-                   store::SpectralSamples{std::move(s.wavelength_nm), std::move(s.reflectance)}});
+                   store::SpectralSamples{std::move(s.wavelength_nm), std::move(s.reflectance)}, std::nullopt});
   }
   return out;
 }
 
 }  // namespace
 
-std::string_view to_string(ImportFormat format) {
-  for (const auto& [f, name] : kFormats)
-    if (f == format) return name;
-  return "?";
-}
+std::string_view to_string(ImportFormat format) { return name_of(kFormats, format); }
 
-std::optional<ImportFormat> parse_import_format(std::string_view text) {
-  for (const auto& [f, name] : kFormats)
-    if (name == text) return f;
-  return std::nullopt;
-}
+std::optional<ImportFormat> parse_import_format(std::string_view text) { return value_named(kFormats, text); }
 
 ImportFormat recognise_import_format(std::string_view bytes) {
   if (bytes.starts_with("\xEF\xBB\xBF")) bytes.remove_prefix(3);
@@ -344,7 +343,7 @@ ImportFormat recognise_import_format(std::string_view bytes) {
 }
 
 std::expected<std::vector<ImportedSpectrum>, InputError> read_import(std::string_view bytes, std::string_view source,
-                                                                     ImportFormat format) {
+                                                                     ImportFormat format, ScaleRequest scale) {
   // Spreadsheet programs put a byte order mark in front; the store keeps UTF-8 text without NUL.
   if (bytes.starts_with("\xEF\xBB\xBF")) bytes.remove_prefix(3);
   const auto defect = utf8::first_defect(bytes);
@@ -357,11 +356,16 @@ std::expected<std::vector<ImportedSpectrum>, InputError> read_import(std::string
   }
   std::expected<std::vector<ImportedSpectrum>, InputError> spectra;
   if (format == ImportFormat::cgats) {
+    if (scale != ScaleRequest::automatic)
+      return std::unexpected(InputError{std::string(source), 0, 0,
+                                        fmt::format("scale {} is for CSV files: a CGATS file gives its own "
+                                                    "(SPECTRAL_NORM)",
+                                                    to_string(scale))});
     spectra = read_cgats(bytes, source);
   } else {
     auto rows = rows_of(bytes, source);
     if (!rows) return std::unexpected(rows.error());
-    spectra = CsvReader(std::move(*rows), source).read();
+    spectra = CsvReader(std::move(*rows), source, scale).read();
   }
   if (spectra && spectra->empty()) return std::unexpected(InputError{std::string(source), 0, 0, "no spectra in it"});
   return spectra;

@@ -17,6 +17,11 @@ namespace skinspec::records {
 
 namespace {
 
+// A file's scale in JSON: null for CGATS, whose SPECTRAL_NORM gives it.
+nlohmann::json scale_json(std::optional<ReflectanceScale> scale) {
+  return scale ? nlohmann::json(to_string(*scale)) : nlohmann::json();
+}
+
 // How often, in spectra, the observer hears of the fitting.
 constexpr std::size_t kReportEvery = 256;
 
@@ -203,6 +208,7 @@ store::Measurement imported_measurement(const ImportedSpectrum& spectrum, store:
   m.settings = nlohmann::json{{"source",
                                {{"file", source},
                                 {"format", to_string(format)},
+                                {"scale", scale_json(spectrum.scale)},
                                 {"sample_id", spectrum.sample_id},
                                 {"line", spectrum.line},
                                 {"instrument", spectrum.instrument}}}}
@@ -219,15 +225,17 @@ std::string ImportFailure::message() const {
   return std::get<store::StoreError>(cause).message;
 }
 
-std::string import_job_result(std::size_t imported, std::string_view source, ImportFormat format) {
-  return nlohmann::json{{"imported", imported}, {"source", source}, {"format", to_string(format)}}.dump(
-      -1, ' ', false, nlohmann::json::error_handler_t::replace);
+std::string import_job_result(std::size_t imported, std::string_view source, ImportFormat format,
+                              std::optional<ReflectanceScale> scale) {
+  return nlohmann::json{
+      {"imported", imported}, {"source", source}, {"format", to_string(format)}, {"scale", scale_json(scale)}}
+      .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
                                                        std::string_view bytes, std::string_view source,
                                                        ImportFormat format, const ImportObserver& observer,
-                                                       std::optional<store::Id> job_id) {
+                                                       std::optional<store::Id> job_id, ScaleRequest scale) {
   const auto session = store.session(session_id);
   if (!session) return std::unexpected(ImportFailure{session.error()});
   // Refused before the fitting, which a large file spends long on.
@@ -240,7 +248,7 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
     return std::unexpected(ImportFailure{store::StoreError{
         store::StoreError::Kind::conflict,
         fmt::format("session {}'s model '{}' is not one this version knows", session_id, session->model), 0}});
-  auto spectra = read_import(bytes, source, format);
+  auto spectra = read_import(bytes, source, format, scale);
   if (!spectra) return std::unexpected(ImportFailure{spectra.error()});
   if (observer && !observer(0, spectra->size())) return ImportedFile{{}, true};
 
@@ -251,7 +259,9 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
   FittedRows rows(fitter, *spectra, options, observer);
   rows.start([&](const ImportedSpectrum& s) { return imported_measurement(s, session_id, source, format, now); });
   std::optional<store::JobCompletion> completion;
-  if (job_id) completion = store::JobCompletion{*job_id, import_job_result(spectra->size(), source, format)};
+  if (job_id)
+    completion =
+        store::JobCompletion{*job_id, import_job_result(spectra->size(), source, format, spectra->front().scale)};
   try {
     rows.wait_until_worth_storing();
     auto stored = store.record_measurements_as_ready([&] { return rows.next(); }, completion);

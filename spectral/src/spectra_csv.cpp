@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <fmt/format.h>
+#include <span>
 #include <utility>
 
 #include "skinspec/spectral/utf8.hpp"
@@ -35,7 +36,7 @@ class SpectraParser {
  public:
   SpectraParser(std::string_view source, const SpectraLimits& limits) : source_(source), limits_(limits) {}
 
-  std::expected<std::vector<NamedSpectrum>, InputError> parse(std::string_view bytes) {
+  std::expected<SpectraFile, InputError> parse(std::string_view bytes) {
     const auto content = without_byte_order_mark(bytes);
     text::LineReader lines(content);
     std::string_view line;
@@ -52,9 +53,14 @@ class SpectraParser {
       const auto* what = content.empty() ? "the input is empty" : "the input holds only blank or comment lines";
       return fail(1, 0, fmt::format("{}; expected a header starting with '{}'", what, kWavelengthColumn));
     }
+    const auto scale = decide();
+    if (!scale) return std::unexpected(scale.error());
+    if (const auto values = to_fractions(*scale); !values) return std::unexpected(values.error());
     if (const auto rows = check_row_count(); !rows) return std::unexpected(rows.error());
     if (const auto grid = check_coverage(); !grid) return std::unexpected(grid.error());
-    return build_spectra();
+    auto spectra = build_spectra();
+    if (!spectra) return std::unexpected(std::move(spectra.error()));
+    return SpectraFile{std::move(*spectra), *scale};
   }
 
  private:
@@ -95,20 +101,24 @@ class SpectraParser {
     }
     names_ = std::move(names);
     columns_.resize(names_.size());
+    header_ = {line_no, {}};
+    for (const auto& cell : cells) header_.columns.push_back(cell.column);
     last_content_line_ = line_no;
     return {};
   }
 
   Outcome read_row(const std::vector<text::Cell>& cells, std::size_t line_no) {
     if (const auto shape = check_cell_count(cells, line_no); !shape) return shape;
+    Place place{line_no, {}};
     for (std::size_t c = 0; c < cells.size(); ++c) {
       const auto value = read_number(cells[c], names_[c], line_no);
       if (!value) return std::unexpected(value.error());
-      const auto valid = c == 0 ? check_wavelength_increases(*value, cells[c], line_no)
-                                : check_within_limits(*value, cells[c], names_[c], line_no);
-      if (!valid) return valid;
+      if (c == 0)
+        if (const auto valid = check_wavelength_increases(*value, cells[c], line_no); !valid) return valid;
       columns_[c].push_back(*value);
+      place.columns.push_back(cells[c].column);
     }
+    rows_.push_back(std::move(place));
     last_content_line_ = line_no;
     return {};
   }
@@ -141,12 +151,35 @@ class SpectraParser {
                             relation, previous, last_content_line_));
   }
 
-  Outcome check_within_limits(double value, const text::Cell& cell, const std::string& column_name,
-                              std::size_t line_no) const {
-    if (value >= limits_.min_value && value <= limits_.max_value) return {};
-    return fail(line_no, cell.column,
-                fmt::format("value {} in column {} is outside the allowed range [{}, {}]", value, quote(column_name),
-                            limits_.min_value, limits_.max_value));
+  // The scale of the values, once all are read: auto looks at them all.
+  std::expected<ScaleDecision, InputError> decide() const {
+    std::vector<std::span<const double>> spectra(columns_.begin() + 1, columns_.end());
+    const auto decided = decide_scale(limits_.scale, spectra);
+    if (decided) return *decided;
+    const std::size_t c = decided.error().spectrum + 1;
+    return fail(header_.line, header_.columns[c], describe_conflict(names_[c]));
+  }
+
+  // Every value divided as the scale says, then held to the limits; the first outside them, in
+  // the file's order, refuses the file.
+  Outcome to_fractions(const ScaleDecision& scale) {
+    const double divisor = scale.divisor();
+    for (std::size_t r = 0; r < rows_.size(); ++r)
+      for (std::size_t c = 1; c < names_.size(); ++c) {
+        double& value = columns_[c][r];
+        const double fraction = value / divisor;
+        if (!(fraction >= limits_.min_value && fraction <= limits_.max_value))
+          return fail(rows_[r].line, rows_[r].columns[c], out_of_range(value, names_[c], scale));
+        value = fraction;
+      }
+    return {};
+  }
+
+  // The range in the file's own scale.
+  std::string out_of_range(double value, const std::string& column_name, const ScaleDecision& scale) const {
+    const double divisor = scale.divisor();
+    return fmt::format("value {} in column {} is outside the allowed range [{}, {}]{}", value, quote(column_name),
+                       limits_.min_value * divisor, limits_.max_value * divisor, out_of_range_note(scale, value));
   }
 
   // Points at the header, or at the single row, so the reader sees where the data stops.
@@ -178,18 +211,33 @@ class SpectraParser {
     return spectra;
   }
 
+  // Where a line's cells were: its number and each cell's column.
+  struct Place {
+    std::size_t line = 0;
+    std::vector<std::size_t> columns;
+  };
+
   std::string source_;
   SpectraLimits limits_;
   std::vector<std::string> names_;            // header order; names_[0] is wavelength_nm
   std::vector<std::vector<double>> columns_;  // columns_[c] holds the values under names_[c]
-  std::size_t last_content_line_ = 0;         // the header's or the latest row's line
+  Place header_;
+  std::vector<Place> rows_;            // rows_[r] is where columns_[c][r] were read
+  std::size_t last_content_line_ = 0;  // the header's or the latest row's line
 };
 
 }  // namespace
 
+std::expected<SpectraFile, InputError> parse_spectra_file(std::string_view bytes, std::string_view source,
+                                                          const SpectraLimits& limits) {
+  return SpectraParser(source, limits).parse(bytes);
+}
+
 std::expected<std::vector<NamedSpectrum>, InputError> parse_spectra_csv(std::string_view bytes, std::string_view source,
                                                                         const SpectraLimits& limits) {
-  return SpectraParser(source, limits).parse(bytes);
+  auto file = parse_spectra_file(bytes, source, limits);
+  if (!file) return std::unexpected(std::move(file.error()));
+  return std::move(file->spectra);
 }
 
 }  // namespace skinspec

@@ -8,10 +8,11 @@
 //    by wavelength columns ("400", "400nm", "400 nm"); one row per spectrum. What Konica
 //    Minolta's CM-700d/CM-2600d software exports.
 //  - cgats: ArgyllCMS's .ti3/.sp/.cgats spectral tables (cgats.hpp).
-// In CSV, values are reflectance from 0 to 1; a file with any value above 1.5 holds percent
-// (as Konica Minolta writes), every value of it is divided by 100, and each of its spectra must
-// exceed 1.5 somewhere. Fields may be quoted (RFC 4180); blank lines, and lines starting with
-// '#' before the header, are skipped. A defect anywhere refuses the whole file, naming its line
+// In CSV, values are reflectance as fractions or in percent (as Konica Minolta writes), as the
+// scale asked for says, or auto (skinspec/spectral/reflectance_scale.hpp); as fractions each
+// must lie from -0.05 (noise over black) to 1.5. A CGATS file gives its own scale
+// (SPECTRAL_NORM). Fields may be quoted (RFC 4180); blank lines, and lines starting with '#'
+// before the header, are skipped. A defect anywhere refuses the whole file, naming its line
 // (and column).
 
 #include <cstddef>
@@ -21,6 +22,7 @@
 #include <string_view>
 #include <vector>
 
+#include "skinspec/spectral/reflectance_scale.hpp"
 #include "skinspec/spectral/table.hpp"
 #include "skinspec/store/types.hpp"
 
@@ -36,12 +38,15 @@ struct ImportedSpectrum {
   std::string sample_id;
   std::size_t line = 0;  // where its values begin in the file, from 1
   std::string instrument;
-  store::SpectralSamples reflectance;
+  store::SpectralSamples reflectance;     // as fractions
+  std::optional<ReflectanceScale> scale;  // how a CSV file's values were read; none for CGATS
 };
 
 // Every spectrum of the file, or the first defect (InputError names `source`, the line and the
-// column). A spectrum must have at least two wavelengths, strictly increasing.
+// column). A spectrum must have at least two wavelengths, strictly increasing. A scale other
+// than auto is refused for CGATS.
 std::expected<std::vector<ImportedSpectrum>, InputError> read_import(std::string_view bytes, std::string_view source,
-                                                                     ImportFormat format);
+                                                                     ImportFormat format,
+                                                                     ScaleRequest scale = ScaleRequest::automatic);
 
 }  // namespace skinspec::records

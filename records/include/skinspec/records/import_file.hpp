@@ -18,8 +18,8 @@
 namespace skinspec::records {
 
 // An imported spectrum as a measurement of `session_id` (kind imported, its reflectance, no
-// radiance), its provenance in `settings`: {"source": {"file", "format", "sample_id", "line",
-// "instrument"}}.
+// radiance), its provenance in `settings`: {"source": {"file", "format", "scale" (how the
+// values were read: fraction or percent; null for CGATS), "sample_id", "line", "instrument"}}.
 store::Measurement imported_measurement(const ImportedSpectrum& spectrum, store::Id session_id, std::string_view source,
                                         ImportFormat format, store::Time now);
 
@@ -43,13 +43,17 @@ struct ImportedFile {
 };
 
 // With `job_id`, the running import job ends `succeeded` in the transaction that stores the
-// file, its result {"imported": count, "source": file, "format": name} (import_job_result).
+// file, its result {"imported": count, "source": file, "format": name, "scale": as read}
+// (import_job_result). `scale` is how the file writes its values (read_import).
 std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
                                                        std::string_view bytes, std::string_view source,
                                                        ImportFormat format, const ImportObserver& observer = {},
-                                                       std::optional<store::Id> job_id = std::nullopt);
+                                                       std::optional<store::Id> job_id = std::nullopt,
+                                                       ScaleRequest scale = ScaleRequest::automatic);
 
-// The result an import job records: what it imported, from where.
-std::string import_job_result(std::size_t imported, std::string_view source, ImportFormat format);
+// The result an import job records: what it imported, from where, and how its values were read
+// (null for CGATS).
+std::string import_job_result(std::size_t imported, std::string_view source, ImportFormat format,
+                              std::optional<ReflectanceScale> scale);
 
 }  // namespace skinspec::records
