@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <charconv>
 #include <map>
 #include <set>
 
@@ -65,6 +66,12 @@ class ApiRouterTest : public ::testing::Test {
     return router_->handle(req(std::move(method), std::move(target), std::move(body), json_type));
   }
   static json body(const Response& r) { return json::parse(r.body); }
+  // What a render's X-Render-Cache header says: hit or miss.
+  static std::string render_cache(const Response& r) {
+    for (const auto& [name, value] : r.headers)
+      if (name == "X-Render-Cache") return value;
+    return "none";
+  }
   static void expect_error(const Response& r, int status, const std::string& code) {
     EXPECT_EQ(r.status, status) << r.body;
     const json b = json::parse(r.body, nullptr, false);
@@ -357,23 +364,18 @@ TEST_F(ApiRouterTest, RendersAFitAsPngCachedByItsParameters) {
   const auto refit = call("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", "{}");
   ASSERT_EQ(refit.status, 201) << refit.body;
   const std::string base = "/api/v1/fits/" + std::to_string(body(refit)["id"].get<std::int64_t>()) + "/render.png";
-  const auto cache_header = [](const Response& r) {
-    for (const auto& [name, value] : r.headers)
-      if (name == "X-Render-Cache") return value;
-    return std::string("none");
-  };
 
   const auto first = call("GET", base + "?size=64x48&illuminant=A&scale_melanin=2");
   ASSERT_EQ(first.status, 200) << first.body;
   EXPECT_EQ(first.content_type, "image/png");
-  EXPECT_EQ(cache_header(first), "miss");
+  EXPECT_EQ(render_cache(first), "miss");
   const auto png = testing::decode_png(first.body);
   ASSERT_TRUE(png.has_value());
   EXPECT_EQ(png->width, 64);
   EXPECT_EQ(png->height, 48);
   // The same parameters in another order: the cached bytes.
   const auto again = call("GET", base + "?scale_melanin=2&illuminant=A&size=64x48");
-  EXPECT_EQ(cache_header(again), "hit");
+  EXPECT_EQ(render_cache(again), "hit");
   EXPECT_EQ(again.body, first.body);
   // Tagged immutable, never gzipped; a client holding it gets 304.
   std::string etag;
@@ -392,17 +394,141 @@ TEST_F(ApiRouterTest, RendersAFitAsPngCachedByItsParameters) {
   conditional.headers.erase("if-none-match");
   EXPECT_EQ(router_->handle(conditional).body, first.body) << "a PNG is not compressed again";
   const auto darker = call("GET", base + "?size=64x48&illuminant=A&scale_melanin=4");
-  EXPECT_EQ(cache_header(darker), "miss");
+  EXPECT_EQ(render_cache(darker), "miss");
   EXPECT_NE(darker.body, first.body);
   const auto defaults = testing::decode_png(call("GET", base).body);
   ASSERT_TRUE(defaults.has_value());
   EXPECT_EQ(defaults->width, 256);
 
   for (const char* query : {"size=0x5", "size=5000x5000", "size=64", "illuminant=F2", "scale_melanin=-1",
-                            "scale_bilirubin=nan", "scale_oxyhemoglobin=abc", "scale_deoxyhemoglobin=101"})
+                            "scale_bilirubin=nan", "scale_total_hemoglobin=abc", "scale_bilirubin=101"})
     expect_error(call("GET", base + "?" + query), 400, "invalid_parameter");
   expect_error(call("GET", base + "?colour=red"), 400, "unknown_parameter");
   expect_error(call("GET", "/api/v1/fits/77/render.png"), 404, "not_found");
+}
+
+// A render changes a fit's own parameters: an extended fit's by their names (a saturation set,
+// an amount scaled), a paper fit's by the paper's; what the fit's model does not have, or a value
+// outside its domain, is a 400 with the error's JSON.
+TEST_F(ApiRouterTest, RendersAFitWithItsOwnModelsParametersChanged) {
+  const auto fit_of = [&](const char* model) {
+    const auto session =
+        call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}, {"model", model}}.dump());
+    EXPECT_EQ(session.status, 201) << session.body;
+    const store::Id m = add_measurement(body(session)["id"].get<store::Id>());
+    const auto fit = call("POST", "/api/v1/measurements/" + std::to_string(m) + "/fit", "");
+    EXPECT_EQ(fit.status, 201) << fit.body;
+    return body(fit);
+  };
+  const json extended = fit_of("extended");
+  ASSERT_EQ(extended["model"], "extended");
+  const std::string base = "/api/v1/fits/" + std::to_string(extended["id"].get<store::Id>()) + "/render.png?size=24x24";
+  const auto own = call("GET", base);
+  ASSERT_EQ(own.status, 200) << own.body;
+  EXPECT_EQ(render_cache(own), "miss");
+  // Changing nothing, whichever way it is said, is the fit's own image.
+  char saturation[32];
+  const auto written =
+      std::to_chars(saturation, std::end(saturation), extended["params"]["oxygen_saturation"].get<double>());
+  for (const std::string& same :
+       {std::string("&scale_melanin=1"), "&oxygen_saturation=" + std::string(saturation, written.ptr)}) {
+    const auto r = call("GET", base + same);
+    EXPECT_EQ(render_cache(r), "hit") << same;
+    EXPECT_EQ(r.body, own.body) << same;
+  }
+  for (const char* query : {"&oxygen_saturation=0", "&oxygen_saturation=1", "&scale_total_hemoglobin=3",
+                            "&total_hemoglobin=20&oxygen_saturation=0.4", "&scale_bilirubin=0&dermis_scattering=60",
+                            "&surface_reflectance=0.1&dermis_scattering_power=2"}) {
+    const auto r = call("GET", base + query);
+    ASSERT_EQ(r.status, 200) << query << ": " << r.body;
+    EXPECT_NE(r.body, own.body) << query;
+  }
+  EXPECT_NE(call("GET", base + "&oxygen_saturation=0").body, call("GET", base + "&oxygen_saturation=1").body);
+  // The paper's haemoglobins are not the extended model's: the message names the model's own.
+  for (const char* query :
+       {"&scale_oxyhemoglobin=2", "&scale_deoxyhemoglobin=1", "&oxyhemoglobin=3", "&saturation=0.5"}) {
+    const auto r = call("GET", base + query);
+    expect_error(r, 400, "unknown_parameter");
+    EXPECT_NE(body(r)["error"]["message"].get<std::string>().find("total_hemoglobin"), std::string::npos) << r.body;
+  }
+  for (const char* query : {"&oxygen_saturation=1.5", "&oxygen_saturation=-0.1", "&oxygen_saturation=abc",
+                            "&scale_oxygen_saturation=2", "&scale_surface_reflectance=1", "&melanin=5&scale_melanin=2",
+                            "&scale_total_hemoglobin=101", "&dermis_scattering=0", "&melanin=1e5", "&melanin=inf"})
+    expect_error(call("GET", base + query), 400, "invalid_parameter");
+
+  const json paper = fit_of("paper");
+  ASSERT_EQ(paper["model"], "paper");
+  const std::string paper_base =
+      "/api/v1/fits/" + std::to_string(paper["id"].get<store::Id>()) + "/render.png?size=24x24";
+  const auto paper_own = call("GET", paper_base);
+  ASSERT_EQ(paper_own.status, 200) << paper_own.body;
+  const auto scaled = call("GET", paper_base + "&scale_oxyhemoglobin=2&scale_deoxyhemoglobin=0.5&deoxyhemoglobin=0");
+  expect_error(scaled, 400, "invalid_parameter");  // deoxy-haemoglobin twice
+  const auto paper_changed = call("GET", paper_base + "&scale_oxyhemoglobin=2&scale_deoxyhemoglobin=0.5");
+  ASSERT_EQ(paper_changed.status, 200) << paper_changed.body;
+  const auto whiter = call("GET", paper_base + "&surface_reflectance=0.5");
+  ASSERT_EQ(whiter.status, 200) << whiter.body;
+  EXPECT_NE(whiter.body, paper_own.body);
+  for (const char* query : {"&scale_total_hemoglobin=2", "&oxygen_saturation=0.5", "&dermis_scattering=30"})
+    expect_error(call("GET", paper_base + query), 400, "unknown_parameter");
+  expect_error(call("GET", paper_base + "&scale_deoxyhemoglobin=101"), 400, "invalid_parameter");
+}
+
+// GET /api/v1/models is each model's ParamSpec table as it is, with a label for people, and needs
+// neither a database nor the model tables.
+TEST_F(ApiRouterTest, TheModelsRouteDescribesEachModelsParametersFromItsTables) {
+  const auto r = call("GET", "/api/v1/models");
+  ASSERT_EQ(r.status, 200) << r.body;
+  const json doc = body(r);
+  EXPECT_EQ(doc["default"], to_string(kDefaultModel));
+  ASSERT_EQ(doc["models"].size(), kModelKinds.size());
+  for (std::size_t k = 0; k < kModelKinds.size(); ++k) {
+    const json& model = doc["models"][k];
+    const ModelSpec& spec = model_spec(kModelKinds[k]);
+    EXPECT_EQ(model["name"], to_string(kModelKinds[k]));
+    ASSERT_EQ(model["params"].size(), spec.params.size());
+    for (std::size_t p = 0; p < spec.params.size(); ++p) {
+      const json& param = model["params"][p];
+      const ParamSpec& ps = spec.params[p];
+      EXPECT_EQ(param["name"], ps.name);
+      EXPECT_EQ(param["unit"], ps.unit) << ps.name;
+      EXPECT_FALSE(param["unit"].get<std::string>().empty()) << ps.name;
+      EXPECT_EQ(param["bounds"], json::array({ps.lower, ps.upper})) << ps.name;
+      EXPECT_EQ(param["default"], ps.initial) << ps.name;
+      EXPECT_EQ(param["domain"], json::array({ps.domain_lower, ps.domain_upper})) << ps.name;
+      EXPECT_EQ(param["absorber"], ps.absorber) << ps.name;
+      EXPECT_EQ(param["source"], ps.source) << ps.name;
+      // Every parameter has a label of its own, not its name again.
+      EXPECT_NE(param["label"], ps.name) << ps.name;
+    }
+    std::vector<std::string> derived;
+    for (const auto& d : model["derived"]) {
+      derived.push_back(d["name"]);
+      EXPECT_FALSE(d["unit"].get<std::string>().empty()) << d;
+      EXPECT_NE(d["label"], d["name"]) << d;
+    }
+    // The quantities a fit derives, as fits give them.
+    EXPECT_EQ(derived, (std::vector<std::string>{"oxygen_saturation", "blood_volume_fraction"}));
+  }
+  expect_error(call("GET", "/api/v1/models?model=paper"), 400, "unknown_parameter");
+  const Router bare{RouterContext{}};
+  EXPECT_EQ(bare.handle(req("GET", "/api/v1/models")).body, r.body);
+
+  // The render route's documented parameters are those of the models: each one, and a scale of
+  // each amount only.
+  const json openapi = body(call("GET", "/openapi.json"));
+  std::set<std::string> documented;
+  for (const auto& p : openapi["paths"]["/api/v1/fits/{id}/render.png"]["get"]["parameters"])
+    documented.insert(p["name"].get<std::string>());
+  std::set<std::string> expected = {"id", "illuminant", "size"};
+  for (const ModelKind kind : kModelKinds)
+    for (const ParamSpec& ps : model_spec(kind).params) {
+      expected.insert(std::string(ps.name));
+      if (ps.absorber) expected.insert("scale_" + std::string(ps.name));
+    }
+  EXPECT_EQ(documented, expected);
+  EXPECT_TRUE(expected.contains("scale_total_hemoglobin"));
+  EXPECT_FALSE(expected.contains("scale_oxygen_saturation"));
 }
 
 // A stored fit never changes: once served, its answer comes from the cache of answers, with no

@@ -207,6 +207,53 @@ TEST(RenderPigments, ExtendedScalesTheBloodItsOxyAndDeoxyHaemoglobinStandFor) {
   EXPECT_FALSE(scaled_params(ModelKind::extended, kForearm, {}));                       // the paper's five
 }
 
+// A render changes the model's own parameters: an amount scaled (held to its domain), anything
+// set within its domain; a fraction is never scaled.
+TEST(RenderChanges, SetOrScaleTheModelsOwnParameters) {
+  using Kind = ParamChange::Kind;
+  const Params p = {0.04, 5, 4, 0.75, 1, 30, 1.3};
+  const ParamChange changes[] = {
+      {kMelanin, Kind::scale, 2}, {kOxygenSaturation, Kind::value, 0.4}, {kDermisScattering, Kind::value, 60}};
+  const auto changed = changed_params(ModelKind::extended, p, changes);
+  ASSERT_TRUE(changed) << changed.error();
+  EXPECT_EQ(*changed, (Params{0.04, 10, 4, 0.4, 1, 60, 1.3}));
+  EXPECT_EQ(*changed_params(ModelKind::extended, p, {}), p);
+  // A product beyond the domain is held to it.
+  const ParamChange lots[] = {{kTotalHemoglobin, Kind::scale, 100}};
+  EXPECT_EQ((*changed_params(ModelKind::extended, {0.04, 5, 500, 0.75, 1, 30, 1.3}, lots))[kTotalHemoglobin],
+            model_spec(ModelKind::extended).params[kTotalHemoglobin].domain_upper);
+  // The paper's haemoglobins as before.
+  const ParamChange paper[] = {{kOxyhemoglobin, Kind::scale, 2}, {kDeoxyhemoglobin, Kind::value, 0}};
+  EXPECT_EQ(*changed_params(ModelKind::paper, kForearm, paper), (Params{0.04, 5, 12, 0, 1}));
+
+  EXPECT_TRUE(param_change(ModelKind::extended, kOxygenSaturation, Kind::value, 1));
+  EXPECT_TRUE(param_change(ModelKind::extended, kOxygenSaturation, Kind::value, 0));
+  for (const double bad : {1.01, -0.01, std::nan("")})
+    EXPECT_FALSE(param_change(ModelKind::extended, kOxygenSaturation, Kind::value, bad)) << bad;
+  const auto scaled_fraction = param_change(ModelKind::extended, kOxygenSaturation, Kind::scale, 1.5);
+  ASSERT_FALSE(scaled_fraction);
+  EXPECT_NE(scaled_fraction.error().find("not an amount"), std::string::npos) << scaled_fraction.error();
+  EXPECT_FALSE(param_change(ModelKind::extended, kDermisScattering, Kind::scale, 2));
+  EXPECT_FALSE(param_change(ModelKind::extended, kMelanin, Kind::scale, kMaxPigmentScale + 1));
+  EXPECT_FALSE(param_change(ModelKind::extended, kMelanin, Kind::scale, -1));
+  EXPECT_FALSE(param_change(ModelKind::extended, kDermisScattering, Kind::value, 0));
+  EXPECT_FALSE(param_change(ModelKind::paper, kDermisScattering, Kind::value, 30));  // the paper has five
+  const ParamChange out_of_domain[] = {{kOxygenSaturation, Kind::value, 2}};
+  EXPECT_FALSE(changed_params(ModelKind::extended, p, out_of_domain));
+  EXPECT_FALSE(changed_params(ModelKind::extended, kForearm, {}));  // the paper's five
+}
+
+TEST(RenderChanges, OxygenatedBloodIsRedderThanDeoxygenated) {
+  const Site site = forearm();
+  const auto lab = [&](double saturation) {
+    const ParamChange set[] = {{kOxygenSaturation, ParamChange::Kind::value, saturation}};
+    const Params p = *changed_params(ModelKind::extended, {0.04, 5, 8, 0.75, 1, 30, 1.3}, set);
+    return testing::colorimetry().lab(skin_reflectance_spectrum(testing::shipped_optics(ModelKind::extended), site, p),
+                                      d65());
+  };
+  EXPECT_GT(lab(1).a, lab(0).a + 1);
+}
+
 TEST(RenderPigments, ASkinIsRenderedOnlyWithItsModelsOptics) {
   const Skin skin{forearm(), {0.04, 5, 4, 0.75, 1, 30, 1.3}, ModelKind::extended};
   const Scene scene = builtin_scene(SceneKind::sphere, 1.0);

@@ -119,6 +119,13 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
                 .find("measurement #" + std::to_string(job["result"]["measurement_id"].get<long long>())),
             std::string::npos);
   shot("02-acquisition.png");
+  // The melanin column says its unit, the model's.
+  const json melanin = get("/api/v1/models")["models"][0]["params"][1];
+  ASSERT_EQ(melanin["name"], "melanin");
+  EXPECT_NE(browser_->run("return document.querySelector('#measurements thead').textContent;")
+                .get<std::string>()
+                .find(melanin["unit"].get<std::string>()),
+            std::string::npos);
   // The session reloads to list the new measurement; the next click goes to the new screen.
   ASSERT_TRUE(browser_->wait_until("return !!document.querySelector(\"#measurements tr[data-measurement='" +
                                    std::to_string(job["result"]["measurement_id"].get<long long>()) + "']\");"));
@@ -186,8 +193,57 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
       << browser_->run(
              "return document.getElementById('render-status').textContent + ' ' + "
              "document.getElementById('render').dataset.query;");
+  // The extended fit's own parameters, as GET /api/v1/models describes them: a slider each (an
+  // amount scaled, anything else set), none for the paper's oxy- and deoxy-haemoglobin, and the
+  // unit of each in its slider's label and in the fit's table.
+  ASSERT_EQ(fit["model"], "extended");
+  const json models = get("/api/v1/models");
+  json model;
+  for (const auto& candidate : models["models"])
+    if (candidate["name"] == fit["model"]) model = candidate;
+  ASSERT_TRUE(model.is_object());
+  const auto text_of = [&](const std::string& css) {
+    const json t = browser_->run("const e = document.querySelector(arguments[0]); return e ? e.textContent : null;",
+                                 json::array({css}));
+    return t.is_string() ? t.get<std::string>() : std::string("(none: " + css + ")");
+  };
+  for (const auto& p : model["params"]) {
+    const std::string name = p["name"], unit = p["unit"];
+    // An amount the fit found none of is set: scaling none leaves none.
+    const bool scaled = p["absorber"].get<bool>() && fit["params"][name].get<double>() > 0;
+    const std::string slider = (scaled ? "#scale-" : "#set-") + name;
+    EXPECT_NE(text_of("label:has(" + slider + ")").find(p["label"].get<std::string>() + " (" + unit + ")"),
+              std::string::npos)
+        << name;
+    EXPECT_EQ(text_of("#fit-params tr[data-param='" + name + "'] td.unit"), unit) << name;
+  }
+  EXPECT_EQ(browser_->run("return document.querySelectorAll('#render-controls input[type=range]').length;"),
+            model["params"].size());
+  EXPECT_EQ(browser_->run("return document.querySelectorAll('#scale-oxyhemoglobin, #scale-deoxyhemoglobin, "
+                          "[id^=set-oxyhemoglobin], [id^=set-deoxyhemoglobin]').length;"),
+            0);
+  EXPECT_FALSE(browser_->run("return !!document.getElementById('scale-oxygen_saturation');").get<bool>());
+  for (const auto& d : model["derived"]) {
+    if (fit["params"].contains(d["name"])) continue;  // the model fits it: shown as a parameter
+    EXPECT_EQ(text_of("#fit-params tr[data-param='" + d["name"].get<std::string>() + "'] td.unit"), d["unit"]);
+  }
+  // The saturation is set, not scaled: moving its slider puts the value into the render's query.
+  browser_->run(
+      "const s = document.getElementById('set-oxygen_saturation'); s.value = '0.5'; "
+      "s.dispatchEvent(new Event('change'));");
+  EXPECT_TRUE(
+      browser_->wait_until("const q = new URLSearchParams(document.getElementById('render').dataset.query || '');"
+                           "return q.get('oxygen_saturation') === '0.5' && q.get('scale_melanin') === '4';",
+                           60s))
+      << browser_->run("return document.getElementById('render').dataset.query;");
+  EXPECT_EQ(text_of("output[for='set-oxygen_saturation']"), "0.500");
   browser_->run("document.getElementById('render').scrollIntoView();");
   shot("05-render.png");
+  // Back to the fitted values: the render's query changes nothing.
+  browser_->click(browser_->find("#render-reset"));
+  EXPECT_TRUE(browser_->wait_until(
+      "return document.getElementById('render').dataset.query === 'illuminant=D65&size=384x384';", 60s))
+      << browser_->run("return document.getElementById('render').dataset.query;");
 
   // Export: the CSV the button saves is the API's.
   browser_->open(url("#/sessions/1"));

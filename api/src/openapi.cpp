@@ -1,6 +1,8 @@
 // GET /openapi.json: generated from the route table, so that every route is documented and
 // nothing is documented that is not a route.
 
+#include "models_route.hpp"
+#include "render_route.hpp"
 #include "skinspec/api/acquisition.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/fit/model_spec.hpp"
@@ -200,6 +202,7 @@ json schemas() {
           {"model", {{"type", "object"}}},
           {"instrument", ref("Instrument")}}}}},
       {"SiteList", site_list},
+      {"ModelList", detail::model_list_schema()},
       {"OpenApi", {{"type", "object"}}},
       {"FitRequest",
        {{"type", "object"},
@@ -431,21 +434,6 @@ json import_parameters() {
         {"description", "the file's name, kept with each spectrum as provenance (default: upload)"}}});
 }
 
-json render_parameters() {
-  auto q = [](const char* name, json schema, const char* description) {
-    return json{{"name", name}, {"in", "query"}, {"required", false}, {"schema", schema}, {"description", description}};
-  };
-  json params =
-      json::array({q("illuminant", {{"type", "string"}, {"enum", {"D65", "A"}}, {"default", "D65"}}, "CIE illuminant"),
-                   q("size", {{"type", "string"}, {"pattern", "^[0-9]+x[0-9]+$"}, {"default", "256x256"}},
-                     "image size WxH, each side 1 to 1024")});
-  for (const char* pigment : {"melanin", "oxyhemoglobin", "deoxyhemoglobin", "bilirubin"})
-    params.push_back(q(("scale_" + std::string(pigment)).c_str(),
-                       {{"type", "number"}, {"minimum", 0}, {"maximum", 100}, {"default", 1}},
-                       "multiplies the fit's weight of this pigment"));
-  return params;
-}
-
 json error_reply(const char* description) {
   return {{"description", description}, {"content", {{"application/json", {{"schema", ref("Error")}}}}}};
 }
@@ -479,7 +467,7 @@ json Router::openapi_document() {
           {{"name", "id"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "integer"}, {"minimum", 1}}}});
     if (r.method == "GET" && r.path == "/api/v1/sessions") params = list_parameters();
     if (r.path == "/api/v1/fits/{id}/render.png")
-      for (const auto& p : render_parameters()) params.push_back(p);
+      for (const auto& p : detail::render_query_parameters()) params.push_back(p);
     if (r.path == "/api/v1/sessions/{id}/imports")
       for (const auto& p : import_parameters()) params.push_back(p);
     if (!params.empty()) op["parameters"] = params;

@@ -1,10 +1,13 @@
 #include "render_route.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "json_io.hpp"
+#include "skinspec/fit/model_spec.hpp"
 #include "skinspec/records/fit_record.hpp"
 #include "skinspec/render/figures.hpp"
 #include "skinspec/render/png.hpp"
@@ -16,23 +19,18 @@ namespace detail {
 
 namespace {
 
+using nlohmann::json;
+
+constexpr std::string_view kScalePrefix = "scale_";
+
 struct RenderQuery {
   std::string illuminant = "D65";
-  render::PigmentScales scales;
+  std::vector<render::ParamChange> changes;
   int width = 256, height = 256;
 };
 
 [[noreturn]] void bad_parameter(const std::string& name, const std::string& why) {
   fail(ErrorKind::bad_request, "invalid_parameter", "'" + name + "' " + why);
-}
-
-double scale_value(const std::string& name, const std::string& text) {
-  double v = 0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (ec != std::errc{} || end != text.data() + text.size() || !std::isfinite(v) || v < 0 ||
-      v > render::kMaxPigmentScale)
-    bad_parameter(name, fmt::format("must be a number from 0 to {}", render::kMaxPigmentScale));
-  return v;
 }
 
 std::pair<int, int> size_value(const std::string& text) {
@@ -41,44 +39,67 @@ std::pair<int, int> size_value(const std::string& text) {
   return *size;
 }
 
-RenderQuery parse_query(const std::map<std::string, std::string>& query) {
+double number_value(const std::string& name, const std::string& text) {
+  double v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc{} || end != text.data() + text.size() || !std::isfinite(v))
+    bad_parameter(name, "must be a number");
+  return v;
+}
+
+// NAME or scale_NAME, for a parameter of `model`; 400 for one it does not have, a bad value, or
+// a parameter changed twice.
+render::ParamChange param_change(ModelKind model, const std::string& key, const std::string& text,
+                                 const std::vector<render::ParamChange>& earlier) {
+  const bool scale = key.starts_with(kScalePrefix);
+  const std::string name = scale ? key.substr(kScalePrefix.size()) : key;
+  const auto index = param_index(model, name);
+  if (!index) {
+    std::vector<std::string_view> names;
+    for (const ParamSpec& spec : model_spec(model).params) names.push_back(spec.name);
+    fail(ErrorKind::bad_request, "unknown_parameter",
+         fmt::format("unknown query parameter '{}': a fit of the {} model has the parameters {}", key, to_string(model),
+                     fmt::join(names, ", ")));
+  }
+  if (std::ranges::any_of(earlier, [&](const render::ParamChange& c) { return c.index == *index; }))
+    bad_parameter(key, fmt::format("changes {} a second time: give '{}' or 'scale_{}', not both", name, name, name));
+  const auto kind = scale ? render::ParamChange::Kind::scale : render::ParamChange::Kind::value;
+  const auto change = render::param_change(model, *index, kind, number_value(key, text));
+  if (!change) bad_parameter(key, "is refused: " + change.error());
+  return *change;
+}
+
+RenderQuery parse_query(ModelKind model, const std::map<std::string, std::string>& query) {
   RenderQuery q;
-  const std::pair<const char*, double*> scales[] = {{"scale_melanin", &q.scales.melanin},
-                                                    {"scale_oxyhemoglobin", &q.scales.oxyhemoglobin},
-                                                    {"scale_deoxyhemoglobin", &q.scales.deoxyhemoglobin},
-                                                    {"scale_bilirubin", &q.scales.bilirubin}};
   for (const auto& [name, text] : query) {
-    const auto* scale = std::ranges::find(scales, name, [](const auto& s) { return std::string_view(s.first); });
-    if (scale != std::end(scales)) *scale->second = scale_value(name, text);
-    else if (name == "size") std::tie(q.width, q.height) = size_value(text);
+    if (name == "size") std::tie(q.width, q.height) = size_value(text);
     else if (name == "illuminant") {
       if (text != "D65" && text != "A") bad_parameter("illuminant", "must be D65 or A");
       q.illuminant = text;
-    } else fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + name + "'");
+    } else q.changes.push_back(param_change(model, name, text, q.changes));
   }
   return q;
 }
 
-// Everything the image depends on, in a fixed order and format; the fit's id stands for its
-// site and parameters because a stored fit never changes.
-std::string cache_key(store::Id fit_id, const RenderQuery& q) {
-  return fmt::format("{}|{}|{}x{}|{:.17g}|{:.17g}|{:.17g}|{:.17g}", fit_id, q.illuminant, q.width, q.height,
-                     q.scales.melanin, q.scales.oxyhemoglobin, q.scales.deoxyhemoglobin, q.scales.bilirubin);
+// Everything the image depends on, in a fixed order and format: the fit's id stands for its
+// site (a stored fit never changes), the parameters rendered for the changes, so that a query
+// that changes nothing shares the fit's own image.
+std::string cache_key(store::Id fit_id, const RenderQuery& q, const Params& rendered) {
+  return fmt::format("{}|{}|{}x{}|{:.17g}", fit_id, q.illuminant, q.width, q.height, fmt::join(rendered, "|"));
 }
 
-std::string render_png(const Fitter& fitter, const store::Fit& fit, const RenderQuery& q) {
-  const auto result = records::to_fit_result(fit);
-  if (!result) fail(ErrorKind::unprocessable, "unknown_model", result.error());
-  const SkinOptics& optics = fitter.optics(result->model);
+std::string render_png(const Fitter& fitter, const store::Fit& fit, ModelKind model, const Params& rendered,
+                       const RenderQuery& q) {
+  const SkinOptics& optics = fitter.optics(model);
   const auto site = optics.site(fit.site);
   if (!site) fail(ErrorKind::unprocessable, "unknown_site", "fit " + std::to_string(fit.id) + ": " + site.error());
-  const render::Skin skin{*site, result->params, result->model};
+  const render::Skin skin{*site, rendered, model};
   render::RenderSettings settings;
   settings.width = q.width;
   settings.height = q.height;
   settings.samples_per_side = 2;
   const auto scene = render::builtin_scene(render::SceneKind::hand, static_cast<double>(q.width) / q.height);
-  const auto image = render::render_skin(optics, fitter.colorimetry(), skin, q.scales,
+  const auto image = render::render_skin(optics, fitter.colorimetry(), skin, {},
                                          *fitter.colorimetry().illuminant(q.illuminant), scene, settings);
   if (!image) fail(ErrorKind::unprocessable, "render_failed", image.error());
   const auto png = render::encode_png(*image, 8);
@@ -86,21 +107,61 @@ std::string render_png(const Fitter& fitter, const store::Fit& fit, const Render
   return {png->begin(), png->end()};
 }
 
+json query_parameter(const std::string& name, json schema, const std::string& description) {
+  return {{"name", name}, {"in", "query"}, {"required", false}, {"schema", schema}, {"description", description}};
+}
+
 }  // namespace
 
 Response render_fit_png(const Fitter& fitter, const store::Fit& fit, const std::map<std::string, std::string>& query,
                         RenderCache& cache) {
-  const RenderQuery q = parse_query(query);
-  const std::string key = cache_key(fit.id, q);
+  const auto result = records::to_fit_result(fit);
+  if (!result) fail(ErrorKind::unprocessable, "unknown_model", result.error());
+  const RenderQuery q = parse_query(result->model, query);
+  const auto rendered = render::changed_params(result->model, result->params, q.changes);
+  if (!rendered)
+    fail(ErrorKind::unprocessable, "render_failed", "fit " + std::to_string(fit.id) + ": " + rendered.error());
+  const std::string key = cache_key(fit.id, q, *rendered);
   auto png = cache.find(key);
   const bool hit = png.has_value();
   if (!hit) {
-    png = render_png(fitter, fit, q);
+    png = render_png(fitter, fit, result->model, *rendered, q);
     cache.put(key, *png);
   }
   Response r{200, "image/png", std::move(*png), {}};
   r.headers.emplace_back("X-Render-Cache", hit ? "hit" : "miss");
   return r;
+}
+
+json render_query_parameters() {
+  json params =
+      json::array({query_parameter("illuminant", {{"type", "string"}, {"enum", {"D65", "A"}}, {"default", "D65"}},
+                                   "CIE illuminant"),
+                   query_parameter("size", {{"type", "string"}, {"pattern", "^[0-9]+x[0-9]+$"}, {"default", "256x256"}},
+                                   fmt::format("image size WxH, each side 1 to {}", kMaxRenderSide))});
+  // Each parameter once, in the order the models list them, with the models that have it.
+  std::vector<std::pair<const ParamSpec*, std::vector<std::string_view>>> seen;
+  for (const ModelKind model : kModelKinds)
+    for (const ParamSpec& spec : model_spec(model).params) {
+      auto it = std::ranges::find(seen, spec.name, [](const auto& s) { return s.first->name; });
+      if (it == seen.end()) it = seen.emplace(seen.end(), &spec, std::vector<std::string_view>{});
+      it->second.push_back(to_string(model));
+    }
+  for (const auto& [spec, models] : seen) {
+    const std::string of = fmt::format("a parameter of the {} model{}, in {}", fmt::join(models, " and "),
+                                       models.size() > 1 ? "s" : "", spec->unit);
+    params.push_back(query_parameter(
+        std::string(spec->name), {{"type", "number"}, {"minimum", spec->domain_lower}, {"maximum", spec->domain_upper}},
+        fmt::format("renders the fit with {} set to this value ({}); a 400 for a fit of another model", spec->name,
+                    of)));
+    if (spec->absorber)
+      params.push_back(
+          query_parameter(std::string(kScalePrefix) + std::string(spec->name),
+                          {{"type", "number"}, {"minimum", 0}, {"maximum", render::kMaxPigmentScale}, {"default", 1}},
+                          fmt::format("multiplies the fit's {} ({}), the product held to {}..{}; not with {} itself",
+                                      spec->name, of, spec->domain_lower, spec->domain_upper, spec->name)));
+  }
+  return params;
 }
 
 }  // namespace detail

@@ -19,6 +19,7 @@
 #include "text.hpp"
 #include "web.hpp"
 #include "fit_json.hpp"
+#include "models_route.hpp"
 #include "render_route.hpp"
 
 namespace skinspec::api {
@@ -512,6 +513,11 @@ struct Router::Handlers {
     }
     return json_response({{"sites", list}});
   }
+  // GET /api/v1/models: from the tables compiled in, so with or without a database or model tables
+  static Response models(const RouterContext&, const Call& call) {
+    no_query(call);
+    return json_response(detail::models_json());
+  }
   // A stored fit never changes: served from the cache of answers once made, with a tag that
   // lets a client that holds it skip the body (304).
   static Response get_fit(const RouterContext& c, const Call& call) {
@@ -598,6 +604,11 @@ const std::vector<Route>& route_table() {
         {{"GET", "/api/v1/sites", "The body sites the model knows, with their layer thicknesses", false, "", "SiteList",
           200},
          &H::sites,
+         {}},
+        {{"GET", "/api/v1/models",
+          "The skin models and their parameters: name, label, unit, bounds, default, domain; the derived quantities",
+          false, "", "ModelList", 200},
+         &H::models,
          {}},
         {{"POST", "/api/v1/white-standards", "Store a white standard", true, "WhiteStandardCreate", "WhiteStandard",
           201},

@@ -16,19 +16,21 @@ export function h(tag, attributes = {}, ...children) {
   return node;
 }
 
-// Labels and units of every model's parameters; a fit shows those of its own model, in its order.
-const PARAM_LABELS = {
-  surface_reflectance: ["Surface reflectance", ""],
-  melanin: ["Melanin", "× ref"],
-  oxyhemoglobin: ["Oxy-haemoglobin", "× ref"],
-  deoxyhemoglobin: ["Deoxy-haemoglobin", "× ref"],
-  total_hemoglobin: ["Total haemoglobin", "× ref"],
-  oxygen_saturation: ["Oxygen saturation", ""],
-  bilirubin: ["Bilirubin", "× ref"],
-  dermis_scattering: ["Dermal scattering", "× ref"],
-  dermis_scattering_power: ["Scattering power", ""],
-};
-const MODELS = ["extended", "paper"];
+// The skin models as the service describes them (GET /api/v1/models): every label and unit the
+// console shows comes from there. Asked for once, and again after a failure.
+let modelList = null;
+function models() {
+  if (!modelList) modelList = api("GET", "/api/v1/models").catch((e) => { modelList = null; throw e; });
+  return modelList;
+}
+function modelOf(list, name) {
+  return list.models.find((m) => m.name === name) || { name, params: [], derived: [] };
+}
+// A parameter or derived quantity of a model by name; its bare name when the model has none.
+function describe(model, name) {
+  return model.params.find((p) => p.name === name) || model.derived.find((d) => d.name === name) || { name, label: name, unit: "" };
+}
+const unitNote = (unit) => (unit ? h("span", { class: "unit" }, unit) : null);
 
 const fmt = (v, digits = 4) => (v === null || v === undefined || !Number.isFinite(v) ? "–" : Number(v).toPrecision(digits));
 const when = (t) => (t ? new Date(t).toLocaleString() : "–");
@@ -49,7 +51,7 @@ function field(label, input) {
 // ---- Sessions --------------------------------------------------------------------------
 
 export async function sessionsView(root, query) {
-  const [sites, standards] = await Promise.all([api("GET", "/api/v1/sites"), api("GET", "/api/v1/white-standards")]);
+  const [sites, standards, known] = await Promise.all([api("GET", "/api/v1/sites"), api("GET", "/api/v1/white-standards"), models()]);
   const siteOptions = (selected) => sites.sites.map((s) => h("option", { value: s.name, selected: s.name === selected }, s.name));
 
   const filter = h("form", { class: "filters", id: "session-filters" },
@@ -84,7 +86,8 @@ export async function sessionsView(root, query) {
       h("option", { value: "" }, "flat 0.99 (default)"),
       standards.white_standards.map((s) => h("option", { value: s.id }, `${s.name} (#${s.id})`)))),
     field("Notes", h("textarea", { name: "notes", rows: 2 })),
-    field("Skin model", h("select", { name: "model" }, MODELS.map((m) => h("option", { value: m }, m)))),
+    field("Skin model", h("select", { name: "model" },
+      known.models.map((m) => h("option", { value: m.name, selected: m.name === known.default }, m.name)))),
     h("button", { type: "submit", class: "primary" }, "Open session"),
     h("p", { class: "error", role: "alert" }));
   form.addEventListener("submit", async (e) => {
@@ -112,7 +115,8 @@ export async function sessionsView(root, query) {
 // ---- One session: acquisition ------------------------------------------------------------
 
 export async function sessionView(root, id) {
-  const session = await api("GET", `/api/v1/sessions/${id}`);
+  const [session, known] = await Promise.all([api("GET", `/api/v1/sessions/${id}`), models()]);
+  const melanin = describe(modelOf(known, session.model), "melanin");
   const open = session.state === "open";
   const fitsByMeasurement = new Map(session.fits.map((f) => [f.measurement_id, f]));
 
@@ -162,7 +166,8 @@ export async function sessionView(root, id) {
     acquire,
     h("section", { class: "card" }, h("h2", {}, "Measurements"),
       h("table", { class: "list", id: "measurements" },
-        h("thead", {}, h("tr", {}, ["Measurement", "Kind", "Label", "Quality", "Melanin", "RMSE", "ΔE00", "Warnings", "Time"].map((t) => h("th", {}, t)))),
+        h("thead", {}, h("tr", {}, ["Measurement", "Kind", "Label", "Quality", [melanin.label, unitNote(melanin.unit)], "RMSE", "ΔE00", "Warnings", "Time"]
+          .map((t) => h("th", {}, t)))),
         h("tbody", {}, rows.length ? rows : h("tr", {}, h("td", { colspan: 9 }, "Nothing measured yet: start with the white standard."))))));
 
   return open ? { keys: { w: () => measure("white"), s: () => measure("sample") } } : {};
@@ -222,8 +227,9 @@ function showJob(job, bar, status, warnings) {
 // ---- One measurement: spectra, fit, colour, render -----------------------------------------
 
 export async function measurementView(root, id) {
-  const m = await api("GET", `/api/v1/measurements/${id}`);
+  const [m, known] = await Promise.all([api("GET", `/api/v1/measurements/${id}`), models()]);
   const fit = m.fit_id ? await api("GET", `/api/v1/fits/${m.fit_id}`) : null;
+  const model = fit ? modelOf(known, fit.model) : null;
   const radiance = linePlot({ title: `Radiance (${m.units})`, xLabel: "wavelength (nm)", yLabel: "radiance",
     series: [{ name: "radiance", kind: "radiance", x: m.radiance.wavelength_nm, y: m.radiance.values }] });
   radiance.id = "plot-radiance";
@@ -250,8 +256,8 @@ export async function measurementView(root, id) {
     }
     parts.push(card);
   }
-  parts.push(h("section", { class: "columns" }, fit ? fitTable(fit) : null, m.colour ? swatches(m.colour) : null));
-  if (fit) parts.push(renderCard(fit));
+  parts.push(h("section", { class: "columns" }, fit ? fitTable(fit, model) : null, m.colour ? swatches(m.colour) : null));
+  if (fit) parts.push(renderCard(fit, model));
   root.replaceChildren(...parts);
 }
 
@@ -261,31 +267,35 @@ function determined(fit, key) {
   return !d || d.determined;
 }
 
-function paramRow(fit, key) {
-  const [name, unit] = PARAM_LABELS[key] || [key, ""];
+function paramRow(fit, spec) {
+  const key = spec.name;
   const d = fit.determination && fit.determination[key];
   const value = determined(fit, key)
     ? [h("td", { class: "value" }, fmt(fit.params[key])), h("td", {}, "±"), h("td", { class: "se" }, fmt(fit.stderr[key], 2))]
     : [h("td", { class: "value nd", title: `not determined: ${d.reason}${d.correlated_with ? " with " + d.correlated_with : ""}` }, "n.d."),
        h("td", {}), h("td", { class: "se" }, d.reason.replace("_", " "))];
-  return h("tr", { "data-param": key }, h("th", {}, name), ...value, h("td", {}, unit));
+  return h("tr", { "data-param": key }, h("th", { title: spec.source || "" }, spec.label), ...value, h("td", { class: "unit" }, spec.unit));
 }
 
-function derivedRow(fit, key, name) {
+// A quantity derived from the parameters, unless the model fits it as a parameter itself.
+function derivedRow(fit, spec) {
+  const key = spec.name;
   const q = fit.derived && fit.derived[key];
   if (!q || key in fit.params) return null;
   const value = q.determined ? [h("td", { class: "value" }, fmt(q.value, 3)), h("td", {}, "±"), h("td", { class: "se" }, fmt(q.stderr, 2))]
     : [h("td", { class: "value nd" }, "n.d."), h("td", {}), h("td", { class: "se" }, q.reason.replace("_", " "))];
-  return h("tr", { "data-param": key }, h("th", {}, name), ...value, h("td", {}));
+  return h("tr", { "data-param": key }, h("th", {}, `${spec.label} (derived)`), ...value, h("td", { class: "unit" }, spec.unit));
 }
 
-function fitTable(fit) {
+// The fit's parameters in its model's order (any the model does not describe after them).
+function fitTable(fit, model) {
+  const own = model.params.map((p) => p.name);
+  const keys = [...own.filter((k) => k in fit.params), ...Object.keys(fit.params).filter((k) => !own.includes(k))];
   return h("div", { class: "card" }, h("h2", {}, `Fit #${fit.id}, ${fit.site}, model ${fit.model}`),
     h("table", { class: "params", id: "fit-params" },
       h("tbody", {},
-        Object.keys(fit.params).map((key) => paramRow(fit, key)),
-        derivedRow(fit, "oxygen_saturation", "Oxygen saturation (derived)"),
-        derivedRow(fit, "blood_volume_fraction", "Blood volume fraction"),
+        keys.map((key) => paramRow(fit, describe(model, key))),
+        model.derived.map((d) => derivedRow(fit, d)),
         h("tr", { "data-param": "rmse" }, h("th", {}, "RMSE"), h("td", { class: "value" }, fmt(fit.rmse, 3))),
         h("tr", { "data-param": "delta_e00_d65" }, h("th", {}, "ΔE2000 (D65)"), h("td", { class: "value" }, fmt(fit.delta_e00_d65, 3))),
         h("tr", {}, h("th", {}, "Converged"), h("td", {}, fit.converged ? `yes, ${fit.iterations} iterations` : "no")))),
@@ -303,18 +313,42 @@ function swatches(colour) {
     })));
 }
 
-const PIGMENTS = [["melanin", "Melanin"], ["oxyhemoglobin", "Oxy-haemoglobin"], ["deoxyhemoglobin", "Deoxy-haemoglobin"], ["bilirubin", "Bilirubin"]];
+// A slider for one of the fit's own parameters (docs/web-console.md): an amount is scaled, ×0 to
+// ×4 (render query scale_NAME); anything else, a saturation or a reflectance, and an amount the
+// fit found none of (a multiple of none is none), is set to a value within its plausible range
+// widened to hold the fitted value (query NAME). Only a moved slider goes into the query, so the
+// untouched image is the fit's own.
+function paramSlider(fit, spec) {
+  const fitted = fit.params[spec.name];
+  if (!Number.isFinite(fitted)) return null;
+  const scale = spec.absorber && fitted > 0;
+  const id = `${scale ? "scale" : "set"}-${spec.name}`;
+  let range = { min: 0, max: 4, step: 0.25, value: 1 };
+  if (!scale) {
+    const low = Math.min(spec.bounds[0], fitted), high = Math.max(spec.bounds[1], fitted);
+    const step = 10 ** Math.floor(Math.log10((high - low) / 100 || 1e-3));
+    const snap = (v) => Number(v.toPrecision(12));
+    range = { min: Math.max(spec.domain[0], snap(Math.floor(low / step) * step)),
+              max: Math.min(spec.domain[1], snap(Math.ceil(high / step) * step)), step, value: fitted };
+  }
+  const input = h("input", { type: "range", id, ...range, "aria-label": `${spec.label}${scale ? " scale" : ""}`, "data-param": spec.name });
+  const start = input.value;
+  const shown = h("output", { for: id });
+  const show = () => {
+    if (scale) shown.textContent = `×${input.value} → ${fmt(fitted * Number(input.value), 3)}`;
+    else shown.textContent = fmt(input.value === start ? fitted : Number(input.value), 3);
+  };
+  for (const event of ["input", "change"]) input.addEventListener(event, show);
+  show();
+  return { input, start, show, query: scale ? `scale_${spec.name}` : spec.name,
+           row: field([spec.label, " ", unitNote(`(${spec.unit})`)], h("span", { class: "slider" }, input, shown)) };
+}
 
-function renderCard(fit) {
+function renderCard(fit, model) {
   const img = h("img", { id: "render", alt: "the fitted skin rendered on a hand", width: 384, height: 384 });
   const note = h("p", { class: "meta", id: "render-status", "aria-live": "polite" });
   const illuminant = h("select", { id: "render-illuminant" }, h("option", { value: "D65" }, "D65"), h("option", { value: "A" }, "A"));
-  const sliders = PIGMENTS.map(([key, name]) => {
-    const input = h("input", { type: "range", min: 0, max: 4, step: 0.25, value: 1, id: `scale-${key}`, "aria-label": `${name} scale` });
-    const shown = h("output", { for: `scale-${key}` }, "×1");
-    for (const event of ["input", "change"]) input.addEventListener(event, () => { shown.textContent = `×${input.value}`; });
-    return { key, input, row: field(name, h("span", { class: "slider" }, input, shown)) };
-  });
+  const sliders = model.params.map((spec) => paramSlider(fit, spec)).filter(Boolean);
   let timer = null, controller = null, url = null;
   const draw = () => {
     clearTimeout(timer);
@@ -322,7 +356,7 @@ function renderCard(fit) {
       if (controller) controller.abort();
       controller = new AbortController();
       const q = new URLSearchParams({ illuminant: illuminant.value, size: "384x384" });
-      for (const s of sliders) q.set(`scale_${s.key}`, s.input.value);
+      for (const s of sliders) if (s.input.value !== s.start) q.set(s.query, s.input.value);
       note.textContent = "rendering…";
       try {
         const next = await imageUrl(`/api/v1/fits/${fit.id}/render.png?${q}`, controller.signal);
@@ -336,9 +370,14 @@ function renderCard(fit) {
       }
     }, 200);
   };
+  const reset = h("button", { type: "button", id: "render-reset", onclick: () => {
+    for (const s of sliders) { s.input.value = s.start; s.show(); }
+    draw();
+  } }, "Fitted values");
   illuminant.addEventListener("change", draw);
   for (const s of sliders) s.input.addEventListener("change", draw);
   draw();
   return h("section", { class: "card render" }, h("h2", {}, "Rendered skin"),
-    h("div", { class: "columns" }, img, h("div", { class: "controls" }, field("Illuminant", illuminant), sliders.map((s) => s.row), note)));
+    h("div", { class: "columns" }, img,
+      h("div", { class: "controls", id: "render-controls" }, field("Illuminant", illuminant), sliders.map((s) => s.row), reset, note)));
 }

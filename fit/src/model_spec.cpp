@@ -33,7 +33,7 @@ constexpr ParamSpec kExtendedParams[] = {
      "dermal blood 0.39 (Choudhury 2010) to arterial blood; 0.75 the usual model value"},
     {"bilirubin", "x 0.005 g/L in the dermis", 0, 40, 1, 0, 1e4, 0.5, 0.25,
      "up to 0.2 g/L (20 mg/dL), severe jaundice; 0.005 g/L the BioSpec default", true},
-    {"dermis_scattering", "reduced scattering at 620 nm, cm-1", 5, 100, 30, 0.1, 1000, 1, 0.25,
+    {"dermis_scattering", "cm-1, reduced scattering at 620 nm", 5, 100, 30, 0.1, 1000, 1, 0.25,
      "skin mu_s' 30-60 cm-1 at 500 nm (Jacques 2013 Table 1), 23-45 cm-1 at 620 nm for b = 1.3, widened for the "
      "tuned layer thickness"},
     {"dermis_scattering_power", "exponent b of mu_s' ~ (lambda/620 nm)^-b", 0.2, 4.0, 1.292, 0, 6, 0.25, 0,

@@ -1,5 +1,6 @@
 #include "skinspec/render/skin_colour.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -14,17 +15,57 @@ std::expected<void, std::string> check_scale(std::string_view pigment, double fa
   return std::unexpected(fmt::format("the scale of {} must be 0..{}, not {}", pigment, kMaxPigmentScale, factor));
 }
 
-}  // namespace
+bool in_domain(const ParamSpec& spec, double value) { return value >= spec.domain_lower && value <= spec.domain_upper; }
 
-std::expected<Params, std::string> scaled_params(ModelKind model, const Params& params, const PigmentScales& scales) {
+// The model's parameters, each inside the range its equations hold for.
+std::expected<void, std::string> check_params(ModelKind model, const Params& params) {
   const auto specs = model_spec(model).params;
   if (params.size() != specs.size())
     return std::unexpected(
         fmt::format("{} parameters for the {} model, which has {}", params.size(), to_string(model), specs.size()));
   for (std::size_t p = 0; p < specs.size(); ++p)
-    if (!(params[p] >= specs[p].domain_lower && params[p] <= specs[p].domain_upper))
+    if (!in_domain(specs[p], params[p]))
       return std::unexpected(fmt::format("{} = {} is outside {}..{}", specs[p].name, params[p], specs[p].domain_lower,
                                          specs[p].domain_upper));
+  return {};
+}
+
+}  // namespace
+
+std::expected<ParamChange, std::string> param_change(ModelKind model, std::size_t index, ParamChange::Kind kind,
+                                                     double amount) {
+  const auto specs = model_spec(model).params;
+  if (index >= specs.size())
+    return std::unexpected(fmt::format("the {} model has no parameter {}", to_string(model), index));
+  const ParamSpec& spec = specs[index];
+  if (kind == ParamChange::Kind::value) {
+    if (in_domain(spec, amount)) return ParamChange{index, kind, amount};
+    return std::unexpected(
+        fmt::format("{} must be {}..{}, not {}", spec.name, spec.domain_lower, spec.domain_upper, amount));
+  }
+  if (!spec.absorber)
+    return std::unexpected(fmt::format("{} is not an amount to scale; set its value instead", spec.name));
+  if (auto ok = check_scale(spec.name, amount); !ok) return std::unexpected(ok.error());
+  return ParamChange{index, kind, amount};
+}
+
+std::expected<Params, std::string> changed_params(ModelKind model, const Params& params,
+                                                  std::span<const ParamChange> changes) {
+  if (auto ok = check_params(model, params); !ok) return std::unexpected(ok.error());
+  const auto specs = model_spec(model).params;
+  Params out = params;
+  for (const ParamChange& c : changes) {
+    if (auto ok = param_change(model, c.index, c.kind, c.amount); !ok) return std::unexpected(ok.error());
+    const ParamSpec& spec = specs[c.index];
+    out[c.index] = c.kind == ParamChange::Kind::value
+                       ? c.amount
+                       : std::clamp(out[c.index] * c.amount, spec.domain_lower, spec.domain_upper);
+  }
+  return out;
+}
+
+std::expected<Params, std::string> scaled_params(ModelKind model, const Params& params, const PigmentScales& scales) {
+  if (auto ok = check_params(model, params); !ok) return std::unexpected(ok.error());
   const std::pair<std::string_view, double> factors[] = {{"melanin", scales.melanin},
                                                          {"oxyhemoglobin", scales.oxyhemoglobin},
                                                          {"deoxyhemoglobin", scales.deoxyhemoglobin},
