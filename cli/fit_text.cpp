@@ -34,15 +34,18 @@ std::string param_unit(std::string_view model, std::string_view name) {
   if (!kind) return {};
   const auto index = param_index(*kind, name);
   if (!index) return {};
-  return fmt::format("[{}]", model_spec(*kind).params[*index].unit);
+  return unit_text(model_spec(*kind).params[*index].unit);
 }
+
+std::string unit_text(std::string_view unit) { return fmt::format("[{}]", unit); }
 
 std::string units_line(std::string_view model, const std::vector<std::string>& names, std::string_view rmse_column,
                        std::string_view delta_e00_column) {
   std::string line = "units:";
   for (const auto& name : names)
     if (const auto unit = param_unit(model, name); !unit.empty()) line += fmt::format(" {} {};", name, unit);
-  return line + fmt::format(" {} {}; {} {}", rmse_column, kRmseUnit, delta_e00_column, kDeltaE00Unit);
+  return line +
+         fmt::format(" {} {}; {} {}", rmse_column, unit_text(kRmseUnit), delta_e00_column, unit_text(kDeltaE00Unit));
 }
 
 std::string not_determined_line(std::string_view reasons_in) {

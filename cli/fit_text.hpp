@@ -22,9 +22,9 @@ std::optional<std::string> not_determined(const nlohmann::json& fit, const std::
 // The unit of a parameter of `model` (ParamSpec::unit), "[fraction]"; empty for a model or a
 // parameter this version does not know.
 std::string param_unit(std::string_view model, std::string_view name);
-// What a fit's rmse and CIEDE2000 difference are given in.
-inline constexpr std::string_view kRmseUnit = "[reflectance, as a fraction]";
-inline constexpr std::string_view kDeltaE00Unit = "[CIEDE2000 of measured and fitted colour under D65]";
+// A unit as the tables print it: "[reflectance, as a fraction]" (kRmseUnit, kDeltaE00Unit of
+// skinspec/fit/model_spec.hpp).
+std::string unit_text(std::string_view unit);
 
 // A table's units line: "units: melanin [x 1 % melanosomes in the epidermis]; ...; rmse
 // [reflectance, as a fraction]; dE00 [CIEDE2000 ...]", its columns named as the table names them.

@@ -9,6 +9,7 @@
 #include "fit_text.hpp"
 #include "job_follow.hpp"
 #include "session_client.hpp"
+#include "skinspec/fit/model_spec.hpp"
 
 namespace skinspec::cli {
 
@@ -51,7 +52,7 @@ void print_fit(const json& fit) {
     std::cout << line << '\n';
   }
   std::cout << fmt::format("  rmse {:.6g}   max |error| {:.6g} {}   dE2000 (D65) {:.6g}   converged {}\n",
-                           fit.value("rmse", 0.0), fit.value("max_abs_error", 0.0), kRmseUnit,
+                           fit.value("rmse", 0.0), fit.value("max_abs_error", 0.0), unit_text(kRmseUnit),
                            fit.value("delta_e00_d65", 0.0), fit.value("converged", false));
   if (any_not_determined) std::cout << "  " << not_determined_line({}) << '\n';
 }

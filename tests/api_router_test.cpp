@@ -509,14 +509,29 @@ TEST_F(ApiRouterTest, TheModelsRouteDescribesEachModelsParametersFromItsTables) 
     }
     // The quantities a fit derives, as fits give them.
     EXPECT_EQ(derived, (std::vector<std::string>{"oxygen_saturation", "blood_volume_fraction"}));
+    // How well a fit matches its spectrum, as fits give it, in the units the command line prints.
+    ASSERT_EQ(model["fit_quality"].size(), 2u);
+    EXPECT_EQ(model["fit_quality"][0]["name"], "rmse");
+    EXPECT_EQ(model["fit_quality"][0]["unit"], kRmseUnit);
+    EXPECT_EQ(model["fit_quality"][1]["name"], "delta_e00_d65");
+    EXPECT_EQ(model["fit_quality"][1]["unit"], kDeltaE00Unit);
+    for (const auto& q : model["fit_quality"]) {
+      EXPECT_FALSE(q["unit"].get<std::string>().empty()) << q;
+      EXPECT_NE(q["label"], q["name"]) << q;
+    }
   }
   expect_error(call("GET", "/api/v1/models?model=paper"), 400, "unknown_parameter");
   const Router bare{RouterContext{}};
   EXPECT_EQ(bare.handle(req("GET", "/api/v1/models")).body, r.body);
 
+  // The OpenAPI document's ModelList has every member a model has.
+  const json openapi = body(call("GET", "/openapi.json"));
+  const json& documented_model = openapi["components"]["schemas"]["ModelList"]["properties"]["models"]["items"];
+  for (const auto& member : doc["models"][0].items())
+    EXPECT_TRUE(documented_model["properties"].contains(member.key())) << member.key();
+
   // The render route's documented parameters are those of the models: each one, and a scale of
   // each amount only.
-  const json openapi = body(call("GET", "/openapi.json"));
   std::set<std::string> documented;
   for (const auto& p : openapi["paths"]["/api/v1/fits/{id}/render.png"]["get"]["parameters"])
     documented.insert(p["name"].get<std::string>());

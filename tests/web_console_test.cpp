@@ -119,13 +119,25 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
                 .find("measurement #" + std::to_string(job["result"]["measurement_id"].get<long long>())),
             std::string::npos);
   shot("02-acquisition.png");
-  // The melanin column says its unit, the model's.
-  const json melanin = get("/api/v1/models")["models"][0]["params"][1];
+  // The melanin, RMSE and ΔE2000 columns say their units, those of the session's model.
+  const json known = get("/api/v1/models");
+  json session_model;
+  for (const auto& candidate : known["models"])
+    if (candidate["name"] == session["model"]) session_model = candidate;
+  ASSERT_TRUE(session_model.is_object()) << session["model"];
+  const json melanin = session_model["params"][1];
   ASSERT_EQ(melanin["name"], "melanin");
-  EXPECT_NE(browser_->run("return document.querySelector('#measurements thead').textContent;")
-                .get<std::string>()
-                .find(melanin["unit"].get<std::string>()),
-            std::string::npos);
+  const auto column_text = [&](const std::string& label) {
+    const json t = browser_->run(
+        "const th = [...document.querySelectorAll('#measurements thead th')]"
+        ".find((e) => e.firstChild && e.firstChild.textContent === arguments[0]); return th ? th.textContent : null;",
+        json::array({label}));
+    return t.is_string() ? t.get<std::string>() : std::string("(no column " + label + ")");
+  };
+  EXPECT_EQ(column_text(melanin["label"]), melanin["label"].get<std::string>() + melanin["unit"].get<std::string>());
+  ASSERT_EQ(session_model["fit_quality"].size(), 2u);
+  for (const auto& q : session_model["fit_quality"])
+    EXPECT_EQ(column_text(q["label"]), q["label"].get<std::string>() + q["unit"].get<std::string>()) << q;
   // The session reloads to list the new measurement; the next click goes to the new screen.
   ASSERT_TRUE(browser_->wait_until("return !!document.querySelector(\"#measurements tr[data-measurement='" +
                                    std::to_string(job["result"]["measurement_id"].get<long long>()) + "']\");"));
@@ -171,6 +183,8 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   }
   EXPECT_NEAR(std::stod(browser_->text(browser_->find("#fit-params tr[data-param='rmse'] td.value"))),
               fit["rmse"].get<double>(), 1e-2 * fit["rmse"].get<double>());
+  EXPECT_NEAR(std::stod(browser_->text(browser_->find("#fit-params tr[data-param='delta_e00_d65'] td.value"))),
+              fit["delta_e00_d65"].get<double>(), 1e-2 * fit["delta_e00_d65"].get<double>());
   for (const char* light : {"D65", "A"}) {
     const auto rgb = m["colour"][light]["srgb"];
     const std::string expected = std::to_string(rgb[0].get<int>()) + "," + std::to_string(rgb[1].get<int>()) + "," +
@@ -226,6 +240,13 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   for (const auto& d : model["derived"]) {
     if (fit["params"].contains(d["name"])) continue;  // the model fits it: shown as a parameter
     EXPECT_EQ(text_of("#fit-params tr[data-param='" + d["name"].get<std::string>() + "'] td.unit"), d["unit"]);
+  }
+  // The RMSE and ΔE2000 beside their units.
+  ASSERT_EQ(model["fit_quality"].size(), 2u);
+  for (const auto& q : model["fit_quality"]) {
+    const std::string row = "#fit-params tr[data-param='" + q["name"].get<std::string>() + "']";
+    EXPECT_EQ(text_of(row + " th"), q["label"]) << q;
+    EXPECT_EQ(text_of(row + " td.unit"), q["unit"]) << q;
   }
   // The saturation is set, not scaled: moving its slider puts the value into the render's query.
   browser_->run(

@@ -13,7 +13,8 @@ namespace {
 
 using nlohmann::json;
 
-// The label of every parameter and derived quantity, by name: the one place they are written.
+// The label of every parameter, derived quantity and figure of fit quality, by name: the one
+// place they are written.
 constexpr std::pair<std::string_view, std::string_view> kLabels[] = {
     {"surface_reflectance", "Surface reflectance"},
     {"melanin", "Melanin"},
@@ -25,6 +26,8 @@ constexpr std::pair<std::string_view, std::string_view> kLabels[] = {
     {"dermis_scattering", "Dermal scattering"},
     {"dermis_scattering_power", "Dermal scattering power"},
     {"blood_volume_fraction", "Blood volume fraction"},
+    {"rmse", "RMSE"},
+    {"delta_e00_d65", "ΔE2000 (D65)"},
 };
 
 std::string label_of(std::string_view name) {
@@ -39,16 +42,25 @@ json param_json(const ParamSpec& spec) {
           {"absorber", spec.absorber}, {"source", spec.source}};
 }
 
+// A quantity a fit gives besides its parameters: its name there, label and unit.
+json quantity_json(std::string_view name, std::string_view unit) {
+  return {{"name", name}, {"label", label_of(name)}, {"unit", unit}};
+}
+
 // The quantities every fit derives (docs/model.md, "What the spectrum determines"): the
 // saturation in the unit of the extended model's parameter that states it, the blood as a
 // share of the dermis's volume.
 json derived_json() {
   const ParamSpec& saturation = model_spec(ModelKind::extended).params[kOxygenSaturation];
-  const auto derived = [](std::string_view name, std::string_view unit) {
-    return json{{"name", name}, {"label", label_of(name)}, {"unit", unit}};
-  };
-  return json::array(
-      {derived(saturation.name, saturation.unit), derived("blood_volume_fraction", "fraction of the dermis")});
+  return json::array({quantity_json(saturation.name, saturation.unit),
+                      quantity_json("blood_volume_fraction", "fraction of the dermis")});
+}
+
+// How well every fit matches its spectrum: its RMSE and colour difference, as the fit gives them.
+json fit_quality_json() {
+  json figures = json::array();
+  for (const FitQualitySpec& figure : kFitQuality) figures.push_back(quantity_json(figure.name, figure.unit));
+  return figures;
 }
 
 json string_schema() { return {{"type", "string"}}; }
@@ -65,7 +77,10 @@ json models_json() {
   for (const ModelKind kind : kModelKinds) {
     json params = json::array();
     for (const ParamSpec& spec : model_spec(kind).params) params.push_back(param_json(spec));
-    models.push_back({{"name", to_string(kind)}, {"params", params}, {"derived", derived_json()}});
+    models.push_back({{"name", to_string(kind)},
+                      {"params", params},
+                      {"derived", derived_json()},
+                      {"fit_quality", fit_quality_json()}});
   }
   return {{"default", to_string(kDefaultModel)}, {"models", models}};
 }
@@ -82,14 +97,16 @@ json model_list_schema() {
         {"domain", described(pair_schema(), "where the equations hold: the values a render may set")},
         {"absorber", described({{"type", "boolean"}}, "an amount of an absorber, which a render may also scale")},
         {"source", described(string_schema(), "why this range, in brief")}}}};
-  const json derived = {
+  const json quantity = {
       {"type", "object"},
       {"properties", {{"name", string_schema()}, {"label", string_schema()}, {"unit", string_schema()}}}};
   const json model = {{"type", "object"},
                       {"properties",
                        {{"name", string_schema()},
                         {"params", {{"type", "array"}, {"items", param}}},
-                        {"derived", {{"type", "array"}, {"items", derived}}}}}};
+                        {"derived", {{"type", "array"}, {"items", quantity}}},
+                        {"fit_quality", described({{"type", "array"}, {"items", quantity}},
+                                                  "how well a fit matches its spectrum: rmse, delta_e00_d65")}}}};
   return {{"type", "object"},
           {"properties", {{"default", string_schema()}, {"models", {{"type", "array"}, {"items", model}}}}}};
 }

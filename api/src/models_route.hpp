@@ -1,7 +1,8 @@
 #pragma once
 // GET /api/v1/models: what each skin model fits, from its ParamSpec table (name, unit, bounds,
-// default, domain, whether it is an amount), with a label for people, and the quantities a fit
-// derives from its parameters. Clients label values with this rather than keep tables of their own.
+// default, domain, whether it is an amount), with a label for people, the quantities a fit
+// derives from its parameters, and the units of its RMSE and ΔE2000. Clients label values with
+// this rather than keep tables of their own.
 
 #include <nlohmann/json.hpp>
 

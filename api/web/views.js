@@ -24,11 +24,13 @@ function models() {
   return modelList;
 }
 function modelOf(list, name) {
-  return list.models.find((m) => m.name === name) || { name, params: [], derived: [] };
+  return list.models.find((m) => m.name === name) || { name, params: [], derived: [], fit_quality: [] };
 }
-// A parameter or derived quantity of a model by name; its bare name when the model has none.
+// A parameter, derived quantity or figure of fit quality (rmse, delta_e00_d65) of a model by
+// name; its bare name when the model has none.
 function describe(model, name) {
-  return model.params.find((p) => p.name === name) || model.derived.find((d) => d.name === name) || { name, label: name, unit: "" };
+  return model.params.find((p) => p.name === name) || model.derived.find((d) => d.name === name)
+    || model.fit_quality.find((q) => q.name === name) || { name, label: name, unit: "" };
 }
 const unitNote = (unit) => (unit ? h("span", { class: "unit" }, unit) : null);
 
@@ -116,7 +118,8 @@ export async function sessionsView(root, query) {
 
 export async function sessionView(root, id) {
   const [session, known] = await Promise.all([api("GET", `/api/v1/sessions/${id}`), models()]);
-  const melanin = describe(modelOf(known, session.model), "melanin");
+  const model = modelOf(known, session.model);
+  const [melanin, rmse, deltaE] = ["melanin", "rmse", "delta_e00_d65"].map((name) => describe(model, name));
   const open = session.state === "open";
   const fitsByMeasurement = new Map(session.fits.map((f) => [f.measurement_id, f]));
 
@@ -166,7 +169,8 @@ export async function sessionView(root, id) {
     acquire,
     h("section", { class: "card" }, h("h2", {}, "Measurements"),
       h("table", { class: "list", id: "measurements" },
-        h("thead", {}, h("tr", {}, ["Measurement", "Kind", "Label", "Quality", [melanin.label, unitNote(melanin.unit)], "RMSE", "ΔE00", "Warnings", "Time"]
+        h("thead", {}, h("tr", {}, ["Measurement", "Kind", "Label", "Quality",
+          ...[melanin, rmse, deltaE].map((q) => [q.label, unitNote(q.unit)]), "Warnings", "Time"]
           .map((t) => h("th", {}, t)))),
         h("tbody", {}, rows.length ? rows : h("tr", {}, h("td", { colspan: 9 }, "Nothing measured yet: start with the white standard."))))));
 
@@ -287,6 +291,12 @@ function derivedRow(fit, spec) {
   return h("tr", { "data-param": key }, h("th", {}, `${spec.label} (derived)`), ...value, h("td", { class: "unit" }, spec.unit));
 }
 
+// How well the fit matches its spectrum: a figure the fit gives, in its unit.
+function qualityRow(fit, spec) {
+  return h("tr", { "data-param": spec.name }, h("th", {}, spec.label), h("td", { class: "value" }, fmt(fit[spec.name], 3)),
+    h("td", {}), h("td", {}), h("td", { class: "unit" }, spec.unit));
+}
+
 // The fit's parameters in its model's order (any the model does not describe after them).
 function fitTable(fit, model) {
   const own = model.params.map((p) => p.name);
@@ -296,8 +306,7 @@ function fitTable(fit, model) {
       h("tbody", {},
         keys.map((key) => paramRow(fit, describe(model, key))),
         model.derived.map((d) => derivedRow(fit, d)),
-        h("tr", { "data-param": "rmse" }, h("th", {}, "RMSE"), h("td", { class: "value" }, fmt(fit.rmse, 3))),
-        h("tr", { "data-param": "delta_e00_d65" }, h("th", {}, "ΔE2000 (D65)"), h("td", { class: "value" }, fmt(fit.delta_e00_d65, 3))),
+        ["rmse", "delta_e00_d65"].map((key) => qualityRow(fit, describe(model, key))),
         h("tr", {}, h("th", {}, "Converged"), h("td", {}, fit.converged ? `yes, ${fit.iterations} iterations` : "no")))),
     fit.note ? h("p", { class: "meta" }, fit.note) : null);
 }

@@ -60,6 +60,18 @@ struct ParamSpec {
   bool absorber = false;    // an amount of an absorber, whose lower bound is none of it
 };
 
+// What a fit's figures of its match to the spectrum are given in (docs/model.md, "The fit"):
+// the RMSE, and the largest absolute error, in reflectance; the colour difference as CIEDE2000.
+// Every model's fit gives them, under the names of kFitQuality.
+inline constexpr std::string_view kRmseUnit = "reflectance, as a fraction";
+inline constexpr std::string_view kDeltaE00Unit = "CIEDE2000 of measured and fitted colour under D65";
+
+struct FitQualitySpec {
+  std::string_view name;  // as a fit gives it
+  std::string_view unit;
+};
+inline constexpr std::array<FitQualitySpec, 2> kFitQuality = {{{"rmse", kRmseUnit}, {"delta_e00_d65", kDeltaE00Unit}}};
+
 // How a tuned constant is searched: on its logarithm (a positive scale or length) or as is
 // (a coefficient that may be negative).
 enum class ConstantScale { logarithmic, linear };
