@@ -43,6 +43,9 @@ set(SKINSPEC_COMMON_PCH <algorithm> <chrono> <cstdint> <functional> <map> <memor
 function(skinspec_precompile target)
   if(SKINSPEC_PRECOMPILED_HEADERS)
     target_precompile_headers(${target} PRIVATE ${SKINSPEC_COMMON_PCH} ${ARGN})
-    target_compile_options(${target} PRIVATE $<$<CXX_COMPILER_ID:GNU>:-Wno-array-bounds -Wno-stringop-overflow>)
+    target_compile_options(${target} PRIVATE $<$<CXX_COMPILER_ID:GNU>:-Wno-array-bounds -Wno-stringop-overflow>
+      # clang stamps a precompiled header with its build time, so that ccache would never find
+      # again the files compiled with it.
+      "$<$<CXX_COMPILER_ID:Clang>:SHELL:-Xclang -fno-pch-timestamp>")
   endif()
 endfunction()
