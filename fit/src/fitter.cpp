@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "determination.hpp"
+#include "skinspec/spectral/enum_names.hpp"
 #include "prepared_model.hpp"
 #include "solver.hpp"
 
@@ -34,6 +35,27 @@ std::optional<Determination> parse_determination(std::string_view name) {
     if (to_string(d) == name) return d;
   return std::nullopt;
 }
+
+namespace {
+
+constexpr EnumNames<Termination, 6> kTerminationNames{{
+    {Termination::function_tolerance, "function_tolerance"},
+    {Termination::gradient_tolerance, "gradient_tolerance"},
+    {Termination::parameter_tolerance, "parameter_tolerance"},
+    {Termination::min_trust_region_radius, "min_trust_region_radius"},
+    {Termination::iteration_limit, "iteration_limit"},
+    {Termination::failed, "failed"},
+}};
+
+}  // namespace
+
+std::string_view to_string(Termination t) { return name_of(kTerminationNames, t); }
+
+std::optional<Termination> parse_termination(std::string_view name) { return value_named(kTerminationNames, name); }
+
+std::span<const std::pair<Termination, std::string_view>> termination_names() { return kTerminationNames; }
+
+bool converged(Termination t) { return t != Termination::iteration_limit && t != Termination::failed; }
 
 namespace {
 
@@ -156,7 +178,8 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   const detail::Solution best = detail::solve(problem);
   result.params = best.params;
   result.iterations = best.iterations;
-  result.converged = best.converged;
+  result.termination = best.termination;
+  result.converged = converged(best.termination);
   result.solver_message = best.message;
   result.fitted = detail::reflectance(prepared->columns, best.params);
   auto uncertainty =

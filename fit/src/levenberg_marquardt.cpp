@@ -13,13 +13,9 @@ namespace skinspec::detail {
 
 namespace {
 
-constexpr int kMaxIterations = 100;
-constexpr double kFunctionTolerance = 1e-7;   // of the cost
-constexpr double kParameterTolerance = 1e-8;  // of |p|
-constexpr double kGradientTolerance = 1e-12;
-// The trust region: its first radius (nearly Gauss-Newton), its limits, and the least share of
-// the decrease the linear model promised that a step must deliver to be taken.
-constexpr double kInitialRadius = 1e4, kMaxRadius = 1e16, kMinRadius = 1e-32;
+// The trust region's largest radius, and the least share of the decrease the linear model
+// promised that a step must deliver to be taken.
+constexpr double kMaxRadius = 1e16;
 constexpr double kMinStepQuality = 1e-3;
 // Limits of the damping's diagonal (the scaled columns' squared norms): a column that vanishes
 // still gets damped.
@@ -52,13 +48,13 @@ SpareMatrices& thread_spares() {
 template <int N>
 class Minimizer {
  public:
-  Minimizer(const SpectrumResiduals& residuals, const std::array<bool, N>& free, const Params& plausible_lower,
-            const Params& plausible_upper, Workspace& work)
-      : f_(residuals), work_(work), plausible_lower_(plausible_lower), plausible_upper_(plausible_upper) {
+  Minimizer(LeastSquares& problem, const std::array<bool, N>& free, const std::vector<double>& plausible_lower,
+            const std::vector<double>& plausible_upper, const LmOptions& options)
+      : f_(problem), options_(options), plausible_lower_(plausible_lower), plausible_upper_(plausible_upper) {
     for (int i = 0; i < N; ++i)
       if (free[static_cast<std::size_t>(i)]) free_[k_++] = i;
     exchange_spares();
-    const auto rows = static_cast<Eigen::Index>(residuals.size());
+    const auto rows = static_cast<Eigen::Index>(problem.residual_count());
     for (Point<N>* point : {&x_, &candidate_}) {
       point->residuals.resize(rows);
       point->jacobian.resize(rows, N);
@@ -76,41 +72,58 @@ class Minimizer {
   LmResult<N> run(const std::array<double, N>& start) {
     x_.p = start;
     if (!evaluate(x_) || !differentiate(x_))
-      return {start, std::numeric_limits<double>::infinity(), 0, LmEnd::failed, "the start could not be evaluated", {},
+      return {start,
+              std::numeric_limits<double>::infinity(),
+              0,
+              LmStop::ended,
+              Termination::failed,
+              "the start could not be evaluated",
+              {},
               {}};
     const double initial_cost = x_.cost;
     choose_scaling();
     factorize();
     int iterations = 0;
-    const auto [end, reason] = iterate(iterations);
+    const Outcome outcome = iterate(iterations);
+    const std::string_view reason =
+        outcome.stop == LmStop::ended ? to_string(outcome.termination) : "left its plausible range";
     return {x_.p,
             x_.cost,
             iterations,
-            end,
+            outcome.stop,
+            outcome.termination,
             fmt::format("{}; {} iterations, cost {:.6g} to {:.6g}", reason, iterations, initial_cost, x_.cost),
             std::move(x_.residuals),
             std::move(x_.jacobian)};
   }
 
  private:
-  std::pair<LmEnd, const char*> iterate(int& iterations) {
-    double radius = kInitialRadius, shrink = 2;
+  struct Outcome {
+    LmStop stop = LmStop::ended;
+    Termination termination = Termination::iteration_limit;
+  };
+  static Outcome ended(Termination t) { return {LmStop::ended, t}; }
+
+  // The rules are tested in Ceres' order: the gradient and the trust region at the current
+  // point before a step, the step's length before the residuals are evaluated there, and the
+  // change of the cost before the step is taken or refused.
+  Outcome iterate(int& iterations) {
+    double radius = options_.initial_trust_region_radius, shrink = 2;
     for (;;) {
-      if (left_plausible_range()) return {LmEnd::left_bounds, "a parameter left its plausible range"};
-      if (iterations >= kMaxIterations) return {LmEnd::out_of_iterations, "no convergence"};
-      if (gradient_max_ <= kGradientTolerance) return {LmEnd::converged, "converged: gradient tolerance"};
-      if (radius <= kMinRadius) return {LmEnd::converged, "converged: trust region tolerance"};
+      if (left_plausible_range()) return {LmStop::left_plausible_range, Termination::iteration_limit};
+      if (gradient_max_ <= options_.gradient_tolerance) return ended(Termination::gradient_tolerance);
+      if (radius <= options_.min_trust_region_radius) return ended(Termination::min_trust_region_radius);
+      if (iterations >= options_.max_iterations) return ended(Termination::iteration_limit);
       ++iterations;
       double predicted = 0;
       if (!step(radius, predicted)) {
         radius /= shrink, shrink *= 2;
         continue;
       }
-      if (step_norm() <= kParameterTolerance * (norm(x_.p) + kParameterTolerance))
-        return {LmEnd::converged, "converged: parameter tolerance"};
+      if (step_norm() <= options_.parameter_tolerance * (norm(x_.p) + options_.parameter_tolerance))
+        return ended(Termination::parameter_tolerance);
       const double candidate_cost = evaluate_candidate(predicted);
-      if (std::abs(x_.cost - candidate_cost) <= kFunctionTolerance * x_.cost)
-        return {LmEnd::converged, "converged: function tolerance"};
+      if (cost_settled(candidate_cost)) return ended(Termination::function_tolerance);
       const double quality = (x_.cost - candidate_cost) / predicted;
       if (quality <= kMinStepQuality) {
         radius /= shrink, shrink *= 2;
@@ -124,9 +137,14 @@ class Minimizer {
     }
   }
 
+  // The function tolerance: the step changed the cost by less than its share of the cost.
+  bool cost_settled(double candidate_cost) const {
+    return std::abs(x_.cost - candidate_cost) <= options_.function_tolerance * x_.cost;
+  }
+
   // The residuals and cost at the point; false where they cannot be had or are not finite.
   bool evaluate(Point<N>& point) {
-    if (!f_.evaluate(point.p.data(), work_, point.residuals.data())) return false;
+    if (!f_.residuals(point.p.data(), point.residuals.data())) return false;
     point.cost = 0.5 * point.residuals.squaredNorm();
     return std::isfinite(point.cost);
   }
@@ -135,7 +153,7 @@ class Minimizer {
   // is 0 unless it is infinite or NaN, so their sum is 0 exactly when all are finite: a sum
   // Eigen vectorises, where allFinite() tests the entries one by one.
   bool differentiate(Point<N>& point) {
-    f_.jacobian(point.p.data(), work_, point.jacobian.data());
+    f_.jacobian(point.p.data(), point.jacobian.data());
     return (point.jacobian.array() * 0.0).sum() == 0.0;
   }
 
@@ -146,7 +164,7 @@ class Minimizer {
     constexpr double kRefused = std::numeric_limits<double>::max();
     if (!evaluate(candidate_)) return kRefused;
     const double cost = candidate_.cost;
-    const bool converges = std::abs(x_.cost - cost) <= kFunctionTolerance * x_.cost;
+    const bool converges = cost_settled(cost);
     const bool taken = !((x_.cost - cost) / predicted <= kMinStepQuality);
     if ((converges || taken) && !differentiate(candidate_)) return kRefused;
     return cost;
@@ -234,10 +252,10 @@ class Minimizer {
     return false;
   }
 
-  const SpectrumResiduals& f_;
-  Workspace& work_;
-  const Params& plausible_lower_;
-  const Params& plausible_upper_;
+  LeastSquares& f_;
+  const LmOptions& options_;
+  const std::vector<double>& plausible_lower_;
+  const std::vector<double>& plausible_upper_;
   std::array<int, N> free_{};  // the free parameters' indices, k_ of them
   int k_ = 0;
   std::array<double, N> scale_{}, diagonal_{};
@@ -250,18 +268,24 @@ class Minimizer {
 }  // namespace
 
 template <int N>
-LmResult<N> levenberg_marquardt(const SpectrumResiduals& residuals, const std::array<double, N>& start,
-                                const std::array<bool, N>& free, const Params& plausible_lower,
-                                const Params& plausible_upper, Workspace& work) {
-  return Minimizer<N>(residuals, free, plausible_lower, plausible_upper, work).run(start);
+LmResult<N> levenberg_marquardt(LeastSquares& problem, const std::array<double, N>& start,
+                                const std::array<bool, N>& free, const std::vector<double>& plausible_lower,
+                                const std::vector<double>& plausible_upper, const LmOptions& options) {
+  return Minimizer<N>(problem, free, plausible_lower, plausible_upper, options).run(start);
 }
 
-template LmResult<kPaperParamCount> levenberg_marquardt<kPaperParamCount>(const SpectrumResiduals&,
-                                                                          const std::array<double, kPaperParamCount>&,
-                                                                          const std::array<bool, kPaperParamCount>&,
-                                                                          const Params&, const Params&, Workspace&);
-template LmResult<kExtendedParamCount> levenberg_marquardt<kExtendedParamCount>(
-    const SpectrumResiduals&, const std::array<double, kExtendedParamCount>&,
-    const std::array<bool, kExtendedParamCount>&, const Params&, const Params&, Workspace&);
+// Both skin models' parameter counts, and the NIST StRD problems' of tests/strd_test.cpp.
+static_assert(kPaperParamCount >= 2 && kMaxParamCount <= 7);
+#define SKINSPEC_LEVENBERG_MARQUARDT(N)                                                                                \
+  template LmResult<N> levenberg_marquardt<N>(LeastSquares&, const std::array<double, N>&, const std::array<bool, N>&, \
+                                              const std::vector<double>&, const std::vector<double>&,                  \
+                                              const LmOptions&);
+SKINSPEC_LEVENBERG_MARQUARDT(2)
+SKINSPEC_LEVENBERG_MARQUARDT(3)
+SKINSPEC_LEVENBERG_MARQUARDT(4)
+SKINSPEC_LEVENBERG_MARQUARDT(5)
+SKINSPEC_LEVENBERG_MARQUARDT(6)
+SKINSPEC_LEVENBERG_MARQUARDT(7)
+#undef SKINSPEC_LEVENBERG_MARQUARDT
 
 }  // namespace skinspec::detail

@@ -106,6 +106,19 @@ std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) 
   return starts;
 }
 
+// One spectrum's residuals as the solver asks for them, evaluated in this thread's workspace.
+class SpectrumLeastSquares final : public LeastSquares {
+ public:
+  SpectrumLeastSquares(const SpectrumResiduals& residuals, Workspace& work) : f_(residuals), work_(work) {}
+  std::size_t residual_count() const override { return f_.size(); }
+  bool residuals(const double* p, double* out) override { return f_.evaluate(p, work_, out); }
+  void jacobian(const double* p, double* out) override { f_.jacobian(p, work_, out); }
+
+ private:
+  const SpectrumResiduals& f_;
+  Workspace& work_;
+};
+
 template <int N>
 class Engine {
  public:
@@ -115,15 +128,16 @@ class Engine {
   // Bounded least squares by active sets: solve; pin every parameter that crossed a bound at
   // that bound and solve again; release a pinned parameter whose gradient points back inside.
   Solution solve_from(const Params& start) const {
-    Solution solution{start, 0, 0, false, {}, std::vector<Pin>(N, Pin::none), {}, {}};
+    Solution solution{start, 0, 0, Termination::failed, {}, std::vector<Pin>(N, Pin::none), {}, {}};
     int iterations = 0;
-    for (int round = 0; round < 2 * N; ++round) {
+    bool settled = false;
+    for (int round = 0; round < 2 * N && !settled; ++round) {
       solve_once(solution);
       iterations += solution.iterations;
-      bool changed = pin_crossed(solution);
-      if (!changed) changed = release_pinned(solution);
-      if (!changed) break;
+      settled = !pin_crossed(solution) && !release_pinned(solution);
     }
+    // Out of rounds with the active set still changing: the last solve's end is not the fit's.
+    if (!settled) solution.termination = Termination::iteration_limit;
     solution.iterations = iterations;
     know_derivatives(solution);
     return solution;
@@ -160,17 +174,20 @@ class Engine {
       know_derivatives(s);
       s.cost = 0.5 * s.residuals.squaredNorm();
       s.iterations = 0;
-      s.converged = true;
+      // The gradient over no free parameters is empty, its largest component 0.
+      s.termination = Termination::gradient_tolerance;
       s.message = "every parameter held";
       return;
     }
     const SpectrumResiduals residuals(model_, problem_.measured, problem_.sqrt_weights,
                                       Box{bounds_.solver_lower, bounds_.solver_upper});
-    LmResult<N> result = levenberg_marquardt<N>(residuals, start, free, bounds_.lower, bounds_.upper, work_);
+    SpectrumLeastSquares least_squares(residuals, work_);
+    LmResult<N> result = levenberg_marquardt<N>(least_squares, start, free, bounds_.lower, bounds_.upper);
     s.params.assign(result.params.begin(), result.params.end());
     s.cost = result.cost;
     s.iterations = result.iterations;
-    s.converged = result.end == LmEnd::converged;
+    // A solve that left the plausible range is followed by another once the loop has pinned.
+    s.termination = result.stop == LmStop::ended ? result.termination : Termination::iteration_limit;
     s.message = result.message;
     s.residuals = std::move(result.residuals);
     s.jacobian = std::move(result.jacobian);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "skinspec/fit/model.hpp"
+#include "skinspec/fit/termination.hpp"
 #include "spectrum_model.hpp"
 
 namespace skinspec::detail {
@@ -46,9 +47,10 @@ struct Problem {
 
 struct Solution {
   Params params;
-  double cost = 0;  // half the weighted sum of squared residuals
-  int iterations = 0;
-  bool converged = false;
+  double cost = 0;     // half the weighted sum of squared residuals
+  int iterations = 0;  // of every solve that led to it: the active-set loop's and a restart's
+  // How its last solve ended; iteration_limit too where the active-set loop ran out of rounds.
+  Termination termination = Termination::failed;
   std::string message;
   std::vector<Pin> pinned;
   // The weighted residuals and their Jacobian (rows samples, columns parameters) at params;

@@ -14,6 +14,7 @@
 
 #include "skinspec/fit/model.hpp"
 #include "skinspec/fit/optics.hpp"
+#include "skinspec/fit/termination.hpp"
 #include "skinspec/spectral/colour.hpp"
 #include "skinspec/spectral/spectrum.hpp"
 
@@ -81,7 +82,11 @@ struct FitResult {
   double rmse = 0;                        // unweighted, over the fitted samples
   double max_abs_error = 0;
   double delta_e00_d65 = 0;  // measured against fitted, D65, 2 degree observer
+  // The solver's steps, taken or refused, over every solve that led to the fit.
   int iterations = 0;
+  // How the solver ended; empty for a fit stored before terminations were recorded.
+  std::optional<Termination> termination;
+  // converged(*termination) where that is known; a fit stored before keeps its own.
   bool converged = false;
   std::string solver_message;
   // The samples that were fitted: those of the input inside the model's 380-780 nm.
