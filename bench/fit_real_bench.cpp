@@ -4,10 +4,13 @@
 // lateral diffusion on), the whole set repeated until the timing is steady. Prints one JSON
 // object: each spectrum's rmse, parameters and fitted model spectrum (so that another
 // implementation of the model can be checked against this one at the same parameters), the
-// median time per fit and the median rmse. bench/fit-vs-scipy runs it beside a scipy fit.
-// Run: build/release/bin/fit_real_bench [--repeats N] [--spectra N] [--evaluate] FILE
+// median time per fit and the median rmse, and how the solver ended: each fit's iterations and
+// termination, their median and 99th percentile (nearest rank) and the count of each termination.
+// bench/fit-vs-scipy runs it beside a scipy fit.
+// Run: build/release/bin/fit_real_bench [--repeats N] [--spectra N] [--model NAME] [--evaluate] FILE
 //   --repeats N  rounds over the whole set (default: as many as take 2 s, at least 5)
 //   --spectra N  only the first N columns
+//   --model NAME the skin model (default: extended, as `skinspec fit`)
 //   --evaluate   no fits: the model (same options) at each parameter set read from stdin, one
 //                set of the model's parameters a line, on the samples the fit of FILE's first
 //                spectrum uses; prints {"wavelength_nm": [...], "reflectance": [[...], ...]}
@@ -16,6 +19,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -39,7 +43,7 @@ using Clock = std::chrono::steady_clock;
 constexpr double kMinTimedSeconds = 2.0;
 constexpr int kMinRounds = 5;
 
-constexpr const char* kUsage = "usage: fit_real_bench [--repeats N] [--spectra N] [--evaluate] FILE";
+constexpr const char* kUsage = "usage: fit_real_bench [--repeats N] [--spectra N] [--model NAME] [--evaluate] FILE";
 
 [[noreturn]] void die(const std::string& message) {
   std::fprintf(stderr, "fit_real_bench: %s\n", message.c_str());
@@ -50,6 +54,7 @@ struct Args {
   std::string file;
   int repeats = 0;          // 0: time-based
   std::size_t spectra = 0;  // 0: all
+  ModelKind model = kDefaultModel;
   bool evaluate = false;
 };
 
@@ -69,6 +74,10 @@ Args parse_args(int argc, char** argv) {
       const int value = positive(arg, argv[++i]);
       if (arg == "--repeats") args.repeats = value;
       else args.spectra = static_cast<std::size_t>(value);
+    } else if (arg == "--model" && i + 1 < argc) {
+      const auto model = parse_model_kind(argv[++i]);
+      if (!model) die("--model: one of " + model_names());
+      args.model = *model;
     } else if (arg == "--evaluate") {
       args.evaluate = true;
     } else if (!arg.starts_with("--") && args.file.empty()) {
@@ -111,6 +120,31 @@ double median(std::vector<double> values) {
   return n % 2 == 1 ? values[n / 2] : (values[n / 2 - 1] + values[n / 2]) / 2;
 }
 
+// The nearest-rank percentile: the smallest value with at least `percent` % of them at or below.
+double percentile(std::vector<double> values, double percent) {
+  std::ranges::sort(values);
+  const auto rank = static_cast<std::size_t>(std::ceil(percent / 100 * static_cast<double>(values.size())));
+  return values[std::clamp<std::size_t>(rank, 1, values.size()) - 1];
+}
+
+// How the solver ended, over every fit: the iterations' median and 99th percentile, and how many
+// fits ended each way.
+nlohmann::json solver_summary(const std::vector<FitResult>& results) {
+  std::vector<double> iterations;
+  nlohmann::json by_termination = nlohmann::json::object();
+  for (const auto& [termination, name] : termination_names()) by_termination[std::string(name)] = 0;
+  for (const FitResult& r : results) {
+    iterations.push_back(r.iterations);
+    if (!r.termination) continue;  // never for a fit just made
+    auto& count = by_termination[std::string(to_string(*r.termination))];
+    count = count.get<int>() + 1;
+  }
+  return {{"median_iterations", median(iterations)},
+          {"p99_iterations", percentile(iterations, 99)},
+          {"max_iterations", percentile(iterations, 100)},
+          {"terminations", std::move(by_termination)}};
+}
+
 // --evaluate: the model of the fit at each parameter set on stdin, on the samples the fitter
 // takes from the file (the fit of its first spectrum says which), as `skinspec fit` builds it.
 void evaluate(const Fitter& fitter, const NamedSpectrum& first, const FitOptions& options) {
@@ -141,8 +175,9 @@ int main(int argc, char** argv) {
   if (!loaded) die(loaded.error() + " (set SKINSPEC_DATA_DIR)");
   const Fitter& fitter = *loaded;
   const auto spectra = read_spectra(args);
-  // What `skinspec fit FILE` does with no options.
-  const FitOptions options;
+  // What `skinspec fit FILE` does with no options but --model.
+  FitOptions options;
+  options.model = args.model;
   if (args.evaluate) {
     evaluate(fitter, spectra.front(), options);
     return 0;
@@ -203,12 +238,14 @@ int main(int argc, char** argv) {
                             {"rmse", r.rmse},
                             {"converged", r.converged},
                             {"iterations", r.iterations},
+                            {"termination", r.termination ? to_string(*r.termination) : "unknown"},
                             {"params", params_to_json(r.model, r.params)},
                             {"wavelength_nm", r.wavelength_nm},
                             {"fitted", r.fitted}});
   }
   out["median_rmse"] = median(rmse);
   out["converged"] = converged;
+  out["solver"] = solver_summary(results);
   out["spectra"] = std::move(per_spectrum);
   std::cout << out.dump() << '\n';
   return 0;

@@ -234,6 +234,9 @@ TEST_F(ExportTest, CsvHasOneRowPerWavelengthOfEachMeasurementAndFit) {
     EXPECT_EQ(row[column("total_hemoglobin")], "");
     EXPECT_EQ(row[column("constants_digest")], "77aa01be");
     EXPECT_EQ(std::stod(row[column("fitted")]), testing::sample_fit(n).fitted[5]);
+    EXPECT_EQ(row[column("iterations")], std::to_string(testing::sample_fit(n).iterations));
+    // How the solver ended where the fit recorded it (sample_fit: the even ones).
+    EXPECT_EQ(row[column("termination")], n == 2 ? "function_tolerance" : "");
     ++checked;
   }
   EXPECT_EQ(checked, 2);

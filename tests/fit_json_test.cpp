@@ -81,6 +81,7 @@ json reference_assessment(const FitResult& fit) {
     out["correlation"] = {{"params", names}, {"matrix", matrix}};
   }
   if (!fit.coverage_note.empty()) out["note"] = fit.coverage_note;
+  if (fit.termination) out["termination"] = to_string(*fit.termination);
   return out;
 }
 
@@ -123,6 +124,7 @@ void expect_same_judgement(const FitResult& fit, const FitResult& back) {
     }
   }
   EXPECT_EQ(back.coverage_note, fit.coverage_note);
+  EXPECT_EQ(back.termination, fit.termination);
 }
 
 // The order of an object's keys as written in `text`, object by object in the order they open.
@@ -204,6 +206,25 @@ TEST(OptionsText, IsWhatTheJsonLibraryWritesForThem) {
       EXPECT_EQ(options_text(options), reference.dump(-1, ' ', false, json::error_handler_t::replace)) << site;
     }
   }
+}
+
+// Every way the solver can end reads back as itself; a fit stored before terminations were
+// recorded has none, and a name this version does not know refuses the assessment.
+TEST(AssessmentText, TheTerminationReadsBackAndAnOlderFitHasNone) {
+  auto fit = fits(ModelKind::extended).front();
+  for (const auto& [termination, name] : termination_names()) {
+    fit.termination = termination;
+    expect_as_before(fit);
+    EXPECT_EQ(json::parse(assessment_text(fit))["termination"], name);
+  }
+  fit.termination.reset();
+  EXPECT_FALSE(json::parse(assessment_text(fit)).contains("termination"));
+  EXPECT_EQ(read_back(fit, assessment_text(fit)).termination, std::nullopt);
+  FitResult back;
+  back.model = fit.model;
+  back.params = fit.params;
+  EXPECT_FALSE(assessment_from_json(json{{"termination", "converged"}}, back));
+  EXPECT_FALSE(assessment_from_json(json{{"termination", 3}}, back));
 }
 
 TEST(AssessmentText, AFitNotJudgedIsAnEmptyObject) {

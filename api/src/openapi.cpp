@@ -6,6 +6,7 @@
 #include "skinspec/api/acquisition.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/fit/model_spec.hpp"
+#include "skinspec/fit/termination.hpp"
 #include "skinspec/version.hpp"
 
 namespace skinspec::api {
@@ -69,7 +70,8 @@ json assessment_fields() {
             {"properties",
              {{"params", {{"type", "array"}, {"items", {{"type", "string"}}}}},
               {"matrix", {{"type", "array"}, {"items", {{"type", "array"}, {"items", nullable("number")}}}}}}}}},
-          {"note", {{"type", "string"}}}};
+          {"note", {{"type", "string"}}},
+          {"termination", {{"type", "string"}, {"enum", names(termination_names())}}}};
 }
 
 json instrument_schema() {

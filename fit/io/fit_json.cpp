@@ -144,6 +144,7 @@ std::string assessment_text(const FitResult& fit) {
     out.close('}');
   }
   if (!fit.coverage_note.empty()) out.key("note").string(fit.coverage_note);
+  if (fit.termination) out.key("termination").string(to_string(*fit.termination));
   out.close('}');
   return out.take();
 }
@@ -239,6 +240,11 @@ bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit) {
   if (assessment.contains("note")) {
     if (!assessment["note"].is_string()) return false;
     fit.coverage_note = assessment["note"].get<std::string>();
+  }
+  if (assessment.contains("termination")) {
+    const auto& termination = assessment["termination"];
+    fit.termination = termination.is_string() ? parse_termination(termination.get<std::string>()) : std::nullopt;
+    if (!fit.termination) return false;
   }
   return true;
 }

@@ -14,14 +14,15 @@ namespace skinspec {
 // delta_e00_d65, iterations, converged, samples_ignored, wavelength_nm, measured, fitted; and,
 // for a fit that judged its parameters, determination, derived (oxygen_saturation,
 // blood_volume_fraction) and correlation; note when the spectrum covered less than the model's
-// range. A standard error is null where the spectrum does not determine the parameter, and
-// determination says why.
+// range; termination, how the solver ended, wherever it is known. A standard error is null
+// where the spectrum does not determine the parameter, and determination says why.
 nlohmann::json fit_to_json(std::string_view name, const FitResult& fit);
 
-// What the spectrum determined, as fit_to_json gives it: {correlation, derived, determination,
-// note}, each only when the fit has it; the stored form of a fit's judgement, written directly
-// as text, keys sorted as the JSON library keeps them. Its numbers read back exactly, though
-// not always in the library's words (1e-04 where it writes 0.0001).
+// What the spectrum determined and how the solver ended, as fit_to_json gives it:
+// {correlation, derived, determination, note, termination}, each only when the fit has it; the
+// stored form of a fit's judgement, written directly as text, keys sorted as the JSON library
+// keeps them. Its numbers read back exactly, though not always in the library's words (1e-04
+// where it writes 0.0001).
 std::string assessment_text(const FitResult& fit);
 // The same as JSON values.
 nlohmann::json assessment_to_json(const FitResult& fit);
@@ -31,8 +32,8 @@ nlohmann::json assessment_to_json(const FitResult& fit);
 std::string options_text(const FitOptions& options);
 
 // Reads assessment_to_json's object back into `fit` (whose model and params are set): its
-// determination, derived quantities, correlation and note. A field that is absent stays
-// empty (a fit stored before fits were judged); false when a field is malformed.
+// determination, derived quantities, correlation, note and termination. A field that is absent
+// stays empty (a fit stored before fits were judged); false when a field is malformed.
 bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit);
 
 // {name: value} in the model's parameter order; non-finite values are null.

@@ -126,6 +126,8 @@ std::vector<CsvColumn> csv_columns() {
                                  {"max_abs_error", reflectance},
                                  {"delta_e00_d65", "CIEDE2000"},
                                  {"converged", ""},
+                                 {"iterations", ""},
+                                 {"termination", ""},
                                  {"model_version", ""},
                                  {"tables_digest", ""},
                                  {"constants_digest", ""},
@@ -143,12 +145,10 @@ std::string value_of(const Fit& fit, const std::string& name) {
 }
 
 // The parameters the spectrum did not determine, with why: "bilirubin:at_bound;...".
-std::string not_determined(const Fit& fit) {
-  const auto result = to_fit_result(fit);
-  if (!result) throw std::runtime_error(result.error());
+std::string not_determined(const Fit& fit, const FitResult& result) {
   std::string out;
-  for (std::size_t i = 0; i < result->determination.size(); ++i) {
-    const auto& d = result->determination[i];
+  for (std::size_t i = 0; i < result.determination.size(); ++i) {
+    const auto& d = result.determination[i];
     if (d.determined()) continue;
     if (!out.empty()) out += ';';
     out += fmt::format("{}:{}", fit.params[i].name, to_string(d.status));
@@ -170,14 +170,17 @@ void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, c
                   to_string(s.state), m.id, to_string(m.kind), csv_field(m.label), m.simulated ? 1 : 0, m.quality_code,
                   m.reading_count, csv_field(m.units), json_time(m.started_at));
   if (fit) {
+    const auto result = to_fit_result(*fit);
+    if (!result) throw std::runtime_error(result.error());
     prefix += fmt::format("{},{},", fit->id, csv_field(fit->model));
     for (const auto& name : parameter_columns()) prefix += value_of(*fit, name) + ",";
     prefix +=
-        fmt::format("{},{},{},{},{},{},{},{},", csv_field(not_determined(*fit)), number(fit->rmse),
-                    number(fit->max_abs_error), number(fit->delta_e00_d65), fit->converged ? 1 : 0,
+        fmt::format("{},{},{},{},{},{},{},{},{},{},", csv_field(not_determined(*fit, *result)), number(fit->rmse),
+                    number(fit->max_abs_error), number(fit->delta_e00_d65), fit->converged ? 1 : 0, fit->iterations,
+                    result->termination ? to_string(*result->termination) : std::string_view(),
                     csv_field(fit->model_version), csv_field(fit->tables_digest), csv_field(fit->constants_digest));
   } else {
-    prefix += std::string(parameter_columns().size() + 10, ',');
+    prefix += std::string(parameter_columns().size() + 12, ',');
   }
   for (const auto& [w, unused] : grid) {
     out << prefix << number(w) << ',' << value_at(radiance, w) << ',' << value_at(sd, w) << ','
