@@ -1,7 +1,7 @@
 // The fit's own Levenberg-Marquardt (fit/src/levenberg_marquardt.hpp) on the NIST StRD nonlinear
 // regression problems, as numerical libraries are tested: each problem from both of NIST's
 // certified starts must reach the certified parameters to 6 significant digits, or fail where
-// docs/model.md says why that start is out of reach. The files in tests/data/strd/ are NIST's
+// docs/solver.md says why that start is out of reach. The files in tests/data/strd/ are NIST's
 // (public domain); a small parser reads them, and the Jacobians come from Ceres' automatic
 // differentiation of each model as NIST writes it, independently of the solver and the answer.
 
@@ -290,7 +290,7 @@ detail::LmResult<Model::N> solve(const StrdFile& file, int start, const detail::
 struct Case {
   const char* name;
   int start;
-  bool within_reach;  // false: docs/model.md, "The solver on the NIST StRD problems", says why
+  bool within_reach;  // false: docs/solver.md, "The solver on the NIST StRD problems", says why
 };
 
 // One problem from one start: the certified answer where it is within reach, and no false
@@ -318,7 +318,7 @@ void check(const Case& c) {
     EXPECT_NEAR(result.cost, certified_cost, 1e-8 * certified_cost) << c.name << " start " << c.start;
   } else {
     // Out of reach: the solver must not claim the certified answer, nor a cost below it.
-    EXPECT_LT(fewest, 6.0) << c.name << " start " << c.start << " is now within reach: update docs/model.md";
+    EXPECT_LT(fewest, 6.0) << c.name << " start " << c.start << " is now within reach: update docs/solver.md";
     EXPECT_GE(result.cost, certified_cost * (1 - 1e-9)) << c.name << " start " << c.start;
   }
 }

@@ -30,7 +30,7 @@ class LeastSquares {
   virtual void jacobian(const double* p, double* out) = 0;
 };
 
-// The stopping rules (docs/model.md, "When the solver stops"), as Ceres Solver defines them:
+// The stopping rules (docs/solver.md, "When the solver stops"), as Ceres Solver defines them:
 // the function tolerance on |Δcost| / cost, the parameter tolerance on |Δp| / (|p| + tolerance),
 // the gradient tolerance on the largest component of the gradient of the scaled parameters,
 // and the least trust region radius. The defaults are the skin fit's.

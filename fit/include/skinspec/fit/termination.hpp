@@ -1,6 +1,6 @@
 #pragma once
-// How a fit's solver ended (docs/model.md, "When the solver stops"): one of the stopping rules
-// MINPACK and Ceres Solver define, named as Ceres names its options, or no convergence.
+// How a fit's solver ended (docs/solver.md): one of the stopping rules MINPACK and Ceres Solver
+// define, named as Ceres names its options, or no convergence.
 
 #include <optional>
 #include <span>
