@@ -43,14 +43,15 @@ void print_table(ModelKind model, const std::vector<NamedSpectrum>& spectra,
   std::cout << fmt::format("{:<14} ", "spectrum");
   for (const ParamSpec& p : params)
     std::cout << fmt::format("{:<{}} ", p.name, std::max<std::size_t>(16, p.name.size()));
-  std::cout << fmt::format("{:>7} {:>6} {:>5} {}\n", "rmse", "dE00", "iter", "termination");
+  std::cout << fmt::format("{:>7} {:>6}{} {:>5} {}\n", "rmse", "dE00", skin_tone_header(), "iter", "termination");
   for (std::size_t i = 0; i < results.size(); ++i) {
     const FitResult& r = *results[i];
     std::cout << fmt::format("{:<14} ", printable(spectra[i].name));
     for (std::size_t p = 0; p < params.size(); ++p)
       std::cout << fmt::format("{:<{}} ", with_error(r.params[p], r.standard_error[p], r.determination[p]),
                                std::max<std::size_t>(16, params[p].name.size()));
-    std::cout << fmt::format("{:>7.4f} {:>6.2f} {:>5} {}\n", r.rmse, r.delta_e00_d65, r.iterations,
+    std::cout << fmt::format("{:>7.4f} {:>6.2f}{} {:>5} {}\n", r.rmse, r.delta_e00_d65, skin_tone_cells(r.skin_tone),
+                             r.iterations,
                              r.termination ? to_string(*r.termination) : "unknown");
   }
   std::cout << not_determined_line("--format json") << '\n';

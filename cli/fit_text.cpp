@@ -44,8 +44,17 @@ std::string units_line(std::string_view model, const std::vector<std::string>& n
   std::string line = "units:";
   for (const auto& name : names)
     if (const auto unit = param_unit(model, name); !unit.empty()) line += fmt::format(" {} {};", name, unit);
-  return line +
-         fmt::format(" {} {}; {} {}", rmse_column, unit_text(kRmseUnit), delta_e00_column, unit_text(kDeltaE00Unit));
+  return line + fmt::format(" {} {}; {} {}; ITA° {}; M, E {}", rmse_column, unit_text(kRmseUnit), delta_e00_column,
+                            unit_text(kDeltaE00Unit), unit_text(kItaUnit), unit_text(kSkinIndexUnit));
+}
+
+std::string skin_tone_header() { return fmt::format(" {:>6} {:<12} {:>5} {:>5}", "ITA°", "class", "M", "E"); }
+
+std::string skin_tone_cells(const std::optional<SkinTone>& tone) {
+  const auto index = [](const std::optional<double>& v) { return v ? fmt::format("{:>5.1f}", *v) : fmt::format("{:>5}", "-"); };
+  if (!tone) return fmt::format(" {:>5} {:<12} {:>5} {:>5}", "-", "-", "-", "-");
+  return fmt::format(" {:>5.1f} {:<12} {} {}", tone->ita_deg, to_string(tone->ita_class), index(tone->melanin_index),
+                     index(tone->erythema_index));
 }
 
 std::string not_determined_line(std::string_view reasons_in) {

@@ -9,6 +9,8 @@
 #include <string_view>
 #include <vector>
 
+#include "skinspec/spectral/skin_tone.hpp"
+
 namespace skinspec::cli {
 
 // The names of the fit's parameters in its model's order (the order of its JSON object when the
@@ -27,9 +29,15 @@ std::string param_unit(std::string_view model, std::string_view name);
 std::string unit_text(std::string_view unit);
 
 // A table's units line: "units: melanin [x 1 % melanosomes in the epidermis]; ...; rmse
-// [reflectance, as a fraction]; dE00 [CIEDE2000 ...]", its columns named as the table names them.
+// [reflectance, as a fraction]; dE00 [CIEDE2000 ...]; ITA° [degrees]; M, E [...]", its columns
+// named as the table names them.
 std::string units_line(std::string_view model, const std::vector<std::string>& names, std::string_view rmse_column,
                        std::string_view delta_e00_column);
+
+// The skin-tone columns of a table, "  ITA° class        M     E", and a fit's cells under them
+// ("-" for what the fit does not have).
+std::string skin_tone_header();
+std::string skin_tone_cells(const std::optional<SkinTone>& tone);
 
 // The line that ends a table showing fits: what "n.d." means, and where to read why
 // (`reasons_in`: "--format json"; empty where the reasons are printed beside).

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "common.hpp"
+#include "fit_json.hpp"
 #include "fit_text.hpp"
 #include "model_options.hpp"
 #include "session_client.hpp"
@@ -59,13 +60,15 @@ void print_fits(const json& fits, const std::string& model) {
   std::string header = fmt::format("\nfits, model {}\n{}\n{:>6} {:>11}", model,
                                    units_line(model, names, "rmse", "dE2000"), "fit", "measurement");
   for (const auto& name : names) header += fmt::format(" {:>{}}", name, std::max<std::size_t>(9, name.size()));
-  std::cout << header << fmt::format(" {:>8} {:>7}\n", "rmse", "dE2000");
+  std::cout << header << fmt::format(" {:>8} {:>7}{}\n", "rmse", "dE2000", skin_tone_header());
   for (const auto& f : fits) {
     if (text_or(f["model"]) != model) continue;
     std::string row = fmt::format("{:>6} {:>11}", f["id"].get<long long>(), f["measurement_id"].get<long long>());
     for (const auto& name : names)
       row += fmt::format(" {:>{}}", param_cell(f, name), std::max<std::size_t>(9, name.size()));
-    std::cout << row << fmt::format(" {:>8.4f} {:>7.2f}\n", f.value("rmse", 0.0), f.value("delta_e00_d65", 0.0));
+    const auto tone = f.contains("skin_tone") ? skin_tone_from_json(f["skin_tone"]) : std::nullopt;
+    std::cout << row << fmt::format(" {:>8.4f} {:>7.2f}{}\n", f.value("rmse", 0.0), f.value("delta_e00_d65", 0.0),
+                                    skin_tone_cells(tone));
   }
   std::cout << not_determined_line("--json") << '\n';
 }

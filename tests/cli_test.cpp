@@ -2,6 +2,7 @@
 // and judges only what a user sees, its exit status, standard output and standard error.
 
 #include <gmock/gmock.h>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <random>
@@ -636,9 +637,18 @@ TEST_F(CliFit, TheTableGivesItsUnitsAndSaysWhatNdMeans) {
   EXPECT_THAT(lines[0], HasSubstr("cm-1"));
   EXPECT_THAT(lines[0], HasSubstr("]; dermis_scattering_power ["));
   EXPECT_THAT(lines[0], ::testing::EndsWith("]; rmse [reflectance, as a fraction]; dE00 [CIEDE2000 of measured and "
-                                            "fitted colour under D65]"));
-  EXPECT_THAT(lines[1], StartsWith("spectrum"));
-  EXPECT_THAT(lines[2], AllOf(StartsWith("skin"), HasSubstr("1 held")));
+                                            "fitted colour under D65]; ITA° [degrees]; M, E [100 log10 of a "
+                                            "reflectance ratio (Diffey 1984)]"));
+  EXPECT_THAT(lines[1], AllOf(StartsWith("spectrum"), HasSubstr(" ITA° class ")));
+  // The skin tone's cells, as the JSON gives them.
+  const auto json_run = skinspec({"fit", "--fix", "bilirubin", file});
+  ASSERT_EQ(json_run.exit_status, 0) << json_run.describe();
+  const auto tone = nlohmann::json::parse(json_run.out)["skin_tone"];  // one JSON line per spectrum
+  EXPECT_THAT(lines[2], AllOf(StartsWith("skin"), HasSubstr("1 held"),
+                              HasSubstr(fmt::format(" {:>5.1f} {:<12} {:>5.1f} {:>5.1f} ", tone["ita_deg"].get<double>(),
+                                                    tone["ita_class"].get<std::string>(),
+                                                    tone["melanin_index"].get<double>(),
+                                                    tone["erythema_index"].get<double>()))));
   EXPECT_EQ(lines[3],
             "n.d.: not determined by this spectrum (reason in --format json; docs/model.md, \"What the spectrum "
             "determines\")");

@@ -81,6 +81,13 @@ json reference_assessment(const FitResult& fit) {
     out["correlation"] = {{"params", names}, {"matrix", matrix}};
   }
   if (!fit.coverage_note.empty()) out["note"] = fit.coverage_note;
+  if (fit.skin_tone) {
+    const auto index = [](const std::optional<double>& v) { return v ? json(*v) : json(); };
+    out["skin_tone"] = {{"ita_deg", fit.skin_tone->ita_deg},
+                        {"ita_class", to_string(fit.skin_tone->ita_class)},
+                        {"melanin_index", index(fit.skin_tone->melanin_index)},
+                        {"erythema_index", index(fit.skin_tone->erythema_index)}};
+  }
   if (fit.termination) out["termination"] = to_string(*fit.termination);
   return out;
 }
@@ -95,6 +102,13 @@ FitResult read_back(const FitResult& fit, const std::string& text) {
 }
 
 void expect_same_judgement(const FitResult& fit, const FitResult& back) {
+  ASSERT_EQ(back.skin_tone.has_value(), fit.skin_tone.has_value());
+  if (fit.skin_tone) {
+    EXPECT_EQ(back.skin_tone->ita_deg, fit.skin_tone->ita_deg);
+    EXPECT_EQ(back.skin_tone->ita_class, fit.skin_tone->ita_class);
+    EXPECT_EQ(back.skin_tone->melanin_index, fit.skin_tone->melanin_index);
+    EXPECT_EQ(back.skin_tone->erythema_index, fit.skin_tone->erythema_index);
+  }
   ASSERT_EQ(back.determination.size(), fit.determination.size());
   for (std::size_t i = 0; i < fit.determination.size(); ++i) {
     EXPECT_EQ(back.determination[i].status, fit.determination[i].status) << i;
@@ -225,6 +239,33 @@ TEST(AssessmentText, TheTerminationReadsBackAndAnOlderFitHasNone) {
   back.params = fit.params;
   EXPECT_FALSE(assessment_from_json(json{{"termination", "converged"}}, back));
   EXPECT_FALSE(assessment_from_json(json{{"termination", 3}}, back));
+}
+
+TEST(AssessmentText, TheSkinToneReadsBackAndAnOlderFitHasNone) {
+  auto fit = fits(ModelKind::extended).front();
+  ASSERT_TRUE(fit.skin_tone);
+  fit.skin_tone->erythema_index.reset();  // a reflectance at or below zero at 568 nm
+  expect_as_before(fit);
+  EXPECT_TRUE(json::parse(assessment_text(fit))["skin_tone"]["erythema_index"].is_null());
+  fit.skin_tone.reset();
+  EXPECT_FALSE(json::parse(assessment_text(fit)).contains("skin_tone"));
+  EXPECT_EQ(read_back(fit, assessment_text(fit)).skin_tone.has_value(), false);
+  FitResult back;
+  back.model = fit.model;
+  back.params = fit.params;
+  const json good = {{"ita_deg", 30.5}, {"ita_class", "intermediate"}, {"melanin_index", 30}, {"erythema_index", nullptr}};
+  EXPECT_TRUE(assessment_from_json(json{{"skin_tone", good}}, back));
+  for (const char* key : {"ita_deg", "ita_class", "melanin_index", "erythema_index"}) {
+    json missing = good;
+    missing.erase(key);
+    EXPECT_FALSE(assessment_from_json(json{{"skin_tone", missing}}, back)) << key;
+  }
+  json unknown_class = good;
+  unknown_class["ita_class"] = "olive";
+  EXPECT_FALSE(assessment_from_json(json{{"skin_tone", unknown_class}}, back));
+  json text_index = good;
+  text_index["melanin_index"] = "30";
+  EXPECT_FALSE(assessment_from_json(json{{"skin_tone", text_index}}, back));
 }
 
 TEST(AssessmentText, AFitNotJudgedIsAnEmptyObject) {

@@ -2,6 +2,7 @@
 // it prints, its exit statuses, and the fitted parameters equal to the service's stored fit.
 
 #include <gmock/gmock.h>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <sstream>
@@ -114,7 +115,13 @@ TEST_F(SessionCliTest, NewMeasureShowAndListASession) {
   EXPECT_THAT(show.out, HasSubstr("fits, model extended\nunits: surface_reflectance [fraction]; melanin [x 1 % "
                                   "melanosomes in the epidermis]; "));
   EXPECT_THAT(show.out, HasSubstr("; rmse [reflectance, as a fraction]; dE2000 [CIEDE2000 of measured and fitted "
-                                  "colour under D65]\n"));
+                                  "colour under D65]; ITA° [degrees]; M, E [100 log10 of a reflectance ratio "
+                                  "(Diffey 1984)]\n"));
+  // The fit's skin tone, as the service stored it, in its row.
+  const auto stored = json::parse(skinspec({"session", "show", "1", "--json"}).out, nullptr, false)["fits"][0];
+  ASSERT_TRUE(stored.contains("skin_tone")) << stored;
+  EXPECT_THAT(show.out, HasSubstr(fmt::format(" {:>5.1f} {:<12} ", stored["skin_tone"]["ita_deg"].get<double>(),
+                                              stored["skin_tone"]["ita_class"].get<std::string>())));
   EXPECT_THAT(show.out, EndsWith("n.d.: not determined by this spectrum (reason in --json; docs/model.md, \"What "
                                  "the spectrum determines\")\n"));
   const auto shown = json::parse(skinspec({"session", "show", "1", "--json"}).out, nullptr, false);

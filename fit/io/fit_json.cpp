@@ -117,6 +117,23 @@ void write_correlation(JsonText& out, const FitResult& fit) {
   out.close(']').close('}');
 }
 
+void write_optional(JsonText& out, const std::optional<double>& v) {
+  if (v) {
+    out.number(*v);
+  } else {
+    out.null();
+  }
+}
+
+void write_skin_tone(JsonText& out, const SkinTone& tone) {
+  out.open('{');
+  write_optional(out.key("erythema_index"), tone.erythema_index);
+  out.key("ita_class").string(to_string(tone.ita_class));
+  out.key("ita_deg").number(tone.ita_deg);
+  write_optional(out.key("melanin_index"), tone.melanin_index);
+  out.close('}');
+}
+
 }  // namespace
 
 nlohmann::json params_to_json(ModelKind model, const Params& params) {
@@ -144,6 +161,7 @@ std::string assessment_text(const FitResult& fit) {
     out.close('}');
   }
   if (!fit.coverage_note.empty()) out.key("note").string(fit.coverage_note);
+  if (fit.skin_tone) write_skin_tone(out.key("skin_tone"), *fit.skin_tone);
   if (fit.termination) out.key("termination").string(to_string(*fit.termination));
   out.close('}');
   return out.take();
@@ -219,7 +237,26 @@ bool correlation_from_json(const nlohmann::json& j, FitResult& fit) {
   return true;
 }
 
+std::optional<double> optional_number(const nlohmann::json& j, const char* key, bool& ok) {
+  if (!j.contains(key) || !(j[key].is_null() || j[key].is_number())) ok = false;
+  return ok && j[key].is_number() ? std::optional<double>(j[key].get<double>()) : std::nullopt;
+}
+
 }  // namespace
+
+std::optional<SkinTone> skin_tone_from_json(const nlohmann::json& j) {
+  if (!j.is_object() || !j.contains("ita_deg") || !j["ita_deg"].is_number() || !j.contains("ita_class") ||
+      !j["ita_class"].is_string())
+    return std::nullopt;
+  const auto ita_class = parse_ita_class(j["ita_class"].get<std::string>());
+  if (!ita_class) return std::nullopt;
+  bool ok = true;
+  SkinTone tone{.ita_deg = j["ita_deg"].get<double>(),
+                .ita_class = *ita_class,
+                .melanin_index = optional_number(j, "melanin_index", ok),
+                .erythema_index = optional_number(j, "erythema_index", ok)};
+  return ok ? std::optional(tone) : std::nullopt;
+}
 
 bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit) {
   if (!assessment.is_object()) return false;
@@ -240,6 +277,10 @@ bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit) {
   if (assessment.contains("note")) {
     if (!assessment["note"].is_string()) return false;
     fit.coverage_note = assessment["note"].get<std::string>();
+  }
+  if (assessment.contains("skin_tone")) {
+    fit.skin_tone = skin_tone_from_json(assessment["skin_tone"]);
+    if (!fit.skin_tone) return false;
   }
   if (assessment.contains("termination")) {
     const auto& termination = assessment["termination"];

@@ -3,6 +3,7 @@
 // print exactly the same fields.
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -14,12 +15,13 @@ namespace skinspec {
 // delta_e00_d65, iterations, converged, samples_ignored, wavelength_nm, measured, fitted; and,
 // for a fit that judged its parameters, determination, derived (oxygen_saturation,
 // blood_volume_fraction) and correlation; note when the spectrum covered less than the model's
-// range; termination, how the solver ended, wherever it is known. A standard error is null
+// range; skin_tone ({ita_deg, ita_class, melanin_index, erythema_index}, the measured spectrum's);
+// termination, how the solver ended, wherever it is known. A standard error is null
 // where the spectrum does not determine the parameter, and determination says why.
 nlohmann::json fit_to_json(std::string_view name, const FitResult& fit);
 
 // What the spectrum determined and how the solver ended, as fit_to_json gives it:
-// {correlation, derived, determination, note, termination}, each only when the fit has it; the
+// {correlation, derived, determination, note, skin_tone, termination}, each only when the fit has it; the
 // stored form of a fit's judgement, written directly as text, keys sorted as the JSON library
 // keeps them. Its numbers read back exactly, though not always in the library's words (1e-04
 // where it writes 0.0001).
@@ -32,9 +34,12 @@ nlohmann::json assessment_to_json(const FitResult& fit);
 std::string options_text(const FitOptions& options);
 
 // Reads assessment_to_json's object back into `fit` (whose model and params are set): its
-// determination, derived quantities, correlation, note and termination. A field that is absent
+// determination, derived quantities, correlation, note, skin tone and termination. A field that is absent
 // stays empty (a fit stored before fits were judged); false when a field is malformed.
 bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit);
+
+// A fit's "skin_tone" object read back; nullopt when it is malformed.
+std::optional<SkinTone> skin_tone_from_json(const nlohmann::json& j);
 
 // {name: value} in the model's parameter order; non-finite values are null.
 nlohmann::json params_to_json(ModelKind model, const Params& params);

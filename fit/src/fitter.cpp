@@ -200,6 +200,7 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   const auto measured_lab = Colorimetry::lab(result.measured, prepared->d65);
   const auto fitted_lab = Colorimetry::lab(result.fitted, prepared->d65);
   result.delta_e00_d65 = delta_e2000(measured_lab, fitted_lab);
+  result.skin_tone = skin_tone(result.wavelength_nm, result.measured, measured_lab);
   result.coverage_note = coverage_note(result);
   return result;
 }

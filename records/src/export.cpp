@@ -125,6 +125,10 @@ std::vector<CsvColumn> csv_columns() {
                                  {"rmse", reflectance},
                                  {"max_abs_error", reflectance},
                                  {"delta_e00_d65", "CIEDE2000"},
+                                 {"ita_deg", std::string(kItaUnit)},
+                                 {"ita_class", ""},
+                                 {"melanin_index", std::string(kSkinIndexUnit)},
+                                 {"erythema_index", std::string(kSkinIndexUnit)},
                                  {"converged", ""},
                                  {"iterations", ""},
                                  {"termination", ""},
@@ -156,6 +160,14 @@ std::string not_determined(const Fit& fit, const FitResult& result) {
   return out;
 }
 
+// ita_deg, ita_class, melanin_index and erythema_index; empty for a fit stored without them.
+std::string skin_tone_fields(const std::optional<SkinTone>& tone) {
+  if (!tone) return ",,,";
+  const auto index = [](const std::optional<double>& v) { return v ? number(*v) : std::string(); };
+  return fmt::format("{},{},{},{}", number(tone->ita_deg), to_string(tone->ita_class), index(tone->melanin_index),
+                     index(tone->erythema_index));
+}
+
 void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, const Fit* fit) {
   const Column radiance = column_of(m.radiance.wavelength_nm, m.radiance.values);
   const Column sd = column_of(m.radiance_sd.wavelength_nm, m.radiance_sd.values);
@@ -174,13 +186,14 @@ void write_csv_rows(std::ostream& out, const Session& s, const Measurement& m, c
     if (!result) throw std::runtime_error(result.error());
     prefix += fmt::format("{},{},", fit->id, csv_field(fit->model));
     for (const auto& name : parameter_columns()) prefix += value_of(*fit, name) + ",";
+    prefix += fmt::format("{},{},{},{},{},", csv_field(not_determined(*fit, *result)), number(fit->rmse),
+                          number(fit->max_abs_error), number(fit->delta_e00_d65), skin_tone_fields(result->skin_tone));
     prefix +=
-        fmt::format("{},{},{},{},{},{},{},{},{},{},", csv_field(not_determined(*fit, *result)), number(fit->rmse),
-                    number(fit->max_abs_error), number(fit->delta_e00_d65), fit->converged ? 1 : 0, fit->iterations,
+        fmt::format("{},{},{},{},{},{},", fit->converged ? 1 : 0, fit->iterations,
                     result->termination ? to_string(*result->termination) : std::string_view(),
                     csv_field(fit->model_version), csv_field(fit->tables_digest), csv_field(fit->constants_digest));
   } else {
-    prefix += std::string(parameter_columns().size() + 12, ',');
+    prefix += std::string(parameter_columns().size() + 16, ',');
   }
   for (const auto& [w, unused] : grid) {
     out << prefix << number(w) << ',' << value_at(radiance, w) << ',' << value_at(sd, w) << ','

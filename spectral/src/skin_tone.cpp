@@ -49,10 +49,15 @@ ItaClass classify_ita(double ita_deg) {
 }
 
 SkinTone skin_tone(const Spectrum& reflectance, const Lab& lab_d65) {
+  return skin_tone(reflectance.wavelengths(), reflectance.values(), lab_d65);
+}
+
+SkinTone skin_tone(std::span<const double> wavelength_nm, std::span<const double> reflectance, const Lab& lab_d65) {
   SkinTone tone;
   tone.ita_deg = individual_typology_angle(lab_d65);
   tone.ita_class = classify_ita(tone.ita_deg);
-  const double red = reflectance.at(kMelaninRedNm), green = reflectance.at(kErythemaGreenNm);
+  const double red = interpolate(wavelength_nm, reflectance, kMelaninRedNm);
+  const double green = interpolate(wavelength_nm, reflectance, kErythemaGreenNm);
   if (red > 0) tone.melanin_index = hundred_log10(1 / red);
   if (red > 0 && green > 0) tone.erythema_index = hundred_log10(red / green);
   return tone;

@@ -16,6 +16,7 @@
 #include "skinspec/fit/optics.hpp"
 #include "skinspec/fit/termination.hpp"
 #include "skinspec/spectral/colour.hpp"
+#include "skinspec/spectral/skin_tone.hpp"
 #include "skinspec/spectral/spectrum.hpp"
 
 namespace skinspec {
@@ -82,6 +83,9 @@ struct FitResult {
   double rmse = 0;                        // unweighted, over the fitted samples
   double max_abs_error = 0;
   double delta_e00_d65 = 0;  // measured against fitted, D65, 2 degree observer
+  // ITA° and the melanin and erythema indices of the measured spectrum (not of the fit), as
+  // dermatology reports them; empty for a fit stored before they were.
+  std::optional<SkinTone> skin_tone;
   // The solver's steps, taken or refused, over every solve that led to the fit.
   int iterations = 0;
   // How the solver ended; empty for a fit stored before terminations were recorded.

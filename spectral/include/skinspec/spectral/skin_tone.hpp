@@ -15,6 +15,7 @@
 //   here R is the spectrum interpolated at each wavelength.
 
 #include <optional>
+#include <span>
 #include <string_view>
 
 #include "skinspec/spectral/colour.hpp"
@@ -28,6 +29,9 @@ std::string_view to_string(ItaClass ita_class);  // "very_light", ..., "dark"
 std::optional<ItaClass> parse_ita_class(std::string_view name);
 
 inline constexpr double kErythemaGreenNm = 568, kMelaninRedNm = 655;
+// Their units, for every place that shows them.
+inline constexpr std::string_view kItaUnit = "degrees";
+inline constexpr std::string_view kSkinIndexUnit = "100 log10 of a reflectance ratio (Diffey 1984)";
 
 // atan2 keeps the angle defined where b* is not positive (no skin colour, but any spectrum):
 // for b* > 0 it is the arctangent of the definition.
@@ -46,5 +50,7 @@ struct SkinTone {
 // hand already. The reflectance is sampled inside 568-655 nm or held at its ends beyond
 // (Spectrum::at); a fit's spectrum always covers that range.
 SkinTone skin_tone(const Spectrum& reflectance, const Lab& lab_d65);
+// The same of samples (`wavelength_nm` increasing), as a fit holds them.
+SkinTone skin_tone(std::span<const double> wavelength_nm, std::span<const double> reflectance, const Lab& lab_d65);
 
 }  // namespace skinspec
