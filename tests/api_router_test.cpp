@@ -15,6 +15,7 @@
 #include "skinspec/api/router.hpp"
 #include "skinspec/records/cgats.hpp"
 #include "skinspec/spectral/colour.hpp"
+#include "skinspec/spectral/skin_tone.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/version.hpp"
 #include "support/png_reader.hpp"
@@ -510,6 +511,10 @@ TEST_F(ApiRouterTest, TheModelsRouteDescribesEachModelsParametersFromItsTables) 
     // The quantities a fit derives, as fits give them.
     EXPECT_EQ(derived, (std::vector<std::string>{"oxygen_saturation", "blood_volume_fraction"}));
     // How well a fit matches its spectrum, as fits give it, in the units the command line prints.
+    ASSERT_EQ(model["skin_tone"].size(), 4u);
+    EXPECT_EQ(model["skin_tone"][0], json({{"name", "ita_deg"}, {"label", "ITA°"}, {"unit", kItaUnit}}));
+    EXPECT_EQ(model["skin_tone"][1]["name"], "ita_class");
+    for (const std::size_t i : {2u, 3u}) EXPECT_EQ(model["skin_tone"][i]["unit"], kSkinIndexUnit);
     ASSERT_EQ(model["fit_quality"].size(), 2u);
     EXPECT_EQ(model["fit_quality"][0]["name"], "rmse");
     EXPECT_EQ(model["fit_quality"][0]["unit"], kRmseUnit);

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
@@ -247,6 +248,23 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
     const std::string row = "#fit-params tr[data-param='" + q["name"].get<std::string>() + "']";
     EXPECT_EQ(text_of(row + " th"), q["label"]) << q;
     EXPECT_EQ(text_of(row + " td.unit"), q["unit"]) << q;
+  }
+  // The measured spectrum's skin tone, as the fit gives it, beside its units.
+  ASSERT_EQ(model["skin_tone"].size(), 4u);
+  ASSERT_TRUE(fit.contains("skin_tone")) << fit;
+  for (const auto& q : model["skin_tone"]) {
+    const std::string name = q["name"], row = "#fit-params tr[data-param='" + name + "']";
+    EXPECT_EQ(text_of(row + " th"), q["label"]) << q;
+    EXPECT_EQ(text_of(row + " td.unit"), q["unit"]) << q;
+    const json& value = fit["skin_tone"][name];
+    if (value.is_string()) {
+      std::string spaced = value.get<std::string>();
+      std::ranges::replace(spaced, '_', ' ');
+      EXPECT_EQ(text_of(row + " td.value"), spaced);
+    } else {
+      ASSERT_TRUE(value.is_number()) << name;
+      EXPECT_NEAR(std::stod(text_of(row + " td.value")), value.get<double>(), 1e-2 * std::abs(value.get<double>()));
+    }
   }
   // The saturation is set, not scaled: moving its slider puts the value into the render's query.
   browser_->run(

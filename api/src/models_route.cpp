@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "skinspec/fit/model_spec.hpp"
+#include "skinspec/spectral/skin_tone.hpp"
 
 namespace skinspec::api::detail {
 
@@ -28,6 +29,10 @@ constexpr std::pair<std::string_view, std::string_view> kLabels[] = {
     {"blood_volume_fraction", "Blood volume fraction"},
     {"rmse", "RMSE"},
     {"delta_e00_d65", "ΔE2000 (D65)"},
+    {"ita_deg", "ITA°"},
+    {"ita_class", "ITA class"},
+    {"melanin_index", "Melanin index (Diffey)"},
+    {"erythema_index", "Erythema index (Diffey)"},
 };
 
 std::string label_of(std::string_view name) {
@@ -63,6 +68,13 @@ json fit_quality_json() {
   return figures;
 }
 
+// The skin-tone descriptors every fit gives of its measured spectrum (fit JSON "skin_tone";
+// docs/model.md, "Skin tone"), whatever the model.
+json skin_tone_json() {
+  return json::array({quantity_json("ita_deg", kItaUnit), quantity_json("ita_class", ""),
+                      quantity_json("melanin_index", kSkinIndexUnit), quantity_json("erythema_index", kSkinIndexUnit)});
+}
+
 json string_schema() { return {{"type", "string"}}; }
 json described(json schema, const char* description) {
   schema["description"] = description;
@@ -80,7 +92,8 @@ json models_json() {
     models.push_back({{"name", to_string(kind)},
                       {"params", params},
                       {"derived", derived_json()},
-                      {"fit_quality", fit_quality_json()}});
+                      {"fit_quality", fit_quality_json()},
+                      {"skin_tone", skin_tone_json()}});
   }
   return {{"default", to_string(kDefaultModel)}, {"models", models}};
 }
@@ -106,7 +119,10 @@ json model_list_schema() {
                         {"params", {{"type", "array"}, {"items", param}}},
                         {"derived", {{"type", "array"}, {"items", quantity}}},
                         {"fit_quality", described({{"type", "array"}, {"items", quantity}},
-                                                  "how well a fit matches its spectrum: rmse, delta_e00_d65")}}}};
+                                                  "how well a fit matches its spectrum: rmse, delta_e00_d65")},
+                        {"skin_tone", described({{"type", "array"}, {"items", quantity}},
+                                                "the measured spectrum's ITA° and class, melanin and erythema "
+                                                "indices, as each fit's skin_tone gives them")}}}};
   return {{"type", "object"},
           {"properties", {{"default", string_schema()}, {"models", {{"type", "array"}, {"items", model}}}}}};
 }

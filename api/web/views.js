@@ -297,6 +297,15 @@ function qualityRow(fit, spec) {
     h("td", {}), h("td", {}), h("td", { class: "unit" }, spec.unit));
 }
 
+// A descriptor of the measured spectrum's skin tone (ITA°, its class, the melanin and erythema
+// indices), in its unit; a class is a name, not a number.
+function skinToneRow(tone, spec) {
+  const v = tone[spec.name];
+  const shown = typeof v === "string" ? v.replaceAll("_", " ") : fmt(v, 3);
+  return h("tr", { "data-param": spec.name }, h("th", {}, spec.label), h("td", { class: "value" }, shown),
+    h("td", {}), h("td", {}), h("td", { class: "unit" }, spec.unit));
+}
+
 // The fit's parameters in its model's order (any the model does not describe after them).
 function fitTable(fit, model) {
   const own = model.params.map((p) => p.name);
@@ -307,7 +316,9 @@ function fitTable(fit, model) {
         keys.map((key) => paramRow(fit, describe(model, key))),
         model.derived.map((d) => derivedRow(fit, d)),
         ["rmse", "delta_e00_d65"].map((key) => qualityRow(fit, describe(model, key))),
-        h("tr", {}, h("th", {}, "Converged"), h("td", {}, fit.converged ? `yes, ${fit.iterations} iterations` : "no")))),
+        fit.skin_tone ? (model.skin_tone || []).map((spec) => skinToneRow(fit.skin_tone, spec)) : null,
+        h("tr", {}, h("th", {}, "Converged"), h("td", {}, fit.converged ? `yes, ${fit.iterations} iterations` : "no"),
+          h("td", {}), h("td", {}), h("td", { class: "unit" }, fit.termination ? fit.termination.replaceAll("_", " ") : "")))),
     fit.note ? h("p", { class: "meta" }, fit.note) : null);
 }
 
