@@ -233,6 +233,7 @@ void Supervisor::finish(store::Id id, const Step<store::CompletedJob>& outcome, 
     std::lock_guard lock(mutex_);
     running_.reset();
     cancel_running_.reset();
+    time_left_.reset();
     if (state_ == api::InstrumentState::measuring)
       state_ = meter_ ? api::InstrumentState::connected : api::InstrumentState::disconnected;
     if (refused) {
@@ -272,10 +273,26 @@ std::optional<store::StoreError> Supervisor::record_end(store::Id id, const stor
 void Supervisor::report_progress(api::JobPhase phase, int readings_done) {
   std::lock_guard lock(mutex_);
   if (!running_) return;
+  if (phase != api::JobPhase::measuring) time_left_.reset();
   auto& live = live_[*running_];
   live.phase = phase;
   live.readings_done = readings_done;
   job_changed();
+}
+
+void Supervisor::start_reading_clock(std::chrono::milliseconds reading_time, int after) {
+  std::lock_guard lock(mutex_);
+  time_left_ = TimeLeft{std::chrono::steady_clock::now() + reading_time, reading_time, std::max(after, 0)};
+}
+
+void Supervisor::note_firmware_warnings(const std::vector<std::string>& warnings) {
+  std::lock_guard lock(mutex_);
+  if (!identity_) return;
+  for (const auto& warning : warnings) {
+    if (std::ranges::find(identity_->warnings, warning) != identity_->warnings.end()) continue;
+    identity_->warnings.push_back(warning);
+    spdlog::warn("event=instrument_firmware serial={} warning=\"{}\"", identity_->serial_number, warning);
+  }
 }
 
 void Supervisor::forget_live(store::Id id) {
@@ -301,6 +318,14 @@ std::optional<api::JobProgress> Supervisor::progress(store::Id job_id) const {
 
 api::JobProgress Supervisor::with_position(store::Id job_id, api::JobProgress live) const {
   live.position = 0;
+  // Counted down at every look, not only when a reading ends: at most this long, each command
+  // being waited for no longer than its deadline.
+  if (running_ == job_id && time_left_ && live.phase == api::JobPhase::measuring) {
+    const auto now = std::chrono::steady_clock::now();
+    const auto current = std::max(std::chrono::steady_clock::duration::zero(), time_left_->reading_ends - now);
+    live.remaining_s =
+        std::chrono::duration<double>(current + time_left_->readings_after * time_left_->per_reading).count();
+  }
   if (live.phase == api::JobPhase::queued)
     live.position = static_cast<int>(std::ranges::find(queue_, job_id, &QueuedJob::id) - queue_.begin()) + 1;
   return live;

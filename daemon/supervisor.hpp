@@ -127,6 +127,11 @@ class Supervisor final : public api::Acquisition {
   std::optional<api::ApiError> check_exposure(int integration_ms) const;
   // The running job's phase and readings so far, told to its followers.
   void report_progress(api::JobPhase phase, int readings_done);
+  // A reading starts that may take `reading_time` at most, with `after` more to come: the
+  // running job's time left counts down from there (mutex_ not held).
+  void start_reading_clock(std::chrono::milliseconds reading_time, int after);
+  // What the driver found the meter's firmware to lack, onto the instrument's warnings, once.
+  void note_firmware_warnings(const std::vector<std::string>& warnings);
   // With mutex_ held, after the job's store record was written: counts a change and wakes the
   // followers.
   void job_changed();
@@ -146,6 +151,14 @@ class Supervisor final : public api::Acquisition {
   std::deque<QueuedJob> queue_;
   std::optional<store::Id> running_;
   std::optional<store::JobErrorCode> cancel_running_;  // cancelled (by request) or stopped
+  // The running job's time left while it measures: the current reading's deadline, each
+  // command's own (drivers::Instrument::reading_time), and the readings after it.
+  struct TimeLeft {
+    std::chrono::steady_clock::time_point reading_ends;
+    std::chrono::milliseconds per_reading{0};
+    int readings_after = 0;
+  };
+  std::optional<TimeLeft> time_left_;
   bool stopping_ = false;
   std::thread worker_;
 

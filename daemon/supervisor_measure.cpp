@@ -88,7 +88,9 @@ Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const ap
   options.integration_ms = request.integration_ms;
   report_progress(api::JobPhase::measuring, 0);
   for (int attempt = 1; std::cmp_less(out.good.size(), request.count); ++attempt) {
+    start_reading_clock(meter->reading_time(options), request.count - static_cast<int>(out.good.size()) - 1);
     auto reading = measure_reading(meter, options, attempt == 1);
+    note_firmware_warnings(meter->firmware_warnings());
     const auto received = std::chrono::system_clock::now();
     if (reading) {
       out.warnings.insert(out.warnings.end(), reading->warnings.begin(), reading->warnings.end());

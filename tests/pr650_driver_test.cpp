@@ -378,13 +378,16 @@ TEST(ExchangeRules, AMeasurementMayTakeItsIntegrationsPlusTheOverheadOtherReplie
   const auto adaptive = pr650::exchange_rule({CommandKind::measure, 0, 0, 2}, timing);
   EXPECT_EQ(adaptive.first_byte, 2 * timing.adaptive_allowance + timing.measurement_overhead);
 
-  for (const pr650::Command command :
-       {pr650::Command{CommandKind::setup}, pr650::Command{CommandKind::report, 1},
-        pr650::Command{CommandKind::report, 5}, pr650::Command{CommandKind::report, 110}}) {
+  // A setup's reply within 0.5 s; a report's within 0.5 s plus its length at 9600 baud.
+  for (const auto& [command, first_byte] :
+       std::vector<std::pair<pr650::Command, std::chrono::milliseconds>>{{{CommandKind::setup}, 500ms},
+                                                                         {{CommandKind::report, 1}, 566ms},
+                                                                         {{CommandKind::report, 110}, 566ms},
+                                                                         {{CommandKind::report, 5}, 2306ms}}) {
     const auto rule = pr650::exchange_rule(command, timing);
-    EXPECT_EQ(rule.first_byte, 500ms);
+    EXPECT_EQ(rule.first_byte, first_byte);
     EXPECT_EQ(rule.on_lost, LostReply::ask_again);
-    EXPECT_EQ(pr650::second_try(rule).first_byte, 1000ms);
+    EXPECT_EQ(pr650::second_try(rule).first_byte, 2 * first_byte);
   }
   EXPECT_EQ(pr650::exchange_rule({CommandKind::contact}, timing).on_lost, LostReply::give_up);
   EXPECT_EQ(pr650::exchange_rule({CommandKind::report, 5}, timing).shape, pr650::ReplyShape::spectral);

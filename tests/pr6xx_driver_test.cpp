@@ -222,6 +222,8 @@ const std::vector<CodeCase> kEveryCode = {
 TEST(Pr6xxDriver, EveryMeterErrorCodeBecomesItsKindAndNeverAReading) {
   for (const auto& [model, key] : {std::pair{Model::pr670, "m5"}, std::pair{Model::pr730, "t"}})
     for (const CodeCase& c : kEveryCode) {
+      // A PR-7xx's P answering illegal command is a firmware without P: Pr7xxFirmware.
+      if (model == Model::pr730 && c.code == pr6xx::kIllegalCommand) continue;
       Bench bench(model, {fmt::format("{}:error={}", key, c.code)});
       ASSERT_TRUE(bench.driver->connect());
       auto reading = bench.driver->measure({.integration_ms = 100});
@@ -432,5 +434,274 @@ TEST(Pr6xxDriver, APr7xxMeasurementCancelledMidwayIsAborted) {
   EXPECT_EQ(written.find('Q', 1), std::string::npos) << "still remote after an abort";
 }
 
+// ---- Firmware generations -------------------------------------------------------------------
+
+std::size_t occurrences(const std::string& text, std::string_view what) {
+  std::size_t n = 0;
+  for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+std::size_t warnings_with(const std::vector<std::string>& warnings, std::string_view code) {
+  return static_cast<std::size_t>(
+      std::ranges::count_if(warnings, [&](const std::string& w) { return w.starts_with(code); }));
+}
+
+MeterOptions with_firmware(Model model, std::string firmware) {
+  MeterOptions meter = meter_options(model);
+  meter.firmware = std::move(firmware);
+  return meter;
+}
+
+// The 2009 PR-730/735 firmware knows neither T nor SS: the driver measures with M5 and syncs
+// with SQ from the first refusal on, and says each once, on the reading where it was found and
+// on the instrument.
+TEST(Pr7xxFirmware, APr730WithoutTMeasuresWithM5AndWarnsOnce) {
+  Bench bench(Model::pr730, {}, fast_remote(), with_firmware(Model::pr730, "m730"));
+  ASSERT_TRUE(bench.driver->connect());
+  ASSERT_TRUE(bench.driver->identify());
+  auto first = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(first) << first.error().message;
+  EXPECT_EQ(first->radiance.size(), 401u);
+  EXPECT_EQ(warnings_with(first->warnings, "m5-fallback"), 1u) << ::testing::PrintToString(first->warnings);
+  EXPECT_EQ(warnings_with(first->warnings, "sync-command"), 1u) << ::testing::PrintToString(first->warnings);
+  auto second = bench.driver->measure({.integration_ms = 200});
+  ASSERT_TRUE(second) << second.error().message;
+  EXPECT_THAT(second->warnings, ::testing::IsEmpty()) << "said once";
+  const auto said = bench.driver->firmware_warnings();
+  EXPECT_EQ(warnings_with(said, "m5-fallback"), 1u) << ::testing::PrintToString(said);
+  EXPECT_EQ(said.size(), 2u) << ::testing::PrintToString(said);
+  const std::string written = bench.written();
+  EXPECT_EQ(occurrences(written, "T\r"), 1u) << "T is tried once per connection";
+  EXPECT_EQ(occurrences(written, "M5\r"), 2u);
+  EXPECT_EQ(occurrences(written, "P\r"), 0u);
+  EXPECT_NE(written.find("SQ0\r"), std::string::npos);
+  EXPECT_EQ(bench.rig.meter().measurements(), 2u);
+  // A new connection finds out again: the meter on the port may have been swapped.
+  bench.driver->disconnect();
+}
+
+// The same generation after a new connection, from the identity the daemon shows.
+TEST(Pr7xxFirmware, TheFallbackIsOnTheIdentityOnceFound) {
+  Bench bench(Model::pr730, {}, fast_remote(), with_firmware(Model::pr730, "m730"));
+  ASSERT_TRUE(bench.driver->connect());
+  auto before = bench.driver->identify();
+  ASSERT_TRUE(before);
+  EXPECT_EQ(warnings_with(before->warnings, "m5-fallback"), 0u);
+  ASSERT_TRUE(bench.driver->measure({.integration_ms = 100}));
+  auto after = bench.driver->identify();
+  ASSERT_TRUE(after);
+  EXPECT_EQ(warnings_with(after->warnings, "m5-fallback"), 1u) << ::testing::PrintToString(after->warnings);
+}
+
+// A PR-740 knows T, P, A and V: it is triggered, polled and read with D5, never sent M5, and a
+// cancel aborts its measurement with A.
+TEST(Pr7xxFirmware, APr740WithTStillTriggersPollsAndAborts) {
+  for (const std::string firmware : {"m7xx", "m740"}) {
+    Bench bench(Model::pr740, {}, fast_remote(), with_firmware(Model::pr740, firmware));
+    ASSERT_TRUE(bench.driver->connect());
+    auto reading = bench.driver->measure({.integration_ms = 100});
+    ASSERT_TRUE(reading) << reading.error().message;
+    EXPECT_THAT(reading->warnings, ::testing::IsEmpty());
+    EXPECT_THAT(bench.driver->firmware_warnings(), ::testing::IsEmpty());
+    const std::string written = bench.written();
+    EXPECT_NE(written.find("T\rP\rV\rD5\r"), std::string::npos) << written;
+    EXPECT_EQ(written.find("M5\r"), std::string::npos);
+    EXPECT_NE(written.find("SS0\r"), std::string::npos);
+  }
+  MeterOptions meter = with_firmware(Model::pr740, "m740");
+  meter.time_scale = 1;
+  RemoteOptions options = fast_remote();
+  options.timing.reply = 3s;
+  options.timing.line_bytes_per_second = 960;
+  Bench bench(Model::pr740, {}, options, std::move(meter));
+  ASSERT_TRUE(bench.driver->connect());
+  std::atomic<bool> returned{false};
+  std::thread canceller([&] {
+    while (bench.written().find("P\r") == std::string::npos && !returned) std::this_thread::sleep_for(5ms);
+    bench.driver->cancel();
+  });
+  auto cancelled = bench.driver->measure({.integration_ms = 60000});
+  returned = true;
+  canceller.join();
+  ASSERT_FALSE(cancelled);
+  EXPECT_EQ(cancelled.error().kind, K::cancelled);
+  EXPECT_TRUE(bench.written().ends_with("A\r")) << bench.written();
+}
+
+// An M5 cannot be stopped on the wire: a cancel returns at once, the meter measures on, and its
+// reading is discarded when it arrives, before the next measurement's commands.
+TEST(Pr7xxFirmware, ACancelledM5RunsOnAndItsReadingIsDiscarded) {
+  MeterOptions meter = with_firmware(Model::pr730, "m730");
+  meter.time_scale = 0.2;
+  RemoteOptions options = fast_remote();
+  options.timing.reply = 3s;
+  options.timing.line_bytes_per_second = 960;
+  options.timing.measurement_overhead = 3s;
+  Bench bench(Model::pr730, {}, options, std::move(meter));
+  ASSERT_TRUE(bench.driver->connect());
+  auto found = bench.driver->measure({.integration_ms = 100});  // finds out: M5 from now on
+  ASSERT_TRUE(found) << found.error().message << "\n"
+                     << bench.written() << "\n"
+                     << ::testing::PrintToString(bench.rig.log());
+  std::atomic<bool> returned{false};
+  std::thread canceller([&] {
+    while (occurrences(bench.written(), "M5\r") < 2 && !returned) std::this_thread::sleep_for(5ms);
+    std::this_thread::sleep_for(50ms);
+    bench.driver->cancel();
+  });
+  const auto start = std::chrono::steady_clock::now();
+  auto cancelled = bench.driver->measure({.integration_ms = 2000});  // 0.9 s at this time scale
+  returned = true;
+  canceller.join();
+  ASSERT_FALSE(cancelled);
+  EXPECT_EQ(cancelled.error().kind, K::cancelled);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 600ms) << "the cancel does not wait for the measurement";
+  EXPECT_EQ(bench.written().find("A\r"), std::string::npos) << "no abort on this firmware";
+  auto next = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(next) << next.error().message;
+  EXPECT_EQ(next->integration_ms, 100);
+  EXPECT_EQ(next->radiance.size(), 401u);
+}
+
+// A setup the firmware does not know is done without where that changes nothing the reading
+// depends on (SH0, SN01, SU), and refused where it would (SH1, SN02).
+TEST(Pr7xxFirmware, UnknownSetupsAreDoneWithoutOnlyWhereHarmless) {
+  {
+    Bench bench(Model::pr730, {"sh:error=-1000", "su:error=-1000"}, fast_remote());
+    ASSERT_TRUE(bench.driver->connect());
+    auto reading = bench.driver->measure({.integration_ms = 100});
+    ASSERT_TRUE(reading) << reading.error().message;
+    EXPECT_EQ(warnings_with(reading->warnings, "no-sensitivity"), 1u) << ::testing::PrintToString(reading->warnings);
+    EXPECT_EQ(warnings_with(reading->warnings, "no-units"), 1u);
+    EXPECT_EQ(reading->luminance_units, "as set on the meter");
+  }
+  {
+    Bench bench(Model::pr730, {"sn:error=-1000"}, fast_remote());
+    ASSERT_TRUE(bench.driver->connect());
+    auto refused = bench.driver->measure({.integration_ms = 100, .averages = 2});
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().kind, K::rejected) << refused.error().message;
+  }
+}
+
+// ---- No hang: every wait sized to its command ------------------------------------------------
+
+// 120 s exposures averaged twice take 8 minutes on the meter (here a hundredth of it): polled
+// until done within the deadline sized to them, never timed out.
+TEST(Pr7xxDeadlines, ALongExposureAveragedTwiceFinishes) {
+  MeterOptions meter = meter_options(Model::pr730);
+  meter.time_scale = 0.01;
+  meter.sensor.full_scale = 1e4;  // a dim source: 120 s fills the detector halfway
+  RemoteOptions options = fast_remote();
+  options.timing.reply = 2s;
+  options.timing.measurement_overhead = 1s;
+  options.timing.poll_interval = 100ms;
+  options.timing.line_bytes_per_second = 960;  // the meter's own line rate, unscaled
+  Bench bench(Model::pr730, {}, options, std::move(meter));
+  ASSERT_TRUE(bench.driver->connect());
+  const MeasureOptions two_long{.integration_ms = 120000, .averages = 2};
+  EXPECT_GT(bench.driver->reading_time(two_long), 481s) << "two dark and two light exposures of 120 s, and more";
+  auto reading = bench.driver->measure(two_long);
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->averages, 2);
+  EXPECT_NE(bench.written().find("SN02\r"), std::string::npos);
+  EXPECT_NE(bench.written().find("SE120000\r"), std::string::npos);
+}
+
+// ---- Q alone: a stop inside a paced command -------------------------------------------------
+
+// How the test stops the driver while `command` goes out: a cancel and the next call, a cancel
+// and a disconnect (what skinspecd's stop does), or a disconnect alone.
+enum class Stop { cancel_then_continue, cancel_and_disconnect, disconnect };
+
+std::string_view to_string(Stop stop) {
+  switch (stop) {
+    case Stop::cancel_then_continue:
+      return "cancel";
+    case Stop::cancel_and_disconnect:
+      return "cancel and disconnect";
+    case Stop::disconnect:
+      return "disconnect";
+  }
+  return "?";
+}
+
+// Paced as a real meter's link is, slowly enough for the watcher to land between two bytes.
+RemoteOptions paced() {
+  RemoteOptions options = fast_remote();
+  options.pacing = 8ms;
+  return options;
+}
+
+// Runs `call` on the bench's driver and stops it with `stop` once the first `bytes` bytes of
+// `command` (its first occurrence after what was written before) are on the wire.
+void stop_inside(Bench& bench, const std::string& command, std::size_t bytes, Stop stop,
+                 const std::function<void()>& call) {
+  const std::size_t mark = bench.written().size();
+  std::atomic<bool> done{false};
+  std::thread stopper([&] {
+    const std::string prefix = command.substr(0, bytes);
+    for (;;) {
+      const std::string written = bench.written();
+      const auto at = written.find(command.substr(0, 2), mark);
+      if (at != std::string::npos && written.size() >= at + bytes && written.compare(at, bytes, prefix) == 0) break;
+      if (done) return;
+      std::this_thread::sleep_for(200us);
+    }
+    if (stop != Stop::disconnect) bench.driver->cancel();
+    if (stop != Stop::cancel_then_continue) bench.driver->disconnect();
+  });
+  call();
+  done = true;
+  stopper.join();
+}
+
+// The meter's own account: every command it took was one it knows (no "D11Q"), no setup it
+// took was other than the driver meant, and it ended in local mode after a Q of its own.
+void expect_q_alone(Bench& bench, const std::string& where) {
+  bench.driver->disconnect();
+  bench.rig.wait_for_end(100ms);
+  EXPECT_THAT(bench.rig.meter().problems(), ::testing::IsEmpty()) << where;
+  EXPECT_TRUE(bench.logged("command Q: remote mode left")) << where << "\n" << bench.written();
+  EXPECT_EQ(bench.rig.meter().mode(), simulator::SimulatedMeter::Mode::local) << where;
+  const auto log = bench.rig.log();
+  EXPECT_FALSE(std::ranges::any_of(log, [](const std::string& l) { return l.find("refused") != std::string::npos; }))
+      << where;
+}
+
+TEST(Pr6xxQuitAlone, AStopAtEveryByteOfD110LeavesQAlone) {
+  const std::string d110 = "D110\r";
+  for (const Stop stop : {Stop::cancel_then_continue, Stop::cancel_and_disconnect, Stop::disconnect})
+    for (std::size_t bytes = 1; bytes <= d110.size(); ++bytes) {
+      const std::string where = fmt::format("{} after {} bytes of D110", to_string(stop), bytes);
+      Bench bench(Model::pr670, {}, paced());
+      ASSERT_TRUE(bench.driver->connect()) << where;
+      ASSERT_TRUE(bench.driver->identify()) << where;
+      stop_inside(bench, d110, bytes, stop, [&] { (void)bench.driver->check(); });
+      if (stop == Stop::cancel_then_continue) {
+        EXPECT_TRUE(bench.driver->check()) << where;
+      }
+      expect_q_alone(bench, where);
+    }
+}
+
+TEST(Pr6xxQuitAlone, AStopAtEveryByteOfASetupLeavesQAlone) {
+  const std::string setup = pr6xx::format_exposure(123);  // "SE00123\r"
+  for (const Model model : {Model::pr670, Model::pr730})
+    for (const Stop stop : {Stop::cancel_then_continue, Stop::cancel_and_disconnect})
+      for (std::size_t bytes = 1; bytes <= setup.size(); ++bytes) {
+        const std::string where = fmt::format("{}: {} after {} bytes of {}", profile(model).name, to_string(stop),
+                                              bytes, setup.substr(0, setup.size() - 1));
+        Bench bench(model, {}, paced());
+        ASSERT_TRUE(bench.driver->connect()) << where;
+        stop_inside(bench, setup, bytes, stop, [&] { (void)bench.driver->measure({.integration_ms = 123}); });
+        if (stop == Stop::cancel_then_continue) {
+          auto next = bench.driver->measure({.integration_ms = 123});
+          EXPECT_TRUE(next) << where << ": " << next.error().message;
+        }
+        expect_q_alone(bench, where);
+      }
+}
 }  // namespace
 }  // namespace skinspec::drivers

@@ -342,5 +342,186 @@ TEST(MeasureCommandSignals, SigtermDuringAMeasurementStillLeavesRemoteMode) {
 
 INSTANTIATE_TEST_SUITE_P(EachFamily, MeasureCommandTest, ::testing::Values(kPr650, kPr670, kPr730), model_name);
 
+// ---- Firmware generations with real processes ---------------------------------------------
+
+// A PR-730 whose firmware lacks T measures every job with M5, and the instrument says so once.
+TEST(Pr7xxFirmwareProcess, APr730WithoutTMeasuresWithM5AndTheInstrumentWarnsOnce) {
+  ScratchDirectory dir;
+  RigOptions options = rig_for(dir, kPr730);
+  options.sim_args.insert(options.sim_args.end(), {"--firmware", "m730"});
+  AcquisitionRig rig(options);
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const long long session = new_session(rig.port, "F1");
+  for (int i = 0; i < 2; ++i) {
+    const auto job = wait_for_job(rig.port, submit(rig.port, session, {{"kind", "white"}}));
+    ASSERT_EQ(job["state"], "succeeded") << job << rig.logs();
+  }
+  const json instrument = get_json(rig.port, "/api/v1/instrument");
+  const auto m5 = std::ranges::count_if(instrument["warnings"],
+                                        [](const json& w) { return w.get<std::string>().starts_with("m5-fallback"); });
+  EXPECT_EQ(m5, 1) << instrument;
+  EXPECT_TRUE(rig.sim->wait_for_stderr("unknown command 'T'", 1s)) << rig.logs();
+  const std::string log = rig.sim->err();
+  EXPECT_EQ(log.find("unknown command 'T'"), log.rfind("unknown command 'T'")) << "T is tried once";
+}
+
+// ---- No hang, and the time left ------------------------------------------------------------
+
+// Two 120 s readings on a PR-730 (at a hundredth of the time): the job succeeds, and while it
+// measures its progress says how long it may still take, never more than a moment before.
+TEST(Pr7xxDeadlinesProcess, ALongExposureFinishesAndShowsTheTimeLeftThroughout) {
+  ScratchDirectory dir;
+  // A dim lamp, so that 120 s fills the detector about halfway.
+  AcquisitionRig rig(rig_options(dir.path().string(),
+                                 {"--model", "pr730", "--time-scale", "0.01", "--white-luminance", "0.4"},
+                                 {"--model", "pr730"}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const long long session = new_session(rig.port, "L1");
+  const auto accepted = submit(rig.port, session, {{"kind", "white"}, {"integration_ms", 120000}, {"count", 2}});
+  ASSERT_TRUE(accepted.contains("job_id")) << accepted;
+  const std::string target = "/api/v1/jobs/" + std::to_string(accepted["job_id"].get<long long>());
+  std::optional<double> last;
+  int measuring_looks = 0;
+  json job;
+  for (auto until = std::chrono::steady_clock::now() + 40s; std::chrono::steady_clock::now() < until;) {
+    job = get_json(rig.port, target);
+    const std::string state = job.value("state", "");
+    if (state != "queued" && state != "running") break;
+    const json& progress = job["progress"];
+    if (progress.value("phase", "") == "measuring") {
+      ASSERT_TRUE(progress.contains("remaining_s") && progress["remaining_s"].is_number()) << job;
+      const double left = progress["remaining_s"].get<double>();
+      EXPECT_GT(left, 0) << job;
+      if (last) {
+        EXPECT_LE(left, *last + 0.5) << "the time left only goes down: " << job;
+      }
+      last = left;
+      ++measuring_looks;
+    }
+    std::this_thread::sleep_for(100ms);
+  }
+  ASSERT_EQ(job["state"], "succeeded") << job << rig.logs();
+  EXPECT_GT(measuring_looks, 10) << "followed while it measured";
+  EXPECT_GE(last.value_or(0), 0);
+}
+
+// ---- Q alone: a stop at every byte of a paced command -------------------------------------
+
+// What skinspec-sim logs as each byte of `command`'s first `bytes` bytes arrives.
+std::string traced(std::string_view command, std::size_t bytes) {
+  std::string shown;
+  for (const char c : command.substr(0, bytes)) shown += c == '\r' ? std::string("\\r") : std::string(1, c);
+  return "received \"" + shown + "\"";
+}
+
+// Waits until the simulator's log, after `mark` and after the whole of `before` when given (the
+// command sent just before, so that an "S" is the first byte of this setup and not of another),
+// shows the first `bytes` bytes of `command`.
+bool wait_for_bytes(BackgroundProcess& sim, std::size_t mark, std::string_view command, std::size_t bytes,
+                    std::chrono::milliseconds limit = 20s, std::string_view before = {}) {
+  const std::string line = traced(command, bytes);
+  const std::string previous = before.empty() ? std::string() : traced(before, before.size());
+  for (auto until = std::chrono::steady_clock::now() + limit; std::chrono::steady_clock::now() < until;) {
+    const std::string log = sim.err();
+    const auto from = previous.empty() ? mark : log.find(previous, mark);
+    if (from != std::string::npos && log.find(line, from) != std::string::npos) return true;
+    std::this_thread::sleep_for(1ms);
+  }
+  return false;
+}
+
+// After `mark`, the meter took no command it did not know (a "D11Q"), refused none, and left
+// remote mode on a Q of its own.
+void expect_q_alone(BackgroundProcess& sim, std::size_t mark, const std::string& where) {
+  for (auto until = std::chrono::steady_clock::now() + 10s; std::chrono::steady_clock::now() < until;) {
+    if (sim.err().find(kQuitLogged, mark) != std::string::npos) break;
+    std::this_thread::sleep_for(10ms);
+  }
+  const std::string log = sim.err().substr(mark);
+  EXPECT_NE(log.find(kQuitLogged), std::string::npos) << where << "\n" << log;
+  EXPECT_EQ(log.find("unknown command"), std::string::npos) << where << "\n" << log;
+  EXPECT_EQ(log.find("refused"), std::string::npos) << where << "\n" << log;
+  EXPECT_NE(log.find("received \"Q\""), std::string::npos) << where;
+}
+
+RigOptions traced_rig(const ScratchDirectory& dir, const Meter& meter) {
+  return rig_options(dir.path().string(),
+                     {"--model", meter.model, "--serial", meter.serial, "--time-scale", "0", "--trace-bytes"},
+                     {"--model", meter.model, "--instrument-check-ms", "100"});
+}
+
+// SIGTERM while skinspecd's idle check sends D110, after each of its bytes in turn.
+TEST(Pr6xxQuitAloneProcess, SigtermAtEveryByteOfTheIdleCheck) {
+  ScratchDirectory dir;
+  AcquisitionRig rig(traced_rig(dir, kPr670));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const std::string d110 = "D110\r";
+  for (std::size_t bytes = 1; bytes <= d110.size(); ++bytes) {
+    const std::string where = "SIGTERM after " + std::to_string(bytes) + " bytes of D110";
+    if (bytes > 1) rig.restart_daemon();
+    ASSERT_EQ(when_connected(rig.port)["state"], "connected") << rig.logs();
+    const std::size_t mark = rig.sim->err().size();
+    ASSERT_TRUE(wait_for_bytes(*rig.sim, mark, d110, bytes)) << where << rig.logs();
+    const auto stopped = rig.stop_daemon();
+    EXPECT_EQ(stopped.exit_status, 0) << stopped.describe();
+    expect_q_alone(*rig.sim, mark, where);
+  }
+}
+
+// SIGTERM while a job sends its exposure (SE00123), after each of its bytes in turn.
+void sigterm_at_bytes_of_a_setup(std::size_t from, std::size_t to) {
+  ScratchDirectory dir;
+  AcquisitionRig rig(traced_rig(dir, kPr670));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const std::string setup = "SE00123\r";
+  for (std::size_t bytes = from; bytes <= to; ++bytes) {
+    const std::string where = "SIGTERM after " + std::to_string(bytes) + " bytes of SE00123";
+    if (bytes > from) rig.restart_daemon();
+    ASSERT_EQ(when_connected(rig.port)["state"], "connected") << rig.logs();
+    const std::size_t mark = rig.sim->err().size();
+    const long long session = new_session(rig.port, "Q" + std::to_string(bytes));
+    const auto accepted = submit(rig.port, session, {{"kind", "white"}, {"integration_ms", 123}});
+    ASSERT_TRUE(accepted.contains("job_id")) << accepted;
+    ASSERT_TRUE(wait_for_bytes(*rig.sim, mark, setup, bytes, 20s, "SH0\r")) << where << rig.logs();
+    const auto stopped = rig.stop_daemon();
+    EXPECT_EQ(stopped.exit_status, 0) << stopped.describe();
+    expect_q_alone(*rig.sim, mark, where);
+  }
+}
+
+TEST(Pr6xxQuitAloneProcess, SigtermAtTheFirstBytesOfASetup) { sigterm_at_bytes_of_a_setup(1, 4); }
+TEST(Pr6xxQuitAloneProcess, SigtermAtTheLastBytesOfASetup) { sigterm_at_bytes_of_a_setup(5, 8); }
+
+// A job cancelled while it sends its exposure, after each byte in turn, on one connection: the
+// setup still reaches the meter whole, so the next job's commands and the final Q are its own.
+TEST(Pr6xxQuitAloneProcess, CancelAtEveryByteOfASetup) {
+  ScratchDirectory dir;
+  AcquisitionRig rig(traced_rig(dir, kPr670));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  ASSERT_EQ(when_connected(rig.port)["state"], "connected") << rig.logs();
+  const std::size_t start = rig.sim->err().size();
+  const long long session = new_session(rig.port, "C1");
+  // The other setups once, so that each job after sends its exposure first.
+  const auto first = wait_for_job(rig.port, submit(rig.port, session, {{"kind", "white"}, {"integration_ms", 100}}));
+  ASSERT_EQ(first["state"], "succeeded") << first << rig.logs();
+  for (std::size_t bytes = 1; bytes <= 8; ++bytes) {
+    const int exposure = 100 + static_cast<int>(bytes);  // a new SE every job
+    const std::string setup = "SE00" + std::to_string(exposure) + "\r";
+    const std::string where = "cancel after " + std::to_string(bytes) + " bytes of " + setup.substr(0, 7);
+    const std::size_t mark = rig.sim->err().size();
+    const auto accepted = submit(rig.port, session, {{"kind", "white"}, {"integration_ms", exposure}});
+    ASSERT_TRUE(accepted.contains("job_id")) << accepted;
+    ASSERT_TRUE(wait_for_bytes(*rig.sim, mark, setup, bytes)) << where << rig.logs();
+    const std::string target = "/api/v1/jobs/" + std::to_string(accepted["job_id"].get<long long>());
+    const auto cancelled = http_request(rig.port, "DELETE", target, "");
+    EXPECT_EQ(cancelled.status, 200) << where << cancelled.body;
+    const auto job = wait_for_job(rig.port, accepted);
+    EXPECT_TRUE(job["state"] == "cancelled" || job["state"] == "succeeded") << where << job;
+    EXPECT_TRUE(wait_for_bytes(*rig.sim, mark, setup, setup.size(), 5s)) << where << ": sent whole";
+  }
+  const auto stopped = rig.stop_daemon();
+  EXPECT_EQ(stopped.exit_status, 0) << stopped.describe();
+  expect_q_alone(*rig.sim, start, "cancel at every byte");
+}
 }  // namespace
 }  // namespace skinspec::testing

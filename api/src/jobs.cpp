@@ -47,11 +47,15 @@ bool counts_spectra(const store::Job& job) {
 // storing the rest.
 double measuring_fraction(int done, int total) { return total > 0 ? 0.9 * done / total : 0.0; }
 
+// A measurement that measures also says how long it may still take (remaining_s: at most, each
+// of the meter's commands waited for no longer than its deadline).
 json live_progress(const JobProgress& p) {
   double fraction = measuring_fraction(p.readings_done, p.readings_total);
   if (p.phase == JobPhase::fitting) fraction = 0.9;
   if (p.phase == JobPhase::storing) fraction = 0.95;
-  return progress_json(p.phase, p.readings_done, p.readings_total, fraction);
+  json out = progress_json(p.phase, p.readings_done, p.readings_total, fraction);
+  if (p.remaining_s) out["remaining_s"] = *p.remaining_s;
+  return out;
 }
 
 std::int64_t integer_in(const json& object, const char* key, std::int64_t fallback) {

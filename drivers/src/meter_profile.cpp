@@ -29,32 +29,41 @@ constexpr WireStyle kShortErrors{};
 constexpr WireStyle kPr655Wire{.data_exponent_digits = 3};
 constexpr WireStyle kPaddedErrors{.padded_errors = true};
 
+// What each manual generation documents (docs/pr6xx-protocol.md, "Firmware generations"). The
+// PR-730/735 manual of 2009 lists neither T, P, A nor V, and its syntax line spells sync SQ; the
+// simulator takes it at its word, so that the driver's fallbacks are tried.
+constexpr std::array<Firmware, 1> kPr655Firmware{{{"m655", false, SyncCommand::ss}}};
+constexpr std::array<Firmware, 1> kPr680Firmware{{{"m680", false, SyncCommand::ss}}};
+constexpr std::array<Firmware, 2> kPr730Firmware{{{"m7xx", true, SyncCommand::ss}, {"m730", false, SyncCommand::sq}}};
+constexpr std::array<Firmware, 2> kPr740Firmware{{{"m7xx", true, SyncCommand::ss}, {"m740", true, SyncCommand::ss}}};
+constexpr std::array<Firmware, 1> kPr788Firmware{{{"m7xx", true, SyncCommand::ss}}};
+
 constexpr ExposureRange kPr670Exposure{6, 6000, 30000};
 constexpr ExposureRange kPr7xxExposure{12, 120000, 300000};
 
 // clang-format off
 constexpr std::array<MeterProfile, 9> kProfiles{{
     {Model::pr650, Family::pr650, "pr650", "PR-650", "", kGrid4nm, {}, kGrid4nm, {10, 6000, 0},
-     SyncStyle::setup_field, 40, 250, kPr650Caps, kPr650Wire, ErrorTable::pr650_quality, 0ms, "60912345"},
+     SyncStyle::setup_field, 40, 250, kPr650Caps, kPr650Wire, ErrorTable::pr650_quality, 0ms, "60912345", {}},
     {Model::pr655, Family::pr6xx, "pr655", "PR-655", "PR-655", kGrid4nm, {}, kGrid4nm, {3, 6000, 0},
-     SyncStyle::ss_sk, 20, 400, kPr655Caps, kPr655Wire, ErrorTable::pr6xx, 50ms, "65500001"},
+     SyncStyle::ss_sk, 20, 400, kPr655Caps, kPr655Wire, ErrorTable::pr6xx, 50ms, "65500001", kPr655Firmware},
     {Model::pr670, Family::pr6xx, "pr670", "PR-670", "PR-670", kGrid2nm, {}, kGrid2nm, kPr670Exposure,
-     SyncStyle::ss_sk, 20, 400, kPr670Caps, kShortErrors, ErrorTable::pr6xx, 50ms, "67065106"},
+     SyncStyle::ss_sk, 20, 400, kPr670Caps, kShortErrors, ErrorTable::pr6xx, 50ms, "67065106", kPr655Firmware},
     // Nothing documents the PR-680's grid or ranges: the simulator gives it the PR-670's.
     {Model::pr680, Family::pr6xx, "pr680", "PR-680", "PR-680", std::nullopt, {}, kGrid2nm, kPr670Exposure,
-     SyncStyle::ss_sk, 20, 400, kPr670Caps, kShortErrors, ErrorTable::pr6xx, 50ms, "68000001"},
+     SyncStyle::ss_sk, 20, 400, kPr670Caps, kShortErrors, ErrorTable::pr6xx, 50ms, "68000001", kPr680Firmware},
     // The PR-730/735 and PR-740 manuals' D120 example shows the PR-670's 2 nm grid.
     {Model::pr730, Family::pr7xx, "pr730", "PR-730", "PR-730/735", kGrid1nm, {kGrid2nm}, kGrid1nm, kPr7xxExposure,
-     SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kShortErrors, ErrorTable::pr6xx, 50ms, "73000001"},
+     SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kShortErrors, ErrorTable::pr6xx, 50ms, "73000001", kPr730Firmware},
     // One manual ends the PR-735's range at 1100 nm, a later one at 1080 nm.
     {Model::pr735, Family::pr7xx, "pr735", "PR-735", "PR-730/735", kGridTo1080, {kGridTo1100}, kGridTo1080,
-     kPr7xxExposure, SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kShortErrors, ErrorTable::pr6xx, 50ms, "73500001"},
+     kPr7xxExposure, SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kShortErrors, ErrorTable::pr6xx, 50ms, "73500001", kPr730Firmware},
     {Model::pr740, Family::pr7xx, "pr740", "PR-740", "PR-740", kGrid1nm, {kGrid2nm}, kGrid1nm, kPr7xxExposure,
-     SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kPaddedErrors, ErrorTable::pr6xx, 50ms, "74000001"},
+     SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kPaddedErrors, ErrorTable::pr6xx, 50ms, "74000001", kPr740Firmware},
     {Model::pr745, Family::pr7xx, "pr745", "PR-745", "PR-745", kGridTo1080, {}, kGridTo1080, kPr7xxExposure,
-     SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kPaddedErrors, ErrorTable::pr6xx, 50ms, "74500001"},
+     SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kPaddedErrors, ErrorTable::pr6xx, 50ms, "74500001", kPr740Firmware},
     {Model::pr788, Family::pr7xx, "pr788", "PR-788", "PR-788", kGrid1nm, {}, kGrid1nm, kPr7xxExposure,
-     SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kPaddedErrors, ErrorTable::pr6xx, 50ms, "78800001"},
+     SyncStyle::ss_sk, 20, 400, kPr7xxCaps, kPaddedErrors, ErrorTable::pr6xx, 50ms, "78800001", kPr788Firmware},
 }};
 // clang-format on
 
@@ -73,6 +82,9 @@ constexpr bool table_is_sound() {
     }
     if (row.caps.remote_keyword != (row.family != Family::pr650)) return false;
     if (row.caps.trigger_poll_abort != (row.family == Family::pr7xx)) return false;
+    if (row.firmware.empty() != (row.family == Family::pr650)) return false;
+    // The newest generation has every capability the row claims.
+    if (!row.firmware.empty() && row.firmware.front().trigger_poll_abort != row.caps.trigger_poll_abort) return false;
   }
   return true;
 }
@@ -133,6 +145,11 @@ std::string_view to_string(Family family) {
       return "pr7xx";
   }
   return "unknown";
+}
+
+const Firmware* find_firmware(const MeterProfile& profile, std::string_view id) {
+  const auto found = std::ranges::find(profile.firmware, id, &Firmware::id);
+  return found == profile.firmware.end() ? nullptr : &*found;
 }
 
 ModelMatch match_reported_model(std::string_view text) {

@@ -57,11 +57,19 @@ std::expected<void, std::string> finish_model(const RawOptions& raw, simulator::
   }
   const bool newer = config.model && drivers::profile(*config.model).caps.remote_keyword;
   const bool overridden = !raw.banner.empty() || !raw.error_style.empty() || !raw.d120.empty() || !wire.d111.empty() ||
-                          wire.status_digits || wire.exponent_digits;
+                          wire.status_digits || wire.exponent_digits || !config.meter.firmware.empty();
   if (overridden && !newer)
     return std::unexpected(
-        "--banner, --error-style, --status-digits, --exponent-digits, --d111 and --d120 need a newer --model "
-        "(pr655 or later)");
+        "--banner, --error-style, --status-digits, --exponent-digits, --d111, --d120 and --firmware need a newer "
+        "--model (pr655 or later)");
+  if (!config.meter.firmware.empty()) {
+    const drivers::MeterProfile& row = drivers::profile(*config.model);
+    if (!drivers::find_firmware(row, config.meter.firmware)) {
+      std::string known;
+      for (const auto& firmware : row.firmware) known += (known.empty() ? "" : ", ") + std::string(firmware.id);
+      return std::unexpected(fmt::format("--firmware '{}': the {} has {}", config.meter.firmware, row.name, known));
+    }
+  }
   if (!raw.banner.empty()) wire.banner = raw.banner == "crlf" ? drivers::BannerEnd::crlf : drivers::BannerEnd::none;
   if (!raw.error_style.empty()) wire.padded_errors = raw.error_style == "padded";
   wire.d120_manual = raw.d120 == "manual";
@@ -193,6 +201,11 @@ std::expected<AppOptions, EarlyExit> parse_options(int argc, char** argv) {
   app.add_option("--d120", raw.d120, "newer models: 'manual' prints the manuals' D120 example (201 points, 2 nm)")
       ->type_name("manual")
       ->check(CLI::IsMember({"manual"}));
+  app.add_option("--firmware", meter.firmware,
+                 "newer models: the firmware generation, by the manual that describes it (m730: no T/P/A/V and "
+                 "sync as SQ; default the model's newest; docs/simulator.md)")
+      ->type_name("ID");
+  app.add_flag("--trace-bytes", meter.trace_bytes, "log every byte received, with the command so far");
   app.add_option("--header", raw.header, "spectral report header layout: h1 or h2 (default h1)")
       ->type_name("h1|h2")
       ->check(CLI::IsMember({"h1", "h2", "H1", "H2"}));

@@ -152,7 +152,30 @@ struct SimulatedMeter::Impl {
   Outgoing outgoing(detail::Reply reply, const std::vector<Fault>& faults);
   std::optional<ServeEnd> transmit(drivers::Transport& link, const std::atomic<bool>& stop, const Outgoing& out);
   void act_on_unread(drivers::Transport& link, std::string_view unread);
+  void trace(char byte, bool framed);
+  std::string traced;  // the bytes of the command being received, for trace_bytes
 };
+
+namespace {
+std::string escaped(std::string_view bytes) {
+  std::string out;
+  for (const char c : bytes) {
+    if (c == '\r') out += "\\r";
+    else if (c == '\n') out += "\\n";
+    else if (c < 0x20 || c == 0x7f) out += fmt::format("\\x{:02x}", static_cast<unsigned char>(c));
+    else out += c;
+  }
+  return out;
+}
+}  // namespace
+
+// One line per byte with the command so far ("received \"D11\""), so that a test can act
+// between two bytes of a paced command.
+void SimulatedMeter::Impl::trace(char byte, bool framed) {
+  traced += byte;
+  log(fmt::format("received \"{}\"", escaped(traced)));
+  if (framed || byte == '\r' || byte == '\n') traced.clear();
+}
 
 Mode SimulatedMeter::Impl::current_mode() const {
   if (mode == Mode::boot && Clock::now() - powered_on > Millis(options.boot_window_s * 1000)) return Mode::local;
@@ -423,6 +446,7 @@ SimulatedMeter::ServeEnd SimulatedMeter::serve(drivers::Transport& link, const s
         if (m.echo && remote) echoed += c;
       }
       auto frame = m.framer->push(c, m.newer ? remote : true);
+      if (m.options.trace_bytes) m.trace(c, frame.has_value());
       if (!frame) continue;
       // The echo of a command goes out before its reply.
       if (!echoed.empty() && !link.write(std::exchange(echoed, {}), drivers::deadline_in(kWriteTimeout)))

@@ -35,6 +35,12 @@ constexpr int kPixels = 256, kFirstPixel = 7, kLastPixel = 247;
 constexpr drivers::Grid kManualD120Grid{380, 780, 2, 201};
 constexpr double kPlanckTimesLight = 1.98644586e-25;  // h c, J m
 
+// The generation asked for, or the model's newest (the options were checked when parsed).
+const drivers::Firmware& firmware_of(const MeterProfile& profile, const std::string& id) {
+  const drivers::Firmware* found = drivers::find_firmware(profile, id);
+  return found ? *found : profile.firmware.front();
+}
+
 p6::ReplyStyle style_of(const MeterProfile& profile, const WireOverrides& wire) {
   p6::ReplyStyle style = p6::reply_style(profile.wire);
   if (wire.banner) style.banner = *wire.banner;
@@ -68,6 +74,7 @@ class RemoteInstrument final : public Responder {
         observer_(std::move(synthesis.observer)),
         scenes_(std::move(synthesis.scenes)),
         options_(options),
+        firmware_(firmware_of(profile_, options.firmware)),
         style_(style_of(profile_, options.wire)),
         rng_(options.seed) {
     if (scenes_.empty()) scenes_.push_back({"darkness", std::vector<double>(nm_.size(), 0.0), 0});
@@ -110,6 +117,7 @@ class RemoteInstrument final : public Responder {
   std::vector<Scene> scenes_;
   std::size_t scene_ = 0;  // the scene under the meter: advances after a measurement that succeeds
   const MeterOptions& options_;
+  const drivers::Firmware& firmware_;
   p6::ReplyStyle style_;
   std::mt19937_64 rng_;
   RemoteSetup setup_;
@@ -131,7 +139,7 @@ Outcome RemoteInstrument::respond(const Command& command, std::vector<Fault>& fa
   const std::string_view parameters = command.parameters();
   if (command.key == "photo") return answer(p6::format_banner(style_));
   if (command.key == "q") return {};
-  const bool pr7xx = profile_.caps.trigger_poll_abort;
+  const bool pr7xx = firmware_.trigger_poll_abort;
   switch (command.letter) {
     case 'D':
       if (const auto code = whole_number(parameters, 4)) {
@@ -143,7 +151,11 @@ Outcome RemoteInstrument::respond(const Command& command, std::vector<Fault>& fa
       break;
     case 'S': {
       if (measuring()) return answer(p6::format_setup_status(kBusy, style_));
-      const int status = apply_remote_setup(command.text, profile_, setup_);
+      // An error fault refuses the setup with its code, as a firmware that lacks it would.
+      const auto refusal = std::ranges::find(faults, FaultKind::error, &Fault::kind);
+      const int status = refusal != faults.end() ? static_cast<int>(refusal->amount)
+                                                 : apply_remote_setup(command.text, profile_, firmware_, setup_);
+      std::erase_if(faults, [](const Fault& f) { return f.kind == FaultKind::error; });
       Outcome out = answer(p6::format_setup_status(status, style_));
       if (status != 0)
         out.notes.push_back(fmt::format("setup '{}' refused: {}", command.text, p6::error_message(status)));

@@ -71,7 +71,8 @@ int max_exposure_ms(const RemoteSetup& setup, const drivers::MeterProfile& profi
                                                                 : profile.exposure.max_ms;
 }
 
-int apply_remote_setup(std::string_view command, const drivers::MeterProfile& profile, RemoteSetup& setup) {
+int apply_remote_setup(std::string_view command, const drivers::MeterProfile& profile,
+                       const drivers::Firmware& firmware, RemoteSetup& setup) {
   if (command.size() < 2) return kIllegalCommand;
   const auto value = whole_number(command.substr(2), 7);
   const drivers::Capabilities& caps = profile.caps;
@@ -82,7 +83,10 @@ int apply_remote_setup(std::string_view command, const drivers::MeterProfile& pr
       if (!value || *value < 1 || *value > 99) return kIllegalCommand;
       setup.cycles = *value;
       return 0;
+    // SS as the headings spell it, SQ as the syntax lines do: a firmware that follows its
+    // syntax line strictly knows SQ only.
     case 'S':
+      return firmware.sync == drivers::SyncCommand::sq ? kIllegalCommand : set_sync(value, setup);
     case 'Q':
       return set_sync(value, setup);
     case 'K':

@@ -31,7 +31,9 @@ inline constexpr std::string_view kApertureNames[] = {"1 deg", "1/2 deg", "1/4 d
 
 // Applies a setup command ("SE00250", "SS1", "SK060", ...; upper case, without terminator) and
 // returns its status: 0, or the code the meter refuses it with (the setup then unchanged).
-int apply_remote_setup(std::string_view command, const drivers::MeterProfile& profile, RemoteSetup& setup);
+// `firmware` decides which spelling of the sync command it knows.
+int apply_remote_setup(std::string_view command, const drivers::MeterProfile& profile,
+                       const drivers::Firmware& firmware, RemoteSetup& setup);
 
 // A parameter of digits only ("0250"), at most `max_digits` of them.
 std::optional<int> whole_number(std::string_view digits, std::size_t max_digits);

@@ -5,6 +5,7 @@
 #include <array>
 #include <atomic>
 #include <csignal>
+#include <ctime>
 
 namespace skinspec::drivers {
 
@@ -39,7 +40,21 @@ void on_fatal_signal(int signal, siginfo_t* info, void* context) {
 
 }  // namespace
 
+// A CR first ends whatever command the crash cut short ("D11" becomes a report the meter
+// refuses harmlessly), so that Q arrives as a command of its own. There is no waiting for that
+// reply here; only the meters' byte pacing (50 ms, nanosleep being async-signal-safe) keeps the
+// Q from following the CR too closely to be kept.
 void send_emergency_quit() noexcept {
+  constexpr timespec kPacing{0, 50'000'000};
+  bool any = false;
+  for (auto& slot : g_listed)
+    if (const int fd = slot.load() - 1; fd >= 0) {
+      const ssize_t ignored = ::write(fd, "\r", 1);
+      static_cast<void>(ignored);
+      any = true;
+    }
+  if (!any) return;
+  ::nanosleep(&kPacing, nullptr);
   for (auto& slot : g_listed)
     if (const int fd = slot.load() - 1; fd >= 0) {
       const ssize_t ignored = ::write(fd, "Q", 1);

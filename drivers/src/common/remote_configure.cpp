@@ -84,6 +84,32 @@ std::expected<void, InstrumentError> RemoteMeter::setup(std::optional<std::strin
   return {};
 }
 
+// Older firmware may not know a setup a newer one added. Where going without it changes nothing
+// the reading depends on (`harmless`: it would set what the meter starts with, or only the
+// photometric units, which are then the meter's), the driver says so once and sends it no more
+// on this connection; otherwise the refusal stands.
+bool RemoteMeter::do_without(const InstrumentError& error, bool& known, bool harmless, std::string_view command,
+                             const Instead& instead) {
+  if (error.kind != InstrumentError::Kind::rejected || error.quality_code != p6::kIllegalCommand || !harmless)
+    return false;
+  known = false;
+  note_firmware(fmt::format("{}: the {} does not know '{}' ({}); {}", instead.code, profile_.name,
+                            remote::printable(command), p6::error_message(p6::kIllegalCommand), instead.what));
+  return true;
+}
+
+// SS, or SQ as the older manuals' syntax line spells it, once SS was not known.
+std::expected<void, InstrumentError> RemoteMeter::setup_sync_mode(p6::SyncMode mode) {
+  auto ok = setup(sync_mode_, p6::format_sync_mode(mode, options_.style, dialect_.sync));
+  if (ok || dialect_.sync == SyncCommand::sq || ok.error().quality_code != p6::kIllegalCommand) return ok;
+  dialect_.sync = SyncCommand::sq;
+  note_firmware(
+      fmt::format("sync-command: the {} does not know 'SS' ({}); sync is set with SQ, as its manual's "
+                  "syntax line spells it",
+                  profile_.name, p6::error_message(p6::kIllegalCommand)));
+  return setup(sync_mode_, p6::format_sync_mode(mode, options_.style, dialect_.sync));
+}
+
 std::expected<void, InstrumentError> RemoteMeter::wait_while_busy(std::string_view command) {
   return std::unexpected(InstrumentError{
       InstrumentError::Kind::protocol,
@@ -117,10 +143,18 @@ std::expected<int, InstrumentError> RemoteMeter::aperture_code(const std::string
 std::expected<std::string, InstrumentError> RemoteMeter::configure(const MeasureOptions& options, int exposure_ms,
                                                                    bool sync_on) {
   const p6::CommandStyle& style = options_.style;
-  if (auto ok = setup(units_, p6::format_units(options.si_units, style)); !ok) return std::unexpected(ok.error());
-  if (profile_.caps.sensitivity) {
+  if (dialect_.units) {
+    const std::string units = p6::format_units(options.si_units, style);
+    if (auto ok = setup(units_, units); !ok && !do_without(ok.error(), dialect_.units, true, units,
+                                                           {"no-units", "luminance is in the units set on the meter"}))
+      return std::unexpected(ok.error());
+  }
+  if (profile_.caps.sensitivity && dialect_.sensitivity) {
     const auto before = sensitivity_;
-    if (auto ok = setup(sensitivity_, p6::format_sensitivity(options.extended_sensitivity, style)); !ok)
+    const std::string sensitivity = p6::format_sensitivity(options.extended_sensitivity, style);
+    if (auto ok = setup(sensitivity_, sensitivity);
+        !ok && !do_without(ok.error(), dialect_.sensitivity, !options.extended_sensitivity, sensitivity,
+                           {"no-sensitivity", "the meter measures at the standard sensitivity it starts with"}))
       return std::unexpected(ok.error());
     if (sensitivity_ != before) exposure_.reset();  // the meter shortens an exposure the new range lacks
   }
@@ -128,7 +162,13 @@ std::expected<std::string, InstrumentError> RemoteMeter::configure(const Measure
       fmt::format("; the {} takes {}-{} ms", profile_.name, profile_.exposure.min_ms, longest_exposure_ms(options));
   if (auto ok = setup(exposure_, p6::format_exposure(exposure_ms, style), range); !ok)
     return std::unexpected(ok.error());
-  if (auto ok = setup(averages_, p6::format_averages(options.averages, style)); !ok) return std::unexpected(ok.error());
+  if (dialect_.averages) {
+    const std::string averages = p6::format_averages(options.averages, style);
+    if (auto ok = setup(averages_, averages);
+        !ok && !do_without(ok.error(), dialect_.averages, options.averages == 1, averages,
+                           {"no-averages", "the meter measures once, as it starts"}))
+      return std::unexpected(ok.error());
+  }
   if (!options.aperture.empty()) {
     auto code = aperture_code(options.aperture);
     if (!code) return std::unexpected(code.error());
@@ -141,7 +181,7 @@ std::expected<std::string, InstrumentError> RemoteMeter::configure(const Measure
 // is SS3 with SK. `sync_on` false (asked for, or after the meter could not sync): SS0.
 std::expected<std::string, InstrumentError> RemoteMeter::configure_sync(const MeasureOptions& options, bool sync_on) {
   const p6::CommandStyle& style = options_.style;
-  auto mode_is = [&](p6::SyncMode mode) { return setup(sync_mode_, p6::format_sync_mode(mode, style)); };
+  auto mode_is = [&](p6::SyncMode mode) { return setup_sync_mode(mode); };
   if (sync_on && options.sync == MeasureOptions::Sync::frequency) {
     const int hz = static_cast<int>(options.sync_hz);
     if (auto ok = mode_is(p6::SyncMode::user); !ok) return std::unexpected(ok.error());

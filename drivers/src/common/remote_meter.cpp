@@ -68,6 +68,49 @@ void RemoteMeter::forget_connection() {
   sensitivity_.reset(), aperture_.reset(), apertures_.reset();
   session_->reset_cancel();
   connect_warnings_.clear();
+  dialect_ = {};
+  std::lock_guard lock(warnings_mutex_);
+  firmware_warnings_.clear();
+}
+
+std::vector<std::string> RemoteMeter::firmware_warnings() const {
+  std::lock_guard lock(warnings_mutex_);
+  return firmware_warnings_;
+}
+
+void RemoteMeter::note_firmware(std::string warning) {
+  std::lock_guard lock(warnings_mutex_);
+  if (std::ranges::find(firmware_warnings_, warning) == firmware_warnings_.end())
+    firmware_warnings_.push_back(std::move(warning));
+}
+
+void RemoteMeter::stop_triggering(std::string_view command) {
+  dialect_.trigger = false;
+  note_firmware(fmt::format(
+      "m5-fallback: the {} does not know '{}' ({}), as the firmware of the 2009 PR-730/735 manual does not: it "
+      "measures with M5 on this connection, and a cancelled measurement runs on in the meter (its reading is "
+      "discarded)",
+      profile_.name, remote::printable(command), p6::error_message(p6::kIllegalCommand)));
+}
+
+void RemoteMeter::without_last_error() {
+  dialect_.last_error = false;
+  note_firmware(
+      fmt::format("no-last-error: the {} does not know 'V' ({}); a measurement's outcome is read from "
+                  "its spectral report's status",
+                  profile_.name, p6::error_message(p6::kIllegalCommand)));
+}
+
+// Each reply at its deadline, a command of up to eight bytes paced before each: the setups (at
+// most seven), T and V or nothing, the measurement with its spectral report, D1 and D2.
+std::chrono::milliseconds RemoteMeter::reading_time(const MeasureOptions& options) const {
+  const auto pacing = options_.pacing.value_or(profile_.pacing);
+  const int points = identity_.grid.points > 0 ? identity_.grid.points : profile_.simulator_grid->points;
+  const auto exchange = 8 * pacing + options_.timing.reply + whole_reply(0);
+  auto total = 11 * exchange + measurement_time(options.integration_ms, options.averages) + options_.timing.reply +
+               whole_reply(points);
+  if (options.sync == MeasureOptions::Sync::automatic) total += options_.timing.flicker;
+  return total;
 }
 
 std::expected<void, InstrumentError> RemoteMeter::connect() {
@@ -189,17 +232,58 @@ std::expected<Identity, InstrumentError> RemoteMeter::query_identity() {
   auto configuration = session_->ask(p6::format_report(120, options_.style), rule, "hardware configuration",
                                      p6::parse_hardware_configuration);
   if (!configuration) return std::unexpected(configuration.error());
-  if (configuration->status.code != 0)
+  if (configuration->status.code != 0 && !profile_.grid)
     return fail(InstrumentError::Kind::protocol,
                 fmt::format("hardware configuration: the {} answered {}", profile_.name,
                             p6::error_message(configuration->status.code)));
+  if (configuration->status.code != 0) {
+    // A firmware without D120 measures on the model's documented grid, which every spectrum
+    // is still checked against.
+    configuration->grid = *profile_.grid;
+    note_firmware(
+        fmt::format("d120: the {} answered D120 with {}; its spectra are taken on the {}'s documented "
+                    "grid, {}-{} nm by {} nm",
+                    profile_.name, p6::error_message(configuration->status.code), profile_.name,
+                    profile_.grid->first_nm, profile_.grid->last_nm, profile_.grid->step_nm));
+  }
   identity.grid = configuration->grid;
   identity.configuration = {
       configuration->grid.points, configuration->bandwidth_nm, static_cast<double>(configuration->grid.first_nm),
       static_cast<double>(configuration->grid.last_nm), static_cast<double>(configuration->grid.step_nm)};
+  const auto learned = firmware_warnings();
+  identity.warnings.insert(identity.warnings.end(), learned.begin(), learned.end());
   identity_ = identity;
   identified_ = true;
   return identity;
+}
+
+// M5 measures and answers with the spectrum. A measurement that never answered is made once
+// more; one whose reply came damaged did measure, so D5 reads the same measurement again.
+std::expected<RemoteMeter::Spectrum, InstrumentError> RemoteMeter::measure_with_m5(int exposure_ms, int cycles) {
+  const auto limit = measurement_time(exposure_ms, cycles);
+  const std::string command = p6::format_measure(5, options_.style);
+  bool remeasured = false;
+  for (int attempt = 1; attempt <= 2; ++attempt) {
+    const Rule rule{p6::ReplyShape::spectral,   grid().points, limit, options_.timing.idle,
+                    whole_reply(grid().points), false};
+    auto reply = session_->transact(command, rule);
+    if (!reply) {
+      // There is no abort: the measurement runs on, and its reply is drained before the next.
+      if (reply.error().kind == InstrumentError::Kind::cancelled) measurement_pending(limit);
+      return std::unexpected(reply.error());
+    }
+    if (reply->end == remote::ReplyEnd::silent) {
+      remeasured = true;
+      continue;
+    }
+    if (reply->end == remote::ReplyEnd::complete)
+      if (auto report = p6::parse_spectral(reply->bytes, grid()); report)
+        return Spectrum{std::move(*report), reply->bytes, remeasured};
+    auto again = read_spectrum(p6::format_report(5, options_.style), options_.timing.reply, true);
+    if (again) again->remeasured = remeasured;
+    return again;
+  }
+  return std::unexpected(session_->unanswered(command, {}));
 }
 
 std::expected<RemoteMeter::Spectrum, InstrumentError> RemoteMeter::read_spectrum(std::string_view command,
@@ -256,6 +340,7 @@ std::expected<Reading, InstrumentError> RemoteMeter::measure(const MeasureOption
     session_->drain(options_.timing.idle, pending_);
     pending_ = 0ms;
   }
+  const std::size_t warned = firmware_warnings().size();
   Reading reading;
   reading.started = std::chrono::system_clock::now();
   reading.integration_ms = options.integration_ms;
@@ -291,6 +376,11 @@ std::expected<Reading, InstrumentError> RemoteMeter::measure(const MeasureOption
     reading.integrated = report.integrated;
     reading.raw_reply = spectrum->raw;
     if (auto ok = read_colorimetry(reading, options.si_units); !ok) return std::unexpected(ok.error());
+    if (!dialect_.units) reading.luminance_units = "as set on the meter";
+    // What this reading found the firmware to lack goes with it, once.
+    const auto learned = firmware_warnings();
+    reading.warnings.insert(reading.warnings.end(), learned.begin() + static_cast<std::ptrdiff_t>(warned),
+                            learned.end());
     reading.finished = std::chrono::system_clock::now();
     return reading;
   }

@@ -100,23 +100,57 @@ std::expected<void, InstrumentError> Session::open(std::chrono::milliseconds mod
   return {};
 }
 
-// One byte at a time, never two within `pacing` of each other, across commands too: the
-// meters lose a byte that follows the one before too closely (the makers' and the field's
-// drivers wait 50 ms between bytes). The wait yields to cancel().
-std::expected<void, InstrumentError> Session::write_paced(std::string_view command) {
-  if (pacing_ <= 0ms) {
-    if (auto written = transport_.write(command, deadline_in(timing_.reply)); !written)
-      return std::unexpected(link_error(written.error(), command));
-    return {};
-  }
-  for (std::size_t i = 0; i < command.size(); ++i) {
+// One byte at a time, never two within `pacing` of each other, across commands too: the meters
+// lose a byte that follows the one before too closely (the makers' and the field's drivers wait
+// 50 ms between bytes). Only the wait before a command's first byte yields to cancel(): once a
+// byte is out, the command goes out whole and its reply is waited for briefly (settle), so that
+// the meter never takes what comes next, Q above all, as the rest of it.
+std::expected<void, InstrumentError> Session::write_paced(std::string_view command, Pacing pacing) {
+  const bool yields = pacing == Pacing::yields;
+  const std::size_t step = pacing_ > 0ms ? 1 : command.size();
+  for (std::size_t i = 0; i < command.size(); i += step) {
     const auto wait = std::chrono::ceil<std::chrono::milliseconds>(last_byte_ + pacing_ - Clock::now());
-    if (wait > 0ms && !pause(wait)) return fail(InstrumentError::Kind::cancelled, "cancelled");
-    if (auto written = transport_.write(command.substr(i, 1), deadline_in(timing_.reply)); !written)
+    const bool first = yields && i == 0;
+    if (first && ((wait > 0ms && !pause(wait)) || cancelled_))
+      return fail(InstrumentError::Kind::cancelled, "cancelled");
+    if (!first && wait > 0ms) std::this_thread::sleep_for(wait);
+    const std::string_view bytes = command.substr(i, step);
+    auto written = first ? transport_.write(bytes, deadline_in(timing_.reply)) : write_uninterrupted(bytes);
+    if (!written) {
+      if (first && written.error().kind == TransportError::Kind::interrupted)
+        return fail(InstrumentError::Kind::cancelled, "cancelled");
       return std::unexpected(link_error(written.error(), command));
+    }
     last_byte_ = Clock::now();
   }
+  if (yields && cancelled_) return settle();
   return {};
+}
+
+// cancel() interrupts the transport, perhaps just after the interrupt was cleared: one more try.
+std::expected<void, TransportError> Session::write_uninterrupted(std::string_view bytes) {
+  std::expected<void, TransportError> written;
+  for (int attempt = 1; attempt <= 2; ++attempt) {
+    transport_.clear_interrupt();
+    written = transport_.write(bytes, deadline_in(timing_.reply));
+    if (written || written.error().kind != TransportError::Kind::interrupted) return written;
+  }
+  return written;
+}
+
+// After a command that a cancel overtook while it went out: its reply (one line), waited for no
+// longer than `settle`, whatever it says. The call ends cancelled all the same.
+std::unexpected<InstrumentError> Session::settle() {
+  std::string received;
+  char buffer[256];
+  const Deadline end = deadline_in(timing_.settle);
+  while (p6::reply_size(p6::ReplyShape::line, received) == 0 && Clock::now() < end) {
+    transport_.clear_interrupt();
+    auto n = transport_.read(buffer, sizeof buffer, end);
+    if (n) received.append(buffer, *n);
+    else if (n.error().kind != TransportError::Kind::interrupted) break;
+  }
+  return fail(InstrumentError::Kind::cancelled, "cancelled");
 }
 
 // A command and the wait for its reply: the first byte within the rule's time, then no pause
@@ -253,13 +287,13 @@ InstrumentError Session::not_remote_mode(std::string_view command, std::string_v
           -1, std::string(answer)};
 }
 
+// Q alone: a command a cancel cut short was finished before the cancelled call returned, and
+// the pacing wait before Q does not yield to a cancel that comes meanwhile.
 void Session::quit() {
   if (!remote_) return;
   if (transport_.is_open()) {
     transport_.clear_interrupt();
-    const bool was = cancelled_.exchange(false);  // the pacing wait must not be cut short
-    (void)write_paced(p6::kQuit);
-    cancelled_ = was;
+    (void)write_paced(p6::kQuit, Pacing::whole);
   }
   set_remote(false);
 }

@@ -75,7 +75,11 @@ class Session {
   InstrumentError link_error(const TransportError& error, std::string_view command) const;
 
  private:
-  std::expected<void, InstrumentError> write_paced(std::string_view command);
+  // Whether the wait before a command's first byte yields to cancel(); Q's does not.
+  enum class Pacing { yields, whole };
+  std::expected<void, InstrumentError> write_paced(std::string_view command, Pacing pacing = Pacing::yields);
+  std::expected<void, TransportError> write_uninterrupted(std::string_view bytes);
+  std::unexpected<InstrumentError> settle();
   std::expected<std::string, InstrumentError> read_banner(std::chrono::milliseconds first_byte);
   InstrumentError not_remote_mode(std::string_view command, std::string_view answer) const;
   // Remote mode entered or left, with the link on the emergency list (emergency_quit.hpp) while

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <mutex>
 
@@ -62,6 +63,18 @@ class AutoInstrument final : public Instrument {
     static const std::string none;
     auto driver = current();
     return driver ? driver->serial_number() : none;
+  }
+  std::vector<std::string> firmware_warnings() const override {
+    auto driver = current();
+    return driver ? driver->firmware_warnings() : std::vector<std::string>{};
+  }
+  // Before identification: as long as the slowest family's reading may take.
+  std::chrono::milliseconds reading_time(const MeasureOptions& options) const override {
+    if (auto driver = current()) return driver->reading_time(options);
+    int longest = 0;
+    for (const MeterProfile& row : all_profiles())
+      longest = std::max({longest, row.exposure.max_ms, row.exposure.max_extended_ms});
+    return std::chrono::milliseconds(2L * longest * std::max(options.averages, 1));
   }
 
  private:

@@ -535,4 +535,19 @@ std::expected<Reading, InstrumentError> Pr650::measure(const MeasureOptions& opt
   }
 }
 
+// A setup, the flicker when syncing automatically, M0 and the three reports, each at its rule's
+// longest: the first byte's wait and the whole reply.
+std::chrono::milliseconds Pr650::reading_time(const MeasureOptions& options) const {
+  using pr650::CommandKind;
+  const auto longest = [this](const pr650::Command& command) {
+    const pr650::ExchangeRule r = rule(command);
+    return r.first_byte + r.whole;
+  };
+  auto total = longest({CommandKind::setup}) +
+               longest({CommandKind::measure, 0, options.integration_ms, options.averages}) +
+               longest({CommandKind::report, 5}) + 2 * longest({CommandKind::report, 1});
+  if (options.sync == MeasureOptions::Sync::automatic) total += longest({CommandKind::flicker});
+  return total;
+}
+
 }  // namespace skinspec::drivers

@@ -58,8 +58,8 @@ std::string format_averages(int cycles, const CommandStyle& style) {
   return format_command(fmt::format("SN{:02}", cycles), style);
 }
 
-std::string format_sync_mode(SyncMode mode, const CommandStyle& style) {
-  return format_command(fmt::format("SS{}", static_cast<int>(mode)), style);
+std::string format_sync_mode(SyncMode mode, const CommandStyle& style, SyncCommand spelling) {
+  return format_command(fmt::format("{}{}", spelling == SyncCommand::sq ? "SQ" : "SS", static_cast<int>(mode)), style);
 }
 
 std::string format_sync_frequency(int hz, const CommandStyle& style) {

@@ -118,6 +118,14 @@ class Instrument {
 
   virtual std::string describe() const = 0;
   virtual const std::string& serial_number() const = 0;
+
+  // What the driver found on this connection that the meter's firmware lacks, and does without
+  // ("m5-fallback: ..."), each once; empty for a meter that knows every command. Any thread.
+  virtual std::vector<std::string> firmware_warnings() const { return {}; }
+  // The longest one measure() with `options` may take while the meter answers in time: the
+  // deadlines of its commands, each sized to the command (measurements by their exposures and
+  // averages, replies by their length at the link's rate). For the time left of a job.
+  virtual std::chrono::milliseconds reading_time(const MeasureOptions& options) const = 0;
 };
 
 }  // namespace skinspec::drivers

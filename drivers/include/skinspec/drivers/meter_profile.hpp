@@ -61,6 +61,20 @@ struct WireStyle {
   char exponent_letter = 'e';
 };
 
+// How a firmware spells the sync-mode command: SSf as the manuals' headings and the field's
+// drivers do, or SQf as the older syntax lines print it.
+enum class SyncCommand : std::uint8_t { ss, sq };
+
+// One generation of a model's firmware, named by the manual that describes it (the source ids of
+// docs/pr6xx-protocol.md, lower case): the commands it knows where the generations differ. A
+// model's first row is the newest; the simulator plays each (--firmware), and the drivers find
+// out which one they talk to from the meter's refusals.
+struct Firmware {
+  std::string_view id;              // "m730": the 2009 PR-730/735 manual; --firmware of skinspec-sim
+  bool trigger_poll_abort = false;  // T, P, A and V
+  SyncCommand sync = SyncCommand::ss;
+};
+
 struct MeterProfile {
   Model model;
   Family family;
@@ -76,14 +90,17 @@ struct MeterProfile {
   Capabilities caps;
   WireStyle wire;
   ErrorTable errors;
-  std::chrono::milliseconds pacing;  // between the bytes of a command
-  std::string_view serial;           // the simulator's D110
+  std::chrono::milliseconds pacing;    // between the bytes of a command
+  std::string_view serial;             // the simulator's D110
+  std::span<const Firmware> firmware;  // newest first; empty for the PR-650
 };
 
 const MeterProfile& profile(Model model);
 std::span<const MeterProfile> all_profiles();             // in enum order
 std::optional<Model> model_from_id(std::string_view id);  // "pr670" -> Model::pr670 (case-insensitive)
 std::string_view to_string(Family family);                // "pr650", "pr6xx", "pr7xx"
+// The model's firmware generation `id` ("m730"); nullptr when the model has none of that name.
+const Firmware* find_firmware(const MeterProfile& profile, std::string_view id);
 
 // The models a D111 text names. Case, blanks, hyphens and a leading "PR" are ignored, a
 // '/'-list names several ("PR-730/735"), and letters after the number are a variant of the

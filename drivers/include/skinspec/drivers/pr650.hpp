@@ -65,6 +65,7 @@ class Pr650 final : public Instrument {
 
   std::string describe() const override { return transport_->describe(); }
   const std::string& serial_number() const override { return serial_number_; }
+  std::chrono::milliseconds reading_time(const MeasureOptions& options) const override;
 
  private:
   // How the wait for one reply ended: all of it, nothing at all, or a start that stopped.

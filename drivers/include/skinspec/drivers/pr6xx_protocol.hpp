@@ -38,7 +38,8 @@ std::string format_measure(int code, const CommandStyle& style = {});           
 std::string format_exposure(int ms, const CommandStyle& style = {});
 std::string format_averages(int cycles, const CommandStyle& style = {});  // "SN01\r" ... "SN99\r"
 enum class SyncMode { none = 0, automatic = 1, user = 3 };
-std::string format_sync_mode(SyncMode mode, const CommandStyle& style = {});    // "SS0\r" "SS1\r" "SS3\r"
+// "SS0\r" "SS1\r" "SS3\r"; "SQ0\r" ... as the older syntax lines spell it.
+std::string format_sync_mode(SyncMode mode, const CommandStyle& style = {}, SyncCommand spelling = SyncCommand::ss);
 std::string format_sync_frequency(int hz, const CommandStyle& style = {});      // "SK060\r" (20-400 Hz)
 std::string format_sensitivity(bool extended, const CommandStyle& style = {});  // "SH0\r" / "SH1\r"
 std::string format_aperture(int code, const CommandStyle& style = {});          // "SF1\r" (code from D117)
@@ -74,6 +75,10 @@ enum class ReplyShape { line, spectral, listing };
 std::size_t reply_size(ReplyShape shape, std::string_view received, int points = 0);
 
 // ---- Status and meter error codes ---------------------------------------------------------
+
+// The status of a command the meter does not know (M655 to M7XX alike): what an older firmware
+// answers to a command a newer one added.
+inline constexpr int kIllegalCommand = -1000;
 
 struct Status {
   int code = 0;    // 0 OK, negative an error, 1 busy (P and S... on the PR-7xx)

@@ -44,6 +44,8 @@ class RemoteMeter : public Instrument {
   void cancel() override;
   std::string describe() const override { return transport_->describe(); }
   const std::string& serial_number() const override { return identity_.serial_number; }
+  std::vector<std::string> firmware_warnings() const override;
+  std::chrono::milliseconds reading_time(const MeasureOptions& options) const override;
 
   const MeterProfile& profile() const { return profile_; }
 
@@ -68,6 +70,27 @@ class RemoteMeter : public Instrument {
     return spectrum;
   }
   virtual std::expected<Spectrum, InstrumentError> take_spectrum(int exposure_ms, int cycles) = 0;
+  // M5, whose reply is the spectrum: the PR-655/670/680's measurement, and the PR-7xx's on a
+  // firmware without T. A measurement that never answered is made once more; one whose reply
+  // came damaged did measure, so D5 reads it again. There is no abort: a cancelled M5's reply is
+  // drained before the next measurement.
+  std::expected<Spectrum, InstrumentError> measure_with_m5(int exposure_ms, int cycles);
+
+  // What the meter on this connection turned out not to know, found from its refusals (an
+  // older firmware: docs/pr6xx-protocol.md, "Firmware generations"), and what the driver does
+  // instead. Forgotten on connect.
+  struct Dialect {
+    bool trigger = true;     // T, P, A and V; false: M5
+    bool last_error = true;  // V
+    SyncCommand sync = SyncCommand::ss;
+    bool units = true;        // SU
+    bool sensitivity = true;  // SH0 (standard sensitivity, as the meter starts)
+    bool averages = true;     // SN01 (no averaging, as the meter starts)
+  };
+  const Dialect& dialect() const { return dialect_; }
+  // The PR-7xx's trigger refused (`command` answered illegal command): M5 from now on, said once.
+  void stop_triggering(std::string_view command);
+  void without_last_error();
 
   remote::Session& session() { return *session_; }
   const RemoteOptions& options() const { return options_; }
@@ -105,6 +128,16 @@ class RemoteMeter : public Instrument {
   std::expected<void, InstrumentError> setup(std::optional<std::string>& last, const std::string& command,
                                              std::string_view range = {});
   std::expected<void, InstrumentError> read_colorimetry(Reading& reading, bool si_units);
+  // A setup the meter answered illegal command: whether the driver may do without it (then it
+  // says so once and sends it no more on this connection).
+  struct Instead {
+    std::string_view code;  // the warning's code: "no-units"
+    std::string_view what;  // what the meter does then
+  };
+  bool do_without(const InstrumentError& error, bool& known, bool harmless, std::string_view command,
+                  const Instead& instead);
+  std::expected<void, InstrumentError> setup_sync_mode(pr6xx::SyncMode mode);
+  void note_firmware(std::string warning);
 
   std::unique_ptr<Transport> transport_;
   const MeterProfile& profile_;
@@ -118,7 +151,10 @@ class RemoteMeter : public Instrument {
   std::optional<std::string> units_, exposure_, averages_, sync_mode_, sync_frequency_, sensitivity_, aperture_;
   std::optional<std::vector<pr6xx::Aperture>> apertures_;  // D117, read once per connection when needed
   std::chrono::milliseconds pending_{0};
-  std::mutex call_mutex_;  // one call on the wire at a time
+  Dialect dialect_;
+  mutable std::mutex warnings_mutex_;           // firmware_warnings_, read from any thread
+  std::vector<std::string> firmware_warnings_;  // each fallback, said once per connection
+  std::mutex call_mutex_;                       // one call on the wire at a time
 };
 
 }  // namespace skinspec::drivers

@@ -56,7 +56,11 @@ struct WireOverrides {
 
 struct MeterOptions {
   drivers::Model model = drivers::Model::pr650;
-  WireOverrides wire;                // newer models only
+  WireOverrides wire;  // newer models only
+  // Newer models: the firmware generation played (MeterProfile::firmware, by id: "m730");
+  // empty: the model's newest.
+  std::string firmware;
+  bool trace_bytes = false;          // log every byte received, with the line it adds to
   double boot_window_s = 5;          // real seconds, not scaled
   double time_scale = 1;             // multiplies measurement times, reply delays and byte pacing
   std::string serial_number;         // D110; empty: the profile's ("60912345" for the PR-650)
