@@ -885,6 +885,13 @@ TEST_F(ApiRouterTest, TheSessionsModelFitsItsMeasurements) {
   EXPECT_TRUE(body(extended)["params"].contains("oxygen_saturation"));
   EXPECT_TRUE(body(extended)["determination"]["oxygen_saturation"].contains("determined"));
   EXPECT_NE(body(extended)["constants_digest"], body(paper)["constants_digest"]);
+  // Both carry the measured spectrum's skin tone, the same whatever the model, its class one the
+  // OpenAPI document lists.
+  EXPECT_EQ(body(extended)["skin_tone"], body(paper)["skin_tone"]);
+  const json fit_schema = body(call("GET", "/openapi.json"))["components"]["schemas"]["Fit"];
+  const json& classes = fit_schema["properties"]["skin_tone"]["properties"]["ita_class"]["enum"];
+  EXPECT_EQ(classes, json({"very_light", "light", "intermediate", "tan", "brown", "dark"})) << fit_schema;
+  EXPECT_NE(std::ranges::find(classes, body(paper)["skin_tone"]["ita_class"]), classes.end());
 
   expect_error(call("POST", url, json{{"model", "textbook"}}.dump()), 422, "unknown_model");
   expect_error(call("POST", "/api/v1/sessions", json{{"site", "forearm"}, {"subject", "S"}, {"model", 3}}.dump()), 422,

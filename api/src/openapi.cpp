@@ -7,6 +7,7 @@
 #include "skinspec/api/router.hpp"
 #include "skinspec/fit/model_spec.hpp"
 #include "skinspec/fit/termination.hpp"
+#include "skinspec/spectral/skin_tone.hpp"
 #include "skinspec/version.hpp"
 
 namespace skinspec::api {
@@ -71,6 +72,14 @@ json assessment_fields() {
              {{"params", {{"type", "array"}, {"items", {{"type", "string"}}}}},
               {"matrix", {{"type", "array"}, {"items", {{"type", "array"}, {"items", nullable("number")}}}}}}}}},
           {"note", {{"type", "string"}}},
+          {"skin_tone",
+           {{"type", "object"},
+            {"description", "the measured spectrum's skin tone (docs/model.md, \"Skin tone\")"},
+            {"properties",
+             {{"ita_deg", {{"type", "number"}}},
+              {"ita_class", {{"type", "string"}, {"enum", names(ita_class_names())}}},
+              {"melanin_index", nullable("number")},
+              {"erythema_index", nullable("number")}}}}},
           {"termination", {{"type", "string"}, {"enum", names(termination_names())}}}};
 }
 

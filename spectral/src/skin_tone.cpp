@@ -38,6 +38,8 @@ std::string_view to_string(ItaClass ita_class) { return name_of(kItaClassNames, 
 
 std::optional<ItaClass> parse_ita_class(std::string_view name) { return value_named(kItaClassNames, name); }
 
+std::span<const std::pair<ItaClass, std::string_view>> ita_class_names() { return kItaClassNames; }
+
 double individual_typology_angle(const Lab& lab_d65) {
   return std::atan2(lab_d65.l - 50, lab_d65.b) * 180 / std::numbers::pi;
 }

@@ -17,6 +17,7 @@
 #include <optional>
 #include <span>
 #include <string_view>
+#include <utility>
 
 #include "skinspec/spectral/colour.hpp"
 #include "skinspec/spectral/spectrum.hpp"
@@ -27,6 +28,8 @@ enum class ItaClass { very_light, light, intermediate, tan, brown, dark };
 
 std::string_view to_string(ItaClass ita_class);  // "very_light", ..., "dark"
 std::optional<ItaClass> parse_ita_class(std::string_view name);
+// Every class with its name, lightest first: for documents that list them (OpenAPI).
+std::span<const std::pair<ItaClass, std::string_view>> ita_class_names();
 
 inline constexpr double kErythemaGreenNm = 568, kMelaninRedNm = 655;
 // Their units, for every place that shows them.
