@@ -564,6 +564,22 @@ TEST(Pr7xxFirmware, ACancelledM5RunsOnAndItsReadingIsDiscarded) {
   EXPECT_EQ(next->radiance.size(), 401u);
 }
 
+// At the meter's own pace the LF of T's refusal comes after its CR was taken as the line's end:
+// it is not the first byte of M5's reply, which would then be cut at the measurement's pause.
+TEST(Pr7xxFirmware, AnM5AtTheMetersOwnPaceIsReadWhole) {
+  MeterOptions meter = with_firmware(Model::pr730, "m730");
+  meter.time_scale = 1;
+  RemoteOptions options = fast_remote();
+  options.timing.reply = 3s;
+  options.timing.line_bytes_per_second = 960;
+  options.timing.measurement_overhead = 3s;
+  Bench bench(Model::pr730, {}, options, std::move(meter));
+  ASSERT_TRUE(bench.driver->connect());
+  auto reading = bench.driver->measure({.integration_ms = 100});
+  ASSERT_TRUE(reading) << reading.error().message << "\n" << bench.written();
+  EXPECT_EQ(bench.written().find("D5\r"), std::string::npos) << "M5's own reply was whole";
+}
+
 // A setup the firmware does not know is done without where that changes nothing the reading
 // depends on (SH0, SN01, SU), and refused where it would (SH1, SN02).
 TEST(Pr7xxFirmware, UnknownSetupsAreDoneWithoutOnlyWhereHarmless) {

@@ -180,6 +180,13 @@ std::expected<Reply, InstrumentError> Session::transact(std::string_view command
       return Reply{ReplyEnd::cut, std::string(reply)};
     }
     received.append(buffer, *n);
+    // The LF of the reply before, come after its CR was taken as the line's end, is not this
+    // reply's first byte: taken as one, it would cut an M5's reply at the first pause of its
+    // measurement.
+    if (!whole && received.find_first_not_of("\r\n") == std::string::npos) {
+      received.clear();
+      continue;
+    }
     if (!whole) {
       whole = deadline_in(rule.whole);
       ++replies_;
