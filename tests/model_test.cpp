@@ -239,7 +239,8 @@ TEST(SkinModel, EachLayerDependsOnlyOnItsOwnParameters) {
         const auto dermis = model.dermis_at(i, p.data()), dermis_before = model.dermis_at(i, base.data());
         epidermis_changed |= epidermis.r != epidermis_before.r || epidermis.t != epidermis_before.t;
         dermis_changed |= dermis.total != dermis_before.total || dermis.kept != dermis_before.kept;
-        EXPECT_EQ(model.reflectance_at(i, p.data()), combined_reflectance(p[kSurfaceReflectance], epidermis, dermis));
+        EXPECT_EQ(model.reflectance_at(i, p.data()),
+                  combined_reflectance(model.optics_at(i), p[kSurfaceReflectance], epidermis, dermis));
       }
       EXPECT_EQ(epidermis_changed, epidermal) << to_string(kind) << " " << specs[changed].name;
       EXPECT_EQ(dermis_changed, !epidermal && !surface) << to_string(kind) << " " << specs[changed].name;
@@ -380,8 +381,9 @@ const std::vector<std::string> kModelFiles = {
     "model/constants.csv",
 };
 
-// The file only the extended model reads.
+// The files only the extended model reads.
 const std::string kExtendedConstantsFile = "model/constants-extended.csv";
+const std::string kExtendedSitesFile = "model/sites-extended.csv";
 
 // The source data directory, with `file`'s bytes passed through `change` (or replaced by a
 // read error when change is null).
@@ -487,6 +489,31 @@ TEST(Sites, ThicknessScalesApply) {
   EXPECT_NEAR(after.dermis_mm, 3 * before.dermis_mm, 1e-15);
 }
 
+// The extended model keeps the stratum corneum apart from the melanin-bearing epidermis at
+// every site, scaled with it; the paper model's epidermis is the whole epidermis.
+TEST(Sites, OnlyTheExtendedModelHasAStratumCorneumAndItScalesWithTheEpidermis) {
+  const SkinOptics& extended = shipped_optics(ModelKind::extended);
+  for (const auto& name : extended.site_names()) {
+    EXPECT_GT(extended.site(name)->stratum_corneum_mm, 0.0) << name;
+    EXPECT_EQ(shipped_optics(ModelKind::paper).site(name)->stratum_corneum_mm, 0.0) << name;
+  }
+  ModelConstants constants = extended.constants();
+  const Site before = *extended.site("palm");
+  constants.epidermis_thickness_scale *= 2;
+  EXPECT_NEAR(extended.with_constants(constants).site("palm")->stratum_corneum_mm, 2 * before.stratum_corneum_mm,
+              1e-15);
+}
+
+TEST(Sites, ANegativeStratumCorneumIsRefused) {
+  const auto negative = [](std::string bytes) {
+    const auto at = bytes.find("forearm,0.0566,");
+    return at == std::string::npos ? bytes : bytes.replace(at, 15, "forearm,0.0566,-");
+  };
+  const auto optics = SkinOptics::load(reader_changing(kExtendedSitesFile, negative), ModelKind::extended);
+  ASSERT_FALSE(optics.has_value());
+  EXPECT_THAT(optics.error().what(), AllOf(HasSubstr(kExtendedSitesFile), HasSubstr("forearm")));
+}
+
 // ---------------------------------------------------------------------------------------------
 // The extended model: its equations written out by hand (support/reference_model.hpp), its
 // derivatives, vessel packaging and the baseline-absorption correction.
@@ -503,9 +530,10 @@ const std::vector<Params> kExtendedSkins = {
 
 double plain_extended(const SkinOptics& optics, std::size_t i, const Site& site, const Params& p) {
   const LayerOptics& o = optics.optics();
-  return testing::reference::extended(
-      {o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i]}, o.wavelength_nm[i], site.epidermis_mm,
-      site.dermis_mm, optics.constants().vessel_radius_um / 1000, {p[0], p[1], p[2], p[3], p[4], p[5], p[6]});
+  return testing::reference::extended({o.Ke[i], o.Se[i], o.Kd[i], o.Sd[i], o.Km[i], o.Kh[i], o.Kdh[i], o.Kb[i]},
+                                      o.wavelength_nm[i], site.epidermis_mm, site.dermis_mm,
+                                      optics.constants().vessel_radius_um / 1000,
+                                      {p[0], p[1], p[2], p[3], p[4], p[5], p[6]}, site.stratum_corneum_mm);
 }
 
 TEST(ExtendedModel, MatchesItsEquationsWrittenOutByHandOnEverySiteAndTheWholeGrid) {
@@ -711,6 +739,11 @@ TEST(ModelDigest, EachModelHasItsOwnAndOnlyItsConstantsChangeIt) {
   ASSERT_TRUE(paper_again && extended_again);
   EXPECT_EQ(paper_again->tables_digest(), paper.tables_digest());
   EXPECT_NE(extended_again->tables_digest(), extended.tables_digest());
+  const auto paper_sites = SkinOptics::load(reader_changing(kExtendedSitesFile, blank_line), ModelKind::paper);
+  const auto extended_sites = SkinOptics::load(reader_changing(kExtendedSitesFile, blank_line), ModelKind::extended);
+  ASSERT_TRUE(paper_sites && extended_sites);
+  EXPECT_EQ(paper_sites->tables_digest(), paper.tables_digest());
+  EXPECT_NE(extended_sites->tables_digest(), extended.tables_digest());
 }
 
 TEST(ModelConstantsFile, AMissingConstantIsRefusedNamingIt) {

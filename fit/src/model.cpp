@@ -17,6 +17,17 @@ SkinModel::SkinModel(const SkinOptics& optics, const Site& site, std::span<const
     at_[i] = {o.Ke[i],  o.Se[i], o.Kd[i],
               o.Sd[i],  o.Km[i], o.Kh[i],
               o.Kdh[i], o.Kb[i], std::log(grid_[i] / kScatteringPivotNm)};
+  if (site.stratum_corneum_mm > 0) with_stratum_corneum(site.stratum_corneum_mm);
+}
+
+// The stratum corneum is keratinised epidermis without melanin or blood: the epidermis's
+// baseline absorption and scattering (docs/model.md, "Body sites").
+void SkinModel::with_stratum_corneum(double thickness_mm) {
+  for (OpticsAt& o : at_) {
+    const auto corneum = kubelka_layer(o.Ke, o.Se, thickness_mm);
+    o.corneum_r = corneum.r;
+    o.corneum_t2 = corneum.t * corneum.t;
+  }
 }
 
 [[gnu::flatten]] std::vector<double> SkinModel::reflectance(const Params& p) const {

@@ -35,11 +35,11 @@ LayerJet from_dermis(const DermisJet& x) {
 }
 
 // The reflectance under the surface, R = (1 - rs) X + rs, and X's three derivatives.
-[[gnu::flatten]] LayerJet under_surface(const Geometry& g, double epidermis_S, double epidermis_K, double dermis_K,
+[[gnu::flatten]] LayerJet under_surface(const Geometry& g, const OpticsAt& o, double epidermis_K, double dermis_K,
                                         double dermis_S) {
-  const auto epidermis = kubelka_layer(EpidermisJet(epidermis_K, 0), epidermis_S, g.site.epidermis_mm);
+  const auto epidermis = kubelka_layer(EpidermisJet(epidermis_K, 0), o.Se, g.site.epidermis_mm);
   const auto dermis = dermis_remittance(DermisJet(dermis_K, 0), DermisJet(dermis_S, 1), g);
-  return combined_reflectance(LayerJet(0.0), {from_epidermis(epidermis.r), from_epidermis(epidermis.t)},
+  return combined_reflectance(o, LayerJet(0.0), {from_epidermis(epidermis.r), from_epidermis(epidermis.t)},
                               {from_dermis(dermis.total), from_dermis(dermis.kept)});
 }
 
@@ -47,7 +47,7 @@ double paper(const SkinModel& model, std::size_t i, const double* p, double* gra
   const OpticsAt& o = model.optics_at(i);
   const double epidermis_K = o.Ke + p[kMelanin] * o.Km;
   const double dermis_K = o.Kd + p[kOxyhemoglobin] * o.Kh + p[kDeoxyhemoglobin] * o.Kdh + p[kBilirubin] * o.Kb;
-  const LayerJet x = under_surface(model.geometry(), o.Se, epidermis_K, dermis_K, o.Sd);
+  const LayerJet x = under_surface(model.geometry(), o, epidermis_K, dermis_K, o.Sd);
   const double rs = p[kSurfaceReflectance];
   if (gradient != nullptr) {
     const double dk = (1 - rs) * x.v[kDermisK];
@@ -71,7 +71,7 @@ double extended(const SkinModel& model, std::size_t i, const double* p, double* 
   const double dermis_K = o.Kd + p[kTotalHemoglobin] * packed_K.a + p[kBilirubin] * o.Kb;
   const double power_law = kScatteringPerTransport * std::exp(-p[kDermisScatteringPower] * o.log_scattering_ratio);
   const double dermis_S = p[kDermisScattering] * power_law;
-  const LayerJet x = under_surface(g, o.Se, epidermis_K, dermis_K, dermis_S);
+  const LayerJet x = under_surface(g, o, epidermis_K, dermis_K, dermis_S);
   const double rs = p[kSurfaceReflectance];
   if (gradient != nullptr) {
     const double dk = (1 - rs) * x.v[kDermisK], ds = (1 - rs) * x.v[kDermisS];

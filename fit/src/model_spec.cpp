@@ -25,12 +25,14 @@ constexpr ParamSpec kExtendedParams[] = {
     {"surface_reflectance", "fraction", 0.02, 0.08, 0.04, 0, 1, 0.005, 0,
      "Fresnel reflectance: 0.020 at normal incidence on n = 1.33 to 0.077 for diffuse light on n = 1.4"},
     {"melanin", "x 1 % melanosomes in the epidermis", 0, 100, 5, 0, 1e4, 0.25, 0.25,
-     "melanosome fractions 1.3-43 % (Jacques 1998), in an epidermis of the site's thickness times its tuned scale",
+     "melanosome fractions 1.3-43 % (Jacques 1998), in a living epidermis of the site's thickness times its tuned "
+     "scale",
      true},
     {"total_hemoglobin", "x 0.2 % blood (150 g/L haemoglobin) in the dermis", 0, 50, 4, 0, 1e4, 0.25, 0.25,
      "dermal blood 0.05-1.2 % (Jacques 2013 Table 3; Fredriksson 2008), room for the tuned dermis", true},
-    {"oxygen_saturation", "fraction", 0.4, 0.95, 0.75, 0, 1, 0.1, 0,
-     "dermal blood 0.39 (Choudhury 2010) to arterial blood; 0.75 the usual model value"},
+    {"oxygen_saturation", "fraction", 0.4, 0.99, 0.75, 0, 1, 0.1, 0,
+     "dermal blood 0.39 (Choudhury 2010) to arterial blood, skin up to 0.985-0.993 (Tseng 2011, both in Jacques "
+     "2013 Table 3); 0.75 the usual model value"},
     {"bilirubin", "x 0.005 g/L in the dermis", 0, 40, 1, 0, 1e4, 0.5, 0.25,
      "up to 0.2 g/L (20 mg/dL), severe jaundice; 0.005 g/L the BioSpec default", true},
     {"dermis_scattering", "cm-1, reduced scattering at 620 nm", 5, 100, 30, 0.1, 1000, 1, 0.25,
@@ -73,8 +75,10 @@ constexpr ConstantSpec kExtendedConstants[] = {
 };
 
 constexpr ModelSpec kSpecs[] = {
-    {ModelKind::paper, kPaperParams, kPaperConstants, "model/constants.csv", 0.0, 2},
-    {ModelKind::extended, kExtendedParams, kExtendedConstants, "model/constants-extended.csv", 0.05, 1},
+    {ModelKind::paper, kPaperParams, kPaperConstants, "model/constants.csv", "model/sites.csv", "epidermis_mm", "", 0.0,
+     2},
+    {ModelKind::extended, kExtendedParams, kExtendedConstants, "model/constants-extended.csv",
+     "model/sites-extended.csv", "living_epidermis_mm", "stratum_corneum_mm", 0.05, 1},
 };
 
 static_assert(std::size(kPaperParams) == kPaperParamCount);

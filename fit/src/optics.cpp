@@ -106,13 +106,17 @@ std::expected<LayerOptics, InputError> layer_optics(Loaded& loaded) {
   return o;
 }
 
-std::expected<std::vector<Site>, InputError> load_sites(Loaded& loaded) {
-  auto t = loaded.table("model/sites.csv", {"epidermis_mm", "dermis_mm"});
+std::expected<std::vector<Site>, InputError> load_sites(Loaded& loaded, ModelKind model) {
+  const ModelSpec& spec = model_spec(model);
+  const bool corneum = !spec.stratum_corneum_column.empty();
+  auto t = corneum ? loaded.table(spec.sites_file, {spec.epidermis_column, "dermis_mm", spec.stratum_corneum_column})
+                   : loaded.table(spec.sites_file, {spec.epidermis_column, "dermis_mm"});
   if (!t) return std::unexpected(t.error());
   std::vector<Site> sites;
   for (std::size_t i = 0; i < t->rows(); ++i) {
-    Site s{t->keys()[i], t->column("epidermis_mm")[i], t->column("dermis_mm")[i]};
-    if (!(s.epidermis_mm > 0) || !(s.dermis_mm > 0))
+    Site s{t->keys()[i], t->column(spec.epidermis_column)[i], t->column("dermis_mm")[i],
+           corneum ? t->column(spec.stratum_corneum_column)[i] : 0.0};
+    if (!(s.epidermis_mm > 0) || !(s.dermis_mm > 0) || !(s.stratum_corneum_mm >= 0))
       return std::unexpected(InputError{t->source(), 0, 0, "site " + quote(s.name) + " needs positive thicknesses"});
     sites.push_back(std::move(s));
   }
@@ -243,7 +247,7 @@ std::expected<SkinOptics, InputError> SkinOptics::load(const DataReader& read, M
   Loaded loaded{.read = read};
   auto base = layer_optics(loaded);
   if (!base) return std::unexpected(base.error());
-  auto sites = load_sites(loaded);
+  auto sites = load_sites(loaded, model);
   if (!sites) return std::unexpected(sites.error());
   auto constants = load_constants(loaded, model);
   if (!constants) return std::unexpected(constants.error());
@@ -273,8 +277,10 @@ std::expected<Site, std::string> SkinOptics::site(std::string_view name) const {
   const auto it = std::ranges::find(sites_, name, &Site::name);
   if (it == sites_.end())
     return std::unexpected(fmt::format("unknown site {}; known sites: {}", quote(name), fmt::join(site_names(), ", ")));
+  // One scale for the whole epidermis, its stratum corneum included.
   return Site{it->name, it->epidermis_mm * constants_.epidermis_thickness_scale,
-              it->dermis_mm * constants_.dermis_thickness_scale};
+              it->dermis_mm * constants_.dermis_thickness_scale,
+              it->stratum_corneum_mm * constants_.epidermis_thickness_scale};
 }
 
 }  // namespace skinspec

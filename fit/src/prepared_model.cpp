@@ -17,7 +17,7 @@ std::shared_ptr<const PreparedModel> ModelCache::get(const SkinOptics& optics, c
   const auto matches = [&](const Entry& e) {
     return e.model == optics.model() && e.lateral_diffusion == lateral_diffusion && e.site.name == site.name &&
            e.site.epidermis_mm == site.epidermis_mm && e.site.dermis_mm == site.dermis_mm &&
-           std::ranges::equal(e.grid_nm, grid_nm);
+           e.site.stratum_corneum_mm == site.stratum_corneum_mm && std::ranges::equal(e.grid_nm, grid_nm);
   };
   {
     const std::lock_guard lock(mutex_);

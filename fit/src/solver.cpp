@@ -84,7 +84,8 @@ std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) 
     for (std::size_t d = 0; d < dermis_levels; ++d) {
       for (std::size_t k = 0; k < samples; ++k) {
         const std::size_t i = k * kStride;
-        const double r = combined_reflectance(rs, layers.epidermis[e * samples + k], layers.dermis[d * samples + k]) -
+        const double r = combined_reflectance(problem.model.optics_at(i), rs, layers.epidermis[e * samples + k],
+                                              layers.dermis[d * samples + k]) -
                          problem.measured[i];
         squared[k] = problem.weights[i] * r * r;
       }

@@ -17,8 +17,8 @@ void Workspace::resize(Eigen::Index n) {
   epidermis.resize(n);
   dermis.resize(n);
   for (ArrayXd* column : {&dermis_K, &dermis_S, &dermis_inverse_S, &dermis_t_over_1_minus_r, &inverse_q, &total, &kept,
-                          &lateral_exp, &under_surface, &unused_derivative1, &unused_derivative2, &packed_blood_K,
-                          &packed_blood_by_saturation, &scattering_power_law, &power_law_by_log_ratio})
+                          &lateral_exp, &under_surface, &corneum_slope, &unused_derivative1, &unused_derivative2,
+                          &packed_blood_K, &packed_blood_by_saturation, &scattering_power_law, &power_law_by_log_ratio})
     column->resize(n);
 }
 
@@ -40,6 +40,7 @@ KeptColumns pointers_to(Workspace& w) {
   kept.dermis_inverse_S = w.dermis_inverse_S.data(), kept.dermis_t_over_1_minus_r = w.dermis_t_over_1_minus_r.data();
   kept.inverse_q = w.inverse_q.data(), kept.total = w.total.data(), kept.kept = w.kept.data();
   kept.lateral_exp = w.lateral_exp.data(), kept.under_surface = w.under_surface.data();
+  kept.corneum_slope = w.corneum_slope.data();
   return kept;
 }
 
@@ -54,6 +55,13 @@ SpectrumModel::SpectrumModel(const SkinModel& model) : model_(model), id_(next_i
     Kb_(i) = o.Kb, log_scattering_ratio_(i) = o.log_scattering_ratio;
   }
   inverse_Se_ = Se_.inverse();
+  if (geometry_.site.stratum_corneum_mm > 0) {
+    corneum_r_.resize(n), corneum_t2_.resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const OpticsAt& o = model.optics_at(static_cast<std::size_t>(i));
+      corneum_r_(i) = o.corneum_r, corneum_t2_(i) = o.corneum_t2;
+    }
+  }
 }
 
 // Blood packed in vessels at an oxygen saturation (extended_dermis of model.hpp) and the
@@ -102,6 +110,8 @@ ReflectanceArgs SpectrumModel::reflectance_args(const double* p, Workspace& w, d
   args.epidermis_mm = geometry_.site.epidermis_mm, args.dermis_mm = geometry_.site.dermis_mm;
   args.lateral_radius_mm = geometry_.lateral_radius_mm;
   args.surface_reflectance = p[kSurfaceReflectance];
+  const bool corneum = corneum_r_.size() > 0;
+  args.corneum_r = corneum ? corneum_r_.data() : nullptr, args.corneum_t2 = corneum ? corneum_t2_.data() : nullptr;
   args.kept = pointers_to(w);
   args.reflectance = reflectance;
   return args;
@@ -123,6 +133,7 @@ JacobianArgs SpectrumModel::jacobian_args(const double* p, Workspace& w, double*
   args.epidermis_mm = geometry_.site.epidermis_mm, args.dermis_mm = geometry_.site.dermis_mm;
   args.lateral_radius_mm = geometry_.lateral_radius_mm;
   args.surface_reflectance = p[kSurfaceReflectance];
+  args.stratum_corneum = corneum_r_.size() > 0;
   args.kept = pointers_to(w);
   args.by_surface = column(kSurfaceReflectance), args.by_melanin = column(kMelanin);
   if (model_.kind() == ModelKind::paper) {

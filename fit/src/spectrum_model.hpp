@@ -32,6 +32,7 @@ struct Workspace {
   Eigen::ArrayXd dermis_K, dermis_S, dermis_inverse_S, dermis_t_over_1_minus_r, inverse_q;
   Eigen::ArrayXd total, kept, lateral_exp;  // dermis over white, its share kept, exp(-mu_eff r)
   Eigen::ArrayXd under_surface;             // X of R = (1 - rs) X + rs
+  Eigen::ArrayXd corneum_slope;             // dX / d(what the stratum corneum lies over)
   Eigen::ArrayXd unused_derivative1, unused_derivative2;
   // Columns that depend on one parameter alone are kept while it stays the same (held, or
   // pinned at a bound by the active-set loop): for the extended model, blood packed in vessels
@@ -72,6 +73,8 @@ class SpectrumModel {
   // The constants at each sample (OpticsAt), as columns.
   Eigen::ArrayXd Ke_, Se_, Kd_, Sd_, Km_, Kh_, Kdh_, Kb_, log_scattering_ratio_;
   Eigen::ArrayXd inverse_Se_;
+  // The stratum corneum's R and T^2 at each sample; empty when the site has none.
+  Eigen::ArrayXd corneum_r_, corneum_t2_;
 };
 
 }  // namespace skinspec::detail

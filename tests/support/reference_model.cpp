@@ -18,6 +18,13 @@ double skin_reflectance(const Layer& epidermis, const Layer& dermis, double Rs) 
   return (1 - Rs) * (Re + Te * Te * R_dt / (1 - Re * R_dt)) + Rs;
 }
 
+double kubelka_over(double K, double S, double D, double Rg) {
+  const double a = (S + K) / S;
+  const double b = std::sqrt(a * a - 1);
+  const double coth = 1 / std::tanh(D * b * S);
+  return (1 - Rg * (a - b * coth)) / (a - Rg + b * coth);
+}
+
 double eq1(const Coefficients& c, double epidermis_mm, double dermis_mm, const Weights& w) {
   const double K_et = c.Ke + w.melanin * c.Km;
   const double K_dt = c.Kd + w.oxyhemoglobin * c.Kh + w.deoxyhemoglobin * c.Kdh + w.bilirubin * c.Kb;
@@ -25,7 +32,7 @@ double eq1(const Coefficients& c, double epidermis_mm, double dermis_mm, const W
 }
 
 double extended(const Coefficients& c, double wavelength_nm, double epidermis_mm, double dermis_mm,
-                double vessel_radius_mm, const ExtendedParams& p) {
+                double vessel_radius_mm, const ExtendedParams& p, double stratum_corneum_mm) {
   const double oxy = p.total_hemoglobin * p.oxygen_saturation, deoxy = p.total_hemoglobin * (1 - p.oxygen_saturation);
   // Whole blood's mu_a per mm: weight 1.0 is 0.2 % blood, and K = 2 mu_a.
   const double blood_mu_a = (p.oxygen_saturation * c.Kh + (1 - p.oxygen_saturation) * c.Kdh) / (2 * 0.002);
@@ -36,7 +43,11 @@ double extended(const Coefficients& c, double wavelength_nm, double epidermis_mm
   const double mu_s_reduced_per_mm =
       p.dermis_scattering * std::pow(wavelength_nm / 620, -p.dermis_scattering_power) / 10;
   const double S_d = 0.75 * mu_s_reduced_per_mm;
-  return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, S_d, dermis_mm), p.surface_reflectance);
+  if (stratum_corneum_mm <= 0)
+    return skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, S_d, dermis_mm), p.surface_reflectance);
+  // The skin under the stratum corneum, as eq. 1 without a surface, is its background.
+  const double below = skin_reflectance(kubelka(K_et, c.Se, epidermis_mm), kubelka(K_dt, S_d, dermis_mm), 0);
+  return (1 - p.surface_reflectance) * kubelka_over(c.Ke, c.Se, stratum_corneum_mm, below) + p.surface_reflectance;
 }
 
 }  // namespace skinspec::testing::reference

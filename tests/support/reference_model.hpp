@@ -39,9 +39,15 @@ struct ExtendedParams {
   double dermis_scattering, dermis_scattering_power;
 };
 
+// Kubelka's reflectance of a layer over a background of reflectance Rg:
+// R = (1 - Rg (a - b coth C)) / (a - Rg + b coth C).
+double kubelka_over(double K, double S, double D, double Rg);
+
 // R(lambda) of the extended model without lateral diffusion, from eq. 1's layers, with blood
-// packed in vessels of the given radius (0: spread evenly); c.Sd unused.
+// packed in vessels of the given radius (0: spread evenly) and a stratum corneum of the given
+// thickness (the epidermis's baseline absorption and scattering, no melanin) over the
+// epidermis; c.Sd unused.
 double extended(const Coefficients& c, double wavelength_nm, double epidermis_mm, double dermis_mm,
-                double vessel_radius_mm, const ExtendedParams& p);
+                double vessel_radius_mm, const ExtendedParams& p, double stratum_corneum_mm = 0);
 
 }  // namespace skinspec::testing::reference

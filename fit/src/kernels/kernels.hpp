@@ -27,6 +27,7 @@ struct KeptColumns {
   double* kept;                     // its share the instrument sees (1 without lateral diffusion)
   double* lateral_exp;              // exp(-mu_eff r) of that loss (unused without lateral diffusion)
   double* under_surface;            // X of R = (1 - rs) X + rs
+  double* corneum_slope;            // dX / d(what the stratum corneum lies over); unused without one
 };
 
 // One evaluation of eq. 1 at n samples. The epidermis: K = base + melanin * melanin_K over the
@@ -41,6 +42,8 @@ struct ReflectanceArgs {
   const double* dermis_S_shape;
   double dermis_S_scale;
   double epidermis_mm, dermis_mm, lateral_radius_mm, surface_reflectance;
+  // The stratum corneum's reflectance and squared transmittance over the epidermis; null: none.
+  const double *corneum_r, *corneum_t2;
   KeptColumns kept;
   double* reflectance;
 };
@@ -53,6 +56,7 @@ struct JacobianArgs {
   int n;
   const double *melanin_K, *epidermis_inverse_S;
   double epidermis_mm, dermis_mm, lateral_radius_mm, surface_reflectance;
+  bool stratum_corneum;  // whether the reflectance had one (and kept its slope)
   KeptColumns kept;
   const double* by_dermis_K_columns[3];
   double by_dermis_K_factors[3];

@@ -94,7 +94,7 @@ inline void over_the_dermis(Epidermis& ep, double total, double kept) {
   ep.under_surface = l.r + kept * (l.t * l.t * total * ep.inverse_q);
 }
 
-template <bool kLateral>
+template <bool kLateral, bool kCorneum>
 void reflectance_of(const ReflectanceArgs& in) {
   const KeptColumns& out = in.kept;
   const double radius = in.lateral_radius_mm, rs = in.surface_reflectance;
@@ -120,14 +120,25 @@ void reflectance_of(const ReflectanceArgs& in) {
     keep(d.layer, out.dermis, i);
     out.dermis_K[i] = dermis_K, out.dermis_S[i] = dermis_S, out.dermis_inverse_S[i] = d.inverse_S;
     out.dermis_t_over_1_minus_r[i] = d.t_over_1_minus_r, out.inverse_q[i] = e.inverse_q;
-    out.total[i] = d.total, out.kept[i] = kept, out.under_surface[i] = e.under_surface;
-    in.reflectance[i] = (1.0 - rs) * e.under_surface + rs;
+    double under_surface = e.under_surface;
+    if constexpr (kCorneum) {
+      // under_stratum_corneum of model.hpp, Y = Rc + Tc^2 X / (1 - Rc X), with dY/dX = Tc^2 / (1 - Rc X)^2.
+      const double inverse = 1.0 / (1.0 - in.corneum_r[i] * under_surface);
+      const double through = in.corneum_t2[i] * inverse;
+      out.corneum_slope[i] = through * inverse;
+      under_surface = in.corneum_r[i] + through * under_surface;
+    }
+    out.total[i] = d.total, out.kept[i] = kept, out.under_surface[i] = under_surface;
+    in.reflectance[i] = (1.0 - rs) * under_surface + rs;
   }
 }
 
 void reflectance(const ReflectanceArgs& in) {
-  if (in.lateral_radius_mm > 0) reflectance_of<true>(in);
-  else reflectance_of<false>(in);
+  const bool lateral = in.lateral_radius_mm > 0, corneum = in.corneum_r != nullptr;
+  if (lateral && corneum) reflectance_of<true, true>(in);
+  else if (lateral) reflectance_of<true, false>(in);
+  else if (corneum) reflectance_of<false, true>(in);
+  else reflectance_of<false, false>(in);
 }
 
 // A layer's R and T as functions of k and c = D S b, each by one with the other fixed:
@@ -149,7 +160,7 @@ inline Slopes slopes_of(const Layer& l, double inverse_b) {
   return s;
 }
 
-template <bool kLateral>
+template <bool kLateral, bool kCorneum>
 void jacobian_of(const JacobianArgs& in) {
   const KeptColumns& kc = in.kept;
   const double De = in.epidermis_mm, Dd = in.dermis_mm, radius = in.lateral_radius_mm;
@@ -176,8 +187,8 @@ void jacobian_of(const JacobianArgs& in) {
     const double inverse_q = kc.inverse_q[i];
     const double through = e.t * e.t * total * inverse_q;
     const double through_by_total = (e.t * inverse_q) * (e.t * inverse_q);
-    const double X_eK = epidermis_r_K + kept * (through_by_total * total * total * epidermis_r_K +
-                                                2.0 * e.t * total * inverse_q * epidermis_t_K);
+    double X_eK = epidermis_r_K + kept * (through_by_total * total * total * epidermis_r_K +
+                                          2.0 * e.t * total * inverse_q * epidermis_t_K);
     double X_dK = total_K * (kept * through_by_total);
     double X_dS = total_S * (kept * through_by_total);
     if constexpr (kLateral) {
@@ -187,6 +198,12 @@ void jacobian_of(const JacobianArgs& in) {
       const double lost_by_x = radius * radius * kc.lateral_exp[i] * through;
       X_dK += lost_by_x * 0.75 * (dermis_K + (4.0 / 3.0) * kc.dermis_S[i]);
       X_dS += lost_by_x * dermis_K;
+    }
+    if constexpr (kCorneum) {
+      const double slope = kc.corneum_slope[i];
+      X_eK *= slope;
+      X_dK *= slope;
+      X_dS *= slope;
     }
     X_dK *= one_minus_rs;
     X_dS *= one_minus_rs;
@@ -198,8 +215,11 @@ void jacobian_of(const JacobianArgs& in) {
 }
 
 void jacobian(const JacobianArgs& in) {
-  if (in.lateral_radius_mm > 0) jacobian_of<true>(in);
-  else jacobian_of<false>(in);
+  const bool lateral = in.lateral_radius_mm > 0;
+  if (lateral && in.stratum_corneum) jacobian_of<true, true>(in);
+  else if (lateral) jacobian_of<true, false>(in);
+  else if (in.stratum_corneum) jacobian_of<false, true>(in);
+  else jacobian_of<false, false>(in);
 }
 
 void blood_packing(const BloodPackingArgs& in) {

@@ -17,6 +17,9 @@ namespace skinspec {
 struct OpticsAt {
   double Ke, Se, Kd, Sd, Km, Kh, Kdh, Kb;
   double log_scattering_ratio = 0;  // ln(lambda / kScatteringPivotNm)
+  // The stratum corneum's reflectance and squared transmittance: no parameter acts on it, so
+  // they are constants of the site (0 and 1: no stratum corneum).
+  double corneum_r = 0, corneum_t2 = 1;
 };
 
 // Where the extended model's dermal scattering power law is pivoted: at 620 nm, in the red
@@ -103,11 +106,22 @@ DermisRemittance<T> dermis_remittance(const T& K, const S& scattering, const Geo
           1.0 - lateral_loss(K, scattering, g.lateral_radius_mm)};
 }
 
-// Eq. 1's layers combined: surface reflection rs, then the epidermis over the dermis.
+// What comes out of the skin under its surface when the stratum corneum lies over the rest,
+// which remits x: Rc + Tc^2 x / (1 - Rc x), the same combination as the epidermis's over the
+// dermis. Without one, x as it is.
 template <typename T>
-T combined_reflectance(const T& rs, const ReflectanceTransmittance<T>& epidermis, const DermisRemittance<T>& dermis) {
+T under_stratum_corneum(const OpticsAt& o, const T& x) {
+  if (o.corneum_r == 0) return x;
+  return o.corneum_r + o.corneum_t2 * x / (1.0 - o.corneum_r * x);
+}
+
+// Eq. 1's layers combined: surface reflection rs, then the stratum corneum (if any) over the
+// epidermis over the dermis.
+template <typename T>
+T combined_reflectance(const OpticsAt& o, const T& rs, const ReflectanceTransmittance<T>& epidermis,
+                       const DermisRemittance<T>& dermis) {
   const T through_dermis = epidermis.t * epidermis.t * dermis.total / (1.0 - epidermis.r * dermis.total);
-  return (1.0 - rs) * (epidermis.r + dermis.kept * through_dermis) + rs;
+  return (1.0 - rs) * under_stratum_corneum(o, T(epidermis.r + dermis.kept * through_dermis)) + rs;
 }
 
 // The epidermis of either model: melanin over the baseline absorption (p in either model's
@@ -161,7 +175,7 @@ class SkinModel {
   // param_count() values in the order of the model's ParamSpec table.
   template <typename T>
   T reflectance_at(std::size_t i, const T* p) const {
-    return combined_reflectance(T(p[kSurfaceReflectance]), epidermis_at(i, p), dermis_at(i, p));
+    return combined_reflectance(at_[i], T(p[kSurfaceReflectance]), epidermis_at(i, p), dermis_at(i, p));
   }
   // The two layers at sample i apart, for a search over points that share one of them: the
   // epidermis depends on melanin alone, the dermis on every parameter but melanin and Rs.
@@ -185,6 +199,8 @@ class SkinModel {
   Params lowest_safe_weights() const;
 
  private:
+  void with_stratum_corneum(double thickness_mm);
+
   ModelKind kind_;
   std::vector<double> grid_;
   std::vector<OpticsAt> at_;

@@ -88,6 +88,10 @@ struct ModelSpec {
   std::span<const ParamSpec> params;
   std::span<const ConstantSpec> constants;
   std::string_view constants_file;  // in the data directory
+  // The body sites' anatomy (in the data directory): which table, its column of the
+  // melanin-bearing epidermis's thickness, and its column of the stratum corneum's (empty: the
+  // model has none, its epidermis is the whole epidermis). docs/model.md, "Body sites".
+  std::string_view sites_file, epidermis_column, stratum_corneum_column;
   // How far, as a share of its range, the solver may carry a parameter past a bound before it
   // is pinned there (docs/model.md, "The fit"); absorbers may always dip a little below zero.
   double bound_overshoot;

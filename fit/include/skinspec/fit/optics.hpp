@@ -32,10 +32,14 @@ struct LayerOptics {
 // average dermal blood fraction): docs/model.md, "Pigment weights".
 inline constexpr double kReferenceBloodFraction = 0.002;
 
+// A body site's layers. epidermis_mm is the layer that holds melanin: the whole epidermis for
+// the paper model, the living epidermis for the extended model, whose stratum corneum (no
+// melanin, no blood) lies over it as a layer of its own; 0 is none.
 struct Site {
   std::string name;
   double epidermis_mm = 0;
   double dermis_mm = 0;
+  double stratum_corneum_mm = 0;
 };
 
 // The constants chosen on measured skin (data/model/constants*.csv, scripts/tune-model). Each
@@ -74,7 +78,7 @@ double baseline_absorption_factor(const ModelConstants& constants, double wavele
 
 class SkinOptics {
  public:
-  // Loads optics/*.csv, model/sites.csv and the model's constants file through `read`.
+  // Loads optics/*.csv and the model's sites and constants files through `read`.
   static std::expected<SkinOptics, InputError> load(const DataReader& read, ModelKind model);
 
   // The model grid: 380-780 nm every 1 nm. The tables behind it reach no further in
