@@ -311,11 +311,14 @@ TEST(RecordAndReplay, ADriverSessionReplaysWithIdenticalBytes) {
 }
 
 TEST(RecordAndReplay, TheRecorderTimesEachReply) {
+  // At a tenth of real time: a busy machine's pause of a few milliseconds is then a few tens of
+  // the meter's, not hundreds as at 0.02.
+  constexpr double kTimeScale = 0.1;
   MeterOptions options = fast_meter();
-  options.time_scale = 0.02;
+  options.time_scale = kTimeScale;
   MeterRig rig(Synthesis{testing::observer(), {testing::white_scene()}}, options);
   RecordingTransport recorder(rig.take_host(), RecordingHeader{"now", "test", {}, {}, {}, {}, {}},
-                              RecordingOptions{0.02});
+                              RecordingOptions{kTimeScale});
   EXPECT_EQ(ask(recorder, "m0\n", std::chrono::milliseconds(100)), "000\r\n");
   EXPECT_EQ(ask(recorder, "d5\n", std::chrono::milliseconds(100)).size(), 1733u);
   const Recording r = recorder.recording();
