@@ -356,8 +356,10 @@ json schemas() {
        {{"type", "object"},
         {"required", {"phase", "fraction"}},
         {"description",
-         "a measurement counts readings (readings_done, readings_total); an import or a refit counts spectra "
-         "(spectra_done, spectra_total) and gives the seconds left at the rate so far (remaining_s)"},
+         "a measurement counts readings (readings_done, readings_total) and, while it measures, gives the "
+         "seconds left at the meter's longest exposure, an upper bound (remaining_s); an import or a refit "
+         "counts spectra (spectra_done, spectra_total) and gives the seconds left at the rate so far "
+         "(remaining_s)"},
         {"properties",
          {{"phase", {{"type", "string"}, {"enum", names(job_phase_names())}}},
           {"readings_done", {{"type", "integer"}, {"minimum", 0}}},
