@@ -680,6 +680,10 @@ TEST_F(ApiRouterTest, OpenApiDocumentAndRouteTableAgree) {
       }
     }
   EXPECT_EQ(table, documented);
+  // The session states as the store names them, in every place that lists them.
+  const json states = {"open", "complete", "interrupted", "aborted"};
+  EXPECT_EQ(doc["components"]["schemas"]["Session"]["properties"]["state"]["enum"], states);
+  EXPECT_EQ(doc["components"]["schemas"]["SessionUpdate"]["properties"]["state"]["enum"], states);
   // Every documented route answers something other than 404 / 405 through the router.
   for (const auto& [method, path] : documented) {
     std::string upper = method;

@@ -180,7 +180,7 @@ json schemas() {
       {"bench",
        {{"type", "string"}, {"description", "the bench it was opened on; empty for sessions from before benches"}}},
       {"white_standard_id", nullable("integer")},
-      {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}},
+      {"state", {{"type", "string"}, {"enum", names(store::session_state_names())}}},
       {"created_at", {{"type", "string"}, {"format", "date-time"}}},
       {"updated_at", {{"type", "string"}, {"format", "date-time"}}},
       {"ended_at", nullable("string")}};
@@ -275,7 +275,7 @@ json schemas() {
         {"properties",
          {{"notes", {{"type", "string"}}},
           {"close", {{"type", "boolean"}}},
-          {"state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}}}}}},
+          {"state", {{"type", "string"}, {"enum", names(store::session_state_names())}}}}}}},
       {"Session", {{"type", "object"}, {"properties", session_props}}},
       {"SessionDetail", {{"type", "object"}, {"properties", detail_props}}},
       {"SessionPage",
@@ -419,7 +419,7 @@ json list_parameters() {
   };
   return json::array(
       {q("site", {{"type", "string"}}, "body site"),
-       q("state", {{"type", "string"}, {"enum", {"open", "complete", "interrupted", "aborted"}}}, "session state"),
+       q("state", {{"type", "string"}, {"enum", names(store::session_state_names())}}, "session state"),
        q("from", {{"type", "string"}, {"format", "date-time"}}, "created at or after (UTC)"),
        q("to", {{"type", "string"}, {"format", "date-time"}}, "created before (UTC)"),
        q("cursor", {{"type", "integer"}}, "next_cursor of the previous page"),

@@ -94,6 +94,7 @@ std::optional<MeasurementKind> parse_measurement_kind(std::string_view text) { r
 std::optional<JobState> parse_job_state(std::string_view text) { return lookup(kJobStates, text); }
 std::optional<JobErrorCode> parse_job_error_code(std::string_view text) { return lookup(kJobErrorCodes, text); }
 
+std::span<const std::pair<SessionState, std::string_view>> session_state_names() { return kSessionStates; }
 std::span<const std::pair<JobState, std::string_view>> job_state_names() { return kJobStates; }
 std::span<const std::pair<JobErrorCode, std::string_view>> job_error_code_names() { return kJobErrorCodes; }
 

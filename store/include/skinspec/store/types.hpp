@@ -84,6 +84,8 @@ struct WhiteStandard {
 
 enum class SessionState { open, complete, interrupted, aborted };
 std::string_view to_string(SessionState state);
+// Every state with its name, for documents that list them (OpenAPI).
+std::span<const std::pair<SessionState, std::string_view>> session_state_names();
 std::optional<SessionState> parse_session_state(std::string_view text);
 
 struct Session {
