@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <atomic>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -453,6 +454,18 @@ MeterOptions with_firmware(Model model, std::string firmware) {
   return meter;
 }
 
+// A 2009 PR-730 (M5 only) at `time_scale`, its replies read at the link's own pace with room
+// for an M5's measurement: what the M5 tests below share.
+std::unique_ptr<Bench> m5_only_pr730(double time_scale) {
+  MeterOptions meter = with_firmware(Model::pr730, "m730");
+  meter.time_scale = time_scale;
+  RemoteOptions options = fast_remote();
+  options.timing.reply = 3s;
+  options.timing.line_bytes_per_second = 960;
+  options.timing.measurement_overhead = 3s;
+  return std::make_unique<Bench>(Model::pr730, std::vector<std::string>{}, options, std::move(meter));
+}
+
 // The 2009 PR-730/735 firmware knows neither T nor SS: the driver measures with M5 and syncs
 // with SQ from the first refusal on, and says each once, on the reading where it was found and
 // on the instrument.
@@ -532,13 +545,8 @@ TEST(Pr7xxFirmware, APr740WithTStillTriggersPollsAndAborts) {
 // An M5 cannot be stopped on the wire: a cancel returns at once, the meter measures on, and its
 // reading is discarded when it arrives, before the next measurement's commands.
 TEST(Pr7xxFirmware, ACancelledM5RunsOnAndItsReadingIsDiscarded) {
-  MeterOptions meter = with_firmware(Model::pr730, "m730");
-  meter.time_scale = 0.2;
-  RemoteOptions options = fast_remote();
-  options.timing.reply = 3s;
-  options.timing.line_bytes_per_second = 960;
-  options.timing.measurement_overhead = 3s;
-  Bench bench(Model::pr730, {}, options, std::move(meter));
+  const auto owned = m5_only_pr730(0.2);
+  Bench& bench = *owned;
   ASSERT_TRUE(bench.driver->connect());
   auto found = bench.driver->measure({.integration_ms = 100});  // finds out: M5 from now on
   ASSERT_TRUE(found) << found.error().message << "\n"
@@ -567,13 +575,8 @@ TEST(Pr7xxFirmware, ACancelledM5RunsOnAndItsReadingIsDiscarded) {
 // At the meter's own pace the LF of T's refusal comes after its CR was taken as the line's end:
 // it is not the first byte of M5's reply, which would then be cut at the measurement's pause.
 TEST(Pr7xxFirmware, AnM5AtTheMetersOwnPaceIsReadWhole) {
-  MeterOptions meter = with_firmware(Model::pr730, "m730");
-  meter.time_scale = 1;
-  RemoteOptions options = fast_remote();
-  options.timing.reply = 3s;
-  options.timing.line_bytes_per_second = 960;
-  options.timing.measurement_overhead = 3s;
-  Bench bench(Model::pr730, {}, options, std::move(meter));
+  const auto owned = m5_only_pr730(1);
+  Bench& bench = *owned;
   ASSERT_TRUE(bench.driver->connect());
   auto reading = bench.driver->measure({.integration_ms = 100});
   ASSERT_TRUE(reading) << reading.error().message << "\n" << bench.written();

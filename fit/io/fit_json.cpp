@@ -237,9 +237,13 @@ bool correlation_from_json(const nlohmann::json& j, FitResult& fit) {
   return true;
 }
 
-std::optional<double> optional_number(const nlohmann::json& j, const char* key, bool& ok) {
-  if (!j.contains(key) || !(j[key].is_null() || j[key].is_number())) ok = false;
-  return ok && j[key].is_number() ? std::optional<double>(j[key].get<double>()) : std::nullopt;
+// A skin-tone index: a number, or null where the reflectance did not allow one. The outer
+// nullopt is a key missing or holding anything else.
+std::optional<std::optional<double>> index_from_json(const nlohmann::json& j, const char* key) {
+  if (!j.contains(key)) return std::nullopt;
+  if (j[key].is_null()) return std::optional<double>();
+  if (j[key].is_number()) return std::optional<double>(j[key].get<double>());
+  return std::nullopt;
 }
 
 }  // namespace
@@ -249,13 +253,12 @@ std::optional<SkinTone> skin_tone_from_json(const nlohmann::json& j) {
       !j["ita_class"].is_string())
     return std::nullopt;
   const auto ita_class = parse_ita_class(j["ita_class"].get<std::string>());
-  if (!ita_class) return std::nullopt;
-  bool ok = true;
-  SkinTone tone{.ita_deg = j["ita_deg"].get<double>(),
-                .ita_class = *ita_class,
-                .melanin_index = optional_number(j, "melanin_index", ok),
-                .erythema_index = optional_number(j, "erythema_index", ok)};
-  return ok ? std::optional(tone) : std::nullopt;
+  const auto melanin = index_from_json(j, "melanin_index"), erythema = index_from_json(j, "erythema_index");
+  if (!ita_class || !melanin || !erythema) return std::nullopt;
+  return SkinTone{.ita_deg = j["ita_deg"].get<double>(),
+                  .ita_class = *ita_class,
+                  .melanin_index = *melanin,
+                  .erythema_index = *erythema};
 }
 
 bool assessment_from_json(const nlohmann::json& assessment, FitResult& fit) {

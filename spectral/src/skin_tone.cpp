@@ -27,9 +27,10 @@ constexpr ItaBound kItaBounds[] = {
     {10, ItaClass::tan},        {-30, ItaClass::brown},
 };
 
-std::optional<double> hundred_log10(double ratio) {
-  if (!(ratio > 0) || !std::isfinite(ratio)) return std::nullopt;
-  return 100 * std::log10(ratio);
+// 100 log10 of a ratio of two reflectances; nullopt unless both are above zero.
+std::optional<double> hundred_log10(double numerator, double denominator) {
+  if (!(numerator > 0) || !(denominator > 0)) return std::nullopt;
+  return 100 * std::log10(numerator / denominator);
 }
 
 }  // namespace
@@ -60,8 +61,8 @@ SkinTone skin_tone(std::span<const double> wavelength_nm, std::span<const double
   tone.ita_class = classify_ita(tone.ita_deg);
   const double red = interpolate(wavelength_nm, reflectance, kMelaninRedNm);
   const double green = interpolate(wavelength_nm, reflectance, kErythemaGreenNm);
-  if (red > 0) tone.melanin_index = hundred_log10(1 / red);
-  if (red > 0 && green > 0) tone.erythema_index = hundred_log10(red / green);
+  tone.melanin_index = hundred_log10(1, red);
+  tone.erythema_index = hundred_log10(red, green);
   return tone;
 }
 
