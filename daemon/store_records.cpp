@@ -63,13 +63,23 @@ std::expected<store::Measurement, std::string> averaged(const std::vector<driver
   return m;
 }
 
-std::string measurement_settings(const std::vector<drivers::Reading>& readings, int integration_ms, int count,
-                                 std::size_t rejected_readings) {
-  json settings = {{"integration_ms", integration_ms}, {"count", count}, {"rejected_readings", rejected_readings}};
+std::string measurement_settings(const std::vector<drivers::Reading>& readings, const drivers::MeasureOptions& asked,
+                                 int count, std::size_t rejected_readings) {
+  json settings = {{"integration_ms", asked.integration_ms},
+                   {"count", count},
+                   {"rejected_readings", rejected_readings},
+                   {"extended_sensitivity", asked.extended_sensitivity},
+                   {"aperture", asked.aperture.empty() ? json(nullptr) : json(asked.aperture)}};
   if (!readings.empty()) {
     settings["averages"] = readings.front().averages;
     settings["sync"] = readings.front().sync;
   }
+  json exposures = json::array();
+  for (const auto& r : readings) {
+    if (r.integration_ms != 0) exposures.push_back(r.integration_ms);
+    else exposures.push_back(r.exposure_used_ms ? json(*r.exposure_used_ms) : json(nullptr));
+  }
+  settings["exposure_used_ms"] = exposures;
   return settings.dump();
 }
 

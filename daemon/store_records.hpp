@@ -27,10 +27,13 @@ store::Instrument instrument_record(const drivers::Identity& identity, const std
 // settings and the rest. An explanation when the readings differ in grid.
 std::expected<store::Measurement, std::string> averaged(const std::vector<drivers::Reading>& readings);
 
-// A measurement's settings as JSON text: the integration time asked for (0: adaptive), the
-// meter's averages and sync, the readings asked for and how many were rejected on the way.
-std::string measurement_settings(const std::vector<drivers::Reading>& readings, int integration_ms, int count,
-                                 std::size_t rejected_readings);
+// A measurement's settings as JSON text, its provenance: the integration time asked for (0:
+// adaptive), the readings asked for and how many were rejected on the way, the meter's averages
+// and sync as it did them, extended sensitivity, the aperture (null: as set on the meter), and
+// per reading the exposure used ("exposure_used_ms": a fixed one as set, an adaptive one as the
+// meter reported it, null where it does not say).
+std::string measurement_settings(const std::vector<drivers::Reading>& readings, const drivers::MeasureOptions& asked,
+                                 int count, std::size_t rejected_readings);
 
 // A reading the meter returned with a bad quality code: its code, the text its family's table
 // gives for it, the reason as the job reports it, and its raw reply.

@@ -74,22 +74,18 @@ void Supervisor::release_meter() {
   spdlog::info("event=instrument_disconnected device=\"{}\"", device_);
 }
 
-// The identified meter's exposure range, or before a meter was reached the forced model's (any
-// model's with auto): refused when the job is posted, with the range, rather than failed later.
-std::optional<api::ApiError> Supervisor::check_exposure(int integration_ms) const {
-  if (integration_ms == 0) return std::nullopt;  // adaptive
-  drivers::ModelChoice known = model_;
-  {
-    std::lock_guard lock(mutex_);
-    if (identity_ && identity_->model) known.forced = identity_->model;
-  }
-  const drivers::ExposureRange range = drivers::exposure_range(known);
-  if (integration_ms >= range.min_ms && integration_ms <= range.max_ms) return std::nullopt;
-  const std::string whose =
-      known.forced ? "the " + std::string(drivers::profile(*known.forced).name) + "'s range" : "what any model takes";
-  return api::ApiError{
-      api::ErrorKind::unprocessable, "out_of_range",
-      fmt::format("'integration_ms' must be 0 (adaptive) or {} to {} ms ({})", range.min_ms, range.max_ms, whose)};
+// What the identified meter takes, or before a meter was reached what the forced model takes
+// (any model with auto): a job asking for anything else is refused when it is posted, naming
+// what is taken, rather than failed later.
+MeterSettings Supervisor::meter_settings() const {
+  std::lock_guard lock(mutex_);
+  return known_settings();
+}
+
+MeterSettings Supervisor::known_settings() const {
+  std::optional<drivers::Model> known = model_.forced;
+  if (identity_ && identity_->model) known = identity_->model;
+  return {drivers::setting_limits(known), apertures_};
 }
 
 std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id session_id,
@@ -112,7 +108,7 @@ std::expected<store::CreatedJob, api::ApiError> Supervisor::submit(store::Id ses
   job.idempotency_key = idempotency_key;
   job.request = measure_request_json(request);
   if (owned_elsewhere(*session)) return submit_elsewhere(*session, std::move(job));
-  if (auto refused = check_exposure(request.integration_ms)) return std::unexpected(*refused);
+  if (auto refused = check_settings(meter_settings(), request)) return std::unexpected(*refused);
   job.bench = bench_;
   std::lock_guard lock(mutex_);  // queue order is the order of the jobs' ids
   if (stopping_)

@@ -24,6 +24,7 @@
 #include "instrument_link.hpp"
 #include "reconnect.hpp"
 #include "measure_policy.hpp"
+#include "meter_settings.hpp"
 
 namespace skinspec::daemon {
 
@@ -124,7 +125,8 @@ class Supervisor final : public api::Acquisition {
                                                                             const drivers::MeasureOptions& options,
                                                                             bool first_of_job);
   void note_instrument_error(const drivers::InstrumentError& error);
-  std::optional<api::ApiError> check_exposure(int integration_ms) const;
+  MeterSettings meter_settings() const;
+  MeterSettings known_settings() const;  // mutex_ held
   // The running job's phase and readings so far, told to its followers.
   void report_progress(api::JobPhase phase, int readings_done);
   // A reading starts that may take `reading_time` at most, with `after` more to come: the
@@ -196,6 +198,8 @@ class Supervisor final : public api::Acquisition {
   TrackedState state_;
   std::string last_error_;
   std::optional<drivers::Identity> identity_;  // of the last meter reached
+  // The apertures it lists (D117), kept with its identity; nullopt until read.
+  std::optional<std::vector<std::string>> apertures_;
   // With --model auto, the model the last contact identified: tried first when connecting again,
   // since the meter on the port is most likely the same, and probing every family of a meter
   // that stays silent takes half a minute. Forgotten after a failed attempt, so the next one
@@ -233,7 +237,7 @@ class Supervisor final : public api::Acquisition {
   void release_meter();
   void note_connect_failure(const drivers::InstrumentError& error, const std::string& port);
   void note_connected(const std::shared_ptr<drivers::Instrument>& meter, const ResolvedDevice& resolved,
-                      const drivers::Identity& identity);
+                      const drivers::Identity& identity, std::vector<std::string> apertures);
   api::InstrumentState unreachable_state() const {
     return ever_connected_ ? api::InstrumentState::lost : api::InstrumentState::disconnected;
   }

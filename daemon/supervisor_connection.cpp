@@ -56,7 +56,8 @@ json Supervisor::instrument_status() const {
                  {"attempts", failed_attempts_},
                  {"next_attempt_in_ms", next_attempt_in_ms},
                  {"running_job", running_ ? json(*running_) : json(nullptr)},
-                 {"queued", queue_.size()}};
+                 {"queued", queue_.size()},
+                 {"capabilities", capabilities_json(known_settings())}};
   // Who the meter said it was when last reached: kept while it is lost, as its serial number
   // tells which meter to look for.
   status.update(identity_ ? drivers::identity_json(*identity_) : drivers::no_identity_json());
@@ -170,7 +171,13 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
     note_connect_failure(identity.error(), port);
     return identity.error();
   }
-  note_connected(meter, *resolved, *identity);
+  // Read now, so that a job asking for one the meter does not list is refused when posted.
+  auto apertures = meter->apertures();
+  if (!apertures) {
+    note_connect_failure(apertures.error(), port);
+    return apertures.error();
+  }
+  note_connected(meter, *resolved, *identity, std::move(*apertures));
   return std::nullopt;
 }
 
@@ -190,7 +197,7 @@ void Supervisor::note_connect_failure(const drivers::InstrumentError& error, con
 }
 
 void Supervisor::note_connected(const std::shared_ptr<drivers::Instrument>& meter, const ResolvedDevice& resolved,
-                                const drivers::Identity& identity) {
+                                const drivers::Identity& identity, std::vector<std::string> apertures) {
   auto id = db_.ensure_instrument(instrument_record(identity, device_));
   if (!id)
     spdlog::error("event=instrument_not_stored serial={} kind={} error=\"{}\"", identity.serial_number,
@@ -198,6 +205,7 @@ void Supervisor::note_connected(const std::shared_ptr<drivers::Instrument>& mete
   std::lock_guard lock(mutex_);
   meter_ = meter;  // again: a detach reported while connecting is outdated by this contact
   identity_ = identity;
+  apertures_ = std::move(apertures);
   if (!model_.forced) expected_model_ = identity.model;
   if (id) instrument_id_ = *id;
   adapter_ = resolved.adapter;

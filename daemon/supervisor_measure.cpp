@@ -84,8 +84,7 @@ Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int
 
 Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const api::MeasureRequest& request,
                                                  std::shared_ptr<drivers::Instrument>& meter, Readings& out) {
-  drivers::MeasureOptions options;
-  options.integration_ms = request.integration_ms;
+  const drivers::MeasureOptions options = measure_options(request);
   report_progress(api::JobPhase::measuring, 0);
   for (int attempt = 1; std::cmp_less(out.good.size(), request.count); ++attempt) {
     start_reading_clock(meter->reading_time(options), request.count - static_cast<int>(out.good.size()) - 1);
@@ -217,7 +216,8 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   m.label = request.label;
   m.instrument_id = instrument_id_;
   m.job_id = job.id;
-  m.settings = measurement_settings(readings.good, request.integration_ms, request.count, readings.rejected_ids.size());
+  m.settings =
+      measurement_settings(readings.good, measure_options(request), request.count, readings.rejected_ids.size());
   m.warnings = readings.warnings;
 
   json timing = {{"reply_received_at_us", wall_micros(readings.last_reply_at)}};

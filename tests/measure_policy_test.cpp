@@ -57,10 +57,34 @@ TEST(StoreRecordsTest, SettingsNameWhatWasAskedAndWhatTheMeterDid) {
   auto first = reading({1, 2, 3}, 1);
   first.averages = 3;
   first.sync = "off";
-  const auto settings = nlohmann::json::parse(measurement_settings({first, reading({1, 2, 3}, 2)}, 0, 2, 1));
-  EXPECT_EQ(settings,
-            (nlohmann::json{
-                {"integration_ms", 0}, {"count", 2}, {"rejected_readings", 1}, {"averages", 3}, {"sync", "off"}}));
+  first.exposure_used_ms = 16500;  // D13 after an adaptive measurement
+  const auto settings =
+      nlohmann::json::parse(measurement_settings({first, reading({1, 2, 3}, 2)}, drivers::MeasureOptions{}, 2, 1));
+  EXPECT_EQ(settings, (nlohmann::json{{"integration_ms", 0},
+                                      {"count", 2},
+                                      {"rejected_readings", 1},
+                                      {"averages", 3},
+                                      {"sync", "off"},
+                                      {"extended_sensitivity", false},
+                                      {"aperture", nullptr},
+                                      {"exposure_used_ms", {16500, nullptr}}}));
+}
+
+// A fixed exposure is the one used (after any doubling or halving); the newer meters' settings
+// are kept as asked.
+TEST(StoreRecordsTest, SettingsKeepTheNewerMetersSettingsAndAFixedExposure) {
+  auto fixed = reading({1, 2, 3}, 1);
+  fixed.integration_ms = 200;
+  const drivers::MeasureOptions asked{.integration_ms = 100,
+                                      .averages = 2,
+                                      .adjust_integration = true,
+                                      .extended_sensitivity = true,
+                                      .aperture = "1/2 deg"};
+  const auto settings = nlohmann::json::parse(measurement_settings({fixed}, asked, 1, 0));
+  EXPECT_EQ(settings["integration_ms"], 100);
+  EXPECT_EQ(settings["exposure_used_ms"], nlohmann::json::array({200}));
+  EXPECT_EQ(settings["extended_sensitivity"], true);
+  EXPECT_EQ(settings["aperture"], "1/2 deg");
 }
 
 TEST(StoreRecordsTest, TheInstrumentKeepsTheModelAndConfigurationTheMeterReported) {

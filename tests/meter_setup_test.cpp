@@ -143,11 +143,11 @@ TEST(MeterSetup, AModelWithoutSensitivityOrAperturesRefusesThemBeforeAnyByte) {
   auto no_sensitivity = bench.instrument->measure({.integration_ms = 100, .extended_sensitivity = true});
   ASSERT_FALSE(no_sensitivity);
   EXPECT_EQ(no_sensitivity.error().kind, K::rejected);
-  EXPECT_THAT(no_sensitivity.error().message, HasSubstr("the PR-655 has no extended sensitivity (SH)"));
+  EXPECT_THAT(no_sensitivity.error().message, HasSubstr("the PR-655 has no extended sensitivity"));
   auto no_aperture = bench.instrument->measure({.integration_ms = 100, .aperture = "1 deg"});
   ASSERT_FALSE(no_aperture);
   EXPECT_EQ(no_aperture.error().kind, K::rejected);
-  EXPECT_THAT(no_aperture.error().message, HasSubstr("the PR-655 has no apertures to choose (SF): '1 deg'"));
+  EXPECT_THAT(no_aperture.error().message, HasSubstr("the PR-655 has no apertures to choose ('1 deg')"));
   EXPECT_EQ(bench.written(), before);
 }
 

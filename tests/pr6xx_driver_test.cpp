@@ -604,6 +604,89 @@ TEST(Pr7xxFirmware, UnknownSetupsAreDoneWithoutOnlyWhereHarmless) {
   }
 }
 
+// ---- D13: the exposure an adaptive measurement used ------------------------------------------
+
+// The exposure the simulator logged for its last measurement ("measured '...': N ms exposure").
+std::optional<int> exposure_logged(const MeterRig& rig) {
+  const auto log = rig.log();
+  for (auto line = log.rbegin(); line != log.rend(); ++line) {
+    const auto end = line->find(" ms exposure");
+    if (!line->starts_with("measured '") || end == std::string::npos) continue;
+    const auto start = line->rfind(' ', end - 1) + 1;
+    return std::stoi(line->substr(start, end - start));
+  }
+  return std::nullopt;
+}
+
+// After an adaptive measurement both families ask D13 for the exposure the meter chose, and the
+// reading keeps it; after a fixed one nothing is asked, the exposure being the one set.
+TEST(Pr6xxExposureUsed, AnAdaptiveMeasurementKeepsTheExposureTheMeterChose) {
+  for (const Model model : {Model::pr670, Model::pr730}) {
+    Bench bench(model);
+    ASSERT_TRUE(bench.driver->connect());
+    auto adaptive = bench.driver->measure({});
+    ASSERT_TRUE(adaptive) << profile(model).id << ": " << adaptive.error().message;
+    const auto logged = exposure_logged(bench.rig);
+    ASSERT_TRUE(logged) << profile(model).id;
+    EXPECT_EQ(adaptive->integration_ms, 0);
+    EXPECT_EQ(adaptive->exposure_used_ms, logged) << profile(model).id;
+    EXPECT_THAT(adaptive->warnings, ::testing::IsEmpty());
+    EXPECT_EQ(occurrences(bench.written(), "D13\r"), 1u);
+    auto fixed = bench.driver->measure({.integration_ms = 100});
+    ASSERT_TRUE(fixed) << fixed.error().message;
+    EXPECT_EQ(fixed->exposure_used_ms, std::nullopt);
+    EXPECT_EQ(occurrences(bench.written(), "D13\r"), 1u) << "not asked after a fixed exposure";
+  }
+}
+
+// A firmware that does not know D13 (illegal command) still measures: the exposure is unknown,
+// said once, and D13 is not sent again on the connection. Another refusal (no data) leaves that
+// reading's exposure unknown and asks again next time.
+TEST(Pr6xxExposureUsed, ARefusedD13IsAnUnknownExposureNotAFailure) {
+  {
+    Bench bench(Model::pr730, {"d13:error=-1000"});
+    ASSERT_TRUE(bench.driver->connect());
+    auto first = bench.driver->measure({});
+    ASSERT_TRUE(first) << first.error().message;
+    EXPECT_EQ(first->exposure_used_ms, std::nullopt);
+    EXPECT_EQ(warnings_with(first->warnings, "no-exposure-report"), 1u) << ::testing::PrintToString(first->warnings);
+    auto second = bench.driver->measure({});
+    ASSERT_TRUE(second) << second.error().message;
+    EXPECT_EQ(second->exposure_used_ms, std::nullopt);
+    EXPECT_THAT(second->warnings, ::testing::IsEmpty()) << "said once";
+    EXPECT_EQ(warnings_with(bench.driver->firmware_warnings(), "no-exposure-report"), 1u);
+    EXPECT_EQ(occurrences(bench.written(), "D13\r"), 1u) << "not asked again on this connection";
+  }
+  {
+    Bench bench(Model::pr670, {"d13:error=-2000@1"});
+    ASSERT_TRUE(bench.driver->connect());
+    auto first = bench.driver->measure({});
+    ASSERT_TRUE(first) << first.error().message;
+    EXPECT_EQ(first->exposure_used_ms, std::nullopt);
+    EXPECT_THAT(first->warnings, ::testing::IsEmpty());
+    auto second = bench.driver->measure({});
+    ASSERT_TRUE(second) << second.error().message;
+    EXPECT_EQ(second->exposure_used_ms, exposure_logged(bench.rig));
+  }
+}
+
+// The apertures D117 lists, by name, for whoever offers them; none on a model without.
+TEST(Pr6xxDriver, TheAperturesAreTheMetersOwnNames) {
+  Bench pr670(Model::pr670);
+  ASSERT_TRUE(pr670.driver->connect());
+  auto listed = pr670.driver->apertures();
+  ASSERT_TRUE(listed) << listed.error().message;
+  EXPECT_THAT(*listed, ::testing::ElementsAre("1 deg", "1/2 deg", "1/4 deg", "1/8 deg"));
+  ASSERT_TRUE(pr670.driver->measure({.integration_ms = 100, .aperture = "1/2 DEG"}));
+  EXPECT_EQ(occurrences(pr670.written(), "D117\r"), 1u) << "read once per connection";
+  Bench pr655(Model::pr655);
+  ASSERT_TRUE(pr655.driver->connect());
+  auto none = pr655.driver->apertures();
+  ASSERT_TRUE(none);
+  EXPECT_THAT(*none, ::testing::IsEmpty());
+  EXPECT_EQ(occurrences(pr655.written(), "D117\r"), 0u);
+}
+
 // ---- No hang: every wait sized to its command ------------------------------------------------
 
 // 120 s exposures averaged twice take 8 minutes on the meter (here a hundredth of it): polled

@@ -182,6 +182,180 @@ TEST(Pr6xxExposureRange, AJobsExposureIsCheckedAgainstTheIdentifiedMeter) {
   }
 }
 
+// ---- The meter's settings from the API ------------------------------------------------------
+
+// POST of a measurement that must be refused before a job exists: its reply.
+HttpReply post_measurement(unsigned short port, long long session, const json& body) {
+  return http_request(port, "POST", "/api/v1/sessions/" + std::to_string(session) + "/measurements", body.dump());
+}
+
+// The exposure the simulator last chose: its log's last "measured '...': N ms exposure".
+int last_exposure_logged(const std::string& log) {
+  constexpr std::string_view kExposure = " ms exposure";
+  const auto end = log.rfind(kExposure);
+  if (end == std::string::npos) return -1;
+  const auto start = log.rfind(' ', end - 1) + 1;
+  return std::stoi(log.substr(start, end - start));
+}
+
+// The measurement `id` as the JSON export of its database shows it (skinspec export, beside the
+// running daemon).
+json exported_measurement(const AcquisitionRig& rig, long long id) {
+  const auto exported = run_process(kSkinspec, {"export", "--db", rig.db_path(), "--format", "json"});
+  if (exported.exit_status != 0) return {{"export", exported.describe()}};
+  std::istringstream lines(exported.out);
+  for (std::string line; std::getline(lines, line);) {
+    const json session = json::parse(line);
+    for (const json& m : session["measurements"])
+      if (m["id"] == id) return m;
+  }
+  return nullptr;
+}
+
+// A PR-670's settings through the API: each is offered as the identified meter takes it (GET
+// /api/v1/instrument's capabilities), reaches the meter, and is stored with the reading as
+// provenance, shown by GET and by the export; an adaptive measurement keeps the exposure the
+// meter chose (D13). A value the meter does not take is refused when posted: 422 naming what
+// it takes, and no job.
+TEST(Pr6xxJobSettings, EachSettingReachesTheMeterAndIsStoredWithTheReading) {
+  ScratchDirectory dir;
+  RigOptions options = rig_for(dir, kPr670);
+  options.sim_args.push_back("--trace-bytes");
+  AcquisitionRig rig(std::move(options));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const auto p = rig.port;
+  const json instrument = when_connected(p);
+  ASSERT_EQ(instrument["state"], "connected") << rig.logs();
+  EXPECT_EQ(
+      instrument["capabilities"],
+      (json{{"model", "pr670"},
+            {"integration_ms", {{"min", 6}, {"max", 6000}, {"max_extended", 30000}}},
+            {"averages", {{"min", 1}, {"max", 99}}},
+            {"sync", {{"modes", {"off", "auto", "frequency"}}, {"min_hz", 20}, {"max_hz", 400}, {"whole_hz", true}}},
+            {"extended_sensitivity", true},
+            {"apertures", {"1 deg", "1/2 deg", "1/4 deg", "1/8 deg"}}}))
+      << instrument;
+
+  const long long session = new_session(p, "S1");
+  const json asked = {{"kind", "white"}, {"integration_ms", 100},        {"averages", 2},
+                      {"sync", 60},      {"extended_sensitivity", true}, {"aperture", "1/2 DEG"}};
+  const auto fixed = wait_for_job(p, submit(p, session, asked));
+  ASSERT_EQ(fixed["state"], "succeeded") << fixed << rig.logs();
+  for (const char* key : {"averages", "sync", "extended_sensitivity", "aperture"})
+    EXPECT_EQ(fixed["request"][key], asked[key]) << key << ": " << fixed;
+  const std::string log = rig.sim->err();
+  for (const char* setup : {"SN02", "SS3", "SK060", "SH1", "SF1"})
+    EXPECT_NE(log.find(std::string("received \"") + setup), std::string::npos) << setup << " never reached the meter";
+  const long long fixed_id = id_of(fixed, "measurement_id");
+  const json settings = get_json(p, "/api/v1/measurements/" + std::to_string(fixed_id))["provenance"]["settings"];
+  EXPECT_EQ(settings["integration_ms"], 100) << settings;
+  EXPECT_EQ(settings["averages"], 2) << settings;
+  EXPECT_EQ(settings["sync"], "60 Hz (user)") << settings;
+  EXPECT_EQ(settings["extended_sensitivity"], true) << settings;
+  EXPECT_EQ(settings["aperture"], "1/2 DEG") << settings;
+  EXPECT_EQ(settings["exposure_used_ms"], json::array({100})) << settings;
+
+  // Adaptive: the exposure the meter chose, as D13 reports it.
+  const auto adaptive = wait_for_job(p, submit(p, session, {{"kind", "sample"}}));
+  ASSERT_EQ(adaptive["state"], "succeeded") << adaptive << rig.logs();
+  const long long adaptive_id = id_of(adaptive, "measurement_id");
+  const json chosen = get_json(p, "/api/v1/measurements/" + std::to_string(adaptive_id))["provenance"]["settings"];
+  EXPECT_EQ(chosen["integration_ms"], 0) << chosen;
+  const int logged = last_exposure_logged(rig.sim->err());
+  ASSERT_GT(logged, 0) << rig.sim->err();
+  EXPECT_EQ(chosen["exposure_used_ms"], json::array({logged})) << chosen;
+  EXPECT_EQ(chosen["extended_sensitivity"], false) << chosen;
+  EXPECT_EQ(chosen["aperture"], nullptr) << chosen;
+
+  EXPECT_EQ(exported_measurement(rig, fixed_id)["provenance"]["settings"], settings);
+  EXPECT_EQ(exported_measurement(rig, adaptive_id)["provenance"]["settings"], chosen);
+
+  struct Refusal {
+    json setting;
+    std::string code, names;
+  };
+  for (const Refusal& r :
+       {Refusal{{{"averages", 0}}, "out_of_range", "'averages' must be 1 to 99 (the PR-670's range)"},
+        Refusal{{{"averages", 100}}, "out_of_range", "'averages' must be 1 to 99"},
+        Refusal{{{"sync", 500}}, "out_of_range", "a frequency of 20 to 400 Hz in whole hertz (the PR-670's range)"},
+        Refusal{{{"sync", 59.5}}, "out_of_range", "in whole hertz"},
+        Refusal{{{"sync", "fast"}}, "invalid_value", "'sync' must be \"off\", \"auto\" or a frequency in Hz"},
+        Refusal{{{"aperture", "2 deg"}}, "unknown_aperture", "one of '1 deg', '1/2 deg', '1/4 deg', '1/8 deg'"},
+        Refusal{{{"integration_ms", 20000}}, "out_of_range", "6 to 6000 ms (the PR-670's range)"},
+        Refusal{{{"integration_ms", 40000}, {"extended_sensitivity", true}},
+                "out_of_range",
+                "6 to 30000 ms (the PR-670's range with extended sensitivity)"}}) {
+    json body = {{"kind", "sample"}};
+    body.update(r.setting);
+    const auto refused = post_measurement(p, session, body);
+    EXPECT_EQ(refused.status, 422) << body << ": " << refused.body;
+    const json error = refused.json()["error"];
+    EXPECT_EQ(error["code"], r.code) << body << ": " << refused.body;
+    EXPECT_THAT(error["message"].get<std::string>(), ::testing::HasSubstr(r.names)) << body;
+  }
+  EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT COUNT(*) FROM jobs"), "2") << "a refused job is never queued";
+}
+
+// A PR-650 has neither apertures nor extended sensitivity, and syncs to 40-250 Hz: asked for
+// them, a job is refused when posted; its averages and sync are taken and stored. It does not
+// report the exposure an adaptive measurement chose.
+TEST(Pr6xxJobSettings, APr650RefusesWhatOnlyTheNewerMetersHave) {
+  ScratchDirectory dir;
+  AcquisitionRig rig(rig_for(dir, kPr650));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const auto p = rig.port;
+  const json instrument = when_connected(p);
+  ASSERT_EQ(instrument["state"], "connected") << rig.logs();
+  const json& caps = instrument["capabilities"];
+  EXPECT_EQ(caps["model"], "pr650") << caps;
+  EXPECT_EQ(caps["extended_sensitivity"], false) << caps;
+  EXPECT_EQ(caps["apertures"], json::array()) << caps;
+  EXPECT_EQ(caps["sync"]["min_hz"], 40) << caps;
+  EXPECT_EQ(caps["sync"]["max_hz"], 250) << caps;
+  EXPECT_EQ(caps["sync"]["whole_hz"], false) << caps;
+  EXPECT_EQ(caps["integration_ms"]["max_extended"], nullptr) << caps;
+
+  const long long session = new_session(p, "S2");
+  for (const auto& [setting, message] :
+       {std::pair{json{{"aperture", "1/2 deg"}}, "'aperture' must be left out: the PR-650 has no apertures to choose"},
+        std::pair{json{{"extended_sensitivity", true}},
+                  "'extended_sensitivity' must be false: the PR-650 has no extended sensitivity"},
+        std::pair{json{{"sync", 300}}, "a frequency of 40 to 250 Hz (the PR-650's range)"},
+        std::pair{json{{"averages", 100}}, "'averages' must be 1 to 99 (the PR-650's range)"}}) {
+    json body = {{"kind", "white"}};
+    body.update(setting);
+    const auto refused = post_measurement(p, session, body);
+    EXPECT_EQ(refused.status, 422) << body << ": " << refused.body;
+    EXPECT_THAT(refused.body, ::testing::HasSubstr(message)) << body;
+  }
+  EXPECT_EQ(sqlite_text(rig.db_path(), "SELECT COUNT(*) FROM jobs"), "0");
+
+  const auto job = wait_for_job(p, submit(p, session, {{"kind", "white"}, {"averages", 3}, {"sync", 50.5}}));
+  ASSERT_EQ(job["state"], "succeeded") << job << rig.logs();
+  const json settings =
+      get_json(p, "/api/v1/measurements/" + std::to_string(id_of(job, "measurement_id")))["provenance"]["settings"];
+  EXPECT_EQ(settings["averages"], 3) << settings;
+  EXPECT_EQ(settings["sync"], "50.5 Hz (user)") << settings;
+  EXPECT_EQ(settings["exposure_used_ms"], json::array({nullptr})) << "the PR-650 does not say";
+}
+
+// A firmware that does not know D13 (illegal command): the adaptive measurement is stored, its
+// exposure unknown (null), and the instrument says once what the meter lacks.
+TEST(Pr6xxJobSettings, AMeterWithoutD13StoresTheExposureAsUnknown) {
+  ScratchDirectory dir;
+  RigOptions options = rig_for(dir, kPr730);
+  options.sim_args.insert(options.sim_args.end(), {"--fault", "d13:error=-1000"});
+  AcquisitionRig rig(std::move(options));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const long long session = new_session(rig.port, "S3");
+  const auto job = wait_for_job(rig.port, submit(rig.port, session, {{"kind", "white"}}));
+  ASSERT_EQ(job["state"], "succeeded") << job << rig.logs();
+  const json m = get_json(rig.port, "/api/v1/measurements/" + std::to_string(id_of(job, "measurement_id")));
+  EXPECT_EQ(m["provenance"]["settings"]["exposure_used_ms"], json::array({nullptr})) << m["provenance"];
+  EXPECT_THAT(m["warnings"].dump(), ::testing::HasSubstr("no-exposure-report")) << m["warnings"];
+  EXPECT_THAT(get_json(rig.port, "/api/v1/instrument")["warnings"].dump(), ::testing::HasSubstr("no-exposure-report"));
+}
+
 // Whether the simulator's log has the meter leaving remote mode after `after` (within `limit`).
 bool quit_logged_after(BackgroundProcess& sim, std::string_view after, std::chrono::milliseconds limit) {
   for (auto until = std::chrono::steady_clock::now() + limit; std::chrono::steady_clock::now() < until;) {

@@ -83,6 +83,37 @@ json assessment_fields() {
           {"termination", {{"type", "string"}, {"enum", names(termination_names())}}}};
 }
 
+json range_schema(const std::string& description) {
+  return {{"type", "object"},
+          {"description", description},
+          {"properties", {{"min", {{"type", "number"}}}, {"max", {{"type", "number"}}}}}};
+}
+
+// What a measurement job may ask of the meter: MeasureRequest's settings, as the meter takes them.
+json capabilities_schema() {
+  json exposure = range_schema("ms; 0 (adaptive) is always taken");
+  exposure["properties"]["max_extended"] = {{"type", json::array({"integer", "null"})},
+                                            {"description", "the longest with extended_sensitivity; null: none"}};
+  json sync = range_schema("min_hz to max_hz for a frequency");
+  sync["properties"]["modes"] = {{"type", "array"},
+                                 {"items", {{"type", "string"}, {"enum", {"off", "auto", "frequency"}}}}};
+  sync["properties"]["whole_hz"] = {{"type", "boolean"}};
+  return {{"type", json::array({"object", "null"})},
+          {"description",
+           "the settings the identified meter (or the --model) takes; null before a model is known. A job asking "
+           "for anything else is refused with 422 naming what is taken"},
+          {"properties",
+           {{"model", {{"type", "string"}, {"description", "the model whose settings these are"}}},
+            {"integration_ms", exposure},
+            {"averages", range_schema("measurements the meter averages into each reading")},
+            {"sync", sync},
+            {"extended_sensitivity", {{"type", "boolean"}}},
+            {"apertures",
+             {{"type", json::array({"array", "null"})},
+              {"items", {{"type", "string"}}},
+              {"description", "the names the meter lists (D117); empty: none to choose; null: not read yet"}}}}}};
+}
+
 json instrument_schema() {
   json states = names(instrument_state_names());
   states.insert(states.begin(), "none");  // skinspecd started without --device
@@ -119,7 +150,8 @@ json instrument_schema() {
             {"attempts", {{"type", "integer"}, {"description", "failed connection attempts in a row"}}},
             {"next_attempt_in_ms", nullable("integer")},
             {"running_job", nullable("integer")},
-            {"queued", {{"type", "integer"}}}}}};
+            {"queued", {{"type", "integer"}}},
+            {"capabilities", capabilities_schema()}}}};
 }
 
 json port_list_schema() {
@@ -322,7 +354,23 @@ json schemas() {
             {"default", 0},
             {"description",
              "0: adaptive; otherwise within the meter's exposure range (PR-650 10-6000 ms, PR-7xx 12-120000 ms), "
-             "refused with 422 out_of_range"}}}}}}},
+             "refused with 422 out_of_range"}}},
+          // Each held to the Instrument's capabilities: 422 naming what the meter takes.
+          {"averages",
+           {{"type", "integer"},
+            {"default", 1},
+            {"description", "measurements the meter averages into each reading (1-99)"}}},
+          {"sync",
+           {{"type", json::array({"string", "number"})},
+            {"default", "off"},
+            {"description", "off, auto (the meter measures the flicker and syncs to it), or a frequency in Hz"}}},
+          {"extended_sensitivity",
+           {{"type", "boolean"},
+            {"default", false},
+            {"description", "the longer exposure range (PR-670, PR-680, PR-7xx)"}}},
+          {"aperture",
+           {{"type", "string"},
+            {"description", "an aperture by the name the meter lists (capabilities.apertures); absent: as set"}}}}}}},
       {"Job",
        {{"type", "object"},
         {"properties",
@@ -404,7 +452,12 @@ json schemas() {
           {"radiance_sd", samples()},
           {"reflectance", samples()},
           {"warnings", {{"type", "array"}, {"items", {{"type", "string"}}}}},
-          {"provenance", {{"type", "object"}}},
+          {"provenance",
+           {{"type", "object"},
+            {"description",
+             "settings: for a measured one integration_ms (0 adaptive), count, averages, sync (as the meter "
+             "did it), extended_sensitivity, aperture, exposure_used_ms (per reading: the exposure used, from D13 "
+             "under adaptive exposure; null where the meter does not say), rejected_readings"}}},
           {"created_at", {{"type", "string"}}},
           {"fit_id", nullable("integer")},
           {"colour",

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <limits>
 #include <sstream>
 
 #include "fit_jobs.hpp"
@@ -145,8 +146,15 @@ struct Router::Handlers {
   }
   // POST /api/v1/sessions/{id}/measurements
   static Response measure(const RouterContext& c, const Call& call) {
-    const json body = detail::parse_object(call.request.body);
-    detail::only_fields(body, {"kind", "count", "label", "integration_ms"});
+    const MeasureRequest request = measure_request_of(detail::parse_object(call.request.body));
+    const std::string key = idempotency_key(call);
+    return accepted(c, acquisition_of(c).submit(call.ids[0], request, key));
+  }
+  // Only the types and the API's own bounds here: the acquisition holds the exposure and the
+  // meter's settings to what the meter takes.
+  static MeasureRequest measure_request_of(const json& body) {
+    detail::only_fields(
+        body, {"kind", "count", "label", "integration_ms", "averages", "sync", "extended_sensitivity", "aperture"});
     MeasureRequest request;
     const auto kind = detail::required_string(body, "kind", 16);
     if (kind == "white") request.kind = store::MeasurementKind::white;
@@ -154,10 +162,18 @@ struct Router::Handlers {
     else fail(ErrorKind::unprocessable, "invalid_value", "'kind' must be white or sample");
     request.count = integer_field(body, "count", 1, 100).value_or(1);
     request.label = detail::optional_string(body, "label", 200).value_or("");
-    // An hour at most here; the acquisition holds it to the meter's own range.
-    request.integration_ms = integer_field(body, "integration_ms", 0, 3600000).value_or(0);
-    const std::string key = idempotency_key(call);
-    return accepted(c, acquisition_of(c).submit(call.ids[0], request, key));
+    request.integration_ms = integer_field(body, "integration_ms", 0, 3600000).value_or(0);  // an hour at most
+    request.averages =
+        integer_field(body, "averages", std::numeric_limits<int>::min(), std::numeric_limits<int>::max()).value_or(1);
+    if (const auto it = body.find("sync"); it != body.end() && !it->is_null()) {
+      const auto sync = parse_sync_request(*it);
+      if (!sync)
+        fail(ErrorKind::unprocessable, "invalid_value", "'sync' must be \"off\", \"auto\" or a frequency in Hz");
+      request.sync = *sync;
+    }
+    request.extended_sensitivity = detail::optional_bool(body, "extended_sensitivity").value_or(false);
+    request.aperture = detail::optional_string(body, "aperture", 64).value_or("");
+    return request;
   }
   // POST /api/v1/sessions/{id}/imports?format=csv|cgats&scale=auto|fraction|percent&name=FILE, the
   // file as the body

@@ -1,8 +1,9 @@
-// The names of the instrument's states and of a job's kinds and phases, as the API shows them: the one
-// mapping each way.
+// The names of the instrument's states, of a job's kinds and phases, and of a measurement's sync
+// modes, as the API shows them: the one mapping each way.
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 
 #include "skinspec/api/acquisition.hpp"
 
@@ -26,6 +27,12 @@ constexpr std::array<std::pair<JobPhase, std::string_view>, 7> kJobPhases = {{
     {JobPhase::fitting, "fitting"},
     {JobPhase::storing, "storing"},
     {JobPhase::done, "done"},
+}};
+
+// A frequency has no name: it is the number.
+constexpr std::array<std::pair<SyncRequest::Mode, std::string_view>, 2> kSyncModes = {{
+    {SyncRequest::Mode::off, "off"},
+    {SyncRequest::Mode::automatic, "auto"},
 }};
 
 constexpr std::array<std::pair<JobKind, std::string_view>, 3> kJobKinds = {{
@@ -53,6 +60,23 @@ std::span<const std::pair<InstrumentState, std::string_view>> instrument_state_n
 std::string_view to_string(InstrumentState state) { return name_in(instrument_state_names(), state); }
 std::optional<InstrumentState> parse_instrument_state(std::string_view text) {
   return value_in(instrument_state_names(), text);
+}
+
+nlohmann::json sync_json(const SyncRequest& sync) {
+  if (sync.mode == SyncRequest::Mode::frequency) return sync.hz;
+  return std::string(name_in<SyncRequest::Mode>(kSyncModes, sync.mode));
+}
+
+std::optional<SyncRequest> parse_sync_request(const nlohmann::json& value) {
+  if (value.is_string()) {
+    const auto mode = value_in<SyncRequest::Mode>(kSyncModes, value.get<std::string>());
+    if (!mode) return std::nullopt;
+    return SyncRequest{*mode, 0};
+  }
+  if (!value.is_number()) return std::nullopt;
+  const double hz = value.get<double>();
+  if (!std::isfinite(hz) || hz <= 0) return std::nullopt;
+  return SyncRequest{SyncRequest::Mode::frequency, hz};
 }
 
 std::span<const std::pair<JobPhase, std::string_view>> job_phase_names() { return kJobPhases; }

@@ -116,8 +116,38 @@ export async function sessionsView(root, query) {
 
 // ---- One session: acquisition ------------------------------------------------------------
 
+// The meter's own settings, offered as the connected meter takes them (GET /api/v1/instrument's
+// `capabilities`): none before a model is known, extended sensitivity and apertures only on a
+// meter that has them. `values()` is what a measurement asks for.
+function meterSettings(caps) {
+  if (!caps) return { fields: [], values: () => ({}) };
+  const averages = h("input", { type: "number", name: "averages", id: "averages", min: caps.averages.min, max: caps.averages.max, value: 1 });
+  const sync = h("select", { name: "sync", id: "sync" },
+    caps.sync.modes.map((mode) => h("option", { value: mode }, mode === "frequency" ? `frequency (${caps.sync.min_hz}–${caps.sync.max_hz} Hz)` : mode)));
+  const hz = h("input", { type: "number", name: "sync_hz", id: "sync-hz", min: caps.sync.min_hz, max: caps.sync.max_hz,
+    step: caps.sync.whole_hz ? 1 : "any", value: 60, disabled: true });
+  sync.addEventListener("change", () => { hz.disabled = sync.value !== "frequency"; });
+  const extended = caps.extended_sensitivity ? h("input", { type: "checkbox", name: "extended_sensitivity", id: "extended-sensitivity" }) : null;
+  const aperture = (caps.apertures || []).length
+    ? h("select", { name: "aperture", id: "aperture" }, h("option", { value: "" }, "as set on the meter"),
+      caps.apertures.map((name) => h("option", { value: name }, name)))
+    : null;
+  const fields = [field("Meter averages", averages), field("Sync", sync), field("Sync Hz", hz),
+    extended ? field("Extended sensitivity", extended) : null, aperture ? field("Aperture", aperture) : null];
+  const values = () => {
+    const asked = { averages: Number(averages.value) || 1, sync: sync.value === "frequency" ? Number(hz.value) : sync.value };
+    if (extended?.checked) asked.extended_sensitivity = true;
+    if (aperture?.value) asked.aperture = aperture.value;
+    return asked;
+  };
+  return { fields: fields.filter(Boolean), values };
+}
+
 export async function sessionView(root, id) {
-  const [session, known] = await Promise.all([api("GET", `/api/v1/sessions/${id}`), models()]);
+  const [session, known, instrument] = await Promise.all([api("GET", `/api/v1/sessions/${id}`), models(),
+    api("GET", "/api/v1/instrument").catch(() => null)]);
+  const caps = instrument?.capabilities || null;
+  const settings = meterSettings(caps);
   const model = modelOf(known, session.model);
   const [melanin, rmse, deltaE] = ["melanin", "rmse", "delta_e00_d65"].map((name) => describe(model, name));
   const open = session.state === "open";
@@ -126,16 +156,18 @@ export async function sessionView(root, id) {
   const job = h("div", { class: "job", id: "job", "aria-live": "polite" });
   const count = h("input", { type: "number", name: "count", min: 1, max: 100, value: 1, id: "count" });
   const label = h("input", { name: "label", maxlength: 200, id: "label", autocomplete: "off" });
-  const integration = h("input", { type: "number", name: "integration_ms", min: 0, max: 120000, value: 0, id: "integration" });
+  const longest = caps ? caps.integration_ms.max_extended ?? caps.integration_ms.max : 120000;
+  const integration = h("input", { type: "number", name: "integration_ms", min: 0, max: longest, value: 0, id: "integration" });
   const measure = (kind) => startJob(job, id, { kind, count: Number(count.value) || 1, label: label.value,
-                                                integration_ms: Number(integration.value) || 0 });
+                                                integration_ms: Number(integration.value) || 0, ...settings.values() });
   const acquire = h("div", { class: "card acquire" },
     h("h2", {}, "Acquisition"),
     open ? h("div", { class: "row" },
       h("button", { id: "measure-white", onclick: () => measure("white"), title: "Measure the white standard (W)" }, "Measure white ", h("kbd", {}, "W")),
       h("button", { id: "measure-sample", class: "primary", onclick: () => measure("sample"), title: "Measure the skin (S)" },
         "Measure sample ", h("kbd", {}, "S")),
-      field("Readings averaged", count), field("Label", label), field("Integration ms (0 adaptive)", integration))
+      field("Readings averaged", count), field("Label", label), field("Integration ms (0 adaptive)", integration),
+      ...settings.fields)
       : h("p", {}, `This session is ${session.state}; it takes no more measurements.`),
     job);
 
@@ -241,6 +273,7 @@ export async function measurementView(root, id) {
     h("h2", {}, `Measurement #${m.id}: ${m.kind}${m.label ? ` “${m.label}”` : ""}`),
     h("p", { class: "meta" }, h("a", { href: `#/sessions/${m.session_id}` }, `session #${m.session_id}`),
       ` · quality ${m.quality.code} ${m.quality.text} · ${m.reading_count} reading(s) · ${when(m.created_at)}`),
+    settingsLine(m.provenance?.settings),
     (m.warnings || []).length ? h("ul", { class: "warn", id: "measurement-warnings" }, m.warnings.map((w) => h("li", {}, w))) : null,
     h("div", { class: "row" },
       h("button", { id: "export-measurement", onclick: () => download(`measurement-${id}.json`, "application/json", JSON.stringify({ measurement: m, fit }, null, 2)) }, "Export JSON")),
@@ -263,6 +296,16 @@ export async function measurementView(root, id) {
   parts.push(h("section", { class: "columns" }, fit ? fitTable(fit, model) : null, m.colour ? swatches(m.colour) : null));
   if (fit) parts.push(renderCard(fit, model));
   root.replaceChildren(...parts);
+}
+
+// How the meter measured (the stored provenance); nothing for an import, which was not measured here.
+function settingsLine(settings) {
+  if (!settings || settings.count === undefined) return null;
+  const used = (settings.exposure_used_ms || []).map((ms) => (ms === null ? "unknown" : `${ms} ms`)).join(", ");
+  const parts = [settings.integration_ms ? `exposure ${settings.integration_ms} ms` : "adaptive exposure",
+    used ? `used ${used}` : null, `${settings.averages ?? 1} meter average(s)`, `sync ${settings.sync ?? "off"}`,
+    settings.extended_sensitivity ? "extended sensitivity" : null, settings.aperture ? `aperture ${settings.aperture}` : null];
+  return h("p", { class: "meta", id: "measurement-settings" }, parts.filter(Boolean).join(" · "));
 }
 
 // A parameter the spectrum did not determine shows "n.d." and why, never a number that looks known.

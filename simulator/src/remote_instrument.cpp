@@ -8,6 +8,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <optional>
 #include <random>
 
 #include "remote_setup.hpp"
@@ -56,7 +57,22 @@ struct Buffer {
   int status = 0;  // 0, or the meter's negative code: then there are no data
   std::vector<double> values;
   bool si_units = false;
+  int exposure_ms = 0;  // as used: the adaptive exposure chosen, for D13
 };
+
+// D13's label before the exposure: the manuals' example prints "Fast" (the speed SG sets,
+// which skinspec never changes).
+constexpr std::string_view kGainLabel = "Fast";
+
+// An error fault's code, taken off the faults: a setup or a report refused with it, as a
+// firmware that lacks the command would.
+std::optional<int> take_refusal(std::vector<Fault>& faults) {
+  const auto refusal = std::ranges::find(faults, FaultKind::error, &Fault::kind);
+  std::optional<int> code;
+  if (refusal != faults.end()) code = static_cast<int>(refusal->amount);
+  std::erase_if(faults, [](const Fault& f) { return f.kind == FaultKind::error; });
+  return code;
+}
 
 // A measurement and how long it takes, before it lands in the buffer.
 struct Measurement {
@@ -142,6 +158,11 @@ Outcome RemoteInstrument::respond(const Command& command, std::vector<Fault>& fa
   const bool pr7xx = firmware_.trigger_poll_abort;
   switch (command.letter) {
     case 'D':
+      if (const auto refusal = take_refusal(faults)) {
+        Outcome out = answer(p6::format_error(*refusal, style_));
+        out.notes.push_back(fmt::format("report '{}' refused: {}", command.text, p6::error_message(*refusal)));
+        return out;
+      }
       if (const auto code = whole_number(parameters, 4)) {
         if (auto bytes = report(*code)) return answer(std::move(*bytes));
       }
@@ -151,11 +172,8 @@ Outcome RemoteInstrument::respond(const Command& command, std::vector<Fault>& fa
       break;
     case 'S': {
       if (measuring()) return answer(p6::format_setup_status(kBusy, style_));
-      // An error fault refuses the setup with its code, as a firmware that lacks it would.
-      const auto refusal = std::ranges::find(faults, FaultKind::error, &Fault::kind);
-      const int status = refusal != faults.end() ? static_cast<int>(refusal->amount)
-                                                 : apply_remote_setup(command.text, profile_, firmware_, setup_);
-      std::erase_if(faults, [](const Fault& f) { return f.kind == FaultKind::error; });
+      const auto refusal = take_refusal(faults);
+      const int status = refusal ? *refusal : apply_remote_setup(command.text, profile_, firmware_, setup_);
       Outcome out = answer(p6::format_setup_status(status, style_));
       if (status != 0)
         out.notes.push_back(fmt::format("setup '{}' refused: {}", command.text, p6::error_message(status)));
@@ -233,6 +251,7 @@ Measurement RemoteInstrument::take_measurement(std::vector<Fault>& faults) {
   });
   m.result.measured = true;
   m.result.si_units = setup_.si_units;
+  m.result.exposure_ms = static_cast<int>(std::lround(exposure));
   if (m.result.status == 0) {
     const double sigma = options_.noise / std::sqrt(static_cast<double>(setup_.cycles));
     std::normal_distribution<double> gauss(0, 1);
@@ -327,6 +346,10 @@ std::optional<std::string> RemoteInstrument::report(int code) const {
                                               kLastPixel};
       return p6::format_hardware_configuration(configuration, style_);
     }
+    case 13:
+      if (!buffer_.measured) return p6::format_error(kNoData, style_);
+      return p6::format_exposure_report(
+          {{buffer_.status, kDataStatusDigits}, std::string(kGainLabel), buffer_.exposure_ms}, style_);
     case 5:
       return spectral_report();
     case 1:

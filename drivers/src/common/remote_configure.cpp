@@ -6,10 +6,9 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
-#include <cctype>
-#include <cmath>
 
 #include "common/remote_session.hpp"
+#include "skinspec/drivers/measure_settings.hpp"
 #include "skinspec/drivers/remote_meter.hpp"
 
 namespace skinspec::drivers {
@@ -19,47 +18,24 @@ using remote::Rule;
 
 namespace {
 
-constexpr int kMaxAverages = 99;
 constexpr int kBusy = 1;  // a PR-7xx still measuring
 
 std::unexpected<InstrumentError> rejected(std::string message, int code = -1) {
   return std::unexpected(InstrumentError{InstrumentError::Kind::rejected, std::move(message), code, {}});
 }
 
-// "1/2 deg" as D117 lists it, however a person types it: case and blanks do not matter.
-std::string aperture_key(std::string_view name) {
-  std::string key;
-  for (const char c : name)
-    if (c != ' ') key += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return key;
-}
-
 }  // namespace
 
 int RemoteMeter::longest_exposure_ms(const MeasureOptions& options) const {
-  return options.extended_sensitivity ? profile_.exposure.max_extended_ms : profile_.exposure.max_ms;
+  return drivers::longest_exposure_ms(setting_limits(profile_.model), options.extended_sensitivity);
 }
 
 // Out-of-range options, and what the model does not have, are refused before a byte is sent,
 // naming the model's range.
 std::expected<void, InstrumentError> RemoteMeter::check(const MeasureOptions& options) const {
-  const ExposureRange& range = profile_.exposure;
-  if (options.extended_sensitivity && (!profile_.caps.sensitivity || range.max_extended_ms == 0))
-    return rejected(fmt::format("the {} has no extended sensitivity (SH)", profile_.name));
-  if (!options.aperture.empty() && !profile_.caps.aperture)
-    return rejected(fmt::format("the {} has no apertures to choose (SF): '{}'", profile_.name, options.aperture));
-  const int longest = longest_exposure_ms(options);
-  if (options.integration_ms != 0 && (options.integration_ms < range.min_ms || options.integration_ms > longest))
-    return rejected(fmt::format("exposure {} ms: the {} takes {}-{} ms{}, or 0 for adaptive", options.integration_ms,
-                                profile_.name, range.min_ms, longest,
-                                options.extended_sensitivity ? " with extended sensitivity" : ""));
-  if (options.averages < 1 || options.averages > kMaxAverages)
-    return rejected(fmt::format("{} averages: the {} takes 1-{}", options.averages, profile_.name, kMaxAverages));
-  const double hz = options.sync_hz;
-  if (options.sync == MeasureOptions::Sync::frequency &&
-      !(hz >= profile_.sync_min_hz && hz <= profile_.sync_max_hz && hz == std::floor(hz)))
-    return rejected(fmt::format("sync frequency {:g} Hz: the {} syncs to whole hertz from {} to {} Hz", hz,
-                                profile_.name, profile_.sync_min_hz, profile_.sync_max_hz));
+  const SettingLimits limits = setting_limits(profile_.model);
+  if (const auto setting = refused_setting(limits, options))
+    return rejected(refusal_message(limits, options, *setting));
   return {};
 }
 
@@ -118,22 +94,40 @@ std::expected<void, InstrumentError> RemoteMeter::wait_while_busy(std::string_vi
       {}});
 }
 
-// The code D117 gives the aperture `name`; the list is read once per connection.
+// D117, read once per connection; a meter that refuses it lists none, and says why.
+std::expected<void, InstrumentError> RemoteMeter::list_apertures() {
+  if (apertures_) return {};
+  const Rule rule{p6::ReplyShape::listing, 0, options_.timing.reply, options_.timing.idle, whole_reply(8), true};
+  auto listed = session_->ask(p6::format_report(117, options_.style), rule, "aperture list", p6::parse_apertures);
+  if (!listed) return std::unexpected(listed.error());
+  unlisted_ =
+      listed->status.code == 0 ? std::string() : fmt::format(" (D117: {})", p6::error_message(listed->status.code));
+  apertures_ = listed->status.code == 0 ? listed->apertures : std::vector<p6::Aperture>{};
+  return {};
+}
+
+std::expected<std::vector<std::string>, InstrumentError> RemoteMeter::apertures() {
+  std::lock_guard lock(call_mutex_);
+  session_->reset_cancel();
+  if (!profile_.caps.aperture) return std::vector<std::string>{};
+  if (!connected_)
+    return std::unexpected(
+        InstrumentError{InstrumentError::Kind::lost, fmt::format("the {} is not connected", profile_.name), -1, {}});
+  if (auto listed = list_apertures(); !listed) return std::unexpected(listed.error());
+  std::vector<std::string> names;
+  for (const p6::Aperture& a : *apertures_) names.push_back(a.name);
+  return names;
+}
+
+// The code D117 gives the aperture `name`.
 std::expected<int, InstrumentError> RemoteMeter::aperture_code(const std::string& name) {
-  std::string unlisted;
-  if (!apertures_) {
-    const Rule rule{p6::ReplyShape::listing, 0, options_.timing.reply, options_.timing.idle, whole_reply(8), true};
-    auto listed = session_->ask(p6::format_report(117, options_.style), rule, "aperture list", p6::parse_apertures);
-    if (!listed) return std::unexpected(listed.error());
-    if (listed->status.code != 0) unlisted = fmt::format(" (D117: {})", p6::error_message(listed->status.code));
-    apertures_ = listed->status.code == 0 ? listed->apertures : std::vector<p6::Aperture>{};
-  }
-  const auto found = std::ranges::find_if(
-      *apertures_, [&](const p6::Aperture& a) { return aperture_key(a.name) == aperture_key(name); });
+  if (auto listed = list_apertures(); !listed) return std::unexpected(listed.error());
+  const auto found =
+      std::ranges::find_if(*apertures_, [&](const p6::Aperture& a) { return same_aperture(a.name, name); });
   if (found != apertures_->end()) return found->code;
   std::vector<std::string> names;
   for (const p6::Aperture& a : *apertures_) names.push_back(fmt::format("'{}'", a.name));
-  if (names.empty()) return rejected(fmt::format("aperture '{}': the {} lists none{}", name, profile_.name, unlisted));
+  if (names.empty()) return rejected(fmt::format("aperture '{}': the {} lists none{}", name, profile_.name, unlisted_));
   return rejected(fmt::format("aperture '{}': the {} lists {}", name, profile_.name, fmt::join(names, ", ")));
 }
 

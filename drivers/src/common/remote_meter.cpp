@@ -102,12 +102,12 @@ void RemoteMeter::without_last_error() {
 }
 
 // Each reply at its deadline, a command of up to eight bytes paced before each: the setups (at
-// most seven), T and V or nothing, the measurement with its spectral report, D1 and D2.
+// most seven), T and V or nothing, the measurement with its spectral report, D1, D2 and D13.
 std::chrono::milliseconds RemoteMeter::reading_time(const MeasureOptions& options) const {
   const auto pacing = options_.pacing.value_or(profile_.pacing);
   const int points = identity_.grid.points > 0 ? identity_.grid.points : profile_.simulator_grid->points;
   const auto exchange = 8 * pacing + options_.timing.reply + whole_reply(0);
-  auto total = 11 * exchange + measurement_time(options.integration_ms, options.averages) + options_.timing.reply +
+  auto total = 12 * exchange + measurement_time(options.integration_ms, options.averages) + options_.timing.reply +
                whole_reply(points);
   if (options.sync == MeasureOptions::Sync::automatic) total += options_.timing.flicker;
   return total;
@@ -327,6 +327,24 @@ std::expected<void, InstrumentError> RemoteMeter::read_colorimetry(Reading& read
   return {};
 }
 
+// A meter that does not know D13 (illegal command) is not asked again on this connection, and
+// says so once; any other refusal leaves this reading's exposure unknown.
+std::expected<std::optional<int>, InstrumentError> RemoteMeter::exposure_used() {
+  if (!dialect_.exposure_report) return std::nullopt;
+  const Rule rule{p6::ReplyShape::line, 0, options_.timing.reply, options_.timing.idle, whole_reply(0), true};
+  const std::string command = p6::format_report(13, options_.style);
+  auto report = session_->ask(command, rule, "exposure report", p6::parse_exposure_report);
+  if (!report) return std::unexpected(report.error());
+  if (report->status.code == 0) return report->exposure_ms;
+  if (report->status.code == p6::kIllegalCommand) {
+    dialect_.exposure_report = false;
+    note_firmware(fmt::format(
+        "no-exposure-report: the {} does not know '{}' ({}); the exposure an adaptive measurement chose is not known",
+        profile_.name, remote::printable(command), p6::error_message(p6::kIllegalCommand)));
+  }
+  return std::nullopt;
+}
+
 // Measures until the meter gives a good spectrum or the error policy (remote_failures.hpp)
 // gives up. A failed measurement's spectrum is never used: the next attempt or the error.
 std::expected<Reading, InstrumentError> RemoteMeter::measure(const MeasureOptions& options) {
@@ -377,6 +395,11 @@ std::expected<Reading, InstrumentError> RemoteMeter::measure(const MeasureOption
     reading.raw_reply = spectrum->raw;
     if (auto ok = read_colorimetry(reading, options.si_units); !ok) return std::unexpected(ok.error());
     if (!dialect_.units) reading.luminance_units = "as set on the meter";
+    if (state.exposure_ms == 0) {
+      auto used = exposure_used();
+      if (!used) return std::unexpected(used.error());
+      reading.exposure_used_ms = *used;
+    }
     // What this reading found the firmware to lack goes with it, once.
     const auto learned = firmware_warnings();
     reading.warnings.insert(reading.warnings.end(), learned.begin() + static_cast<std::ptrdiff_t>(warned),

@@ -68,6 +68,11 @@ class AutoInstrument final : public Instrument {
     auto driver = current();
     return driver ? driver->firmware_warnings() : std::vector<std::string>{};
   }
+  std::expected<std::vector<std::string>, InstrumentError> apertures() override {
+    auto driver = current();
+    if (!driver) return std::unexpected(not_connected());
+    return driver->apertures();
+  }
   // Before identification: as long as the slowest family's reading may take.
   std::chrono::milliseconds reading_time(const MeasureOptions& options) const override {
     if (auto driver = current()) return driver->reading_time(options);

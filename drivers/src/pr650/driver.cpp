@@ -9,6 +9,7 @@
 
 #include "common/text.hpp"
 #include "skinspec/drivers/identification.hpp"
+#include "skinspec/drivers/measure_settings.hpp"
 
 namespace skinspec::drivers {
 
@@ -63,19 +64,6 @@ std::string describe_sync(pp::Setup::Sync sync, double hz) {
       return fmt::format("{:g} Hz (user)", hz);
   }
   return "off";
-}
-
-// What only the newer meters offer, and a sync frequency outside the PR-650's range, refused
-// before a byte is sent.
-std::optional<std::string> unsupported(const MeasureOptions& options) {
-  const MeterProfile& row = profile(Model::pr650);
-  if (options.extended_sensitivity) return "the PR-650 has no extended sensitivity";
-  if (!options.aperture.empty()) return fmt::format("the PR-650 has no apertures to choose ('{}')", options.aperture);
-  if (options.sync == MeasureOptions::Sync::frequency &&
-      !(options.sync_hz >= row.sync_min_hz && options.sync_hz <= row.sync_max_hz))
-    return fmt::format("sync frequency {:g} Hz: the PR-650 syncs to {}-{} Hz", options.sync_hz, row.sync_min_hz,
-                       row.sync_max_hz);
-  return std::nullopt;
 }
 
 std::string seconds(std::chrono::milliseconds t) {
@@ -501,13 +489,11 @@ std::expected<Reading, InstrumentError> Pr650::measure(const MeasureOptions& opt
   std::lock_guard lock(call_mutex_);
   cancelled_ = false;
   transport_->clear_interrupt();
-  if (options.integration_ms != 0 &&
-      (options.integration_ms < kMinIntegrationMs || options.integration_ms > kMaxIntegrationMs))
-    return fail(InstrumentError::Kind::rejected,
-                fmt::format("integration time {} ms is outside 10-6000 ms", options.integration_ms));
-  if (options.averages < 1 || options.averages > 99)
-    return fail(InstrumentError::Kind::rejected, fmt::format("{} averages is outside 1-99", options.averages));
-  if (auto refusal = unsupported(options)) return fail(InstrumentError::Kind::rejected, std::move(*refusal));
+  // What only the newer meters offer, and values outside the PR-650's ranges, refused before a
+  // byte is sent.
+  const SettingLimits limits = setting_limits(Model::pr650);
+  if (const auto setting = refused_setting(limits, options))
+    return fail(InstrumentError::Kind::rejected, refusal_message(limits, options, *setting));
   if (!connected_) return fail(InstrumentError::Kind::lost, "not connected to the PR-650");
   if (auto drained = drain_pending_measurement(); !drained) return std::unexpected(drained.error());
 

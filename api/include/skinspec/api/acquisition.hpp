@@ -21,11 +21,29 @@
 
 namespace skinspec::api {
 
+// How a measurement syncs to the light: not at all, to the flicker the meter measures first, or
+// to a frequency given in hertz. As JSON: "off", "auto" or the frequency, a number.
+struct SyncRequest {
+  enum class Mode { off, automatic, frequency } mode = Mode::off;
+  double hz = 0;  // with frequency
+  friend bool operator==(const SyncRequest&, const SyncRequest&) = default;
+};
+nlohmann::json sync_json(const SyncRequest& sync);
+// nullopt for anything but "off", "auto" or a finite frequency above 0 (the meter's range is
+// the acquisition's to hold it to).
+std::optional<SyncRequest> parse_sync_request(const nlohmann::json& value);
+
 struct MeasureRequest {
   store::MeasurementKind kind = store::MeasurementKind::sample;
   int count = 1;  // readings averaged into one measurement (1-100)
   std::string label;
   int integration_ms = 0;  // 0: adaptive
+  // The meter's own settings, each held to what the identified meter takes when the job is
+  // posted (GET /api/v1/instrument's "capabilities").
+  int averages = 1;  // measurements the meter averages into each reading
+  SyncRequest sync;
+  bool extended_sensitivity = false;  // the longer exposure range of the models that have it
+  std::string aperture;               // by the name the meter lists (D117); empty: as the meter is
 };
 
 // What the instrument is doing (GET /api/v1/instrument's "state").

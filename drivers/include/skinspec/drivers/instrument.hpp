@@ -75,6 +75,9 @@ struct Reading {
   std::string units;            // "W/(sr m2 nm)" ...
   std::string luminance_units;  // "cd/m2" or "fL" ...
   int integration_ms = 0;       // as asked (0 = adaptive)
+  // After an adaptive measurement, the exposure the meter says it chose (D13); nullopt after a
+  // fixed one (integration_ms) and where the meter does not say (the PR-650, a firmware without D13).
+  std::optional<int> exposure_used_ms;
   int averages = 1;
   std::string sync;                   // "off", "last measured frequency (60.02 Hz)", "60 Hz (user)" ...
   std::vector<double> wavelength_nm;  // the meter's native grid (D120)
@@ -122,6 +125,9 @@ class Instrument {
   // What the driver found on this connection that the meter's firmware lacks, and does without
   // ("m5-fallback: ..."), each once; empty for a meter that knows every command. Any thread.
   virtual std::vector<std::string> firmware_warnings() const { return {}; }
+  // The apertures the identified meter lists (D117), by its names, for MeasureOptions::aperture;
+  // read once per connection. Empty for a model without apertures to choose.
+  virtual std::expected<std::vector<std::string>, InstrumentError> apertures() { return std::vector<std::string>{}; }
   // The longest one measure() with `options` may take while the meter answers in time: the
   // deadlines of its commands, each sized to the command (measurements by their exposures and
   // averages, replies by their length at the link's rate). For the time left of a job.

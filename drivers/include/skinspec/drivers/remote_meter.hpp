@@ -45,6 +45,7 @@ class RemoteMeter : public Instrument {
   std::string describe() const override { return transport_->describe(); }
   const std::string& serial_number() const override { return identity_.serial_number; }
   std::vector<std::string> firmware_warnings() const override;
+  std::expected<std::vector<std::string>, InstrumentError> apertures() override;
   std::chrono::milliseconds reading_time(const MeasureOptions& options) const override;
 
   const MeterProfile& profile() const { return profile_; }
@@ -83,9 +84,10 @@ class RemoteMeter : public Instrument {
     bool trigger = true;     // T, P, A and V; false: M5
     bool last_error = true;  // V
     SyncCommand sync = SyncCommand::ss;
-    bool units = true;        // SU
-    bool sensitivity = true;  // SH0 (standard sensitivity, as the meter starts)
-    bool averages = true;     // SN01 (no averaging, as the meter starts)
+    bool units = true;            // SU
+    bool sensitivity = true;      // SH0 (standard sensitivity, as the meter starts)
+    bool averages = true;         // SN01 (no averaging, as the meter starts)
+    bool exposure_report = true;  // D13
   };
   const Dialect& dialect() const { return dialect_; }
   // The PR-7xx's trigger refused (`command` answered illegal command): M5 from now on, said once.
@@ -124,7 +126,11 @@ class RemoteMeter : public Instrument {
   int longest_exposure_ms(const MeasureOptions& options) const;
   std::expected<std::string, InstrumentError> configure(const MeasureOptions& options, int exposure_ms, bool sync_on);
   std::expected<std::string, InstrumentError> configure_sync(const MeasureOptions& options, bool sync_on);
+  std::expected<void, InstrumentError> list_apertures();
   std::expected<int, InstrumentError> aperture_code(const std::string& name);
+  // D13 after an adaptive measurement: the exposure the meter chose, or nullopt when it does
+  // not say (a refusal is not the reading's failure).
+  std::expected<std::optional<int>, InstrumentError> exposure_used();
   std::expected<void, InstrumentError> setup(std::optional<std::string>& last, const std::string& command,
                                              std::string_view range = {});
   std::expected<void, InstrumentError> read_colorimetry(Reading& reading, bool si_units);
@@ -150,6 +156,7 @@ class RemoteMeter : public Instrument {
   // The setups the meter holds on this connection: each is sent only when it changes.
   std::optional<std::string> units_, exposure_, averages_, sync_mode_, sync_frequency_, sensitivity_, aperture_;
   std::optional<std::vector<pr6xx::Aperture>> apertures_;  // D117, read once per connection when needed
+  std::string unlisted_;                                   // why D117 listed none, for messages
   std::chrono::milliseconds pending_{0};
   Dialect dialect_;
   mutable std::mutex warnings_mutex_;           // firmware_warnings_, read from any thread

@@ -40,7 +40,8 @@ enum class FaultKind {
   // Faults of the newer meters (PR-655 and later):
   fast_loss,  // value: ms; a byte arriving sooner than this after the one before is lost (on "*")
   glue,       // on photo: the banner is held back and sent in front of the next reply
-  error,      // value: a negative status; the measurement (m, t) fails with it; required
+  error,      // value: a negative status; the measurement (m, t) fails with it, a setup (s...) or
+              // report (d...) is refused with it; required
   busy,       // value: extra "0001" answers of P before the measurement is done, default 1
 };
 
