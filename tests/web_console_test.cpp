@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <thread>
 
 #include "support/acquisition_rig.hpp"
 #include "support/http_client.hpp"
@@ -34,6 +35,7 @@ class WebConsoleTest : public ::testing::Test {
                                       "--reflectance", kData + "/examples/forearm.csv", "--illuminant", "A"},
                                      {"--log-level", "warn"});
     options.default_scenes = false;
+    options.sim_args.insert(options.sim_args.end(), meter_.begin(), meter_.end());
     rig_ = std::make_unique<AcquisitionRig>(std::move(options));
     ASSERT_TRUE(rig_->ready()) << rig_->logs();
     port_ = rig_->port;
@@ -65,6 +67,30 @@ class WebConsoleTest : public ::testing::Test {
     return browser_->run("return document.getElementById('job').dataset.state;").get<std::string>();
   }
 
+  // A new session's screen once skinspecd has identified the meter, showing `ready` (a CSS
+  // selector); false, with a failure saying why, when the meter was never connected.
+  bool new_session_screen_with(const std::string& ready) {
+    std::string state;
+    for (auto until = std::chrono::steady_clock::now() + 30s; std::chrono::steady_clock::now() < until;) {
+      state = get("/api/v1/instrument").value("state", "");
+      if (state == "connected") break;
+      std::this_thread::sleep_for(50ms);
+    }
+    if (state != "connected") {
+      ADD_FAILURE() << "the meter is " << state << ": " << rig_->logs();
+      return false;
+    }
+    const auto created = http_request(port_, "POST", "/api/v1/sessions", R"({"site": "forearm", "subject": "v"})");
+    if (created.status != 201) {
+      ADD_FAILURE() << created.body;
+      return false;
+    }
+    browser_->open(url("#/sessions/1"));
+    browser_->find(ready);
+    return true;
+  }
+
+  std::vector<std::string> meter_;  // skinspec-sim's model, for fixtures of another meter
   ScratchDirectory dir_;
   std::unique_ptr<AcquisitionRig> rig_;
   std::unique_ptr<Browser> browser_;
@@ -240,22 +266,23 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   EXPECT_FALSE(browser_->run("return !!document.getElementById('scale-oxygen_saturation');").get<bool>());
   for (const auto& d : model["derived"]) {
     if (fit["params"].contains(d["name"])) continue;  // the model fits it: shown as a parameter
-    EXPECT_EQ(text_of("#fit-params tr[data-param='" + d["name"].get<std::string>() + "'] td.unit"), d["unit"]);
+    EXPECT_EQ(text_of("#fit-params tr[data-param='" + d["name"].get<std::string>() + "'] td.unit"),
+              d["unit"].get<std::string>());
   }
   // The RMSE and ΔE2000 beside their units.
   ASSERT_EQ(model["fit_quality"].size(), 2u);
   for (const auto& q : model["fit_quality"]) {
     const std::string row = "#fit-params tr[data-param='" + q["name"].get<std::string>() + "']";
-    EXPECT_EQ(text_of(row + " th"), q["label"]) << q;
-    EXPECT_EQ(text_of(row + " td.unit"), q["unit"]) << q;
+    EXPECT_EQ(text_of(row + " th"), q["label"].get<std::string>()) << q;
+    EXPECT_EQ(text_of(row + " td.unit"), q["unit"].get<std::string>()) << q;
   }
   // The measured spectrum's skin tone, as the fit gives it, beside its units.
   ASSERT_EQ(model["skin_tone"].size(), 4u);
   ASSERT_TRUE(fit.contains("skin_tone")) << fit;
   for (const auto& q : model["skin_tone"]) {
     const std::string name = q["name"], row = "#fit-params tr[data-param='" + name + "']";
-    EXPECT_EQ(text_of(row + " th"), q["label"]) << q;
-    EXPECT_EQ(text_of(row + " td.unit"), q["unit"]) << q;
+    EXPECT_EQ(text_of(row + " th"), q["label"].get<std::string>()) << q;
+    EXPECT_EQ(text_of(row + " td.unit"), q["unit"].get<std::string>()) << q;
     const json& value = fit["skin_tone"][name];
     if (value.is_string()) {
       std::string spaced = value.get<std::string>();
@@ -310,6 +337,56 @@ TEST_F(WebConsoleTest, AWholeSessionClickedThroughShowsWhatTheApiHolds) {
   EXPECT_TRUE(
       browser_->wait_until("return document.querySelectorAll('#sessions tr[data-session]').length === 0 && "
                            "!!document.getElementById('new-session');"));
+}
+
+// The console offers the settings the connected meter takes: the PR-650's averages and sync
+// (to its 40-250 Hz), and neither extended sensitivity nor apertures, which it does not have.
+TEST_F(WebConsoleTest, APr650IsOfferedOnlyTheSettingsItTakes) {
+  ASSERT_TRUE(new_session_screen_with("#averages"));
+  EXPECT_EQ(browser_->run("return [...document.querySelectorAll('#sync option')].map((o) => o.value);"),
+            json::array({"off", "auto", "frequency"}));
+  EXPECT_EQ(browser_->run("const hz = document.getElementById('sync-hz'); return [hz.min, hz.max];"),
+            json::array({"40", "250"}));
+  EXPECT_EQ(browser_->run("return !!document.getElementById('aperture');"), false);
+  EXPECT_EQ(browser_->run("return !!document.getElementById('extended-sensitivity');"), false);
+}
+
+class WebConsolePr670Test : public WebConsoleTest {
+ protected:
+  WebConsolePr670Test() { meter_ = {"--model", "pr670"}; }
+};
+
+// A PR-670's settings, apertures by its own names among them, chosen in the console reach the
+// job and are stored with the reading; the measurement's screen says how it was measured.
+TEST_F(WebConsolePr670Test, TheMetersSettingsChosenInTheConsoleAreStoredWithTheReading) {
+  ASSERT_TRUE(new_session_screen_with("#aperture"));
+  EXPECT_EQ(browser_->run("return [...document.querySelectorAll('#aperture option')].map((o) => o.value);"),
+            json::array({"", "1 deg", "1/2 deg", "1/4 deg", "1/8 deg"}));
+  browser_->run(
+      "document.getElementById('integration').value = '100';"
+      "document.getElementById('averages').value = '2';"
+      "const sync = document.getElementById('sync'); sync.value = 'frequency'; sync.dispatchEvent(new Event('change'));"
+      "document.getElementById('sync-hz').value = '60';"
+      "document.getElementById('extended-sensitivity').checked = true;"
+      "document.getElementById('aperture').value = '1/4 deg';");
+  browser_->click(browser_->find("#measure-white"));
+  ASSERT_EQ(job_end_state(), "succeeded") << browser_->text(browser_->find("#job-status")) << rig_->logs();
+  const json job =
+      get("/api/v1/jobs/" + browser_->run("return document.getElementById('job').dataset.job;").get<std::string>());
+  const long long id = job["result"]["measurement_id"].get<long long>();
+  const json settings = get("/api/v1/measurements/" + std::to_string(id))["provenance"]["settings"];
+  EXPECT_EQ(settings["integration_ms"], 100) << settings;
+  EXPECT_EQ(settings["averages"], 2) << settings;
+  EXPECT_EQ(settings["sync"], "60 Hz (user)") << settings;
+  EXPECT_EQ(settings["extended_sensitivity"], true) << settings;
+  EXPECT_EQ(settings["aperture"], "1/4 deg") << settings;
+  shot("07-meter-settings.png");
+
+  browser_->open(url("#/measurements/" + std::to_string(id)));
+  const std::string shown = browser_->text(browser_->find("#measurement-settings"));
+  for (const char* part :
+       {"exposure 100 ms", "2 meter average(s)", "sync 60 Hz (user)", "extended sensitivity", "aperture 1/4 deg"})
+    EXPECT_NE(shown.find(part), std::string::npos) << part << " not in: " << shown;
 }
 
 TEST_F(WebConsoleTest, ARefusedRequestIsShownAndTheConsoleKeepsWorking) {
