@@ -1,12 +1,14 @@
 // Helper for the crash-safety test: runs measurement jobs on the database given as its
-// argument until it is killed (each job created, started, then, a millisecond later as the
-// meter's reading would take, ended with its measurement and fit in one transaction), printing
-// each one's ids only after its commit has returned. Lines:
+// argument until it is killed (each job created, started, then, READING_MS later as the
+// meter's reading would take, default 1 ms, ended with its measurement and fit in one
+// transaction), printing each one's ids only after its commit has returned. Lines:
 //   session <session id>
 //   committed <measurement id> <fit id> <job id> <n>   (n: the sample number, see store_samples.hpp)
 
+#include <charconv>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <thread>
 
 #include "skinspec/store/store.hpp"
@@ -28,8 +30,12 @@ T must(Result<T> result, const char* what) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: store_crash_writer DATABASE\n");
+  int reading_ms = 1;
+  const bool reading_ok = argc < 3 || (std::from_chars(argv[2], argv[2] + std::strlen(argv[2]), reading_ms).ec ==
+                                           std::errc{} &&
+                                       reading_ms >= 0);
+  if (argc < 2 || argc > 3 || !reading_ok) {
+    std::fprintf(stderr, "usage: store_crash_writer DATABASE [READING_MS]\n");
     return 2;
   }
   auto store = must(Store::open(argv[1]), "open");
@@ -44,7 +50,7 @@ int main(int argc, char** argv) {
     must(store.update_job(job_id, {.state = JobState::running}), "job start");
     // A job runs for as long as its reading takes: kills land there as often as elsewhere (the
     // job's end, one round trip on PostgreSQL, is too short a stretch of the cycle otherwise).
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::this_thread::sleep_for(std::chrono::milliseconds(reading_ms));
     const auto done = must(store.complete_measurement_job(job_id, skinspec::testing::sample_measurement(session, n),
                                                           skinspec::testing::sample_fit(n), R"({"readings":1})"),
                            "job end");

@@ -224,9 +224,9 @@ TEST(MemoryPair, ReadEndsAtTheDeadline) {
 
 TEST(MemoryPair, InterruptFromAnotherThreadEndsABlockedRead) {
   auto [a, b] = make_memory_pair();
-  auto interrupter = std::async(std::launch::async, [&b = *b] {
+  auto interrupter = std::async(std::launch::async, [&reader = *b] {
     std::this_thread::sleep_for(50ms);
-    b.interrupt();
+    reader.interrupt();
   });
   char buffer[8];
   std::expected<std::size_t, TransportError> result;
