@@ -103,7 +103,7 @@ pp::Setup power_on_setup() {
 }
 
 // What a measurement leaves in the meter.
-struct Buffer {
+struct LastMeasurement {
   int quality = 0;
   std::vector<double> values = std::vector<double>(pp::kSpectralPoints, 0.0);
   bool si_units = false;
@@ -125,7 +125,7 @@ class Instrument final : public Responder {
   void power_cycle() override {
     setup_ = power_on_setup();
     setup_status_ = 0;
-    buffer_ = Buffer{};
+    buffer_ = LastMeasurement{};
     flicker_hz_.reset();
   }
 
@@ -149,7 +149,7 @@ class Instrument final : public Responder {
   std::mt19937_64 rng_;
   pp::Setup setup_;
   int setup_status_ = 0;
-  Buffer buffer_;
+  LastMeasurement buffer_;
   std::optional<double> flicker_hz_;  // the last F result
   std::size_t measurements_ = 0;
 };

@@ -52,7 +52,7 @@ p6::ReplyStyle style_of(const MeterProfile& profile, const WireOverrides& wire) 
 }
 
 // What a measurement leaves in the meter.
-struct Buffer {
+struct MeasurementBuffer {
   bool measured = false;
   int status = 0;  // 0, or the meter's negative code: then there are no data
   std::vector<double> values;
@@ -76,7 +76,7 @@ std::optional<int> take_refusal(std::vector<Fault>& faults) {
 
 // A measurement and how long it takes, before it lands in the buffer.
 struct Measurement {
-  Buffer result;
+  MeasurementBuffer result;
   double duration_ms = 0;  // at time scale 1
   std::string note;
 };
@@ -100,7 +100,7 @@ class RemoteInstrument final : public Responder {
   Outcome respond(const Command& command, std::vector<Fault>& faults) override;
   void power_cycle() override {
     setup_ = RemoteSetup{};
-    buffer_ = Buffer{};
+    buffer_ = MeasurementBuffer{};
     pending_.reset();
     echo_ = false;
   }
@@ -137,7 +137,7 @@ class RemoteInstrument final : public Responder {
   p6::ReplyStyle style_;
   std::mt19937_64 rng_;
   RemoteSetup setup_;
-  Buffer buffer_;
+  MeasurementBuffer buffer_;
   struct Pending {  // a PR-7xx measurement started by T
     Measurement measurement;
     Clock::time_point done_at;
