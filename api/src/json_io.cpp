@@ -3,6 +3,7 @@
 #include <cmath>
 #include <set>
 
+#include "skinspec/spectral/utf8.hpp"
 #include "text.hpp"
 
 namespace skinspec::api::detail {
@@ -16,7 +17,7 @@ void fail(ErrorKind kind, std::string code, std::string message) {
 void fail_store(const store::StoreError& error) { throw HandlerError{from_store_error(error)}; }
 
 json parse_object(const std::string& body) {
-  if (!valid_utf8(body)) fail(ErrorKind::bad_request, "invalid_utf8", "the body is not valid UTF-8");
+  if (!utf8::is_valid(body)) fail(ErrorKind::bad_request, "invalid_utf8", "the body is not valid UTF-8");
   // The keys of each object being read, innermost last: a repeated key is refused rather
   // than letting the last one win, which would hide what the client meant.
   std::vector<std::set<std::string>> open_objects;

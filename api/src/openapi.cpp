@@ -32,6 +32,12 @@ json names(std::span<const std::pair<E, std::string_view>> mapping) {
   return out;
 }
 
+json measurement_job_kind_names() {
+  json out = json::array();
+  for (const auto kind : kMeasurementJobKinds) out.push_back(std::string(store::to_string(kind)));
+  return out;
+}
+
 // The parameters of every model: a fit has those of its own.
 json params_schema() {
   json props = json::object();
@@ -335,7 +341,7 @@ json schemas() {
                   {"description", "silent longer than this after its heartbeat, a bench counts as gone"}}},
                 {"state",
                  {{"type", "string"},
-                  {"enum", {"running", "stopped", "silent"}},
+                  {"enum", names(store::bench_state_names())},
                   {"description", "stopped: it stopped cleanly; silent: not heard within its lease"}}},
                 {"this", {{"type", "boolean"}}},
                 {"instrument", ref("Instrument")}}}}}}}}}}},
@@ -344,7 +350,7 @@ json schemas() {
         {"required", {"kind"}},
         {"additionalProperties", false},
         {"properties",
-         {{"kind", {{"type", "string"}, {"enum", {"white", "sample"}}}},
+         {{"kind", {{"type", "string"}, {"enum", measurement_job_kind_names()}}},
           {"count", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}, {"default", 1}}},
           {"label", {{"type", "string"}}},
           {"integration_ms",

@@ -14,6 +14,7 @@
 #include "skinspec/records/fit_record.hpp"
 #include "skinspec/records/record_json.hpp"
 #include "skinspec/spectral/colour.hpp"
+#include "skinspec/spectral/utf8.hpp"
 #include "skinspec/store/store.hpp"
 #include "http_caching.hpp"
 #include "skinspec/version.hpp"
@@ -131,9 +132,7 @@ struct Router::Handlers {
                       {"started_at", detail::format_time(b.started_at)},
                       {"heartbeat_at", detail::format_time(b.heartbeat_at)},
                       {"lease_s", std::chrono::duration<double>(b.lease).count()},
-                      {"state", b.stopped_at                   ? "stopped"
-                                : store::bench_running(b, now) ? "running"
-                                                               : "silent"},
+                      {"state", store::to_string(store::bench_state(b, now))},
                       {"this", here},
                       {"instrument", instrument.is_object() ? instrument : json::object()}});
     }
@@ -156,10 +155,10 @@ struct Router::Handlers {
     detail::only_fields(
         body, {"kind", "count", "label", "integration_ms", "averages", "sync", "extended_sensitivity", "aperture"});
     MeasureRequest request;
-    const auto kind = detail::required_string(body, "kind", 16);
-    if (kind == "white") request.kind = store::MeasurementKind::white;
-    else if (kind == "sample") request.kind = store::MeasurementKind::sample;
-    else fail(ErrorKind::unprocessable, "invalid_value", "'kind' must be white or sample");
+    const auto kind = store::parse_measurement_kind(detail::required_string(body, "kind", 16));
+    if (!kind || std::ranges::find(kMeasurementJobKinds, *kind) == kMeasurementJobKinds.end())
+      fail(ErrorKind::unprocessable, "invalid_value", "'kind' must be white or sample");
+    request.kind = *kind;
     request.count = integer_field(body, "count", 1, 100).value_or(1);
     request.label = detail::optional_string(body, "label", 200).value_or("");
     request.integration_ms = integer_field(body, "integration_ms", 0, 3600000).value_or(0);  // an hour at most
@@ -909,7 +908,7 @@ std::optional<Response> Router::answer(const Request& request, bool from_memory_
     if (raw_path.empty() || raw_path.front() != '/')
       fail(ErrorKind::bad_request, "invalid_path", "the target must be an absolute path");
     const auto path = detail::percent_decode(raw_path, false);
-    if (!path || !detail::valid_utf8(*path) || path->find('\0') != std::string::npos ||
+    if (!path || !utf8::is_valid(*path) || path->find('\0') != std::string::npos ||
         path->find('\\') != std::string::npos)
       fail(ErrorKind::bad_request, "invalid_path", "the path is not valid percent-encoded UTF-8");
     const auto segments = split_path(*path);

@@ -2,45 +2,11 @@
 
 #include "skinspec/api/acquisition.hpp"
 #include "skinspec/records/record_json.hpp"
+#include "skinspec/spectral/utf8.hpp"
 
 #include <charconv>
 
 namespace skinspec::api::detail {
-
-bool valid_utf8(std::string_view text) {
-  std::size_t i = 0;
-  while (i < text.size()) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    std::size_t len = 0;
-    std::uint32_t cp = 0;
-    if (c < 0x80) {
-      ++i;
-      continue;
-    }
-    if ((c & 0xE0) == 0xC0) {
-      len = 2;
-      cp = c & 0x1Fu;
-    } else if ((c & 0xF0) == 0xE0) {
-      len = 3;
-      cp = c & 0x0Fu;
-    } else if ((c & 0xF8) == 0xF0) {
-      len = 4;
-      cp = c & 0x07u;
-    } else return false;
-    if (i + len > text.size()) return false;
-    for (std::size_t k = 1; k < len; ++k) {
-      const auto cc = static_cast<unsigned char>(text[i + k]);
-      if ((cc & 0xC0) != 0x80) return false;
-      cp = (cp << 6) | (cc & 0x3Fu);
-    }
-    // Overlong forms, surrogates and values past U+10FFFF.
-    if ((len == 2 && cp < 0x80) || (len == 3 && cp < 0x800) || (len == 4 && cp < 0x10000) || cp > 0x10FFFF ||
-        (cp >= 0xD800 && cp <= 0xDFFF))
-      return false;
-    i += len;
-  }
-  return true;
-}
 
 namespace {
 int hex_value(char c) {
@@ -80,7 +46,7 @@ std::optional<std::map<std::string, std::string>> parse_query(std::string_view q
     const auto eq = part.find('=');
     auto name = percent_decode(part.substr(0, eq), true);
     auto value = percent_decode(eq == std::string_view::npos ? std::string_view{} : part.substr(eq + 1), true);
-    if (!name || !value || !valid_utf8(*name) || !valid_utf8(*value)) return std::nullopt;
+    if (!name || !value || !utf8::is_valid(*name) || !utf8::is_valid(*value)) return std::nullopt;
     if (!out.emplace(std::move(*name), std::move(*value)).second) return std::nullopt;
   }
   return out;

@@ -10,7 +10,6 @@
 
 namespace skinspec::api::detail {
 
-bool valid_utf8(std::string_view text);
 // Percent-decodes `text`; nullopt on a malformed escape. '+' is a space only when `plus_space`.
 std::optional<std::string> percent_decode(std::string_view text, bool plus_space);
 // "a=1&b=2" → {a: 1, b: 2}; nullopt on a malformed escape, invalid UTF-8 or a repeated name.

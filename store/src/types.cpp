@@ -33,6 +33,12 @@ constexpr std::array<std::pair<MeasurementKind, std::string_view>, 4> kMeasureme
     {MeasurementKind::imported, "imported"},
 }};
 
+constexpr std::array<std::pair<BenchState, std::string_view>, 3> kBenchStates = {{
+    {BenchState::running, "running"},
+    {BenchState::stopped, "stopped"},
+    {BenchState::silent, "silent"},
+}};
+
 constexpr std::array<std::pair<JobState, std::string_view>, 5> kJobStates = {{
     {JobState::queued, "queued"},
     {JobState::running, "running"},
@@ -95,11 +101,19 @@ std::optional<JobState> parse_job_state(std::string_view text) { return lookup(k
 std::optional<JobErrorCode> parse_job_error_code(std::string_view text) { return lookup(kJobErrorCodes, text); }
 
 std::span<const std::pair<SessionState, std::string_view>> session_state_names() { return kSessionStates; }
+std::span<const std::pair<MeasurementKind, std::string_view>> measurement_kind_names() { return kMeasurementKinds; }
 std::span<const std::pair<JobState, std::string_view>> job_state_names() { return kJobStates; }
+std::span<const std::pair<BenchState, std::string_view>> bench_state_names() { return kBenchStates; }
+std::string_view to_string(BenchState state) { return name_of(kBenchStates, state); }
 std::span<const std::pair<JobErrorCode, std::string_view>> job_error_code_names() { return kJobErrorCodes; }
 
 bool bench_running(const Bench& bench, Time now) {
   return !bench.stopped_at && now - bench.heartbeat_at <= bench.lease;
+}
+
+BenchState bench_state(const Bench& bench, Time now) {
+  if (bench.stopped_at) return BenchState::stopped;
+  return bench_running(bench, now) ? BenchState::running : BenchState::silent;
 }
 
 }  // namespace skinspec::store

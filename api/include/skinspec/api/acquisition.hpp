@@ -3,6 +3,7 @@
 // jobs. The daemon implements it with the drivers, the fitter and the store; the router knows
 // only this interface, so that api/ does not depend on drivers/.
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -32,6 +33,9 @@ nlohmann::json sync_json(const SyncRequest& sync);
 // nullopt for anything but "off", "auto" or a finite frequency above 0 (the meter's range is
 // the acquisition's to hold it to).
 std::optional<SyncRequest> parse_sync_request(const nlohmann::json& value);
+
+// The kinds a measurement job may take: dark readings and imports are not asked of the meter.
+inline constexpr std::array kMeasurementJobKinds = {store::MeasurementKind::white, store::MeasurementKind::sample};
 
 struct MeasureRequest {
   store::MeasurementKind kind = store::MeasurementKind::sample;

@@ -109,6 +109,7 @@ struct Session {
 enum class MeasurementKind { white, sample, dark, imported };
 std::string_view to_string(MeasurementKind kind);
 std::optional<MeasurementKind> parse_measurement_kind(std::string_view text);
+std::span<const std::pair<MeasurementKind, std::string_view>> measurement_kind_names();
 
 struct Measurement {
   Id id = 0;
@@ -242,5 +243,12 @@ struct Bench {
 
 // Whether a bench's daemon counts as running at `now`: not stopped, and heard within its lease.
 bool bench_running(const Bench& bench, Time now);
+
+// A bench as GET /api/v1/benches shows it: running, stopped cleanly, or not heard within its
+// lease (silent).
+enum class BenchState { running, stopped, silent };
+BenchState bench_state(const Bench& bench, Time now);
+std::string_view to_string(BenchState state);
+std::span<const std::pair<BenchState, std::string_view>> bench_state_names();
 
 }  // namespace skinspec::store
