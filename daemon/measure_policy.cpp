@@ -62,25 +62,25 @@ std::string rejection_warning(int attempt, const drivers::InstrumentError& error
 }
 
 store::JobError job_error(const drivers::InstrumentError& error) {
-  using Kind = drivers::InstrumentError::Kind;
+  using Failure = drivers::InstrumentError::Kind;
   using Code = store::JobErrorCode;
   const auto code = [&] {
     switch (error.kind) {
-      case Kind::no_contact:
+      case Failure::no_contact:
         return Code::no_contact;
-      case Kind::lost:
+      case Failure::lost:
         return Code::lost;
-      case Kind::protocol:
+      case Failure::protocol:
         return Code::protocol;
-      case Kind::bad_reading:
+      case Failure::bad_reading:
         return Code::bad_reading;
-      case Kind::rejected:
+      case Failure::rejected:
         return Code::rejected;
-      case Kind::cancelled:
+      case Failure::cancelled:
         return Code::cancelled;
-      case Kind::transport:
+      case Failure::transport:
         return Code::transport;
-      case Kind::identification:
+      case Failure::identification:
         return Code::identification;
     }
     return Code::internal;
