@@ -101,8 +101,10 @@ json capabilities_schema() {
   exposure["properties"]["max_extended"] = {{"type", json::array({"integer", "null"})},
                                             {"description", "the longest with extended_sensitivity; null: none"}};
   json sync = range_schema("min_hz to max_hz for a frequency");
-  sync["properties"]["modes"] = {{"type", "array"},
-                                 {"items", {{"type", "string"}, {"enum", {"off", "auto", "frequency"}}}}};
+  // The named modes as a request spells them (sync_json), and "frequency" for a number of hertz.
+  const json modes = {sync_json({SyncRequest::Mode::off, 0}), sync_json({SyncRequest::Mode::automatic, 0}),
+                      "frequency"};
+  sync["properties"]["modes"] = {{"type", "array"}, {"items", {{"type", "string"}, {"enum", modes}}}};
   sync["properties"]["whole_hz"] = {{"type", "boolean"}};
   return {{"type", json::array({"object", "null"})},
           {"description",
