@@ -1,10 +1,11 @@
-// The fit's kernels (fit/src/kernels/): their own exp and expm1 against the standard library's,
-// the choice of kernel set, and the sets' QR against a plain one. The model through each set is
-// checked against automatic differentiation in model_test, and the fits of real spectra through
-// each in engine_reference_test (run once with each set).
+// The fit's kernels (fit/src/kernels/) on every target the processor runs: Highway's exp and
+// expm1 against the standard library's over the arguments the model gives them, the choice of
+// target, and the QR against a plain one. The model through each target is checked against
+// automatic differentiation in model_test, and the fits of real spectra in engine_reference_test.
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -18,16 +19,20 @@
 namespace skinspec {
 namespace {
 
-using detail::KernelSet;
+using detail::FitKernels;
 
-std::vector<KernelSet> available_sets() {
-  std::vector<KernelSet> sets;
-  for (const KernelSet set : detail::kKernelSets)
-    if (detail::kernel_set_available(set)) sets.push_back(set);
-  return sets;
+std::vector<const FitKernels*> runnable() {
+  const auto all = detail::runnable_fit_kernels();
+  return {all.begin(), all.end()};
 }
 
-std::string name_of(KernelSet set) { return detail::kernels_of(set).name; }
+std::string name_of(const FitKernels* kernels) { return detail::kernels_name(*kernels); }
+
+std::vector<std::string> runnable_names() {
+  std::vector<std::string> names;
+  for (const FitKernels* kernels : runnable()) names.push_back(name_of(kernels));
+  return names;
+}
 
 // The distance between want and the next double away from zero: one unit in the last place.
 double ulp_of(double want) {
@@ -66,87 +71,78 @@ double worst_ulps(Function f, double (*reference)(double), const std::vector<dou
 double std_exp(double x) { return std::exp(x); }
 double std_expm1(double x) { return std::expm1(x); }
 
-TEST(FastExp, AgreesWithStdExpWithinTwoUlpWhereverTheResultIsNormal) {
-  for (const KernelSet set : available_sets()) {
-    const Function exp = detail::kernels_of(set).exp;
+// Highway states 1 ulp for exp over [-DBL_MAX, 706] (normal results) and 4 for expm1.
+TEST(KernelsExp, AgreesWithStdExpWithinOneUlpWhereverTheResultIsNormal) {
+  for (const FitKernels* kernels : runnable()) {
     // The model takes exp(-x) of x >= 0: optical depths, lateral losses; and of either sign
     // (the scattering's power law).
-    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-707.7, 0, 200'000)), 2.0) << name_of(set);
-    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-1, 1, 100'000)), 2.0) << name_of(set);
-    EXPECT_LE(worst_ulps(exp, std_exp, arguments(0, 709.78, 100'000)), 2.0) << name_of(set);
+    EXPECT_LE(worst_ulps(kernels->exp, std_exp, arguments(-707.7, 0, 200'000)), 1.0) << name_of(kernels);
+    EXPECT_LE(worst_ulps(kernels->exp, std_exp, arguments(-1, 1, 100'000)), 1.0) << name_of(kernels);
+    EXPECT_LE(worst_ulps(kernels->exp, std_exp, arguments(0, 706, 100'000)), 1.0) << name_of(kernels);
   }
 }
 
-TEST(FastExp, GivesZeroBelowTheNormalRangeInfinityAboveItAndKeepsNaN) {
+TEST(KernelsExp, IsOneAtZeroAndAtMostTheSmallestNormalBelowTheNormalRange) {
   constexpr double inf = std::numeric_limits<double>::infinity();
-  const std::vector<double> x = {-708, -745, -1e4, -1e300, -inf, 709.8, 1e300, inf, std::nan(""), 0.0, -0.0};
-  for (const KernelSet set : available_sets()) {
-    const auto y = applied(detail::kernels_of(set).exp, x);
-    for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(y[i], 0.0) << name_of(set) << " exp(" << x[i] << ")";
-    for (std::size_t i = 5; i < 8; ++i) EXPECT_EQ(y[i], inf) << name_of(set) << " exp(" << x[i] << ")";
-    EXPECT_TRUE(std::isnan(y[8])) << name_of(set);
-    EXPECT_EQ(y[9], 1.0) << name_of(set);
-    EXPECT_EQ(y[10], 1.0) << name_of(set);
+  const std::vector<double> below = {-708.5, -745, -1e4, -1e300, -inf};
+  for (const FitKernels* kernels : runnable()) {
+    for (const double y : applied(kernels->exp, below)) {
+      EXPECT_GE(y, 0.0) << name_of(kernels);
+      EXPECT_LE(y, std::numeric_limits<double>::min()) << name_of(kernels);
+    }
+    EXPECT_EQ(applied(kernels->exp, {0.0, -0.0}), (std::vector{1.0, 1.0})) << name_of(kernels);
   }
 }
 
-TEST(FastExp, OfNegativeArgumentsAgreesWithStdExpAndGivesZeroBelowTheNormalRange) {
-  for (const KernelSet set : available_sets()) {
-    const Function exp = detail::kernels_of(set).exp_of_negative;
-    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-707.7, 0, 200'000)), 2.0) << name_of(set);
-    EXPECT_LE(worst_ulps(exp, std_exp, arguments(-1e-3, 0, 100'000)), 2.0) << name_of(set);
-    const std::vector<double> x = {-708, -745, -1e4,        -1e300, -std::numeric_limits<double>::infinity(),
-                                   -0.0, 0.0,  std::nan("")};
-    const auto y = applied(exp, x);
-    for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(y[i], 0.0) << name_of(set) << " exp(" << x[i] << ")";
-    EXPECT_EQ(y[5], 1.0) << name_of(set);
-    EXPECT_EQ(y[6], 1.0) << name_of(set);
-    EXPECT_TRUE(std::isnan(y[7])) << name_of(set);
-  }
-}
-
-TEST(FastExpm1, AgreesWithStdExpm1WithinThreeUlp) {
-  for (const KernelSet set : available_sets()) {
-    const Function expm1 = detail::kernels_of(set).expm1;
+TEST(KernelsExpm1, AgreesWithStdExpm1WithinFourUlp) {
+  for (const FitKernels* kernels : runnable()) {
     // The model takes expm1(-x) of x >= 0 (blood packed in vessels), x from near 0 upwards.
-    EXPECT_LE(worst_ulps(expm1, std_expm1, arguments(-60, 0, 200'000)), 3.0) << name_of(set);
-    EXPECT_LE(worst_ulps(expm1, std_expm1, arguments(-1e-3, 1e-3, 100'000)), 3.0) << name_of(set);
-    EXPECT_LE(worst_ulps(expm1, std_expm1, arguments(0, 709.78, 100'000)), 3.0) << name_of(set);
+    EXPECT_LE(worst_ulps(kernels->expm1, std_expm1, arguments(-60, 0, 200'000)), 4.0) << name_of(kernels);
+    EXPECT_LE(worst_ulps(kernels->expm1, std_expm1, arguments(-1e-3, 1e-3, 100'000)), 4.0) << name_of(kernels);
+    EXPECT_LE(worst_ulps(kernels->expm1, std_expm1, arguments(0, 706, 100'000)), 4.0) << name_of(kernels);
     std::vector<double> tiny;
     for (double x = 1e-300; x < 1e-5; x *= 3.7) tiny.insert(tiny.end(), {x, -x});
-    EXPECT_LE(worst_ulps(expm1, std_expm1, tiny), 3.0) << name_of(set);
+    EXPECT_LE(worst_ulps(kernels->expm1, std_expm1, tiny), 4.0) << name_of(kernels);
   }
 }
 
-TEST(FastExpm1, IsMinusOneFarBelowZeroInfinityAboveTheRangeAndKeepsNaN) {
-  constexpr double inf = std::numeric_limits<double>::infinity();
-  const std::vector<double> x = {-50, -800, -1e300, -inf, 709.8, inf, std::nan("")};
-  for (const KernelSet set : available_sets()) {
-    const auto y = applied(detail::kernels_of(set).expm1, x);
-    for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(y[i], -1.0) << name_of(set) << " expm1(" << x[i] << ")";
-    for (std::size_t i = 4; i < 6; ++i) EXPECT_EQ(y[i], inf) << name_of(set) << " expm1(" << x[i] << ")";
-    EXPECT_TRUE(std::isnan(y[6])) << name_of(set);
-  }
+TEST(KernelsExpm1, IsMinusOneFarBelowZero) {
+  const std::vector<double> x = {-50, -800, -1e300, -std::numeric_limits<double>::infinity()};
+  for (const FitKernels* kernels : runnable())
+    EXPECT_EQ(applied(kernels->expm1, x), std::vector<double>(x.size(), -1.0)) << name_of(kernels);
 }
 
-// On x86-64 this build has every set: each the processor can run is available, and the one
-// asked for runs, or else the widest.
-TEST(KernelSets, TheWidestRunsWhereTheProcessorHasItUnlessAnotherIsAskedFor) {
-  EXPECT_EQ(available_sets(), testing::runnable_kernel_sets());
-  for (const KernelSet set : available_sets()) EXPECT_EQ(name_of(set), testing::kernel_set_name(set));
-  const KernelSet expected = testing::expected_kernel_set();
-  EXPECT_EQ(detail::active_kernel_set(), expected);
-  EXPECT_EQ(&detail::fit_kernels(), &detail::kernels_of(expected));
-  ::testing::Test::RecordProperty("kernels", name_of(expected));
+// Highway finds what the processor has: on x86-64 the AVX-512 and AVX2 targets run exactly where
+// the processor reports their instructions, and the portable one (`emu128`, or `scalar` where
+// Highway finds the compiler unfit for it) always; the best runs first.
+TEST(KernelChoice, TheTargetsRunAreThoseTheProcessorHasBestFirst) {
+  const auto names = runnable_names();
+  ASSERT_FALSE(names.empty());
+#if defined(__x86_64__)
+  for (const std::string target : {"avx3", "avx2"})
+    EXPECT_EQ(std::ranges::count(names, target), testing::x86_processor_has(target) ? 1 : 0) << target;
+  EXPECT_TRUE(names.back() == "emu128" || names.back() == "scalar") << names.back();
+  if (testing::x86_processor_has("avx2")) {
+    EXPECT_EQ(names.front(), testing::x86_processor_has("avx3") ? "avx3" : "avx2");
+  }
+#endif
+  for (std::size_t i = 1; i < runnable().size(); ++i) EXPECT_LT(runnable()[i - 1]->target, runnable()[i]->target);
 }
 
-TEST(KernelSets, CanBeSwitchedForTheTests) {
-  const KernelSet before = detail::active_kernel_set();
-  for (const KernelSet set : available_sets()) {
-    detail::use_kernel_set(set);
-    EXPECT_EQ(detail::active_kernel_set(), set);
+TEST(KernelChoice, TheBestRunsUnlessAnotherIsAskedFor) {
+  const auto names = runnable_names();
+  const std::string expected = testing::expected_kernels(names);
+  EXPECT_EQ(detail::kernels_name(detail::fit_kernels()), expected);
+  ::testing::Test::RecordProperty("kernels", expected);
+}
+
+TEST(KernelChoice, CanBeSwitchedForTheTests) {
+  const FitKernels& before = detail::fit_kernels();
+  for (const FitKernels* kernels : runnable()) {
+    detail::use_fit_kernels(*kernels);
+    EXPECT_EQ(&detail::fit_kernels(), kernels);
   }
-  detail::use_kernel_set(before);
+  detail::use_fit_kernels(before);
 }
 
 // Householder QR written plainly, one column and one sum at a time, as the kernels' reference.
@@ -173,7 +169,7 @@ void plain_triangularize(std::vector<double>& a, int rows, int cols, std::vector
   }
 }
 
-TEST(KernelSets, TriangulariseAsPlainHouseholderDoes) {
+TEST(KernelsQr, TriangulariseAsPlainHouseholderDoes) {
   std::mt19937_64 random(3);
   std::normal_distribution<double> normal;
   // The fit's shapes: a spectrum's samples by the free parameters, and the damped steps' R over
@@ -184,23 +180,23 @@ TEST(KernelSets, TriangulariseAsPlainHouseholderDoes) {
     for (double& x : b) x = normal(random);
     std::vector<double> plain_a = a, plain_b = b;
     plain_triangularize(plain_a, rows, cols, plain_b);
-    for (const KernelSet set : available_sets()) {
+    for (const FitKernels* kernels : runnable()) {
       std::vector<double> kernel_a = a, kernel_b = b;
-      detail::kernels_of(set).triangularize(kernel_a.data(), rows, cols, kernel_b.data());
+      kernels->triangularize(kernel_a.data(), rows, cols, kernel_b.data());
       for (int j = 0; j < cols; ++j) {
         for (int i = 0; i <= j; ++i) {
           const double want = plain_a[static_cast<std::size_t>(j * rows + i)];
           EXPECT_NEAR(kernel_a[static_cast<std::size_t>(j * rows + i)], want, 1e-12 * (1 + std::abs(want)))
-              << name_of(set) << " " << rows << "x" << cols << " R(" << i << "," << j << ")";
+              << name_of(kernels) << " " << rows << "x" << cols << " R(" << i << "," << j << ")";
         }
         EXPECT_NEAR(kernel_b[static_cast<std::size_t>(j)], plain_b[static_cast<std::size_t>(j)], 1e-12)
-            << name_of(set) << " " << rows << "x" << cols << " (Q^T b)(" << j << ")";
+            << name_of(kernels) << " " << rows << "x" << cols << " (Q^T b)(" << j << ")";
       }
     }
   }
 }
 
-TEST(KernelSets, ScaleColumnsAndTakeTheirNormsAndProductsAsPlainLoopsDo) {
+TEST(KernelsQr, ScaleColumnsAndTakeTheirNormsAndProductsAsPlainLoopsDo) {
   std::mt19937_64 random(5);
   std::normal_distribution<double> normal;
   for (const int rows : {135, 101, 6, 3}) {
@@ -210,25 +206,25 @@ TEST(KernelSets, ScaleColumnsAndTakeTheirNormsAndProductsAsPlainLoopsDo) {
     for (double& x : residuals) x = normal(random);
     const std::vector<int> columns = {0, 2, 3, 6};
     const std::vector<double> scales = {0.5, 2.0, 1e-3, 7.0};
-    for (const KernelSet set : available_sets()) {
+    for (const FitKernels* kernels : runnable()) {
       const int count = static_cast<int>(columns.size());
       std::vector<double> out(static_cast<std::size_t>(out_rows * count), -1.0), norms(columns.size()),
           products(columns.size());
-      detail::kernels_of(set).scaled_columns({jacobian.data(), rows, columns.data(), count, scales.data(),
+      kernels->scaled_columns({jacobian.data(), rows, columns.data(), count, scales.data(),
                                               residuals.data(), out.data(), out_rows, norms.data(), products.data()});
       for (std::size_t j = 0; j < columns.size(); ++j) {
         double norm = 0, product = 0;
         for (int i = 0; i < out_rows; ++i) {
           const double want = i < rows ? scales[j] * jacobian[static_cast<std::size_t>(columns[j] * rows + i)] : 0.0;
           EXPECT_EQ(out[j * static_cast<std::size_t>(out_rows) + static_cast<std::size_t>(i)], want)
-              << name_of(set) << " row " << i << " column " << j;
+              << name_of(kernels) << " row " << i << " column " << j;
           norm += want * want;
           if (i < rows)
             product +=
                 jacobian[static_cast<std::size_t>(columns[j] * rows + i)] * residuals[static_cast<std::size_t>(i)];
         }
-        EXPECT_NEAR(norms[j], norm, 1e-13 * norm) << name_of(set) << " column " << j;
-        EXPECT_NEAR(products[j], product, 1e-12 * (1 + std::abs(product))) << name_of(set) << " column " << j;
+        EXPECT_NEAR(norms[j], norm, 1e-13 * norm) << name_of(kernels) << " column " << j;
+        EXPECT_NEAR(products[j], product, 1e-12 * (1 + std::abs(product))) << name_of(kernels) << " column " << j;
       }
     }
   }

@@ -708,14 +708,13 @@ void expect_spectrum_model_is_the_model(const SkinModel& model, const std::vecto
   }
 }
 
-// On every kernel set the processor can run (fit/src/kernels/): generic, AVX2, AVX-512.
+// On the kernels of every target the processor runs (fit/src/kernels/).
 TEST(SpectrumModel, EqualsTheModelSampleBySampleWithItsDerivatives) {
   const auto grid = Spectrum::uniform_grid(SkinOptics::kFirstNm, SkinOptics::kLastNm, 3);
-  const detail::KernelSet before = detail::active_kernel_set();
-  for (const detail::KernelSet set : detail::kKernelSets) {
-    if (!detail::kernel_set_available(set)) continue;
-    detail::use_kernel_set(set);
-    SCOPED_TRACE(detail::fit_kernels().name);
+  const detail::FitKernels& before = detail::fit_kernels();
+  for (const detail::FitKernels* kernels : detail::runnable_fit_kernels()) {
+    detail::use_fit_kernels(*kernels);
+    SCOPED_TRACE(detail::kernels_name(*kernels));
     for (const bool lateral : {false, true})
       // Shipped constants pack blood in vessels; textbook ones spread it evenly.
       for (const SkinOptics* optics : {&shipped_optics(ModelKind::extended), &textbook_optics(ModelKind::extended),
@@ -725,7 +724,7 @@ TEST(SpectrumModel, EqualsTheModelSampleBySampleWithItsDerivatives) {
                                            extended ? kExtendedSkins : kCheckPoints);
       }
   }
-  detail::use_kernel_set(before);
+  detail::use_fit_kernels(before);
 }
 
 TEST(ModelDigest, EachModelHasItsOwnAndOnlyItsConstantsChangeIt) {

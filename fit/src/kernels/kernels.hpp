@@ -1,15 +1,16 @@
 #pragma once
 // The fit's arithmetic over every sample (the model, its derivatives, the least squares' QR) as
-// kernels over plain columns of doubles (private to fit/). They are compiled three times: for any
-// processor (generic.cpp), and for x86-64 processors with AVX2 and FMA (avx2.cpp) or with
-// AVX-512 (avx512.cpp). One set is chosen at run time (dispatch.cpp): the programs still run on
-// any x86-64, and run faster where the wider instructions are found.
-//
-// The AVX files include this header and so must not define anything another file also defines:
-// hence no Eigen and no standard library here, only plain structs and declarations.
+// kernels over plain columns of doubles (private to fit/). They are written once with Google
+// Highway's portable vectors (kernels.cpp) and compiled for each of Highway's targets the build
+// attains (on x86-64: AVX-512, AVX2, SSE4 and a portable 128-bit emulation; on ARM: NEON); the
+// best one the processor runs is chosen at run time, so the programs run on any processor and
+// faster where wider vectors are found.
+
+#include <cstdint>
+#include <span>
+#include <string>
 
 namespace skinspec::detail {
-
 // A Kubelka layer's columns, kept by the reflectance for the derivatives: k = K / S,
 // b = sqrt(k (k + 2)), e1 = exp(-D S b), 1 / den with den = a (1 - e) + b (1 + e) (a = 1 + k,
 // e = e1^2), its reflectance R = (1 - e) / den and transmittance T = 2 b e1 / den.
@@ -102,7 +103,7 @@ struct ScaledColumnsArgs {
 };
 
 struct FitKernels {
-  const char* name;
+  std::int64_t target;  // Highway's target (HWY_AVX2, ...) the kernels were compiled for
   void (*reflectance)(const ReflectanceArgs&);
   void (*jacobian)(const JacobianArgs&);
   void (*blood_packing)(const BloodPackingArgs&);
@@ -110,33 +111,25 @@ struct FitKernels {
   // small_qr.hpp's triangularize.
   void (*triangularize)(double* a, int rows, int cols, double* b);
   void (*scaled_columns)(const ScaledColumnsArgs&);
-  // The kernels' own exp, exp of x <= 0 and expm1 (kernels/fast_exp.ipp), element by element,
-  // for the tests.
+  // The exp and expm1 the kernels use (Highway's), element by element, for the tests.
   void (*exp)(const double* x, int n, double* out);
-  void (*exp_of_negative)(const double* x, int n, double* out);
   void (*expm1)(const double* x, int n, double* out);
 };
 
-// Each kernel file's table, constant-initialised: no code of the AVX files runs before
-// dispatch.cpp has checked that the processor can run it.
-extern const FitKernels generic_fit_kernels;  // generic.cpp
-extern const FitKernels avx2_fit_kernels;     // avx2.cpp, on x86-64 only
-extern const FitKernels avx512_fit_kernels;   // avx512.cpp, on x86-64 only
+// The kernels of every target this build compiled that the processor runs, best first.
+std::span<const FitKernels* const> runnable_fit_kernels();
 
-// The sets, narrowest first; each kernel table's name is its set's name.
-enum class KernelSet { generic, avx2, avx512 };
-inline constexpr KernelSet kKernelSets[] = {KernelSet::generic, KernelSet::avx2, KernelSet::avx512};
-
-// The set in use, decided on first use: the one the environment variable SKINSPEC_FIT_KERNELS
-// names (`generic`, `avx2`, `avx512`) if the processor can run it, otherwise (a set it cannot
-// run, another name) the widest it can.
+// The kernels in use: the best the processor runs, unless the environment variable
+// SKINSPEC_FIT_KERNELS names another it runs (so that the tests check every target on one
+// machine, and a processor slower with 512-bit vectors can be kept on AVX2).
 const FitKernels& fit_kernels();
-KernelSet active_kernel_set();
-// Whether this build and processor can run a set, and a set's kernels, for the tests.
-bool kernel_set_available(KernelSet set);
-const FitKernels& kernels_of(KernelSet set);
-// Switches the set in use (for the tests, which run every set in one process); only a set
-// kernel_set_available says can run.
-void use_kernel_set(KernelSet set);
+
+// A target's name as SKINSPEC_FIT_KERNELS takes it: Highway's, in lower case ("avx3" for
+// AVX-512, "avx2", "sse4", "emu128", "neon").
+std::string kernels_name(const FitKernels& kernels);
+
+// Switches the kernels in use, for the tests, which run every target in one process; one of
+// runnable_fit_kernels().
+void use_fit_kernels(const FitKernels& kernels);
 
 }  // namespace skinspec::detail

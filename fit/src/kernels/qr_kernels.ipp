@@ -1,8 +1,8 @@
 // small_qr.hpp's Householder triangularisation as a kernel (kernels.hpp). Each reflection takes
 // two passes over its rows whatever the number of columns: one for every product it needs, one
 // to apply it to every column right of it and to b. The passes work on as many rows at a time as
-// a vector register holds (GCC's vector types: four with AVX, two otherwise). Included inside
-// each kernel file's anonymous namespace, so it includes nothing.
+// a vector holds. Included inside kernels.cpp's per-target namespace, after model_kernels.ipp,
+// so it includes nothing.
 
 constexpr int kMaxQrColumns = 16;
 // Columns a pass handles at once: each keeps a running sum in a register of its own.
@@ -13,38 +13,23 @@ constexpr int in_pass_of(int count, int first) {
   return count - first < kColumnsPerPass ? count - first : kColumnsPerPass;
 }
 
-#if defined(__AVX__)
-constexpr int kLanes = 4;
-#else
-constexpr int kLanes = 2;
-#endif
-using Lanes = double __attribute__((vector_size(kLanes * sizeof(double))));
+using Tag = hn::ScalableTag<double>;
+using Lanes = V<Tag>;
 
-inline Lanes load(const double* p) {
-  Lanes v;
-  __builtin_memcpy(&v, p, sizeof v);
-  return v;
-}
-
-inline void store(double* p, Lanes v) { __builtin_memcpy(p, &v, sizeof v); }
-
-inline double sum_of(Lanes v) {
-#if defined(__AVX__)
-  return (v[0] + v[1]) + (v[2] + v[3]);
-#else
-  return v[0] + v[1];
-#endif
-}
+inline double sum_of(Lanes v) { return hn::GetLane(hn::SumOfLanes(Tag(), v)); }
 
 // |v|^2 and v . y[t] for each of kCount columns y, over n rows.
 template <int kCount>
 void products(const double* v, double* const* y, int n, double& norm2, double* out) {
-  Lanes squares = {}, sums[kCount] = {};
+  const Tag d;
+  const int lanes = static_cast<int>(hn::Lanes(d));
+  Lanes squares = hn::Zero(d), sums[kCount];
+  for (int t = 0; t < kCount; ++t) sums[t] = hn::Zero(d);
   int i = 0;
-  for (; i + kLanes <= n; i += kLanes) {
-    const Lanes x = load(v + i);
-    squares += x * x;
-    for (int t = 0; t < kCount; ++t) sums[t] += x * load(y[t] + i);
+  for (; i + lanes <= n; i += lanes) {
+    const Lanes x = hn::LoadU(d, v + i);
+    squares = hn::MulAdd(x, x, squares);
+    for (int t = 0; t < kCount; ++t) sums[t] = hn::MulAdd(x, hn::LoadU(d, y[t] + i), sums[t]);
   }
   double tail_squares = 0, tails[kCount] = {};
   for (; i < n; ++i) {
@@ -58,10 +43,13 @@ void products(const double* v, double* const* y, int n, double& norm2, double* o
 // y[t] -= factor[t] v for each of kCount columns y, over n rows.
 template <int kCount>
 void subtract(const double* v, double* const* y, int n, const double* factor) {
+  const Tag d;
+  const int lanes = static_cast<int>(hn::Lanes(d));
   int i = 0;
-  for (; i + kLanes <= n; i += kLanes) {
-    const Lanes x = load(v + i);
-    for (int t = 0; t < kCount; ++t) store(y[t] + i, load(y[t] + i) - factor[t] * x);
+  for (; i + lanes <= n; i += lanes) {
+    const Lanes x = hn::LoadU(d, v + i);
+    for (int t = 0; t < kCount; ++t)
+      hn::StoreU(hn::NegMulAdd(hn::Set(d, factor[t]), x, hn::LoadU(d, y[t] + i)), d, y[t] + i);
   }
   for (; i < n; ++i)
     for (int t = 0; t < kCount; ++t) y[t][i] -= factor[t] * v[i];
@@ -125,15 +113,18 @@ void scale_columns(const ScaledColumnsArgs& in, int first) {
     column[c] = in.jacobian + static_cast<long>(in.columns[first + c]) * in.rows;
     out[c] = in.out + static_cast<long>(first + c) * in.out_rows;
   }
-  Lanes squares[kCount] = {}, products[kCount] = {};
+  const Tag d;
+  const int lanes = static_cast<int>(hn::Lanes(d));
+  Lanes squares[kCount], products[kCount];
+  for (int c = 0; c < kCount; ++c) squares[c] = hn::Zero(d), products[c] = hn::Zero(d);
   int i = 0;
-  for (; i + kLanes <= in.rows; i += kLanes) {
-    const Lanes r = load(in.residuals + i);
+  for (; i + lanes <= in.rows; i += lanes) {
+    const Lanes r = hn::LoadU(d, in.residuals + i);
     for (int c = 0; c < kCount; ++c) {
-      const Lanes x = load(column[c] + i), y = in.scales[first + c] * x;
-      store(out[c] + i, y);
-      squares[c] += y * y;
-      products[c] += x * r;
+      const Lanes x = hn::LoadU(d, column[c] + i), y = hn::Set(d, in.scales[first + c]) * x;
+      hn::StoreU(y, d, out[c] + i);
+      squares[c] = hn::MulAdd(y, y, squares[c]);
+      products[c] = hn::MulAdd(x, r, products[c]);
     }
   }
   for (int c = 0; c < kCount; ++c) {
