@@ -80,7 +80,7 @@ store::Result<void> BenchKeeper::start() {
 void BenchKeeper::stop() {
   if (stopping_.exchange(true)) return;
   for (auto* thread : {&beating_, &listening_, &publishing_}) thread->request_stop();
-  supervisor_.wake_waiters();
+  supervisor_.jobs().wake_waiters();
   for (auto* thread : {&beating_, &listening_, &publishing_})
     if (thread->joinable()) thread->join();
   if (!started_) return;
@@ -207,7 +207,7 @@ void BenchKeeper::keep_publishing(std::stop_token stop) {
     return sent.has_value();
   };
   while (!stop.stop_requested()) {
-    seen = supervisor_.changes();
+    seen = supervisor_.jobs().changes();
     auto jobs = supervisor_.local_jobs();
     for (const auto& [id, progress] : published)
       if (!jobs.live.contains(id)) jobs.ended.push_back(id);
@@ -225,10 +225,10 @@ void BenchKeeper::keep_publishing(std::stop_token stop) {
     std::atomic<bool> abandoned{false};
     std::stop_callback wake(stop, [&] {
       abandoned = true;
-      supervisor_.wake_waiters();
+      supervisor_.jobs().wake_waiters();
     });
     // Told ends that could not be sent are tried again at the next change, or after a second.
-    supervisor_.wait_for_change(seen, std::chrono::milliseconds(1000), abandoned);
+    supervisor_.jobs().wait_for_change(seen, std::chrono::milliseconds(1000), abandoned);
   }
 }
 

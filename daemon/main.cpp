@@ -64,10 +64,13 @@ int serve(const skinspec::daemon::Options& o) {
                "event=bad_option message=\"reconnect_initial_ms and reconnect_max_ms must be positive, "
                "instrument_check_ms not negative\""),
            2;
+  // The jobs of every kind, measurements and the router's imports and refits alike.
+  const auto board = std::make_shared<api::JobBoard>();
+  context.job_board = board;
   std::unique_ptr<daemon::Supervisor> supervisor;
   std::unique_ptr<daemon::BenchKeeper> keeper;  // stopped before the supervisor
   if (!o.device.empty()) {
-    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, *model);
+    supervisor = std::make_unique<daemon::Supervisor>(o.device, *db, *fitter, *model, board);
     supervisor->set_policy(o.measure);
     context.acquisition = supervisor.get();
     daemon::Supervisor::ConnectionSettings link;

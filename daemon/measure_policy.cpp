@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "skinspec/api/job_board.hpp"
 #include "supervisor_common.hpp"
 
 namespace skinspec::daemon {
@@ -88,10 +89,7 @@ store::JobError job_error(const drivers::InstrumentError& error) {
   return {code, error.message};
 }
 
-store::JobError cancellation(store::JobErrorCode code) {
-  if (code == store::JobErrorCode::stopped) return {code, "the service stopped"};
-  return {store::JobErrorCode::cancelled, "cancelled by request"};
-}
+store::JobError cancellation(store::JobErrorCode code) { return api::stop_error(code); }
 
 store::JobState ended_state(const store::JobError& error) {
   const bool cancelled = error.code == store::JobErrorCode::cancelled || error.code == store::JobErrorCode::stopped;

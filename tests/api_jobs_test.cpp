@@ -21,8 +21,9 @@ using nlohmann::json;
 using namespace std::chrono_literals;
 
 // Live progress set by the test; the jobs themselves are in the store.
-class FakeAcquisition final : public Acquisition {
+class FakeAcquisition final : public Acquisition, public JobWatch {
  public:
+  const JobWatch& jobs() const override { return *this; }
   json instrument_status() const override {
     return {{"device", "fake"}, {"state", "connected"}, {"last_error", nullptr}};
   }

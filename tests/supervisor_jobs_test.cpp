@@ -80,7 +80,7 @@ class SupervisorJobsTest : public ::testing::Test {
   }
   // The job as GET /api/v1/jobs/{id} shows it.
   json shown(store::Id id) const {
-    auto view = api::current_job_json(*db_, supervisor_.get(), id);
+    auto view = api::current_job_json(*db_, &supervisor_->jobs(), id);
     EXPECT_TRUE(view) << view.error().message;
     return view ? *view : json();
   }
@@ -105,7 +105,7 @@ TEST_F(SupervisorJobsTest, AJobWhoseEndTheDatabaseRefusesShowsFailedAtOnceAndSto
 
   const auto sample = submit(store::MeasurementKind::sample);
   ASSERT_TRUE(eventually([&] {
-    const auto live = supervisor_->progress(sample);
+    const auto live = supervisor_->jobs().progress(sample);
     return live && live->phase == api::JobPhase::measuring;
   }));
   WriteLock lock(path_);
@@ -149,7 +149,7 @@ TEST_F(SupervisorJobsTest, AWriteRefusedForAMomentIsAskedAgainAndTheJobSucceeds)
   const auto sample = submit(store::MeasurementKind::sample);
   const auto in_phase = [&](api::JobPhase phase) {
     return eventually([&] {
-      const auto live = supervisor_->progress(sample);
+      const auto live = supervisor_->jobs().progress(sample);
       return live && live->phase == phase;
     });
   };
@@ -169,7 +169,7 @@ TEST_F(SupervisorJobsTest, AWriteRefusedForAMomentIsAskedAgainAndTheJobSucceeds)
 TEST_F(SupervisorJobsTest, CancellingARunningJobEndsItCancelledByItsCode) {
   const auto white = submit(store::MeasurementKind::white);
   ASSERT_TRUE(eventually([&] {
-    const auto live = supervisor_->progress(white);
+    const auto live = supervisor_->jobs().progress(white);
     return live && live->phase == api::JobPhase::measuring;
   }));
   ASSERT_TRUE(supervisor_->cancel(white));
@@ -184,7 +184,7 @@ TEST_F(SupervisorJobsTest, CancellingARunningJobEndsItCancelledByItsCode) {
   const auto first = submit(store::MeasurementKind::white);
   const auto second = submit(store::MeasurementKind::white);
   ASSERT_TRUE(eventually([&] {
-    const auto live = supervisor_->progress(first);
+    const auto live = supervisor_->jobs().progress(first);
     return live && live->phase == api::JobPhase::measuring;
   }));
   EXPECT_EQ(shown(second)["position"], 1);

@@ -24,11 +24,8 @@ store::JobUpdate ended(store::JobState state, std::optional<store::JobError> err
 }
 
 // The end of a job told to stop: cancelled by request, or by the service stopping.
-store::JobUpdate stopped_update(bool by_request, std::optional<std::string> result = std::nullopt) {
-  return ended(store::JobState::cancelled,
-               by_request ? job_error(store::JobErrorCode::cancelled, "cancelled by request")
-                          : job_error(store::JobErrorCode::stopped, "the service stopped"),
-               std::move(result));
+store::JobUpdate stopped_update(store::JobErrorCode why, std::optional<std::string> result = std::nullopt) {
+  return ended(store::JobState::cancelled, stop_error(why), std::move(result));
 }
 
 // What a refit did, as its job's result.
@@ -47,16 +44,18 @@ std::optional<double> remaining(double elapsed, std::int64_t done, std::int64_t 
 
 }  // namespace
 
-FitJobs::FitJobs(store::Store& store, const Fitter& fitter)
-    : store_(store), fitter_(fitter), worker_([this] { work(); }) {}
+FitJobs::FitJobs(store::Store& store, const Fitter& fitter, JobBoard& board)
+    : store_(store), fitter_(fitter), board_(board), worker_([this] { work(); }) {}
 
 FitJobs::~FitJobs() {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-    wake_.notify_all();
-  }
+  const auto left = board_.close(JobLane::fitting);
   worker_.join();
+  // What is still queued never starts. Its record would otherwise be failed as interrupted
+  // when the database is next opened; stopped is the truth.
+  for (const auto id : left) {
+    (void)take_work(id);
+    end(id, stopped_update(store::JobErrorCode::stopped));
+  }
 }
 
 std::expected<store::CreatedJob, ApiError> FitJobs::submit_import(ImportUpload upload,
@@ -68,14 +67,13 @@ std::expected<store::CreatedJob, ApiError> FitJobs::submit_import(ImportUpload u
         ApiError{ErrorKind::conflict, "conflict",
                  fmt::format("session {} is {}, not open", upload.session_id, store::to_string(session->state))});
   store::Job job;
-  job.kind = std::string(to_string(JobKind::import));
   job.session_id = upload.session_id;
   job.idempotency_key = idempotency_key;
   job.request = compact({{"source", upload.source},
                          {"format", records::to_string(upload.format)},
                          {"scale", to_string(upload.scale)},
                          {"bytes", upload.bytes.size()}});
-  return enqueue(std::move(job), std::move(upload));
+  return enqueue(JobKind::import, std::move(job), std::move(upload));
 }
 
 std::expected<store::CreatedJob, ApiError> FitJobs::submit_refit(const records::RefitRequest& request,
@@ -85,74 +83,78 @@ std::expected<store::CreatedJob, ApiError> FitJobs::submit_refit(const records::
       return std::unexpected(from_store_error(session.error()));
   }
   store::Job job;
-  job.kind = std::string(to_string(JobKind::refit));
   // Not the job's session: a refit reads what is stored and is not part of any session's
   // acquisition, so the session's state neither limits it nor is changed by its fate.
   job.idempotency_key = idempotency_key;
   job.request = compact({{"model", std::string(to_string(request.model))},
                          {"session_id", request.session_id ? json(*request.session_id) : json(nullptr)}});
-  return enqueue(std::move(job), request);
+  return enqueue(JobKind::refit, std::move(job), request);
 }
 
-std::expected<store::CreatedJob, ApiError> FitJobs::enqueue(store::Job job,
-                                                            std::variant<ImportUpload, records::RefitRequest> work) {
-  if (!job.idempotency_key.empty()) {
-    auto earlier = store_.job_by_idempotency_key(job.idempotency_key);
-    if (!earlier) return std::unexpected(from_store_error(earlier.error()));
-    if (*earlier && (*earlier)->kind != job.kind)
-      return std::unexpected(
-          ApiError{ErrorKind::conflict, "conflict",
-                   fmt::format("the Idempotency-Key names job {}, a {} job", (*earlier)->id, (*earlier)->kind)});
-    if (*earlier) return store::CreatedJob{**earlier, false};
-  }
+std::expected<store::CreatedJob, ApiError> FitJobs::enqueue(JobKind kind, store::Job job, Work work) {
+  job.kind = std::string(to_string(kind));
+  auto earlier = JobBoard::earlier_job(store_, kind, job.idempotency_key);
+  if (!earlier) return std::unexpected(earlier.error());
+  if (*earlier) return **earlier;
   const std::size_t bytes = held_bytes(work);
-  {
+  if (auto refused = hold(bytes)) return std::unexpected(*refused);
+  const auto unhold = [&] {
     std::lock_guard lock(mutex_);
-    if (stopping_) return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"});
-    // Files wait in memory until their turn: more than this, and the next is refused for now.
-    if (held_bytes_ + bytes > kMaxHeldBytes)
-      return std::unexpected(
-          ApiError{ErrorKind::unavailable, "busy",
-                   fmt::format("{} MB of files wait to be imported already; send this one when they are done",
-                               held_bytes_ / 1000000)});
-    held_bytes_ += bytes;
-  }
-  // The record is made without the lock: its write may wait for an import being stored, and
+    held_bytes_ -= bytes;
+  };
+  // The record is made without a lock: its write may wait for an import being stored, and
   // followers of the other jobs must not wait with it.
   auto created = store_.create_job(job);
-  std::lock_guard lock(mutex_);
-  if (!created || !created->created || stopping_) {
-    held_bytes_ -= bytes;
+  if (!created || !created->created || board_.closed(JobLane::fitting)) {
+    unhold();
     if (!created) return std::unexpected(from_store_error(created.error()));
     if (created->created)  // made as the service stopped: never started
       return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"});
     return *created;
   }
-  // In the order of the jobs' ids, which is the order they were posted in.
-  const auto at = std::ranges::upper_bound(queue_, created->job.id, {}, &Queued::id);
-  queue_.insert(at, {created->job.id, std::move(work)});
-  live_[created->job.id] = JobProgress{};
-  changed();
-  wake_.notify_all();
+  const store::Id id = created->job.id;
+  {
+    std::lock_guard lock(mutex_);
+    work_.emplace(id, std::move(work));  // before the worker can take the job
+  }
+  if (!board_.enqueue(JobLane::fitting, id)) {
+    (void)take_work(id);
+    return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"});
+  }
   return *created;
 }
 
+std::optional<ApiError> FitJobs::hold(std::size_t bytes) {
+  if (board_.closed(JobLane::fitting))
+    return ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"};
+  std::lock_guard lock(mutex_);
+  // Files wait in memory until their turn: more than this, and the next is refused for now.
+  if (held_bytes_ + bytes > kMaxHeldBytes)
+    return ApiError{ErrorKind::unavailable, "busy",
+                    fmt::format("{} MB of files wait to be imported already; send this one when they are done",
+                                held_bytes_ / 1000000)};
+  held_bytes_ += bytes;
+  return std::nullopt;
+}
+
+std::optional<FitJobs::Work> FitJobs::take_work(store::Id id) {
+  std::lock_guard lock(mutex_);
+  auto node = work_.extract(id);
+  if (node.empty()) return std::nullopt;
+  held_bytes_ -= held_bytes(node.mapped());
+  return std::move(node.mapped());
+}
+
 std::expected<store::Job, ApiError> FitJobs::cancel(store::Id job_id) {
-  {
-    std::unique_lock lock(mutex_);
-    const auto queued = std::ranges::find(queue_, job_id, &Queued::id);
-    if (queued != queue_.end()) {
-      held_bytes_ -= held_bytes(queued->work);
-      queue_.erase(queued);
-      lock.unlock();
-      end(job_id, stopped_update(true));
-    } else if (running_ == job_id) {
-      cancel_running_ = true;  // the job ends at its next step
-    }
+  if (board_.withdraw(job_id)) {
+    (void)take_work(job_id);
+    end(job_id, stopped_update(store::JobErrorCode::cancelled));
+  } else {
+    board_.ask_to_stop(job_id, store::JobErrorCode::cancelled);  // the job ends at its next step
   }
   // Progress first, then the record (as current_job_json): a job that ends between the two
   // reads is then seen ended, not taken for another program's.
-  const bool runs_here = progress(job_id).has_value();
+  const bool runs_here = board_.progress(job_id).has_value();
   auto job = store_.job(job_id);
   if (!job) return std::unexpected(from_store_error(job.error()));
   if (job->state == store::JobState::queued || job->state == store::JobState::running) {
@@ -167,114 +169,59 @@ std::expected<store::Job, ApiError> FitJobs::cancel(store::Id job_id) {
                                   fmt::format("job {} has already {}", job_id, store::to_string(job->state))});
 }
 
-std::optional<JobProgress> FitJobs::progress(store::Id job_id) const {
-  std::lock_guard lock(mutex_);
-  const auto it = live_.find(job_id);
-  if (it == live_.end()) return std::nullopt;
-  JobProgress out = it->second;
-  if (out.phase == JobPhase::queued) {
-    // Taken from the queue but not yet started, it is next: the end of the queue would be wrong.
-    const auto at = std::ranges::find(queue_, job_id, &Queued::id);
-    out.position = at == queue_.end() ? 1 : static_cast<int>(at - queue_.begin()) + 1;
-  }
-  return out;
-}
-
-std::uint64_t FitJobs::changes() const {
-  std::lock_guard lock(mutex_);
-  return changes_;
-}
-
-std::uint64_t FitJobs::wait_for_change(std::uint64_t seen, std::chrono::milliseconds timeout,
-                                       const std::atomic<bool>& abandoned) const {
-  std::unique_lock lock(mutex_);
-  change_.wait_for(lock, timeout, [&] { return changes_ > seen || abandoned; });
-  return changes_;
-}
-
-void FitJobs::wake_waiters() const {
-  std::lock_guard lock(mutex_);
-  change_.notify_all();
-}
-
-void FitJobs::changed() {
-  ++changes_;
-  change_.notify_all();
-}
-
 void FitJobs::work() {
-  for (;;) {
-    Queued job;
+  while (const auto id = board_.take_next(JobLane::fitting)) {
+    std::optional<Work> work;
     {
-      std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
-      if (stopping_) break;
-      job = std::move(queue_.front());
-      queue_.pop_front();
-      running_ = job.id;
-      cancel_running_ = false;
-      changed();  // the others' places moved
+      std::lock_guard lock(mutex_);
+      if (auto node = work_.extract(*id); !node.empty()) work = std::move(node.mapped());
     }
-    run(job);
+    if (!work) {
+      release(*id);
+      continue;
+    }
+    run(*id, *work);
+    // Its file counted against the limit until it had been imported.
     std::lock_guard lock(mutex_);
-    held_bytes_ -= held_bytes(job.work);
-    running_ = 0;
+    held_bytes_ -= held_bytes(*work);
   }
-  // What is still queued never starts. Its record would otherwise be failed as interrupted
-  // when the database is next opened; stopped is the truth.
-  std::deque<Queued> left;
-  {
-    std::lock_guard lock(mutex_);
-    left.swap(queue_);
-  }
-  for (const auto& job : left) end(job.id, stopped_update(false));
 }
 
-void FitJobs::run(const Queued& job) {
-  auto started =
-      store_.update_job(job.id, {store::JobState::running, std::nullopt, std::nullopt, store::JobState::queued});
+void FitJobs::run(store::Id id, const Work& work) {
+  auto started = store_.update_job(id, {store::JobState::running, std::nullopt, std::nullopt, store::JobState::queued});
   if (!started) {
     // Cancelled by another program meanwhile (a conflict): not run. Otherwise the record could
     // not be written and stays queued; shown failed while this program runs, and failed as
     // interrupted when the database is next opened.
-    if (started.error().kind == store::StoreError::Kind::conflict) return release(job.id);
-    return release(job.id, job_error(store::JobErrorCode::store, started.error().message));
+    if (started.error().kind == store::StoreError::Kind::conflict) return release(id);
+    return release(id, job_error(store::JobErrorCode::store, started.error().message));
   }
   // Nothing thrown may leave this thread, which would end the whole service with it.
   try {
-    if (const auto* upload = std::get_if<ImportUpload>(&job.work)) run_import(job.id, *upload);
-    else run_refit(job.id, std::get<records::RefitRequest>(job.work));
+    if (const auto* upload = std::get_if<ImportUpload>(&work)) run_import(id, *upload);
+    else run_refit(id, std::get<records::RefitRequest>(work));
   } catch (const std::exception& e) {
-    end(job.id, ended(store::JobState::failed, job_error(store::JobErrorCode::internal, e.what())));
+    end(id, ended(store::JobState::failed, job_error(store::JobErrorCode::internal, e.what())));
   }
 }
 
-std::size_t FitJobs::held_bytes(const std::variant<ImportUpload, records::RefitRequest>& work) {
+std::size_t FitJobs::held_bytes(const Work& work) {
   const auto* upload = std::get_if<ImportUpload>(&work);
   return upload ? upload->bytes.size() : 0;
 }
 
-FitJobs::Verdict FitJobs::report(store::Id id, const JobProgress& progress) {
-  std::lock_guard lock(mutex_);
-  live_[id] = progress;
-  changed();
-  if (stopping_) return Verdict::stopped;
-  return cancel_running_ ? Verdict::cancelled : Verdict::go_on;
-}
-
 void FitJobs::run_import(store::Id id, const ImportUpload& upload) {
-  if (const auto first = report(id, {0, JobPhase::reading}); first != Verdict::go_on)
-    return end(id, stopped_update(first == Verdict::cancelled));
+  if (const auto why = board_.report(id, {0, JobPhase::reading})) return end(id, stopped_update(*why));
   const auto began = Clock::now();
-  auto verdict = Verdict::go_on;
+  std::optional<store::JobErrorCode> why;  // the job was asked to stop
   const auto observer = [&](std::size_t fitted, std::size_t total) {
     const double elapsed = std::chrono::duration<double>(Clock::now() - began).count();
     JobProgress p{0, fitted == total ? JobPhase::storing : JobPhase::fitting};
     p.spectra_done = static_cast<std::int64_t>(fitted);
     p.spectra_total = static_cast<std::int64_t>(total);
     p.remaining_s = remaining(elapsed, p.spectra_done, p.spectra_total);
-    verdict = report(id, p);
-    return verdict == Verdict::go_on;
+    why = board_.report(id, p);
+    return !why;
   };
   const auto imported = records::import_file(store_, fitter_, upload.session_id, upload.bytes, upload.source,
                                              upload.format, observer, id, upload.scale);
@@ -282,25 +229,26 @@ void FitJobs::run_import(store::Id id, const ImportUpload& upload) {
     const auto code = imported.error().bad_file() ? store::JobErrorCode::bad_file : store::JobErrorCode::store;
     return end(id, ended(store::JobState::failed, job_error(code, imported.error().message())));
   }
-  if (imported->stopped) return end(id, stopped_update(verdict == Verdict::cancelled));
+  if (imported->stopped) return end(id, stopped_update(why.value_or(store::JobErrorCode::stopped)));
   release(id);  // import_file stored the job's end with the spectra
 }
 
 void FitJobs::run_refit(store::Id id, const records::RefitRequest& request) {
-  auto verdict = report(id, {0, JobPhase::fitting});
-  if (verdict != Verdict::go_on) return end(id, stopped_update(verdict == Verdict::cancelled));
+  auto why = board_.report(id, {0, JobPhase::fitting});
+  if (why) return end(id, stopped_update(*why));
   const auto observer = [&](const records::RefitProgress& at) {
     JobProgress p{0, JobPhase::fitting};
     p.spectra_done = at.done + at.failed;
     p.spectra_total = at.total;
     p.remaining_s = at.remaining_s;
-    verdict = report(id, p);
-    return verdict == Verdict::go_on;
+    why = board_.report(id, p);
+    return !why;
   };
   const auto report = records::refit(store_, fitter_, request, observer);
   if (!report)
     return end(id, ended(store::JobState::failed, job_error(store::JobErrorCode::store, report.error().message)));
-  if (report->stopped) return end(id, stopped_update(verdict == Verdict::cancelled, refit_result(*report)));
+  if (report->stopped)
+    return end(id, stopped_update(why.value_or(store::JobErrorCode::stopped), refit_result(*report)));
   end(id, ended(store::JobState::succeeded, std::nullopt, refit_result(*report)));
 }
 
@@ -312,10 +260,7 @@ void FitJobs::end(store::Id id, const store::JobUpdate& update) {
 }
 
 void FitJobs::release(store::Id id, std::optional<store::JobError> unrecorded) {
-  std::lock_guard lock(mutex_);
-  if (unrecorded) live_[id].unrecorded_failure = std::move(unrecorded);
-  else live_.erase(id);
-  changed();
+  board_.end(id, std::move(unrecorded));
 }
 
 }  // namespace skinspec::api

@@ -3,10 +3,8 @@
 // into a session (records::import_file) and stored measurements fitted again (records::refit).
 // They run one at a time, in the order posted, on a thread of their own; each spreads its fits
 // over every core, so two of them at once would only share the cores. Their records are the
-// store's jobs (kinds import and refit); their live place and progress are kept here.
+// store's jobs (kinds import and refit); their live place and progress are the JobBoard's.
 
-#include <condition_variable>
-#include <deque>
 #include <expected>
 #include <map>
 #include <mutex>
@@ -15,7 +13,7 @@
 #include <variant>
 
 #include "skinspec/api/errors.hpp"
-#include "skinspec/api/job_watch.hpp"
+#include "skinspec/api/job_board.hpp"
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/records/import.hpp"
 #include "skinspec/records/refit.hpp"
@@ -32,11 +30,16 @@ struct ImportUpload {
   ScaleRequest scale = ScaleRequest::automatic;  // how a CSV file writes its values
 };
 
-class FitJobs final : public JobWatch {
+// The executor of imports and refits on the board's fitting lane: it writes their records and
+// runs them; their places, progress and cancel requests are the board's.
+//
+// Locking: mutex_ guards the queued and running jobs' work (an import's file) and the bytes it
+// holds, nothing else; the board may be called with it held (the board's lock is the last).
+class FitJobs final {
  public:
-  FitJobs(store::Store& store, const Fitter& fitter);
+  FitJobs(store::Store& store, const Fitter& fitter, JobBoard& board);
   // Stops: the running job at its next step and the queued ones end cancelled (`stopped`).
-  ~FitJobs() override;
+  ~FitJobs();
   FitJobs(const FitJobs&) = delete;
   FitJobs& operator=(const FitJobs&) = delete;
 
@@ -49,52 +52,38 @@ class FitJobs final : public JobWatch {
   // afterwards. A job of another program is refused (409): that program runs it.
   std::expected<store::Job, ApiError> cancel(store::Id job_id);
 
-  std::optional<JobProgress> progress(store::Id job_id) const override;
-  std::uint64_t changes() const override;
-  std::uint64_t wait_for_change(std::uint64_t seen, std::chrono::milliseconds timeout,
-                                const std::atomic<bool>& abandoned) const override;
-  void wake_waiters() const override;
+  // What knows the live progress of the jobs run here.
+  const JobWatch& jobs() const { return board_; }
 
  private:
-  struct Queued {
-    store::Id id = 0;
-    std::variant<ImportUpload, records::RefitRequest> work;
-  };
-  // What a job's observer tells the worker: go on, or stop (and why).
-  enum class Verdict { go_on, cancelled, stopped };
+  using Work = std::variant<ImportUpload, records::RefitRequest>;
 
-  std::expected<store::CreatedJob, ApiError> enqueue(store::Job job,
-                                                     std::variant<ImportUpload, records::RefitRequest> work);
+  std::expected<store::CreatedJob, ApiError> enqueue(JobKind kind, store::Job job, Work work);
+  // Counts a job's file against kMaxHeldBytes; the refusal when there is no room.
+  std::optional<ApiError> hold(std::size_t bytes);
+  // The job's work, no longer held here.
+  std::optional<Work> take_work(store::Id id);
   void work();
-  void run(const Queued& job);
+  void run(store::Id id, const Work& work);
   void run_import(store::Id id, const ImportUpload& upload);
   void run_refit(store::Id id, const records::RefitRequest& request);
-  // Records the running job's progress; whether it should go on.
-  Verdict report(store::Id id, const JobProgress& progress);
   // The job's record ended, then its live progress dropped.
   void end(store::Id id, const store::JobUpdate& update);
   // Its live progress dropped (kept as a failure when its end could not be recorded).
   void release(store::Id id, std::optional<store::JobError> unrecorded = std::nullopt);
-  void changed();  // with mutex_ held
   // The bytes a queued job holds in memory: an import's file.
-  static std::size_t held_bytes(const std::variant<ImportUpload, records::RefitRequest>& work);
+  static std::size_t held_bytes(const Work& work);
 
   // Files queued or being imported, at most (they wait in memory).
   static constexpr std::size_t kMaxHeldBytes = std::size_t{1} << 30;
 
   store::Store& store_;
   const Fitter& fitter_;
-  mutable std::mutex mutex_;
-  mutable std::condition_variable change_;  // any job's change, for followers
-  std::condition_variable wake_;            // work queued, or stopping, for the worker
-  std::deque<Queued> queue_;
-  std::map<store::Id, JobProgress> live_;  // queued and running jobs
-  store::Id running_ = 0;                  // 0: none
-  bool cancel_running_ = false;
-  bool stopping_ = false;
-  std::uint64_t changes_ = 0;
-  std::size_t held_bytes_ = 0;  // of the queued and running jobs' files
-  std::thread worker_;          // last: started once everything above exists
+  JobBoard& board_;
+  std::mutex mutex_;
+  std::map<store::Id, Work> work_;  // of the queued and running jobs
+  std::size_t held_bytes_ = 0;      // of the queued and running jobs' files
+  std::thread worker_;              // last: started once everything above exists
 };
 
 }  // namespace skinspec::api

@@ -237,8 +237,8 @@ struct Router::Handlers {
   }
   // What runs a job of this kind, and so knows its live progress (null: nothing here does).
   static const JobWatch* watch_of(const RouterContext& c, const store::Job& job) {
-    if (parse_job_kind(job.kind) == JobKind::measure) return c.acquisition;
-    return c.fit_jobs.get();
+    if (parse_job_kind(job.kind) == JobKind::measure) return c.acquisition ? &c.acquisition->jobs() : nullptr;
+    return c.fit_jobs ? &c.fit_jobs->jobs() : nullptr;
   }
   static std::optional<int> integer_field(const json& body, const char* key, int min, int max) {
     const auto it = body.find(key);
@@ -826,8 +826,9 @@ Router::Router(RouterContext context) : context_(std::move(context)) {
   if (!context_.metrics) context_.metrics = std::make_shared<Metrics>();
   if (!context_.render_cache) context_.render_cache = std::make_shared<RenderCache>();
   if (!context_.body_cache) context_.body_cache = std::make_shared<BodyCache>();
+  if (!context_.job_board) context_.job_board = std::make_shared<JobBoard>();
   if (!context_.fit_jobs && context_.store && context_.fitter)
-    context_.fit_jobs = std::make_shared<FitJobs>(*context_.store, *context_.fitter);
+    context_.fit_jobs = std::make_shared<FitJobs>(*context_.store, *context_.fitter, *context_.job_board);
 }
 Router::~Router() = default;
 

@@ -56,8 +56,11 @@ std::string_view to_string(InstrumentState state);
 std::optional<InstrumentState> parse_instrument_state(std::string_view text);
 std::span<const std::pair<InstrumentState, std::string_view>> instrument_state_names();
 
-class Acquisition : public JobWatch {
+class Acquisition {
  public:
+  virtual ~Acquisition() = default;
+  // What knows the live progress of the measurement jobs it runs.
+  virtual const JobWatch& jobs() const = 0;
   // {"device", "port", "state" (an InstrumentState), "since",
   //  "last_error", "serial_number", "attempts", "next_attempt_in_ms", "queued", ...}
   virtual nlohmann::json instrument_status() const = 0;

@@ -1,7 +1,7 @@
 #pragma once
 // What the router needs from whatever runs jobs: each job's live place and progress, and a way
-// to wait for the next change. The acquisition runs measurement jobs; FitJobs runs imports and
-// refits. The router asks the one that runs a job of that kind.
+// to wait for the next change. The JobBoard (job_board.hpp) keeps them for every kind: the
+// acquisition runs measurement jobs on it, FitJobs imports and refits.
 
 #include <atomic>
 #include <chrono>

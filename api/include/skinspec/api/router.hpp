@@ -30,6 +30,7 @@ class Acquisition;
 class RenderCache;
 class BodyCache;
 class FitJobs;
+class JobBoard;
 
 struct Request {
   std::string method;                          // "GET", "POST", ...
@@ -74,7 +75,10 @@ struct RouterContext {
   std::shared_ptr<Metrics> metrics;           // created when null
   std::shared_ptr<RenderCache> render_cache;  // images of GET /api/v1/fits/{id}/render.png; created when null
   std::shared_ptr<BodyCache> body_cache;      // answers of GET /api/v1/fits/{id}; created when null
-  // Imports and refits; created when null and there are a store and a fitter.
+  // This program's queued and running jobs of every kind; created when null. The acquisition
+  // given runs its measurements on the same board.
+  std::shared_ptr<JobBoard> job_board;
+  // Imports and refits; created on job_board when null and there are a store and a fitter.
   std::shared_ptr<FitJobs> fit_jobs;
   AccessPolicy access;
   std::size_t max_spectrum_samples = 10000;

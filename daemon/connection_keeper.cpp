@@ -1,17 +1,16 @@
-// The supervisor's side facing the instrument: finding it (instrument_link.hpp), connecting
-// and identifying, keeping it connected in the background, following USB hot-plug, and what
-// its state is.
-//
-// Two threads may want the meter: the job worker (through ensure_connected, before it
-// measures) and the connector (keep_connected). wire_mutex_ makes one of them its owner at a
-// time, and the connector leaves the meter alone while a job is queued or running.
+// The instrument's connection: connecting and identifying, keeping it connected in the
+// background, following USB hot-plug, and what its state is (connection_keeper.hpp).
+
+#include "connection_keeper.hpp"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <utility>
+
 #include "identity_json.hpp"
 #include "store_records.hpp"
-#include "supervisor.hpp"
 #include "supervisor_common.hpp"
 
 namespace skinspec::daemon {
@@ -37,12 +36,86 @@ constexpr milliseconds kBusyRecheck{250};
 // check that asks the meter.
 constexpr milliseconds kHangupLook{100};
 
-// A first command that finds the link in this state is worth one fresh connection.
-bool finds_link_dead(Kind kind) { return kind == Kind::lost || kind == Kind::no_contact || kind == Kind::transport; }
-
 }  // namespace
 
-json Supervisor::instrument_status() const {
+ConnectionKeeper::ConnectionKeeper(std::string device, drivers::ModelChoice model, store::Store& db,
+                                   std::function<bool()> jobs_waiting)
+    : device_(std::move(device)), model_(model), db_(db), jobs_waiting_(std::move(jobs_waiting)) {}
+
+ConnectionKeeper::~ConnectionKeeper() {
+  stop();
+  release_meter();
+}
+
+void ConnectionKeeper::stop() {
+  std::lock_guard lock(mutex_);
+  stopping_ = true;
+  if (meter_) meter_->cancel();
+  wake_.notify_all();
+}
+
+// The newer meters stay in remote mode, their keys locked, until they are sent Q: the meter is
+// disconnected here, once nothing else can use it, rather than whenever its last owner lets go.
+void ConnectionKeeper::release_meter() {
+  if (connector_.joinable()) connector_.join();  // it ends at stopping_; a connection under way was cancelled
+  std::shared_ptr<drivers::Instrument> meter;
+  {
+    std::lock_guard lock(mutex_);
+    meter = std::exchange(meter_, nullptr);
+  }
+  if (!meter) return;
+  const auto wire = wire_.hold();
+  meter->disconnect();
+  spdlog::info("event=instrument_disconnected device=\"{}\"", device_);
+}
+
+MeterSettings ConnectionKeeper::settings() const {
+  std::lock_guard lock(mutex_);
+  return known_settings();
+}
+
+MeterSettings ConnectionKeeper::known_settings() const {
+  std::optional<drivers::Model> known = model_.forced;
+  if (identity_ && identity_->model) known = identity_->model;
+  return {drivers::setting_limits(known), apertures_};
+}
+
+std::shared_ptr<drivers::Instrument> ConnectionKeeper::begin_measuring() {
+  std::lock_guard lock(mutex_);
+  if (meter_) state_ = api::InstrumentState::measuring;
+  return meter_;
+}
+
+void ConnectionKeeper::end_measuring() {
+  std::lock_guard lock(mutex_);
+  if (state_ == api::InstrumentState::measuring)
+    state_ = meter_ ? api::InstrumentState::connected : api::InstrumentState::disconnected;
+}
+
+void ConnectionKeeper::interrupt() {
+  std::lock_guard lock(mutex_);
+  if (meter_) meter_->cancel();
+}
+
+void ConnectionKeeper::note_firmware_warnings(const std::vector<std::string>& warnings) {
+  std::lock_guard lock(mutex_);
+  if (!identity_) return;
+  for (const auto& warning : warnings) {
+    if (std::ranges::find(identity_->warnings, warning) != identity_->warnings.end()) continue;
+    identity_->warnings.push_back(warning);
+    spdlog::warn("event=instrument_firmware serial={} warning=\"{}\"", identity_->serial_number, warning);
+  }
+}
+
+ConnectionKeeper::MeterOfRecord ConnectionKeeper::meter_of_record() const {
+  std::lock_guard lock(mutex_);
+  MeterOfRecord out;
+  if (identity_) out.family = identity_->family;
+  out.instrument_id = instrument_id_;
+  return out;
+}
+
+json ConnectionKeeper::status() const {
   std::lock_guard lock(mutex_);
   json next_attempt_in_ms = nullptr;
   if (!meter_ && next_attempt_ && state_ != api::InstrumentState::connecting)
@@ -55,8 +128,6 @@ json Supervisor::instrument_status() const {
                  {"last_error", last_error_.empty() ? json(nullptr) : json(last_error_)},
                  {"attempts", failed_attempts_},
                  {"next_attempt_in_ms", next_attempt_in_ms},
-                 {"running_job", running_ ? json(*running_) : json(nullptr)},
-                 {"queued", queue_.size()},
                  {"capabilities", capabilities_json(known_settings())}};
   // Who the meter said it was when last reached: kept while it is lost, as its serial number
   // tells which meter to look for.
@@ -64,16 +135,14 @@ json Supervisor::instrument_status() const {
   return status;
 }
 
-std::string Supervisor::meter_on_port() const {
+std::string ConnectionKeeper::meter_on_port() const {
   std::string name = "meter";
   if (identity_ && identity_->model) name = drivers::profile(*identity_->model).name;
   else if (identity_ && !identity_->reported_model.empty()) name = identity_->reported_model;
   return fmt::format("the {} on {}", name, port_);
 }
 
-json Supervisor::ports() const { return ports_json(drivers::list_ports()); }
-
-void Supervisor::note_instrument_error(const drivers::InstrumentError& e) {
+void ConnectionKeeper::note_instrument_error(const drivers::InstrumentError& e) {
   std::lock_guard lock(mutex_);
   last_error_ = describe(e);
   if (is_link_failure(e.kind) && meter_) lose_meter(last_error_);
@@ -82,7 +151,7 @@ void Supervisor::note_instrument_error(const drivers::InstrumentError& e) {
 }
 
 // The meter cannot be used any more: start again from first contact, the first attempt at once.
-void Supervisor::lose_meter(const std::string& error) {
+void ConnectionKeeper::lose_meter(const std::string& error) {
   last_error_ = error;
   spdlog::warn("event=instrument_lost device=\"{}\" error=\"{}\"", device_, last_error_);
   meter_.reset();
@@ -92,40 +161,12 @@ void Supervisor::lose_meter(const std::string& error) {
   wake_.notify_all();
 }
 
-std::optional<drivers::InstrumentError> Supervisor::ensure_connected() {
-  std::lock_guard wire(wire_mutex_);
+std::optional<drivers::InstrumentError> ConnectionKeeper::ensure_connected() {
+  const auto wire = wire_.hold();
   return connect_holding_wire();
 }
 
-// One reading for a job. A job whose first command finds the link dead (the meter was switched
-// off and on, or its serial server went away, since anyone last looked) connects once more, by
-// the connector's path, and measures on the new connection; a failure after the meter has
-// answered in this job, or after connecting again, is the job's.
-std::expected<drivers::Reading, drivers::InstrumentError> Supervisor::measure_reading(
-    std::shared_ptr<drivers::Instrument>& meter, const drivers::MeasureOptions& options, bool first_of_job) {
-  const std::uint64_t replies_before = meter->replies_received();
-  auto reading = meter->measure(options);
-  const bool never_answered = meter->replies_received() == replies_before;
-  if (reading || !first_of_job || !never_answered || !finds_link_dead(reading.error().kind)) return reading;
-  const drivers::InstrumentError dead = reading.error();
-  spdlog::warn("event=instrument_reconnect_for_job device=\"{}\" error=\"{}\"", device_, describe(dead));
-  note_instrument_error(dead);
-  meter->disconnect();  // a meter serves one connection at a time
-  if (auto error = ensure_connected()) {
-    error->message = fmt::format("{}; connecting again failed: {}", dead.message, error->message);
-    return std::unexpected(*error);
-  }
-  {
-    std::lock_guard lock(mutex_);
-    if (cancel_running_) return std::unexpected(drivers::InstrumentError{Kind::cancelled, "cancelled", -1, {}});
-    if (!meter_) return std::unexpected(drivers::InstrumentError{Kind::lost, "the instrument went away again", -1, {}});
-    meter = meter_;
-    state_ = api::InstrumentState::measuring;
-  }
-  return meter->measure(options);
-}
-
-std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
+std::optional<drivers::InstrumentError> ConnectionKeeper::connect_holding_wire() {
   {
     std::lock_guard lock(mutex_);
     if (meter_ && meter_->connected()) {
@@ -181,7 +222,7 @@ std::optional<drivers::InstrumentError> Supervisor::connect_holding_wire() {
   return std::nullopt;
 }
 
-void Supervisor::note_connect_failure(const drivers::InstrumentError& error, const std::string& port) {
+void ConnectionKeeper::note_connect_failure(const drivers::InstrumentError& error, const std::string& port) {
   std::lock_guard lock(mutex_);
   meter_.reset();
   expected_model_.reset();
@@ -196,8 +237,8 @@ void Supervisor::note_connect_failure(const drivers::InstrumentError& error, con
   wake_.notify_all();
 }
 
-void Supervisor::note_connected(const std::shared_ptr<drivers::Instrument>& meter, const ResolvedDevice& resolved,
-                                const drivers::Identity& identity, std::vector<std::string> apertures) {
+void ConnectionKeeper::note_connected(const std::shared_ptr<drivers::Instrument>& meter, const ResolvedDevice& resolved,
+                                      const drivers::Identity& identity, std::vector<std::string> apertures) {
   auto id = db_.ensure_instrument(instrument_record(identity, device_));
   if (!id)
     spdlog::error("event=instrument_not_stored serial={} kind={} error=\"{}\"", identity.serial_number,
@@ -223,7 +264,7 @@ void Supervisor::note_connected(const std::shared_ptr<drivers::Instrument>& mete
 
 // ---- In the background ------------------------------------------------------------------
 
-void Supervisor::start_connection(ConnectionSettings settings) {
+void ConnectionKeeper::start(Settings settings) {
   {
     std::lock_guard lock(mutex_);
     link_ = std::move(settings);
@@ -236,7 +277,7 @@ void Supervisor::start_connection(ConnectionSettings settings) {
   connector_ = std::jthread([this] { keep_connected(); });
 }
 
-void Supervisor::keep_connected() {
+void ConnectionKeeper::keep_connected() {
   std::unique_lock lock(mutex_);
   while (!stopping_) {
     const auto due = next_link_action();
@@ -253,20 +294,20 @@ void Supervisor::keep_connected() {
 }
 
 // When the connector has something to do (mutex_ held); nullopt: nothing until woken.
-std::optional<SteadyClock::time_point> Supervisor::next_link_action() const {
-  if (running_ || !queue_.empty()) return SteadyClock::now() + kBusyRecheck;
+std::optional<SteadyClock::time_point> ConnectionKeeper::next_link_action() const {
+  if (jobs_waiting_()) return SteadyClock::now() + kBusyRecheck;
   if (meter_)
     return link_.check_interval > milliseconds::zero() ? std::min(next_check_, next_hangup_look_) : next_hangup_look_;
   return next_attempt_;
 }
 
-void Supervisor::connect_or_check() {
-  std::lock_guard wire(wire_mutex_);
+void ConnectionKeeper::connect_or_check() {
+  const auto wire = wire_.hold();
   std::shared_ptr<drivers::Instrument> meter;
   {
     std::lock_guard lock(mutex_);
     // A job came meanwhile: its worker connects (at once, without waiting for the backoff).
-    if (stopping_ || running_ || !queue_.empty()) return;
+    if (stopping_ || jobs_waiting_()) return;
     meter = meter_;
   }
   if (!meter) {
@@ -289,7 +330,7 @@ void Supervisor::connect_or_check() {
 
 // An idle meter is asked for its serial number, a short exchange that changes none of its
 // settings, to notice a meter that was switched off or a link that broke while nobody measured.
-void Supervisor::check_holding_wire(const std::shared_ptr<drivers::Instrument>& meter) {
+void ConnectionKeeper::check_holding_wire(const std::shared_ptr<drivers::Instrument>& meter) {
   auto answered = meter->check();
   {
     std::lock_guard lock(mutex_);
@@ -298,7 +339,7 @@ void Supervisor::check_holding_wire(const std::shared_ptr<drivers::Instrument>& 
   if (!answered && answered.error().kind != Kind::cancelled) note_instrument_error(answered.error());
 }
 
-void Supervisor::on_usb_event(const drivers::UsbDeviceEvent& event) {
+void ConnectionKeeper::on_usb_event(const drivers::UsbDeviceEvent& event) {
   std::lock_guard lock(mutex_);
   if (event.kind == drivers::UsbDeviceEvent::Kind::attached) {
     // Perhaps the meter's adapter: try now rather than when the backoff says.

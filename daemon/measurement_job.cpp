@@ -1,4 +1,4 @@
-// One measurement job: readings from the meter (readings it rejects for their quality code are
+// One measurement job, as the executor runs it: readings from the meter (readings it rejects for their quality code are
 // stored with their raw reply and retried, up to the policy's limit), their average,
 // reflectance against the session's latest white, the fit, and all of it stored in one
 // transaction with the job's end; warnings for a white that is old or that saw the lamp change.
@@ -6,12 +6,13 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <utility>
 
+#include "measurement_executor.hpp"
 #include "skinspec/records/fit_record.hpp"
 #include "skinspec/spectral/spectrum.hpp"
 #include "store_records.hpp"
-#include "supervisor.hpp"
 #include "supervisor_common.hpp"
 
 namespace skinspec::daemon {
@@ -41,6 +42,12 @@ std::int64_t wall_micros(std::chrono::system_clock::time_point t) {
 
 json optional_id(const std::optional<store::Id>& id) { return id ? json(*id) : json(nullptr); }
 
+// A first command that finds the link in this state is worth one fresh connection.
+bool finds_link_dead(drivers::InstrumentError::Kind kind) {
+  using enum drivers::InstrumentError::Kind;
+  return kind == lost || kind == no_contact || kind == transport;
+}
+
 std::unexpected<store::JobError> store_error(const std::string& doing, const store::StoreError& e) {
   return std::unexpected(store::JobError{store::JobErrorCode::store, doing + ": " + e.message});
 }
@@ -65,39 +72,39 @@ std::string no_white_reference(const store::Store& db, store::Id session_id) {
 
 }  // namespace
 
-Supervisor::Step<store::Id> Supervisor::keep_rejected(const store::Job& job, int attempt,
-                                                      const drivers::InstrumentError& error) {
-  drivers::Family family = drivers::Family::pr650;
-  {
-    std::lock_guard lock(mutex_);
-    if (identity_) family = identity_->family;
-  }
+MeasurementExecutor::Step<store::Id> MeasurementExecutor::keep_rejected(const store::Job& job, int attempt,
+                                                                        const drivers::InstrumentError& error) {
+  const auto meter = keeper_.meter_of_record();
   store::RejectedReading r =
-      rejected_reading_record(error, family, attempt, to_store_time(std::chrono::system_clock::now()));
+      rejected_reading_record(error, meter.family, attempt, to_store_time(std::chrono::system_clock::now()));
   r.session_id = job.session_id.value_or(0);
   r.job_id = job.id;
-  r.instrument_id = instrument_id_;
+  r.instrument_id = meter.instrument_id;
   auto id = with_retries("rejected_reading", job.id, [&] { return db_.record_rejected_reading(r); });
   if (!id) return store_error("a rejected reading could not be stored", id.error());
   return *id;
 }
 
-Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const api::MeasureRequest& request,
-                                                 std::shared_ptr<drivers::Instrument>& meter, Readings& out) {
+MeasurementExecutor::Step<void> MeasurementExecutor::take_readings(const store::Job& job,
+                                                                   const api::MeasureRequest& request,
+                                                                   std::shared_ptr<drivers::Instrument>& meter,
+                                                                   Readings& out) {
   const drivers::MeasureOptions options = measure_options(request);
-  report_progress(api::JobPhase::measuring, 0);
+  board_.report_phase(job.id, api::JobPhase::measuring, 0);
   for (int attempt = 1; std::cmp_less(out.good.size(), request.count); ++attempt) {
-    start_reading_clock(meter->reading_time(options), request.count - static_cast<int>(out.good.size()) - 1);
-    auto reading = measure_reading(meter, options, attempt == 1);
-    note_firmware_warnings(meter->firmware_warnings());
+    const auto reading_time = meter->reading_time(options);
+    const int after = std::max(request.count - static_cast<int>(out.good.size()) - 1, 0);
+    board_.start_countdown(job.id, {std::chrono::steady_clock::now() + reading_time, reading_time, after});
+    auto reading = measure_reading(job.id, meter, options, attempt == 1);
+    keeper_.note_firmware_warnings(meter->firmware_warnings());
     const auto received = std::chrono::system_clock::now();
     if (reading) {
       out.warnings.insert(out.warnings.end(), reading->warnings.begin(), reading->warnings.end());
       out.good.push_back(std::move(*reading));
       out.last_reply_at = received;
-      report_progress(api::JobPhase::measuring, static_cast<int>(out.good.size()));
+      board_.report_phase(job.id, api::JobPhase::measuring, static_cast<int>(out.good.size()));
     } else if (const auto& error = reading.error(); error.kind != drivers::InstrumentError::Kind::bad_reading) {
-      note_instrument_error(error);
+      keeper_.note_instrument_error(error);
       return std::unexpected(job_error(error));
     } else {
       // Raw data is kept even when the job fails later: it is the record of what the meter said.
@@ -108,24 +115,24 @@ Supervisor::Step<void> Supervisor::take_readings(const store::Job& job, const ap
       spdlog::warn("event=reading_rejected job={} attempt={} quality={} rejected_reading={}", job.id, attempt,
                    error.quality_code, *id);
       if (std::cmp_greater(out.rejected_ids.size(), policy_.max_rejected_readings)) {
-        note_instrument_error(error);
+        keeper_.note_instrument_error(error);
         auto failure = job_error(error);
         failure.message += fmt::format(" ({} readings rejected, at most {} allowed per job)", out.rejected_ids.size(),
                                        policy_.max_rejected_readings);
         return std::unexpected(failure);
       }
     }
-    std::lock_guard lock(mutex_);
-    if (cancel_requested()) return std::unexpected(cancellation(*cancel_running_));
+    if (auto stop = stop_requested(job.id)) return std::unexpected(*stop);
   }
   return {};
 }
 
 // Reflectance against `white` into `m`, and its fit (none when the spectrum cannot be fitted,
 // with a warning saying why).
-Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const store::Session& session,
-                                                                      const store::Measurement& white,
-                                                                      store::Measurement& m, json& timing) const {
+MeasurementExecutor::Step<std::optional<store::Fit>> MeasurementExecutor::derive_sample(const store::Session& session,
+                                                                                        const store::Measurement& white,
+                                                                                        store::Measurement& m,
+                                                                                        json& timing) const {
   if (white.radiance.wavelength_nm != m.radiance.wavelength_nm)
     return std::unexpected(
         store::JobError{store::JobErrorCode::white_mismatch, "the white reference was measured on another grid"});
@@ -168,8 +175,9 @@ Supervisor::Step<std::optional<store::Fit>> Supervisor::derive_sample(const stor
   return fit;
 }
 
-Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job, const api::MeasureRequest& request,
-                                                          json& partial) {
+MeasurementExecutor::Step<store::CompletedJob> MeasurementExecutor::measure(const store::Job& job,
+                                                                            const api::MeasureRequest& request,
+                                                                            json& partial) {
   const store::Id session_id = job.session_id.value_or(0);
   auto session = db_.session(session_id);
   if (!session) return store_error("the job's session could not be read", session.error());
@@ -181,30 +189,21 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   if (request.kind == store::MeasurementKind::sample && !*white)
     return std::unexpected(store::JobError{store::JobErrorCode::no_white, no_white_reference(db_, session_id)});
 
-  if (auto error = ensure_connected()) {
-    note_instrument_error(*error);
+  if (auto error = keeper_.ensure_connected()) {
+    keeper_.note_instrument_error(*error);
     return std::unexpected(job_error(*error));
   }
-  std::shared_ptr<drivers::Instrument> meter;
-  {
-    std::lock_guard lock(mutex_);
-    if (cancel_requested()) return std::unexpected(cancellation(*cancel_running_));
-    meter = meter_;
-    // The adapter can be unplugged between connecting and here; the hot-plug handler has
-    // then already dropped the meter and marked it lost.
-    if (!meter)
-      return std::unexpected(store::JobError{store::JobErrorCode::lost, "the instrument went away before measuring"});
-    state_ = api::InstrumentState::measuring;
-  }
+  if (auto stop = stop_requested(job.id)) return std::unexpected(*stop);
+  // The adapter can be unplugged between connecting and here; the hot-plug handler has then
+  // already dropped the meter and marked it lost.
+  auto meter = keeper_.begin_measuring();
+  if (!meter)
+    return std::unexpected(store::JobError{store::JobErrorCode::lost, "the instrument went away before measuring"});
   Readings readings;
   auto taken = take_readings(job, request, meter, readings);
   partial = {{"readings", readings.good.size()}, {"rejected_reading_ids", readings.rejected_ids}};
   if (!taken) return std::unexpected(taken.error());
-  {
-    std::lock_guard lock(mutex_);
-    if (state_ == api::InstrumentState::measuring)
-      state_ = api::InstrumentState::connected;  // not over a "lost" set meanwhile
-  }
+  keeper_.end_measuring();
   const auto derive_started = Clock::now();
 
   auto averaged_reading = averaged(readings.good);
@@ -214,7 +213,7 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   m.session_id = session_id;
   m.kind = request.kind;
   m.label = request.label;
-  m.instrument_id = instrument_id_;
+  m.instrument_id = keeper_.meter_of_record().instrument_id;
   m.job_id = job.id;
   m.settings =
       measurement_settings(readings.good, measure_options(request), request.count, readings.rejected_ids.size());
@@ -223,14 +222,14 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   json timing = {{"reply_received_at_us", wall_micros(readings.last_reply_at)}};
   std::optional<store::Fit> fit;
   if (request.kind == store::MeasurementKind::sample) {
-    report_progress(api::JobPhase::fitting, request.count);
+    board_.report_phase(job.id, api::JobPhase::fitting, request.count);
     auto derived = derive_sample(*session, **white, m, timing);
     if (!derived) return std::unexpected(derived.error());
     fit = std::move(*derived);
   } else if (*white) {
     if (auto lamp = lamp_change_warning(m, **white, policy_)) m.warnings.push_back(*lamp);
   }
-  report_progress(api::JobPhase::storing, request.count);
+  board_.report_phase(job.id, api::JobPhase::storing, request.count);
   timing["derive_ms"] = ms_since(derive_started);
   // The store adds measurement_id and fit_id, in the transaction that stores them.
   const json result = {{"white_measurement_id", optional_id(m.white_measurement_id)},
@@ -241,9 +240,8 @@ Supervisor::Step<store::CompletedJob> Supervisor::execute(const store::Job& job,
   return store_measurement(job, m, fit, result);
 }
 
-Supervisor::Step<store::CompletedJob> Supervisor::store_measurement(const store::Job& job, const store::Measurement& m,
-                                                                    const std::optional<store::Fit>& fit,
-                                                                    const json& result) {
+MeasurementExecutor::Step<store::CompletedJob> MeasurementExecutor::store_measurement(
+    const store::Job& job, const store::Measurement& m, const std::optional<store::Fit>& fit, const json& result) {
   const auto started = Clock::now();
   const auto text = result.dump();
   auto completed =
@@ -251,6 +249,34 @@ Supervisor::Step<store::CompletedJob> Supervisor::store_measurement(const store:
   if (!completed) return store_error("the measurement could not be stored", completed.error());
   spdlog::debug("event=job_stored job={} store_ms={:.3f}", job.id, ms_since(started));
   return std::move(*completed);
+}
+
+// One reading for a job. A job whose first command finds the link dead (the meter was switched
+// off and on, or its serial server went away, since anyone last looked) connects once more, by
+// the connector's path, and measures on the new connection; a failure after the meter has
+// answered in this job, or after connecting again, is the job's.
+std::expected<drivers::Reading, drivers::InstrumentError> MeasurementExecutor::measure_reading(
+    store::Id job_id, std::shared_ptr<drivers::Instrument>& meter, const drivers::MeasureOptions& options,
+    bool first_of_job) {
+  const std::uint64_t replies_before = meter->replies_received();
+  auto reading = meter->measure(options);
+  const bool never_answered = meter->replies_received() == replies_before;
+  if (reading || !first_of_job || !never_answered || !finds_link_dead(reading.error().kind)) return reading;
+  const drivers::InstrumentError dead = reading.error();
+  spdlog::warn("event=instrument_reconnect_for_job device=\"{}\" error=\"{}\"", keeper_.device(), describe(dead));
+  keeper_.note_instrument_error(dead);
+  meter->disconnect();  // a meter serves one connection at a time
+  if (auto error = keeper_.ensure_connected()) {
+    error->message = fmt::format("{}; connecting again failed: {}", dead.message, error->message);
+    return std::unexpected(*error);
+  }
+  if (board_.stop_asked(job_id))
+    return std::unexpected(drivers::InstrumentError{drivers::InstrumentError::Kind::cancelled, "cancelled", -1, {}});
+  meter = keeper_.begin_measuring();
+  if (!meter)
+    return std::unexpected(
+        drivers::InstrumentError{drivers::InstrumentError::Kind::lost, "the instrument went away again", -1, {}});
+  return meter->measure(options);
 }
 
 }  // namespace skinspec::daemon
