@@ -29,8 +29,6 @@ void log_unrecorded(store::Id id, const store::JobError& end, const store::Store
                 store::to_string(refused.kind), refused.message);
 }
 
-api::ApiError stopping() { return {api::ErrorKind::unavailable, "unavailable", "the service is stopping"}; }
-
 }  // namespace
 
 MeasurementExecutor::MeasurementExecutor(store::Store& db, const Fitter& fitter, api::JobBoard& board,
@@ -58,11 +56,11 @@ void MeasurementExecutor::end_stopped(const std::vector<store::Id>& never_ran) {
 
 std::expected<store::CreatedJob, api::ApiError> MeasurementExecutor::submit(const store::Job& job, int count) {
   std::lock_guard lock(submit_mutex_);
-  if (board_.closed(kLane)) return std::unexpected(stopping());
+  if (board_.closed(kLane)) return std::unexpected(api::service_stopping());
   auto created = db_.create_job(job);
   if (!created) return std::unexpected(api::from_store_error(created.error()));
   if (created->created && !board_.enqueue(kLane, created->job.id, {1, api::JobPhase::queued, 0, count, std::nullopt}))
-    return std::unexpected(stopping());  // made as the service stopped: never started
+    return std::unexpected(api::service_stopping());  // made as the service stopped: never started
   return *created;
 }
 

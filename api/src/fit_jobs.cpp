@@ -109,7 +109,7 @@ std::expected<store::CreatedJob, ApiError> FitJobs::enqueue(JobKind kind, store:
     unhold();
     if (!created) return std::unexpected(from_store_error(created.error()));
     if (created->created)  // made as the service stopped: never started
-      return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"});
+      return std::unexpected(service_stopping());
     return *created;
   }
   const store::Id id = created->job.id;
@@ -119,14 +119,13 @@ std::expected<store::CreatedJob, ApiError> FitJobs::enqueue(JobKind kind, store:
   }
   if (!board_.enqueue(JobLane::fitting, id)) {
     (void)take_work(id);
-    return std::unexpected(ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"});
+    return std::unexpected(service_stopping());
   }
   return *created;
 }
 
 std::optional<ApiError> FitJobs::hold(std::size_t bytes) {
-  if (board_.closed(JobLane::fitting))
-    return ApiError{ErrorKind::unavailable, "unavailable", "the service is stopping"};
+  if (board_.closed(JobLane::fitting)) return service_stopping();
   std::lock_guard lock(mutex_);
   // Files wait in memory until their turn: more than this, and the next is refused for now.
   if (held_bytes_ + bytes > kMaxHeldBytes)

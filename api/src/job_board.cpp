@@ -13,6 +13,8 @@ store::JobError stop_error(store::JobErrorCode why) {
   return {store::JobErrorCode::cancelled, "cancelled by request"};
 }
 
+ApiError service_stopping() { return {ErrorKind::unavailable, "unavailable", "the service is stopping"}; }
+
 std::expected<std::optional<store::CreatedJob>, ApiError> JobBoard::earlier_job(const store::Store& db, JobKind kind,
                                                                                 const std::string& key) {
   const std::optional<store::CreatedJob> none;
@@ -106,21 +108,17 @@ bool JobBoard::knows(store::Id id) const {
 
 std::optional<store::JobErrorCode> JobBoard::report(store::Id id, const JobProgress& progress) {
   std::lock_guard lock(mutex_);
-  if (const auto it = live_.find(id); it != live_.end()) {
-    if (progress.phase != it->second.progress.phase) it->second.countdown.reset();
-    it->second.progress = progress;
-    changed();
-  }
+  if (const auto it = live_.find(id); it != live_.end()) set_progress(it->second, progress);
   return why_stop(id);
 }
 
 std::optional<store::JobErrorCode> JobBoard::report_phase(store::Id id, JobPhase phase, int readings_done) {
   std::lock_guard lock(mutex_);
   if (const auto it = live_.find(id); it != live_.end()) {
-    if (phase != it->second.progress.phase) it->second.countdown.reset();
-    it->second.progress.phase = phase;
-    it->second.progress.readings_done = readings_done;
-    changed();
+    JobProgress progress = it->second.progress;
+    progress.phase = phase;
+    progress.readings_done = readings_done;
+    set_progress(it->second, progress);
   }
   return why_stop(id);
 }
@@ -237,6 +235,12 @@ JobProgress JobBoard::shown(store::Id id, const Entry& entry) const {
         std::chrono::duration<double>(current + entry.countdown->steps_after * entry.countdown->per_step).count();
   }
   return out;
+}
+
+void JobBoard::set_progress(Entry& entry, const JobProgress& progress) {
+  if (progress.phase != entry.progress.phase) entry.countdown.reset();
+  entry.progress = progress;
+  changed();
 }
 
 void JobBoard::changed() {

@@ -46,6 +46,9 @@ struct Countdown {
 // The error a job asked to stop ends with: `cancelled` by request or `stopped` by the service.
 store::JobError stop_error(store::JobErrorCode why);
 
+// The answer to a job posted once its lane is closed (503).
+ApiError service_stopping();
+
 class JobBoard final : public JobWatch {
  public:
   JobBoard() = default;
@@ -146,6 +149,8 @@ class JobBoard final : public JobWatch {
   Lane* running_lane(store::Id id);
   const Lane* running_lane(store::Id id) const;
   std::optional<store::JobErrorCode> why_stop(store::Id id) const;
+  // A job's progress replaced: a countdown of another phase ends.
+  void set_progress(Entry& entry, const JobProgress& progress);
   // A job's progress as shown: its place in its queue, its time left counted down.
   JobProgress shown(store::Id id, const Entry& entry) const;
   // Counts a change and wakes the followers.
