@@ -76,47 +76,38 @@ struct Evaluation {
   }
 };
 
-void label(benchmark::State& state) { state.SetLabel(kernels_name(fit_kernels())); }
+// Times `call` (one kernel call, returning a value it wrote), labelled with the target in use.
+template <class Call>
+void time_kernel(benchmark::State& state, Call call) {
+  for (auto _ : state) benchmark::DoNotOptimize(call());
+  state.SetLabel(kernels_name(fit_kernels()));
+}
+
+double lateral_radius_mm(const benchmark::State& state) { return state.range(0) == 1 ? 0.5 : 0.0; }
 
 void Reflectance(benchmark::State& state) {
-  Evaluation e(state.range(0) == 1 ? 0.5 : 0.0);
-  for (auto _ : state) {
-    fit_kernels().reflectance(e.reflectance);
-    benchmark::DoNotOptimize(e.reflectance.reflectance[0]);
-  }
-  label(state);
+  Evaluation e(lateral_radius_mm(state));
+  time_kernel(state, [&] { return fit_kernels().reflectance(e.reflectance), e.reflectance.reflectance[0]; });
 }
 BENCHMARK(Reflectance)->ArgName("lateral")->Arg(0)->Arg(1);
 
 void Jacobian(benchmark::State& state) {
-  Evaluation e(state.range(0) == 1 ? 0.5 : 0.0);
-  for (auto _ : state) {
-    fit_kernels().jacobian(e.jacobian);
-    benchmark::DoNotOptimize(e.jacobian.by_melanin[0]);
-  }
-  label(state);
+  Evaluation e(lateral_radius_mm(state));
+  time_kernel(state, [&] { return fit_kernels().jacobian(e.jacobian), e.jacobian.by_melanin[0]; });
 }
 BENCHMARK(Jacobian)->ArgName("lateral")->Arg(0)->Arg(1);
 
 void BloodPacking(benchmark::State& state) {
   Columns columns;
   const BloodPackingArgs args{kSamples, columns.next(), columns.next(), 0.7, 0.3, columns.next(), columns.next()};
-  for (auto _ : state) {
-    fit_kernels().blood_packing(args);
-    benchmark::DoNotOptimize(args.packed_K[0]);
-  }
-  label(state);
+  time_kernel(state, [&] { return fit_kernels().blood_packing(args), args.packed_K[0]; });
 }
 BENCHMARK(BloodPacking);
 
 void PowerLaw(benchmark::State& state) {
   Columns columns;
   const PowerLawArgs args{kSamples, columns.next(), 1.3, 20, columns.next(), columns.next()};
-  for (auto _ : state) {
-    fit_kernels().power_law(args);
-    benchmark::DoNotOptimize(args.shape[0]);
-  }
-  label(state);
+  time_kernel(state, [&] { return fit_kernels().power_law(args), args.shape[0]; });
 }
 BENCHMARK(PowerLaw);
 
@@ -129,12 +120,11 @@ void Triangularize(benchmark::State& state) {
     const double* column = columns.next();
     a.insert(a.end(), column, column + kSamples);
   }
-  for (auto _ : state) {
+  time_kernel(state, [&] {
     std::vector<double> work_a = a, work_b = b;
     fit_kernels().triangularize(work_a.data(), kSamples, kColumns, work_b.data());
-    benchmark::DoNotOptimize(work_b[0]);
-  }
-  label(state);
+    return work_b[0];
+  });
 }
 BENCHMARK(Triangularize);
 
