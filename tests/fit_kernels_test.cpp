@@ -1,7 +1,8 @@
 // The fit's kernels (fit/src/kernels/) on every target the processor runs: Highway's exp and
 // expm1 against the standard library's over the arguments the model gives them, the choice of
-// target, and the QR against a plain one. The model through each target is checked against
-// automatic differentiation in model_test, and the fits of real spectra in engine_reference_test.
+// target, the QR against a plain one, and the coarse search's scores against the plain formula.
+// The model through each target is checked against automatic differentiation in model_test,
+// and the fits of real spectra in engine_reference_test.
 
 #include <gtest/gtest.h>
 
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "kernels/kernels.hpp"  // fit/src
+#include "skinspec/fit/model.hpp"
 #include "support/kernel_choice.hpp"
 
 namespace skinspec {
@@ -210,8 +212,8 @@ TEST(KernelsQr, ScaleColumnsAndTakeTheirNormsAndProductsAsPlainLoopsDo) {
       const int count = static_cast<int>(columns.size());
       std::vector<double> out(static_cast<std::size_t>(out_rows * count), -1.0), norms(columns.size()),
           products(columns.size());
-      kernels->scaled_columns({jacobian.data(), rows, columns.data(), count, scales.data(),
-                                              residuals.data(), out.data(), out_rows, norms.data(), products.data()});
+      kernels->scaled_columns({jacobian.data(), rows, columns.data(), count, scales.data(), residuals.data(),
+                               out.data(), out_rows, norms.data(), products.data()});
       for (std::size_t j = 0; j < columns.size(); ++j) {
         double norm = 0, product = 0;
         for (int i = 0; i < out_rows; ++i) {
@@ -225,6 +227,54 @@ TEST(KernelsQr, ScaleColumnsAndTakeTheirNormsAndProductsAsPlainLoopsDo) {
         }
         EXPECT_NEAR(norms[j], norm, 1e-13 * norm) << name_of(kernels) << " column " << j;
         EXPECT_NEAR(products[j], product, 1e-12 * (1 + std::abs(product))) << name_of(kernels) << " column " << j;
+      }
+    }
+  }
+}
+
+// The coarse search's scores: each the plain formula's (model.hpp) summed in sample order, on
+// every target, with and without a stratum corneum, over whole vectors and a short tail.
+TEST(KernelsSearch, ScoreTheGridAsThePlainFormulaDoes) {
+  std::mt19937_64 random(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const int n : {21, 3}) {
+    for (const bool corneum : {false, true}) {
+      const int epidermis_levels = 3, dermis_levels = 4;
+      const auto column = [&](int levels, double low, double high) {
+        std::vector<double> c(static_cast<std::size_t>(levels * n));
+        for (double& x : c) x = low + (high - low) * unit(random);
+        return c;
+      };
+      const auto er = column(epidermis_levels, 0.0, 0.6), et = column(epidermis_levels, 0.2, 0.95);
+      const auto total = column(dermis_levels, 0.1, 0.9), kept = column(dermis_levels, 0.6, 1.0);
+      const auto cr = column(1, 0.02, 0.08), ct2 = column(1, 0.8, 0.95);
+      const auto measured = column(1, 0.1, 0.6), weights = column(1, 0.5, 2.0);
+      std::vector<double> et2(et.size());
+      std::ranges::transform(et, et2.begin(), [](double t) { return t * t; });
+      const double rs = 0.03;
+      for (const FitKernels* kernels : runnable()) {
+        std::vector<double> squared(static_cast<std::size_t>(n)),
+            errors(static_cast<std::size_t>(epidermis_levels * dermis_levels));
+        kernels->coarse_errors({n, epidermis_levels, dermis_levels, er.data(), et2.data(), total.data(), kept.data(),
+                                corneum ? cr.data() : nullptr, corneum ? ct2.data() : nullptr, rs, measured.data(),
+                                weights.data(), squared.data(), errors.data()});
+        for (int e = 0; e < epidermis_levels; ++e)
+          for (int d = 0; d < dermis_levels; ++d) {
+            double want = 0;
+            for (int k = 0; k < n; ++k) {
+              const auto at = [&](const std::vector<double>& c, int level) {
+                return c[static_cast<std::size_t>(level * n + k)];
+              };
+              OpticsAt optics;
+              if (corneum) optics.corneum_r = at(cr, 0), optics.corneum_t2 = at(ct2, 0);
+              const double r = combined_reflectance(optics, rs, ReflectanceTransmittance<double>{at(er, e), at(et, e)},
+                                                    DermisRemittance<double>{at(total, d), at(kept, d)}) -
+                               at(measured, 0);
+              want += at(weights, 0) * r * r;
+            }
+            EXPECT_NEAR(errors[static_cast<std::size_t>(e * dermis_levels + d)], want, 1e-14 * want)
+                << name_of(kernels) << " n " << n << " corneum " << corneum << " pair " << e << "," << d;
+          }
       }
     }
   }

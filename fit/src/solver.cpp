@@ -6,6 +6,7 @@
 #include <functional>
 #include <limits>
 
+#include "kernels/kernels.hpp"
 #include "levenberg_marquardt.hpp"
 #include "spectrum_residuals.hpp"
 
@@ -69,30 +70,26 @@ double melanin_level(ModelKind kind, double m) { return std::min(m, model_spec(k
 std::vector<Params> coarse_starts(const Problem& problem, std::size_t how_many) {
   const ModelKind kind = problem.model.kind();
   const CoarseLayers& layers = problem.coarse;
-  const std::size_t samples = layers.epidermis.size() / std::size(kMelaninLevels);
-  const std::size_t dermis_levels = layers.dermis.size() / samples;
-  const double rs = start_point(kind, problem.held, problem.held_values, 0, 0, 0)[kSurfaceReflectance];
-  // Each point's weighted squared errors, then their sum in sample order.
-  std::vector<double> squared(samples);
+  const std::size_t samples = layers.samples, dermis_levels = layers.dermis_total.size() / samples;
+  std::vector<double> measured(samples), weights(samples), squared(samples);
+  for (std::size_t k = 0; k < samples; ++k)
+    measured[k] = problem.measured[k * kStride], weights[k] = problem.weights[k * kStride];
+  const bool corneum = !layers.corneum_r.empty();
+  std::vector<double> errors(std::size(kMelaninLevels) * dermis_levels);
+  fit_kernels().coarse_errors(
+      {static_cast<int>(samples), static_cast<int>(std::size(kMelaninLevels)), static_cast<int>(dermis_levels),
+       layers.epidermis_r.data(), layers.epidermis_t2.data(), layers.dermis_total.data(), layers.dermis_kept.data(),
+       corneum ? layers.corneum_r.data() : nullptr, corneum ? layers.corneum_t2.data() : nullptr,
+       start_point(kind, problem.held, problem.held_values, 0, 0, 0)[kSurfaceReflectance], measured.data(),
+       weights.data(), squared.data(), errors.data()});
   struct Scored {
     double score;
     std::size_t epidermis, dermis;
   };
   std::vector<Scored> scored;
-  scored.reserve(std::size(kMelaninLevels) * dermis_levels);
+  scored.reserve(errors.size());
   for (std::size_t e = 0; e < std::size(kMelaninLevels); ++e)
-    for (std::size_t d = 0; d < dermis_levels; ++d) {
-      for (std::size_t k = 0; k < samples; ++k) {
-        const std::size_t i = k * kStride;
-        const double r = combined_reflectance(problem.model.optics_at(i), rs, layers.epidermis[e * samples + k],
-                                              layers.dermis[d * samples + k]) -
-                         problem.measured[i];
-        squared[k] = problem.weights[i] * r * r;
-      }
-      double sum = 0;
-      for (const double s : squared) sum += s;
-      scored.push_back({sum, e, d});
-    }
+    for (std::size_t d = 0; d < dermis_levels; ++d) scored.push_back({errors[e * dermis_levels + d], e, d});
   std::ranges::sort(scored, {}, &Scored::score);
   std::vector<Params> starts;
   for (const Scored& s : scored) {
@@ -290,14 +287,27 @@ Solution solve_with(const Problem& problem) {
 CoarseLayers coarse_layers(const SkinModel& model, const std::vector<bool>& held, const Params& held_values) {
   const ModelKind kind = model.kind();
   CoarseLayers layers;
+  for (std::size_t i = 0; i < model.size(); i += kStride) {
+    ++layers.samples;
+    layers.corneum_r.push_back(model.optics_at(i).corneum_r),
+        layers.corneum_t2.push_back(model.optics_at(i).corneum_t2);
+  }
+  if (std::ranges::all_of(layers.corneum_r, [](double r) { return r == 0; }))
+    layers.corneum_r.clear(), layers.corneum_t2.clear();
   for (double m : kMelaninLevels) {
     const Params p = start_point(kind, held, held_values, melanin_level(kind, m), kBloodLevels[0], kOxygenShares[0]);
-    for (std::size_t i = 0; i < model.size(); i += kStride) layers.epidermis.push_back(model.epidermis_at(i, p.data()));
+    for (std::size_t i = 0; i < model.size(); i += kStride) {
+      const auto epidermis = model.epidermis_at(i, p.data());
+      layers.epidermis_r.push_back(epidermis.r), layers.epidermis_t2.push_back(epidermis.t * epidermis.t);
+    }
   }
   for (double blood : kBloodLevels)
     for (double share : kOxygenShares) {
       const Params p = start_point(kind, held, held_values, kMelaninLevels[0], blood, share);
-      for (std::size_t i = 0; i < model.size(); i += kStride) layers.dermis.push_back(model.dermis_at(i, p.data()));
+      for (std::size_t i = 0; i < model.size(); i += kStride) {
+        const auto dermis = model.dermis_at(i, p.data());
+        layers.dermis_total.push_back(dermis.total), layers.dermis_kept.push_back(dermis.kept);
+      }
     }
   return layers;
 }

@@ -25,10 +25,12 @@ Bounds bounds_of(const SkinModel& model);
 // The coarse search's layers (solver.cpp, coarse_starts) on every fourth sample: the epidermis
 // at each melanin level and the dermis at each blood level and oxygen share, all other
 // parameters at their start values. They depend on the model and what is held, not on the
-// measurement.
+// measurement. As columns, which the fit's kernels combine (kernels.hpp, CoarseErrorsArgs).
 struct CoarseLayers {
-  std::vector<ReflectanceTransmittance<double>> epidermis;  // by melanin level, then sample
-  std::vector<DermisRemittance<double>> dermis;             // by blood level and share, then sample
+  std::size_t samples = 0;
+  std::vector<double> epidermis_r, epidermis_t2;  // by melanin level, then sample
+  std::vector<double> dermis_total, dermis_kept;  // by blood level and share, then sample
+  std::vector<double> corneum_r, corneum_t2;      // by sample; empty without a stratum corneum
 };
 CoarseLayers coarse_layers(const SkinModel& model, const std::vector<bool>& held, const Params& held_values);
 

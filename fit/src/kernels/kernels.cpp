@@ -1,6 +1,6 @@
 // The fit's kernels (kernels.hpp) for each of Highway's targets, and the choice between them.
 // Highway compiles this file once per target (foreach_target.h includes it again for each);
-// the kernels live in model_kernels.ipp and qr_kernels.ipp, included in each target's namespace.
+// the kernels live in model_kernels.ipp, qr_kernels.ipp and search_kernels.ipp, included in each target's namespace.
 
 // Targets left out: SSSE3 and AVX3_DL give doubles nothing over SSE4 and AVX3; SVE's sizeless
 // vectors cannot be members of the kernels' structs (ARM keeps NEON, which every 64-bit ARM has).
@@ -25,11 +25,12 @@ namespace hn = hwy::HWY_NAMESPACE;
 namespace {
 #include "kernels/model_kernels.ipp"
 #include "kernels/qr_kernels.ipp"
+#include "kernels/search_kernels.ipp"
 }  // namespace
 
 const FitKernels* kernel_table() {
-  static constexpr FitKernels table{HWY_TARGET,     &reflectance,    &jacobian, &blood_packing, &power_law,
-                                    &triangularize, &scaled_columns, &exp_of,   &expm1_of};
+  static constexpr FitKernels table{HWY_TARGET,     &reflectance,    &jacobian,      &blood_packing, &power_law,
+                                    &triangularize, &scaled_columns, &coarse_errors, &exp_of,        &expm1_of};
   return &table;
 }
 

@@ -102,6 +102,21 @@ struct ScaledColumnsArgs {
   double *squared_norms, *products;
 };
 
+// The coarse search's weighted squared errors (solver.cpp, coarse_starts): for each pair of an
+// epidermis level e and a dermis level d, the sum over the n samples, in their order, of
+// w (model - measured)^2, with the model the layers combined as combined_reflectance does (model.hpp).
+// The epidermis's R and T^2 and the dermis's total and kept share are columns of n samples per
+// level, one level after another; `squared` is scratch of n; errors[e * dermis_levels + d].
+struct CoarseErrorsArgs {
+  int n, epidermis_levels, dermis_levels;
+  const double *epidermis_r, *epidermis_t2, *dermis_total, *dermis_kept;
+  // The stratum corneum's reflectance and squared transmittance; null: none.
+  const double *corneum_r, *corneum_t2;
+  double surface_reflectance;
+  const double *measured, *weights;
+  double *squared, *errors;
+};
+
 struct FitKernels {
   std::int64_t target;  // Highway's target (HWY_AVX2, ...) the kernels were compiled for
   void (*reflectance)(const ReflectanceArgs&);
@@ -111,6 +126,7 @@ struct FitKernels {
   // small_qr.hpp's triangularize.
   void (*triangularize)(double* a, int rows, int cols, double* b);
   void (*scaled_columns)(const ScaledColumnsArgs&);
+  void (*coarse_errors)(const CoarseErrorsArgs&);
   // The exp and expm1 the kernels use (Highway's), element by element, for the tests.
   void (*exp)(const double* x, int n, double* out);
   void (*expm1)(const double* x, int n, double* out);
