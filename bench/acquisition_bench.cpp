@@ -20,13 +20,14 @@
 #include <fmt/format.h>
 
 #include "support/acquisition_rig.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 #include "support/store_samples.hpp"
 
 namespace {
 
 using nlohmann::json;
 using namespace skinspec::testing;
+using skinspec::client::HttpConnection;
 
 std::int64_t now_us() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -43,7 +44,7 @@ double percentile(std::vector<double> values, double p) {
   return values[index];
 }
 
-void report(const char* name, const std::vector<Sample>& samples, double Sample::*field) {
+void report(const char* name, const std::vector<Sample>& samples, double Sample::* field) {
   std::vector<double> values;
   for (const auto& s : samples) values.push_back(s.*field);
   std::printf("%-38s median %7.3f ms   p95 %7.3f ms   max %7.3f ms\n", name, percentile(values, 0.5),

@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "http_client.hpp"
+#include "api_client.hpp"
 
 namespace skinspec::cli {
 

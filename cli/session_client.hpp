@@ -5,7 +5,7 @@
 #include <memory>
 #include <string>
 
-#include "http_client.hpp"
+#include "api_client.hpp"
 
 namespace skinspec::cli {
 

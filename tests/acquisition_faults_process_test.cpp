@@ -13,13 +13,15 @@
 #include <thread>
 
 #include "support/acquisition_rig.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
+#include "support/job_error.hpp"
 #include "support/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 std::string session_path(long long session) { return "/api/v1/sessions/" + std::to_string(session); }

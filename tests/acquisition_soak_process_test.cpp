@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "support/acquisition_rig.hpp"
-#include "support/http_client.hpp"
+#include "support/job_error.hpp"
 #include "support/store_samples.hpp"
 
 namespace skinspec::testing {

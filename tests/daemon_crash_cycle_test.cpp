@@ -16,7 +16,7 @@
 #include <thread>
 
 #include "support/acquisition_rig.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 #include "support/raw_database.hpp"
 #include "support/store_samples.hpp"
 
@@ -24,6 +24,7 @@ namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 struct Tally {

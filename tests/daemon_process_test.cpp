@@ -13,7 +13,8 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/write.hpp>
 
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
+#include "support/raw_exchange.hpp"
 #include "support/process.hpp"
 #include "support/store_samples.hpp"
 #include "skinspec/store/store.hpp"
@@ -23,6 +24,7 @@ namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 const std::string kDaemon = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspecd";

@@ -19,7 +19,8 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/write.hpp>
 
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
+#include "support/raw_exchange.hpp"
 #include "support/process.hpp"
 #include "support/service_processes.hpp"
 #include "skinspec/store/store.hpp"
@@ -31,6 +32,7 @@ namespace {
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 

@@ -14,13 +14,14 @@
 
 #include "skinspec/store/store.hpp"
 #include "support/acquisition_rig.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 #include "support/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using ::testing::HasSubstr;
 using namespace std::chrono_literals;
 

@@ -8,12 +8,13 @@
 
 #include "support/acquisition_rig.hpp"
 #include "support/store_samples.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 
 namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 // About 0.35 s a reading.
@@ -184,8 +185,7 @@ TEST_F(JobEventsTest, QueuedJobsShowTheirPlaceAndASampleStreamsItsReadingsToItsR
 TEST_F(JobEventsTest, UnknownJobsAreNotFound) {
   rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), 0));
   ASSERT_NE(port(), 0) << rig_->logs();
-  const auto r = follow_events(
-      port(), events_path(999), [](const std::string&) { return true; }, 30s);
+  const auto r = follow_events(port(), events_path(999), [](const std::string&) { return true; }, 30s);
   EXPECT_EQ(r.status, 404) << r.error;
   EXPECT_EQ(r.header("content-type"), "application/json");
   EXPECT_EQ(json::parse(r.body, nullptr, false)["error"]["code"], "not_found") << r.body;
@@ -201,8 +201,7 @@ TEST_F(JobEventsTest, AClientHangingUpMidStreamDoesNotDisturbTheService) {
   // Several followers leave after the first event, while the job runs.
   for (int i = 0; i < 5; ++i) {
     int events = 0;
-    const auto r = follow_events(
-        port(), events_path(white), [&](const std::string&) { return ++events < 1; }, 30s);
+    const auto r = follow_events(port(), events_path(white), [&](const std::string&) { return ++events < 1; }, 30s);
     EXPECT_EQ(r.status, 200) << r.error;
     EXPECT_EQ(events, 1);
   }

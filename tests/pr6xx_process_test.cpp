@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "support/acquisition_rig.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 #include "support/process.hpp"
 #include "support/service_processes.hpp"
 #include "support/store_samples.hpp"
@@ -20,6 +20,7 @@ namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 const std::string kForearm = std::string(SKINSPEC_TEST_DATA_DIR) + "/examples/forearm.csv";

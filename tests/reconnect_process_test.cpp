@@ -8,13 +8,15 @@
 #include <functional>
 #include <thread>
 
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
+#include "support/job_error.hpp"
 #include "support/service_processes.hpp"
 
 namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 // Quick retries and checks, so that losses and returns show within a fraction of a second.

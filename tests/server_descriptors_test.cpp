@@ -18,7 +18,7 @@
 #include "descriptors.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/api/server.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 
 namespace skinspec::api {
 namespace {
@@ -83,7 +83,7 @@ TEST(ServerOutOfDescriptors, RefusesNewcomersWith503KeepsServingAndDoesNotSpin) 
   std::thread running([&] { server.run(); });
   const auto port = server.port();
 
-  testing::HttpConnection kept(port);
+  client::HttpConnection kept(port);
   ASSERT_EQ(kept.request("GET", "/healthz").status, 200);
   // The newcomers' sockets exist before the descriptors run out; connecting needs no more.
   boost::asio::io_context ioc;
@@ -112,7 +112,7 @@ TEST(ServerOutOfDescriptors, RefusesNewcomersWith503KeepsServingAndDoesNotSpin) 
   EXPECT_LT(cpu, 200ms) << "CPU used in 1 s while out of descriptors";
   EXPECT_EQ(kept_status, 200);
   // Descriptors back: new connections are served again.
-  EXPECT_EQ(testing::http_request(port, "GET", "/healthz").status, 200);
+  EXPECT_EQ(client::http_request(port, "GET", "/healthz").status, 200);
   EXPECT_NE(router.metrics().prometheus_text().find("skinspec_rejected_connections_total 3"), std::string::npos);
   server.stop();
   running.join();

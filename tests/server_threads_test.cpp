@@ -14,7 +14,7 @@
 
 #include "skinspec/api/router.hpp"
 #include "skinspec/api/server.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 
 namespace skinspec::api {
 namespace {
@@ -35,14 +35,14 @@ TEST(ServerThreads, ConnectionsOnEveryThreadAreServedAndAStopEndsThemAll) {
   auto running = std::async(std::launch::async, [&] { server.run(); });
 
   // Seven connections over three threads: each thread holds two or three, kept open and idle.
-  std::vector<std::unique_ptr<testing::HttpConnection>> kept;
+  std::vector<std::unique_ptr<client::HttpConnection>> kept;
   for (int i = 0; i < 7; ++i) {
-    kept.push_back(std::make_unique<testing::HttpConnection>(server.port()));
+    kept.push_back(std::make_unique<client::HttpConnection>(server.port()));
     EXPECT_EQ(kept.back()->request("GET", "/healthz").status, 200) << "connection " << i;
   }
   for (auto& connection : kept) EXPECT_EQ(connection->request("GET", "/healthz").status, 200);
   // In turn: the seven and this eighth, which asks, are three, three and two.
-  const auto metrics = testing::http_request(server.port(), "GET", "/metrics");
+  const auto metrics = client::http_request(server.port(), "GET", "/metrics");
   EXPECT_EQ(metrics.status, 200);
   for (const char* line : {"skinspec_accepted_connections_total{io_thread=\"0\"} 3\n",
                            "skinspec_accepted_connections_total{io_thread=\"1\"} 3\n",
@@ -58,7 +58,7 @@ TEST(ServerThreads, ConnectionsOnEveryThreadAreServedAndAStopEndsThemAll) {
   running.get();
   // Closed once stopped, kept ones and new ones alike.
   for (auto& connection : kept) EXPECT_NE(connection->request("GET", "/healthz").status, 200);
-  EXPECT_FALSE(testing::http_request(port, "GET", "/healthz").error.empty());
+  EXPECT_FALSE(client::http_request(port, "GET", "/healthz").error.empty());
 }
 
 }  // namespace

@@ -9,12 +9,13 @@
 
 #include "support/acquisition_rig.hpp"
 #include "support/store_samples.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 
 namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using ::testing::EndsWith;
 using ::testing::HasSubstr;
 using namespace std::chrono_literals;

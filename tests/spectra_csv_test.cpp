@@ -60,6 +60,21 @@ TEST(SpectraCsv, AcceptsCrLineEndsAndBlankLinesAnywhere) {
   EXPECT_EQ((*spectra)[0].spectrum.size(), 2u);
 }
 
+// Spreadsheets quote a name holding a comma; an open quote is refused at the line it opens on.
+TEST(SpectraCsv, ReadsQuotedFieldsAndRefusesAnOpenQuote) {
+  const auto spectra = parse("wavelength_nm,\"cheek, left\"\n\"400\",0.1\n700,0.2\n");
+  ASSERT_TRUE(spectra) << spectra.error().what();
+  EXPECT_EQ((*spectra)[0].name, "cheek, left");
+  const auto open = error_of("wavelength_nm,a\n400,0.1\n700,\"0.2\n");
+  EXPECT_EQ(open.source, "data.csv");
+  EXPECT_EQ(open.line, 3u);
+  EXPECT_THAT(open.message, HasSubstr("not closed"));
+  // A name over two lines: a byte that is not UTF-8 on the second is named on that line.
+  const auto defect = error_of("wavelength_nm,\"a\nb\xff\"\n400,0.1\n700,0.2\n");
+  EXPECT_EQ(defect.line, 2u);
+  EXPECT_EQ(defect.column, 2u);
+}
+
 TEST(SpectraCsv, LeavesTheWavelengthRangeToTheCaller) {
   const auto spectra = parse("wavelength_nm,a\n300,0.1\n900,0.2\n");
   ASSERT_TRUE(spectra) << spectra.error().what();

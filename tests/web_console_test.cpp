@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "support/acquisition_rig.hpp"
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 #include "support/process.hpp"
 #include "support/store_samples.hpp"
 #include "support/webdriver.hpp"
@@ -19,6 +19,7 @@ namespace skinspec::testing {
 namespace {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 const std::string kData = SKINSPEC_TEST_DATA_DIR;

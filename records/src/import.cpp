@@ -5,11 +5,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <deque>
 #include <span>
 
 #include "finite_number.hpp"
 #include "skinspec/records/cgats.hpp"
+#include "skinspec/spectral/csv.hpp"
 #include "skinspec/spectral/enum_names.hpp"
 #include "skinspec/spectral/utf8.hpp"
 
@@ -30,14 +30,7 @@ bool is_reflectance(double value) { return value >= kLowestReflectance && value 
 
 struct Row {
   std::size_t line = 0;
-  std::vector<std::string_view> cells;  // into the file, or into Rows::unescaped
-};
-
-// A file's rows. A cell is a view of the file's bytes, except one that was quoted, which is
-// kept unescaped here (a deque: what it holds never moves).
-struct Rows {
-  std::vector<Row> rows;
-  std::deque<std::string> unescaped;
+  std::vector<std::string_view> cells;  // trimmed, into the file or into its csv::Reader
 };
 
 std::string_view trimmed(std::string_view text) {
@@ -47,109 +40,24 @@ std::string_view trimmed(std::string_view text) {
   return text.substr(first, last - first + 1);
 }
 
-// The end of the run of characters from `i` that are none of a CSV's separators, quotes or
-// line ends.
-std::size_t plain_run_end(std::string_view bytes, std::size_t i) {
-  for (; i < bytes.size(); ++i) {
-    const char c = bytes[i];
-    if (c == ',' || c == '\n' || c == '\r' || c == '"') break;
-  }
-  return i;
-}
-
-// One cell as it is read: a slice of the file while it has no quotes, an unescaped copy once it
-// has one.
-class CellText {
- public:
-  explicit CellText(std::string_view bytes) : bytes_(bytes) {}
-
-  void begin(std::size_t at) { start_ = end_ = at, quoted_ = false, copy_.clear(); }
-  // Plain characters [from, to) of the file.
-  void plain(std::size_t from, std::size_t to) {
-    if (quoted_) copy_.append(bytes_.substr(from, to - from));
-    else end_ = to;
-  }
-  // A character that the file holds escaped or that quotes keep (a quoted line end).
-  void unescaped(char c) {
-    to_copy();
-    copy_ += c;
-  }
-  void opens_quote() { to_copy(); }
-  // Moves a quoted cell's text into `unescaped`: begin() starts the next cell afresh.
-  std::string_view finish(std::deque<std::string>& unescaped) {
-    if (!quoted_) return trimmed(bytes_.substr(start_, end_ - start_));
-    return trimmed(unescaped.emplace_back(std::move(copy_)));
-  }
-
- private:
-  void to_copy() {
-    if (!quoted_) copy_.assign(bytes_.substr(start_, end_ - start_)), quoted_ = true;
-  }
-
-  std::string_view bytes_;
-  std::size_t start_ = 0, end_ = 0;
-  bool quoted_ = false;
-  std::string copy_;
-};
-
-// RFC 4180 rows, quotes and doubled quotes in them. Blank lines are skipped, and so are lines
-// starting with '#' before the header (a comment there is not parsed for quotes); after the
-// header such a line is data, where '#12' may well be a sample's name.
-std::expected<Rows, InputError> rows_of(std::string_view bytes, std::string_view source) {
-  Rows out;
-  auto& rows = out.rows;
-  std::size_t line = 1;
-  CellText cell(bytes);
-  for (std::size_t i = 0; i < bytes.size();) {
-    const auto text_start = bytes.find_first_not_of(" \t", i);
-    if (rows.empty() && text_start != std::string_view::npos && bytes[text_start] == '#') {
-      const auto end = bytes.find('\n', i);
-      i = end == std::string_view::npos ? bytes.size() : end + 1;
-      ++line;
+// The file's rows. Lines starting with '#' before the header are skipped (a comment there is
+// not parsed for quotes); after the header such a line is data, where '#12' may well be a
+// sample's name.
+std::expected<std::vector<Row>, InputError> rows_of(csv::Reader& reader, std::string_view source) {
+  std::vector<Row> rows;
+  while (const auto line = reader.peek()) {
+    if (rows.empty() && trimmed(line->text).starts_with('#')) {
+      reader.skip_line();
       continue;
     }
-    Row row{line, {}};
-    // Rows are mostly as wide as the one before: room for that many cells at once, not
-    // grown a cell at a time through the whole file.
-    if (!rows.empty()) row.cells.reserve(rows.back().cells.size());
-    cell.begin(i);
-    bool quoted = false, any = false;
-    for (; i < bytes.size(); ++i) {
-      const char c = bytes[i];
-      if (quoted) {
-        if (c == '"' && i + 1 < bytes.size() && bytes[i + 1] == '"') cell.unescaped('"'), ++i;
-        else if (c == '"') quoted = false;
-        else {
-          if (c == '\n') ++line;
-          cell.unescaped(c);
-        }
-      } else if (c == '"') {
-        quoted = any = true;
-        cell.opens_quote();
-      } else if (c == ',') {
-        row.cells.push_back(cell.finish(out.unescaped)), any = true;
-        cell.begin(i + 1);
-      } else if (c == '\n') {
-        ++i;
-        break;
-      } else if (c == '\r' && (i + 1 == bytes.size() || bytes[i + 1] != '\n')) {
-        return std::unexpected(InputError{std::string(source), line, 0,
-                                          "a line ends in a carriage return alone: save the file with LF or CRLF "
-                                          "line ends"});
-      } else if (c != '\r') {
-        // The run of plain characters up to the next one of note, taken at once.
-        const std::size_t end = plain_run_end(bytes, i);
-        if (!any && bytes.substr(i, end - i).find_first_not_of(" \t") != std::string_view::npos) any = true;
-        cell.plain(i, end);
-        i = end - 1;
-      }
-    }
-    if (quoted) return std::unexpected(InputError{std::string(source), row.line, 0, "a quoted field is not closed"});
-    row.cells.push_back(cell.finish(out.unescaped));
-    ++line;
-    if (any) rows.push_back(std::move(row));
+    auto read = reader.read_row();
+    if (!read) return std::unexpected(InputError{std::string(source), read.error().line, 0, read.error().message});
+    Row row{read->line, {}};
+    row.cells.reserve(read->cells.size());
+    for (const auto& cell : read->cells) row.cells.push_back(trimmed(cell.text));
+    rows.push_back(std::move(row));
   }
-  return out;
+  return rows;
 }
 
 std::optional<double> wavelength_of(std::string_view header) {
@@ -169,14 +77,12 @@ bool names_wavelengths(std::string header) {
 
 class CsvReader {
  public:
-  CsvReader(Rows rows, std::string_view source, ScaleRequest scale)
-      : file_(std::move(rows)), source_(source), scale_(scale) {}
-  CsvReader(const CsvReader&) = delete;  // a copy's cells would still view this one's unescaped text
-  CsvReader& operator=(const CsvReader&) = delete;
+  CsvReader(std::vector<Row> rows, std::string_view source, ScaleRequest scale)
+      : rows_(std::move(rows)), source_(source), scale_(scale) {}
 
   std::expected<std::vector<ImportedSpectrum>, InputError> read() {
-    if (file_.rows.size() < 2) return fail(file_.rows.empty() ? 0 : file_.rows[0].line, 0, "no header and data rows");
-    by_columns_ = names_wavelengths(std::string(file_.rows[0].cells[0]));
+    if (rows_.size() < 2) return fail(rows_.empty() ? 0 : rows_[0].line, 0, "no header and data rows");
+    by_columns_ = names_wavelengths(std::string(rows_[0].cells[0]));
     auto spectra = by_columns_ ? by_columns() : by_rows();
     if (!spectra) return spectra;
     if (auto scaled = to_fractions(*spectra); !scaled) return std::unexpected(scaled.error());
@@ -197,30 +103,30 @@ class CsvReader {
   }
 
   std::expected<void, InputError> check_width(const Row& row) const {
-    if (row.cells.size() != file_.rows[0].cells.size())
+    if (row.cells.size() != rows_[0].cells.size())
       return fail(row.line, 0,
-                  fmt::format("{} fields where the header has {}", row.cells.size(), file_.rows[0].cells.size()));
+                  fmt::format("{} fields where the header has {}", row.cells.size(), rows_[0].cells.size()));
     return {};
   }
 
   // One column per spectrum, one row per wavelength.
   std::expected<std::vector<ImportedSpectrum>, InputError> by_columns() {
-    const auto& header = file_.rows[0].cells;
-    if (header.size() < 2) return fail(file_.rows[0].line, 0, "no spectrum column after the wavelength column");
+    const auto& header = rows_[0].cells;
+    if (header.size() < 2) return fail(rows_[0].line, 0, "no spectrum column after the wavelength column");
     std::vector<ImportedSpectrum> out(header.size() - 1);
     for (std::size_t c = 1; c < header.size(); ++c) {
-      if (header[c].empty()) return fail(file_.rows[0].line, c + 1, "a spectrum column without a name");
+      if (header[c].empty()) return fail(rows_[0].line, c + 1, "a spectrum column without a name");
       out[c - 1].sample_id = std::string(header[c]);
-      out[c - 1].line = file_.rows[1].line;
+      out[c - 1].line = rows_[1].line;
     }
-    for (std::size_t r = 1; r < file_.rows.size(); ++r) {
-      if (auto width = check_width(file_.rows[r]); !width) return std::unexpected(width.error());
-      const auto wavelength = value_at(file_.rows[r], 0);
+    for (std::size_t r = 1; r < rows_.size(); ++r) {
+      if (auto width = check_width(rows_[r]); !width) return std::unexpected(width.error());
+      const auto wavelength = value_at(rows_[r], 0);
       if (!wavelength) return std::unexpected(wavelength.error());
       if (r > 1 && !(*wavelength > out[0].reflectance.wavelength_nm.back()))
-        return fail(file_.rows[r].line, 1, "the wavelengths must increase from row to row");
+        return fail(rows_[r].line, 1, "the wavelengths must increase from row to row");
       for (std::size_t c = 1; c < header.size(); ++c) {
-        const auto value = value_at(file_.rows[r], c);
+        const auto value = value_at(rows_[r], c);
         if (!value) return std::unexpected(value.error());
         out[c - 1].reflectance.wavelength_nm.push_back(*wavelength);
         out[c - 1].reflectance.values.push_back(*value);
@@ -231,30 +137,29 @@ class CsvReader {
 
   // One row per spectrum: text columns (the first the sample id), then wavelength columns.
   std::expected<std::vector<ImportedSpectrum>, InputError> by_rows() {
-    const auto& header = file_.rows[0].cells;
+    const auto& header = rows_[0].cells;
     std::size_t first = header.size();
     while (first > 0 && wavelength_of(header[first - 1])) --first;
     if (header.size() - first < 2)
-      return fail(file_.rows[0].line, 0,
+      return fail(rows_[0].line, 0,
                   "the header names no wavelengths: its first field is not wavelength_nm (one column per spectrum) "
                   "and it does not end in wavelength columns such as 400nm (one row per spectrum)");
     std::vector<double> grid;
     for (std::size_t c = first; c < header.size(); ++c) {
       grid.push_back(*wavelength_of(header[c]));
       if (grid.size() > 1 && !(grid.back() > grid[grid.size() - 2]))
-        return fail(file_.rows[0].line, c + 1, "the wavelengths must increase from column to column");
+        return fail(rows_[0].line, c + 1, "the wavelengths must increase from column to column");
     }
     first_value_column_ = first;
     std::vector<ImportedSpectrum> out;
-    for (std::size_t r = 1; r < file_.rows.size(); ++r) {
-      if (auto width = check_width(file_.rows[r]); !width) return std::unexpected(width.error());
+    for (std::size_t r = 1; r < rows_.size(); ++r) {
+      if (auto width = check_width(rows_[r]); !width) return std::unexpected(width.error());
       ImportedSpectrum spectrum;
-      spectrum.sample_id =
-          first > 0 && !file_.rows[r].cells[0].empty() ? std::string(file_.rows[r].cells[0]) : std::to_string(r);
-      spectrum.line = file_.rows[r].line;
+      spectrum.sample_id = first > 0 && !rows_[r].cells[0].empty() ? std::string(rows_[r].cells[0]) : std::to_string(r);
+      spectrum.line = rows_[r].line;
       spectrum.reflectance.wavelength_nm = grid;
       for (std::size_t c = first; c < header.size(); ++c) {
-        const auto value = value_at(file_.rows[r], c);
+        const auto value = value_at(rows_[r], c);
         if (!value) return std::unexpected(value.error());
         spectrum.reflectance.values.push_back(*value);
       }
@@ -265,8 +170,8 @@ class CsvReader {
 
   // Where value k of spectrum i was read (1-based line and column).
   std::pair<std::size_t, std::size_t> position(std::size_t i, std::size_t k) const {
-    if (by_columns_) return {file_.rows[k + 1].line, i + 2};
-    return {file_.rows[i + 1].line, first_value_column_ + k + 1};
+    if (by_columns_) return {rows_[k + 1].line, i + 2};
+    return {rows_[i + 1].line, first_value_column_ + k + 1};
   }
 
   // Every value divided as the file's scale says (reflectance_scale.hpp), then held to a
@@ -301,7 +206,7 @@ class CsvReader {
     return {};
   }
 
-  Rows file_;
+  std::vector<Row> rows_;
   std::string_view source_;
   ScaleRequest scale_;
   bool by_columns_ = false;
@@ -363,7 +268,8 @@ std::expected<std::vector<ImportedSpectrum>, InputError> read_import(std::string
                                                     to_string(scale))});
     spectra = read_cgats(bytes, source);
   } else {
-    auto rows = rows_of(bytes, source);
+    csv::Reader reader(bytes);  // holds the text of quoted cells while they are read
+    auto rows = rows_of(reader, source);
     if (!rows) return std::unexpected(rows.error());
     spectra = CsvReader(std::move(*rows), source, scale).read();
   }

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "skinspec/spectral/utf8.hpp"
+#include "skinspec/spectral/csv.hpp"
 #include "text.hpp"
 
 namespace skinspec {
@@ -30,23 +31,25 @@ bool carries_no_data(std::string_view line) {
 
 using Outcome = std::expected<void, InputError>;
 
-// Reads the file line by line into columns, then turns each value column into a Spectrum.
-// Defects in a line are found while that line is read, so their location is still at hand.
+// Reads the file row by row into columns, then turns each value column into a Spectrum.
+// Defects in a row are found while that row is read, so their location is still at hand.
 class SpectraParser {
  public:
   SpectraParser(std::string_view source, const SpectraLimits& limits) : source_(source), limits_(limits) {}
 
   std::expected<SpectraFile, InputError> parse(std::string_view bytes) {
     const auto content = without_byte_order_mark(bytes);
-    text::LineReader lines(content);
-    std::string_view line;
-    std::size_t line_no = 0;
-    while (lines.next(line, line_no)) {
+    csv::Reader reader(content, csv::LoneCr::ends_line);
+    while (const auto line = reader.peek()) {
       // Before anything else, comments included: a name or cell that is not text cannot be shown.
-      if (auto defect = text::utf8_defect(line)) return fail(line_no, defect->column, std::move(defect->message));
-      if (carries_no_data(line)) continue;
-      const auto cells = text::split_csv(line);
-      const auto read = has_header() ? read_row(cells, line_no) : read_header(cells, line_no);
+      if (auto defect = text::utf8_error(line->text, line->number, source_)) return std::unexpected(*defect);
+      if (carries_no_data(line->text)) {
+        reader.skip_line();
+        continue;
+      }
+      const auto row = text::read_utf8_row(reader, source_);
+      if (!row) return std::unexpected(row.error());
+      const auto read = has_header() ? read_row(*row) : read_header(*row);
       if (!read) return std::unexpected(read.error());
     }
     if (!has_header()) {
@@ -64,91 +67,99 @@ class SpectraParser {
   }
 
  private:
+  // Where a cell was read: its line and column.
+  struct Spot {
+    std::size_t line = 0, column = 0;
+  };
+
   std::unexpected<InputError> fail(std::size_t line, std::size_t column, std::string message) const {
     return std::unexpected(InputError{source_, line, column, std::move(message)});
+  }
+  std::unexpected<InputError> fail(const csv::Cell& cell, std::string message) const {
+    return fail(cell.line, cell.column, std::move(message));
+  }
+  std::unexpected<InputError> fail(const Spot& spot, std::string message) const {
+    return fail(spot.line, spot.column, std::move(message));
   }
 
   bool has_header() const { return !names_.empty(); }
   std::size_t row_count() const { return columns_.front().size(); }
 
-  Outcome read_header(const std::vector<text::Cell>& cells, std::size_t line_no) {
+  Outcome read_header(const csv::Row& row) {
+    const auto& cells = row.cells;
     const auto& first = cells.front();
     const auto first_name = text::trim(first.text);
     // Data pasted without its header starts with a wavelength; "not named wavelength_nm"
     // would send the reader looking for a typo instead of the missing line.
     if (text::parse_number(first.text))
-      return fail(line_no, first.column,
-                  fmt::format("the header is missing: this line starts with the number {} where a "
-                              "header starting with '{}' is expected",
-                              first_name, kWavelengthColumn));
+      return fail(first, fmt::format("the header is missing: this line starts with the number {} where a "
+                                     "header starting with '{}' is expected",
+                                     first_name, kWavelengthColumn));
     if (first_name != kWavelengthColumn)
-      return fail(line_no, first.column,
+      return fail(first,
                   fmt::format("the first column is named {}; it must be '{}'", quote(first_name), kWavelengthColumn));
     if (cells.size() < 2)
-      return fail(line_no, 0,
+      return fail(row.line, 0,
                   fmt::format("the header names no spectrum: '{}' must be followed by at least "
                               "one column",
                               kWavelengthColumn));
     std::vector<std::string> names;
     for (const auto& cell : cells) {
       std::string name(text::trim(cell.text));
-      if (name.empty()) return fail(line_no, cell.column, fmt::format("column {} has an empty name", names.size() + 1));
+      if (name.empty()) return fail(cell, fmt::format("column {} has an empty name", names.size() + 1));
       if (const auto earlier = std::ranges::find(names, name); earlier != names.end())
         return fail(
-            line_no, cell.column,
-            fmt::format("duplicated column name {} (also column {})", quote(name), earlier - names.begin() + 1));
+            cell, fmt::format("duplicated column name {} (also column {})", quote(name), earlier - names.begin() + 1));
       names.push_back(std::move(name));
     }
     names_ = std::move(names);
     columns_.resize(names_.size());
-    header_ = {line_no, {}};
-    for (const auto& cell : cells) header_.columns.push_back(cell.column);
-    last_content_line_ = line_no;
+    for (const auto& cell : cells) header_.push_back({cell.line, cell.column});
+    last_content_line_ = row.line;
     return {};
   }
 
-  Outcome read_row(const std::vector<text::Cell>& cells, std::size_t line_no) {
-    if (const auto shape = check_cell_count(cells, line_no); !shape) return shape;
-    Place place{line_no, {}};
+  Outcome read_row(const csv::Row& row) {
+    const auto& cells = row.cells;
+    if (const auto shape = check_cell_count(row); !shape) return shape;
+    std::vector<Spot> spots;
     for (std::size_t c = 0; c < cells.size(); ++c) {
-      const auto value = read_number(cells[c], names_[c], line_no);
+      const auto value = read_number(cells[c], names_[c]);
       if (!value) return std::unexpected(value.error());
       if (c == 0)
-        if (const auto valid = check_wavelength_increases(*value, cells[c], line_no); !valid) return valid;
+        if (const auto valid = check_wavelength_increases(*value, cells[c]); !valid) return valid;
       columns_[c].push_back(*value);
-      place.columns.push_back(cells[c].column);
+      spots.push_back({cells[c].line, cells[c].column});
     }
-    rows_.push_back(std::move(place));
-    last_content_line_ = line_no;
+    rows_.push_back(std::move(spots));
+    last_content_line_ = row.line;
     return {};
   }
 
-  Outcome check_cell_count(const std::vector<text::Cell>& cells, std::size_t line_no) const {
+  Outcome check_cell_count(const csv::Row& row) const {
+    const auto& cells = row.cells;
     if (cells.size() > names_.size())
-      return fail(line_no, cells[names_.size()].column,
-                  fmt::format("{} cells where the header has {}", cells.size(), names_.size()));
+      return fail(cells[names_.size()], fmt::format("{} cells where the header has {}", cells.size(), names_.size()));
     if (cells.size() < names_.size())
-      return fail(line_no, 0,
+      return fail(row.line, 0,
                   fmt::format("{} cells where the header has {}; the first without a value is {}", cells.size(),
                               names_.size(), quote(names_[cells.size()])));
     return {};
   }
 
-  std::expected<double, InputError> read_number(const text::Cell& cell, const std::string& column_name,
-                                                std::size_t line_no) const {
+  std::expected<double, InputError> read_number(const csv::Cell& cell, const std::string& column_name) const {
     const auto value = text::parse_number(cell.text);
-    if (!value) return fail(line_no, cell.column, fmt::format("{} in column {}", value.error(), quote(column_name)));
+    if (!value) return fail(cell, fmt::format("{} in column {}", value.error(), quote(column_name)));
     return *value;
   }
 
-  Outcome check_wavelength_increases(double wavelength, const text::Cell& cell, std::size_t line_no) const {
+  Outcome check_wavelength_increases(double wavelength, const csv::Cell& cell) const {
     if (row_count() == 0) return {};
     const double previous = columns_.front().back();
     if (wavelength > previous) return {};
     const auto* relation = wavelength == previous ? "repeats" : "is below";
-    return fail(line_no, cell.column,
-                fmt::format("wavelength {} nm {} {} nm on line {}; wavelengths must strictly increase", wavelength,
-                            relation, previous, last_content_line_));
+    return fail(cell, fmt::format("wavelength {} nm {} {} nm on line {}; wavelengths must strictly increase",
+                                  wavelength, relation, previous, last_content_line_));
   }
 
   // The scale of the values, once all are read: auto looks at them all.
@@ -157,7 +168,7 @@ class SpectraParser {
     const auto decided = decide_scale(limits_.scale, spectra);
     if (decided) return *decided;
     const std::size_t c = decided.error().spectrum + 1;
-    return fail(header_.line, header_.columns[c], describe_conflict(names_[c]));
+    return fail(header_[c], describe_conflict(names_[c]));
   }
 
   // Every value divided as the scale says, then held to the limits; the first outside them, in
@@ -169,7 +180,7 @@ class SpectraParser {
         double& value = columns_[c][r];
         const double fraction = value / divisor;
         if (!(fraction >= limits_.min_value && fraction <= limits_.max_value))
-          return fail(rows_[r].line, rows_[r].columns[c], out_of_range(value, names_[c], scale));
+          return fail(rows_[r][c], out_of_range(value, names_[c], scale));
         value = fraction;
       }
     return {};
@@ -211,19 +222,13 @@ class SpectraParser {
     return spectra;
   }
 
-  // Where a line's cells were: its number and each cell's column.
-  struct Place {
-    std::size_t line = 0;
-    std::vector<std::size_t> columns;
-  };
-
   std::string source_;
   SpectraLimits limits_;
   std::vector<std::string> names_;            // header order; names_[0] is wavelength_nm
   std::vector<std::vector<double>> columns_;  // columns_[c] holds the values under names_[c]
-  Place header_;
-  std::vector<Place> rows_;            // rows_[r] is where columns_[c][r] were read
-  std::size_t last_content_line_ = 0;  // the header's or the latest row's line
+  std::vector<Spot> header_;                  // header_[c] is where names_[c] was read
+  std::vector<std::vector<Spot>> rows_;       // rows_[r][c] is where columns_[c][r] was read
+  std::size_t last_content_line_ = 0;         // the header's or the latest row's line
 };
 
 }  // namespace

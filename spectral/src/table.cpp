@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "skinspec/spectral/utf8.hpp"
+#include "skinspec/spectral/csv.hpp"
 #include "text.hpp"
 
 namespace skinspec {
@@ -44,26 +45,28 @@ std::expected<Table, InputError> parse_table(std::string_view bytes, std::string
     return std::unexpected(InputError{std::string(source), line, column, std::move(message)});
   };
 
-  text::LineReader lines(bytes);
-  std::string_view line;
-  std::size_t line_no = 0;
+  csv::Reader reader(bytes, csv::LoneCr::ends_line);
   bool have_header = false;
-  while (lines.next(line, line_no)) {
-    if (auto defect = text::utf8_defect(line)) return fail(line_no, defect->column, std::move(defect->message));
-    if (text::trim(line).empty()) continue;
-    if (line.starts_with('#')) {
-      if (have_header) return fail(line_no, 1, "metadata line after the header row");
-      const auto colon = line.find(':');
-      if (colon == std::string_view::npos) return fail(line_no, 1, "metadata line without 'key: value'");
-      table.meta_[std::string(text::trim(line.substr(1, colon - 1)))] = std::string(text::trim(line.substr(colon + 1)));
+  while (const auto line = reader.peek()) {
+    if (auto defect = text::utf8_error(line->text, line->number, source)) return std::unexpected(*defect);
+    if (line->text.starts_with('#')) {
+      if (have_header) return fail(line->number, 1, "metadata line after the header row");
+      const auto colon = line->text.find(':');
+      if (colon == std::string_view::npos) return fail(line->number, 1, "metadata line without 'key: value'");
+      table.meta_[std::string(text::trim(line->text.substr(1, colon - 1)))] =
+          std::string(text::trim(line->text.substr(colon + 1)));
+      reader.skip_line();
       continue;
     }
-    const auto cells = text::split_csv(line);
+    const auto row = text::read_utf8_row(reader, source);
+    if (!row) return std::unexpected(row.error());
+    const auto& cells = row->cells;
+    const auto line_no = row->line;
     if (!have_header) {
       for (const auto& cell : cells) {
         const std::string name(text::trim(cell.text));
-        if (name.empty()) return fail(line_no, cell.column, "empty column name");
-        if (table.has_column(name)) return fail(line_no, cell.column, "duplicated column " + quote(name));
+        if (name.empty()) return fail(cell.line, cell.column, "empty column name");
+        if (table.has_column(name)) return fail(cell.line, cell.column, "duplicated column " + quote(name));
         table.columns_.push_back(name);
       }
       table.values_.resize(table.columns_.size());
@@ -82,7 +85,7 @@ std::expected<Table, InputError> parse_table(std::string_view bytes, std::string
     }
     for (std::size_t c = keyed ? 1 : 0; c < cells.size(); ++c) {
       const auto value = text::parse_number(cells[c].text);
-      if (!value) return fail(line_no, cells[c].column, value.error());
+      if (!value) return fail(cells[c].line, cells[c].column, value.error());
       table.values_[c].push_back(*value);
     }
     ++table.rows_;

@@ -15,43 +15,42 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
-bool LineReader::next(std::string_view& line, std::size_t& line_no) {
-  if (rest_.empty()) return false;
-  const auto end = rest_.find_first_of("\r\n");
-  line = rest_.substr(0, end);
-  if (end == std::string_view::npos) {
-    rest_ = {};
-  } else {
-    const bool crlf = rest_[end] == '\r' && end + 1 < rest_.size() && rest_[end + 1] == '\n';
-    rest_.remove_prefix(end + (crlf ? 2 : 1));
-  }
-  line_no = ++line_no_;
-  return true;
+namespace {
+
+// Line ends as the spectral formats count them: LF, CRLF, or CR alone.
+std::size_t line_ends(std::string_view text) {
+  std::size_t ends = 0;
+  for (std::size_t i = 0; i < text.size(); ++i)
+    ends += text[i] == '\n' || (text[i] == '\r' && (i + 1 == text.size() || text[i + 1] != '\n'));
+  return ends;
 }
 
-std::vector<Cell> split_csv(std::string_view line) {
-  std::vector<Cell> cells;
-  std::size_t start = 0;
-  while (true) {
-    const auto comma = line.find(',', start);
-    cells.push_back({line.substr(start, comma - start), start + 1});
-    if (comma == std::string_view::npos) break;
-    start = comma + 1;
-  }
-  return cells;
-}
+}  // namespace
 
-std::optional<Utf8Defect> utf8_defect(std::string_view line) {
+std::optional<InputError> utf8_error(std::string_view text, std::size_t first_line, std::string_view source) {
   constexpr std::size_t kContext = 24;  // bytes of the text before the defect, to find it by
-  const auto defect = utf8::first_defect(line);
+  const auto defect = utf8::first_defect(text);
   if (!defect) return std::nullopt;
-  std::size_t from = defect->offset > kContext ? defect->offset - kContext : 0;
-  while (from < defect->offset && (static_cast<unsigned char>(line[from]) & 0xC0) == 0x80) ++from;
-  const auto before = line.substr(from, defect->offset - from);
-  const auto bad = line.substr(defect->offset, defect->length);
+  const auto last_end = text.substr(0, defect->offset).find_last_of("\r\n");
+  const std::size_t line_start = last_end == std::string_view::npos ? 0 : last_end + 1;
+  const auto line = text.substr(line_start, text.find_first_of("\r\n", defect->offset) - line_start);
+  const std::size_t offset = defect->offset - line_start;
+  std::size_t from = offset > kContext ? offset - kContext : 0;
+  while (from < offset && (static_cast<unsigned char>(line[from]) & 0xC0) == 0x80) ++from;
+  const auto before = line.substr(from, offset - from);
+  const auto bad = line.substr(offset, defect->length);
   std::string message = fmt::format("{} is not UTF-8 text", printable(bad));
   if (!before.empty()) message += fmt::format(" (after {}{})", from > 0 ? "..." : "", quote(before));
-  return Utf8Defect{defect->offset + 1, message + "; the file must be saved as UTF-8"};
+  return InputError{std::string(source), first_line + line_ends(text.substr(0, line_start)), offset + 1,
+                    message + "; the file must be saved as UTF-8"};
+}
+
+std::expected<csv::Row, InputError> read_utf8_row(csv::Reader& reader, std::string_view source) {
+  auto row = reader.read_row();
+  if (!row)
+    return std::unexpected(InputError{std::string(source), row.error().line, 0, std::move(row.error().message)});
+  if (auto defect = utf8_error(row->bytes, row->line, source)) return std::unexpected(std::move(*defect));
+  return std::move(*row);
 }
 
 std::expected<double, std::string> parse_number(std::string_view cell) {

@@ -6,38 +6,22 @@
 #include <optional>
 #include <string>
 #include <string_view>
-#include <vector>
+
+#include "skinspec/spectral/csv.hpp"
+#include "skinspec/spectral/table.hpp"
 
 namespace skinspec::text {
 
 std::string_view trim(std::string_view s);
 
-// Splits bytes into lines on LF, CRLF or CR, counting lines from 1.
-class LineReader {
- public:
-  explicit LineReader(std::string_view bytes) : rest_(bytes) {}
-  bool next(std::string_view& line, std::size_t& line_no);
+// Where text stops being UTF-8, as an error of `source` naming the line (counted from
+// `first_line`: a row of CSV runs over several lines where quotes keep line ends) and the
+// column in it, and quoting the bytes (escaped) and the text before them on that line; nullopt
+// when it is all UTF-8.
+std::optional<InputError> utf8_error(std::string_view text, std::size_t first_line, std::string_view source);
 
- private:
-  std::string_view rest_;
-  std::size_t line_no_ = 0;
-};
-
-struct Cell {
-  std::string_view text;
-  std::size_t column;  // 1-based character position of the cell in its line
-};
-
-// Splits one line on commas. Quoting is not part of the format.
-std::vector<Cell> split_csv(std::string_view line);
-
-// Where a line stops being UTF-8: its 1-based column and a message quoting the bytes (escaped)
-// and the text before them; nullopt when the whole line is UTF-8.
-struct Utf8Defect {
-  std::size_t column;
-  std::string message;
-};
-std::optional<Utf8Defect> utf8_defect(std::string_view line);
+// The row at reader.peek(), all of it UTF-8: else the reader's error or the first defect.
+std::expected<csv::Row, InputError> read_utf8_row(csv::Reader& reader, std::string_view source);
 
 // A finite decimal number (leading/trailing blanks allowed), or a message saying why not.
 std::expected<double, std::string> parse_number(std::string_view cell);

@@ -6,11 +6,12 @@
 #include <sstream>
 #include <thread>
 
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 
 namespace skinspec::testing {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 namespace {

@@ -7,11 +7,12 @@
 
 #include <gtest/gtest.h>
 
-#include "support/http_client.hpp"
+#include "skinspec/client/http_client.hpp"
 
 namespace skinspec::testing {
 
 using nlohmann::json;
+using namespace skinspec::client;
 using namespace std::chrono_literals;
 
 namespace {

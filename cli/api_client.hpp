@@ -1,7 +1,7 @@
 #pragma once
-// The command line's client of skinspecd: synchronous HTTP/1.1 over Boost.Beast, one
-// connection per request, a bearer token when one is given, and Server-Sent Events read as
-// they come. A server that cannot be reached ends the command with kUnreachable.
+// The command line's client of skinspecd, over skinspec/client/http_client.hpp: one connection
+// per request, a bearer token when one is given, answers as JSON, and Server-Sent Events read
+// as they come. A server that cannot be reached ends the command with kUnreachable.
 
 #include <functional>
 #include <string>
@@ -20,17 +20,10 @@ struct ServerUrl {
 // "http://HOST[:PORT][/PREFIX]"; Failure kBadInput otherwise.
 ServerUrl parse_server_url(const std::string& text);
 
-struct HttpResult {
-  int status = 0;
-  std::string body;
-};
-
 class ApiClient {
  public:
   ApiClient(ServerUrl server, std::string token) : server_(std::move(server)), token_(std::move(token)) {}
 
-  HttpResult request(const std::string& method, const std::string& target, const std::string& body = "",
-                     const std::string& content_type = "application/json") const;
   // The body as JSON when the status is 2xx; Failure kBadInput with the server's message for
   // a 4xx, kFailure for anything else.
   nlohmann::json call(const std::string& method, const std::string& target, const nlohmann::json& body = nullptr) const;
@@ -44,7 +37,8 @@ class ApiClient {
   const ServerUrl& server() const { return server_; }
 
  private:
-  static nlohmann::json reply_json(const HttpResult& reply, const std::string& method, const std::string& target);
+  nlohmann::json request(const std::string& method, const std::string& target, const std::string& body,
+                         const std::string& content_type) const;
   ServerUrl server_;
   std::string token_;
 };
