@@ -274,7 +274,7 @@ LmResult<N> levenberg_marquardt(LeastSquares& problem, const std::array<double, 
   return Minimizer<N>(problem, free, plausible_lower, plausible_upper, options).run(start);
 }
 
-// Both skin models' parameter counts, and the NIST StRD problems' of tests/strd_test.cpp.
+// Both skin models' parameter counts, and the NIST StRD problems' of tests/fit/strd_test.cpp.
 static_assert(kPaperParamCount >= 2 && kMaxParamCount <= 7);
 #define SKINSPEC_LEVENBERG_MARQUARDT(N)                                                                                \
   template LmResult<N> levenberg_marquardt<N>(LeastSquares&, const std::array<double, N>&, const std::array<bool, N>&, \

@@ -3,7 +3,7 @@
 // hundred residuals, so each step is a small dense least-squares problem, solved without
 // allocating. A general-purpose solver spends more on its own bookkeeping than the model costs.
 // The problem is behind an interface so that the same solver can be tested on the NIST StRD
-// nonlinear regression problems (tests/strd_test.cpp) as well as used on spectra.
+// nonlinear regression problems (tests/fit/strd_test.cpp) as well as used on spectra.
 
 #include <Eigen/Core>
 #include <array>

@@ -3,7 +3,7 @@
 // dermis's absorption and the dermis's scattering, so the layered equations carry at most three
 // derivatives, not one per parameter, and the chain rule to the parameters is a few products:
 // a fraction of the work of differentiating by parameter, with the same derivatives to
-// rounding (tests/model_test.cpp checks them against automatic differentiation).
+// rounding (tests/fit/model_test.cpp checks them against automatic differentiation).
 
 #include <ceres/jet.h>
 

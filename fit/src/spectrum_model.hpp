@@ -8,7 +8,7 @@
 // it keeps (about half of them), so the two are apart: reflectance() keeps in a Workspace what
 // the derivatives need, and jacobian() finishes from there. SkinModel::reflectance_and_gradient
 // (automatic differentiation through the layers) stays the reference they are tested against
-// (tests/model_test.cpp); they agree to rounding.
+// (tests/fit/model_test.cpp); they agree to rounding.
 
 #include <Eigen/Core>
 #include <cstdint>

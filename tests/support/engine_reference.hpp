@@ -1,7 +1,7 @@
 #pragma once
 // The fit engine's answers on the 50 NIST forearms of data/real-skin/, as text, so that a
 // change meant to make the engine faster can be checked to give the same answers
-// (tests/engine_reference_test.cpp against tests/data/engine-reference/, written by
+// (tests/fit/engine_reference_test.cpp against tests/data/engine-reference/, written by
 // write_engine_reference).
 
 #include <string>

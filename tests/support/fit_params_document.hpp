@@ -1,7 +1,7 @@
 #pragma once
 // What a stored fit's parameters must be, written as rules over nlohmann::json's parsed
 // document: the store's decoder (store/src/codec.hpp) reads them without one, and must accept
-// and refuse the same texts and read the same names and values (tests/fit_params_codec_test.cpp,
+// and refuse the same texts and read the same names and values (tests/store/store_codec_test.cpp,
 // tests/fuzz/fit_params_fuzz.cpp).
 
 #include <limits>

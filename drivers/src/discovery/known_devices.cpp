@@ -2,7 +2,7 @@
 // only 180b:0524 (docs/pr6xx-protocol.md); any other product of that vendor is listed as a
 // Photo Research device whose product id no source confirms. The adapters are the common
 // USB-serial bridges of RS-232 cables; packaging/udev/60-skinspec-usb-serial.rules grants
-// access to exactly these rows (tests/discovery_test.cpp holds the two together).
+// access to exactly these rows (tests/drivers/discovery_test.cpp holds the two together).
 
 #include <algorithm>
 #include <array>

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Writes reference.csv: CIELAB (D65, CIE 1931 2 degree), ITA and the Diffey melanin and
 erythema indices of every shipped NIST forearm spectrum, computed with numpy alone from the
-CIE tables in data/colour/, for tests/skin_tone_test.cpp to compare skinspec's own against.
+CIE tables in data/colour/, for tests/spectral/skin_tone_test.cpp to compare skinspec's own against.
 
 Run with Debian's python3 (python3-numpy): /usr/bin/python3 tests/data/skin-tone/make_reference.py
 """
