@@ -29,8 +29,8 @@
 #include <thread>
 
 #include "skinspec/store/store.hpp"
-#include "support/postgres_cluster.hpp"
-#include "support/process.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
+#include "skinspec/testkit/process.hpp"
 
 namespace skinspec::store {
 namespace {

@@ -12,7 +12,7 @@
 #include "skinspec/api/acquisition.hpp"
 #include "skinspec/api/router.hpp"
 #include "skinspec/store/store.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::api {
 namespace {

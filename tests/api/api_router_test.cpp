@@ -19,7 +19,7 @@
 #include "skinspec/store/store.hpp"
 #include "skinspec/version.hpp"
 #include "support/png_reader.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::api {
 namespace {

@@ -9,7 +9,7 @@
 
 #include "skinspec/api/job_board.hpp"
 #include "skinspec/store/store.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::api {
 namespace {

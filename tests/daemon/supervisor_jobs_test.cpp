@@ -10,7 +10,7 @@
 
 #include "fitter_loader.hpp"
 #include "supervisor.hpp"
-#include "support/raw_database.hpp"
+#include "skinspec/testkit/raw_database.hpp"
 #include "support/service_processes.hpp"
 
 namespace skinspec::daemon {

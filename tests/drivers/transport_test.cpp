@@ -20,7 +20,7 @@
 #include "skinspec/drivers/memory_transport.hpp"
 #include "skinspec/drivers/open_instrument.hpp"
 #include "skinspec/drivers/transport.hpp"
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 
 namespace skinspec::drivers {
 namespace {

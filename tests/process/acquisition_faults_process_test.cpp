@@ -12,10 +12,10 @@
 #include <functional>
 #include <thread>
 
-#include "support/acquisition_rig.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
 #include "skinspec/client/http_client.hpp"
 #include "support/job_error.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {

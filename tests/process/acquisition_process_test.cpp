@@ -9,11 +9,11 @@
 #include <thread>
 
 #include "skinspec/drivers/pr650.hpp"
-#include "support/acquisition_rig.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
 #include "support/driver_options.hpp"
 #include "skinspec/client/http_client.hpp"
-#include "support/process.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {

@@ -24,7 +24,7 @@
 #include <string_view>
 #include <vector>
 
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 
 namespace skinspec {
 namespace {

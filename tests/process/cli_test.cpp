@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "skinspec/spectral/utf8.hpp"
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 #include "support/reference_model.hpp"
 
 namespace skinspec {
@@ -644,11 +644,11 @@ TEST_F(CliFit, TheTableGivesItsUnitsAndSaysWhatNdMeans) {
   const auto json_run = skinspec({"fit", "--fix", "bilirubin", file});
   ASSERT_EQ(json_run.exit_status, 0) << json_run.describe();
   const auto tone = nlohmann::json::parse(json_run.out)["skin_tone"];  // one JSON line per spectrum
-  EXPECT_THAT(lines[2], AllOf(StartsWith("skin"), HasSubstr("1 held"),
-                              HasSubstr(fmt::format(" {:>5.1f} {:<12} {:>5.1f} {:>5.1f} ", tone["ita_deg"].get<double>(),
-                                                    tone["ita_class"].get<std::string>(),
-                                                    tone["melanin_index"].get<double>(),
-                                                    tone["erythema_index"].get<double>()))));
+  EXPECT_THAT(lines[2],
+              AllOf(StartsWith("skin"), HasSubstr("1 held"),
+                    HasSubstr(fmt::format(" {:>5.1f} {:<12} {:>5.1f} {:>5.1f} ", tone["ita_deg"].get<double>(),
+                                          tone["ita_class"].get<std::string>(), tone["melanin_index"].get<double>(),
+                                          tone["erythema_index"].get<double>()))));
   EXPECT_EQ(lines[3],
             "n.d.: not determined by this spectrum (reason in --format json; docs/model.md, \"What the spectrum "
             "determines\")");

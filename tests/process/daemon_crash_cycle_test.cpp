@@ -15,10 +15,10 @@
 #include <string_view>
 #include <thread>
 
-#include "support/acquisition_rig.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
 #include "skinspec/client/http_client.hpp"
-#include "support/raw_database.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/raw_database.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {

@@ -15,8 +15,8 @@
 
 #include "skinspec/client/http_client.hpp"
 #include "support/raw_exchange.hpp"
-#include "support/process.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/version.hpp"
 

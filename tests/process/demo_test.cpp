@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 
 namespace skinspec {
 namespace {
@@ -46,16 +46,16 @@ class ScratchDir {
 
 // The three programs alone in `bin`.
 void copy_demo_programs(const fs::path& bin) {
-  for (const auto& program : kDemoPrograms)
-    fs::copy_file(fs::path(SKINSPEC_TEST_BIN_DIR) / program, bin / program);
+  for (const auto& program : kDemoPrograms) fs::copy_file(fs::path(SKINSPEC_TEST_BIN_DIR) / program, bin / program);
 }
 
 testing::ProcessResult run_demo(const fs::path& bin) {
-  return testing::run_process("/bin/bash", {SKINSPEC_TEST_SOURCE_DIR "/scripts/demo"},
-                              testing::ProcessOptions{std::nullopt, 55s,
-                                                      {"DEMO_SKIP_BUILD=1", "DEMO_EXIT=1",
-                                                       "DEMO_BIN_DIR=" + bin.string(),
-                                                       "SKINSPEC_DATA_DIR=" SKINSPEC_TEST_DATA_DIR}});
+  return testing::run_process(
+      "/bin/bash", {SKINSPEC_TEST_SOURCE_DIR "/scripts/demo"},
+      testing::ProcessOptions{std::nullopt,
+                              55s,
+                              {"DEMO_SKIP_BUILD=1", "DEMO_EXIT=1", "DEMO_BIN_DIR=" + bin.string(),
+                               "SKINSPEC_DATA_DIR=" SKINSPEC_TEST_DATA_DIR}});
 }
 
 TEST(DemoScript, RunsItsSessionWithOnlyTheThreeProgramsBuilt) {

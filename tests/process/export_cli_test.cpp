@@ -18,8 +18,8 @@
 #include "skinspec/spectral/colour.hpp"
 #include "skinspec/store/store.hpp"
 #include "support/data.hpp"
-#include "support/process.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec {
 namespace {
@@ -357,7 +357,9 @@ class ExportRefusesTest : public ExportTest {
 
   // A closed database of the store's own making, as a lab would keep it.
   void make_closed_database() {
-    { make_database(); }
+    {
+      make_database();
+    }
     ASSERT_FALSE(std::filesystem::exists(path_ + "-wal"));
   }
 
@@ -444,7 +446,9 @@ TEST_F(ExportRefusesTest, AnUnknownFormat) {
 // ---- What export leaves behind when it succeeds: nothing.
 
 TEST_F(ExportTest, AClosedDatabaseIsReadWithoutCreatingAnythingBesideIt) {
-  { make_database(); }
+  {
+    make_database();
+  }
   const auto before = directory_state(dir_.path());
   EXPECT_FALSE(before.contains("skinspec.db-wal"));
   const auto result = skinspec({"export", "--db", path_});

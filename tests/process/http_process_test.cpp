@@ -21,10 +21,10 @@
 
 #include "skinspec/client/http_client.hpp"
 #include "support/raw_exchange.hpp"
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 #include "support/service_processes.hpp"
 #include "skinspec/store/store.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {

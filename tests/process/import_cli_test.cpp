@@ -13,9 +13,9 @@
 #include <thread>
 
 #include "skinspec/store/store.hpp"
-#include "support/acquisition_rig.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
 #include "skinspec/client/http_client.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {

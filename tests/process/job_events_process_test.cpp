@@ -6,8 +6,8 @@
 #include <future>
 #include <thread>
 
-#include "support/acquisition_rig.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 #include "skinspec/client/http_client.hpp"
 
 namespace skinspec::testing {

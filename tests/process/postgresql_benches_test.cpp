@@ -15,10 +15,10 @@
 #include <set>
 #include <thread>
 
-#include "support/acquisition_rig.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
 #include "skinspec/client/http_client.hpp"
-#include "support/postgres_cluster.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {

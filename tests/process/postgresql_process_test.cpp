@@ -11,10 +11,10 @@
 #include <csignal>
 #include <fstream>
 
-#include "support/acquisition_rig.hpp"
-#include "support/postgres_cluster.hpp"
-#include "support/process.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {

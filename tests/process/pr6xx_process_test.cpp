@@ -10,11 +10,11 @@
 #include <csignal>
 #include <sstream>
 
-#include "support/acquisition_rig.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
 #include "skinspec/client/http_client.hpp"
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 #include "support/service_processes.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {

@@ -8,8 +8,8 @@
 #include <fstream>
 
 #include "support/png_reader.hpp"
-#include "support/process.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec {
 namespace {

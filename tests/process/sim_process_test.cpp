@@ -26,7 +26,7 @@
 #include <utility>
 #include <vector>
 
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 
 namespace skinspec {
 namespace {

@@ -9,10 +9,10 @@
 #include <fstream>
 #include <thread>
 
-#include "support/acquisition_rig.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
 #include "skinspec/client/http_client.hpp"
-#include "support/process.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 #include "support/webdriver.hpp"
 
 namespace skinspec::testing {

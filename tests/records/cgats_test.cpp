@@ -8,7 +8,7 @@
 
 #include <sstream>
 
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::records {
 namespace {

@@ -10,7 +10,7 @@
 
 #include "skinspec/records/import_file.hpp"
 #include "support/data.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::records {
 namespace {

@@ -14,8 +14,8 @@
 #include "skinspec/fit/model.hpp"
 #include "skinspec/store/store.hpp"
 #include "support/data.hpp"
-#include "support/process.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec {
 namespace {

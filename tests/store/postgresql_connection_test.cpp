@@ -18,8 +18,8 @@
 #include "postgresql/connection.hpp"
 #include "postgresql/errors.hpp"
 #include "postgresql/target.hpp"
-#include "support/postgres_cluster.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::store::postgresql {
 namespace {

@@ -10,10 +10,10 @@
 #include <thread>
 
 #include "skinspec/store/store.hpp"
-#include "support/postgres_cluster.hpp"
-#include "support/process.hpp"
-#include "support/raw_database.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/raw_database.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec {
 namespace {

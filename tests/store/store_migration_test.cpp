@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "skinspec/store/store.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec {
 namespace {
@@ -294,8 +294,12 @@ TEST_F(StoreMigrationTest, AnEmptyFileBecomesACurrentDatabase) {
 TEST_F(StoreMigrationTest, TheCurrentVersionBuiltStepByStepMatchesANewDatabase) {
   const auto stepwise = dir_.file("stepwise.db");
   ASSERT_TRUE(create_database_at_version(stepwise, 1));
-  { value_of(Store::open(stepwise)); }
-  { value_of(Store::open(path_)); }
+  {
+    value_of(Store::open(stepwise));
+  }
+  {
+    value_of(Store::open(path_));
+  }
   const std::string schema =
       "SELECT group_concat(type || ' ' || name || ' ' || coalesce(sql, ''), char(10)) "
       "FROM (SELECT * FROM sqlite_schema ORDER BY name)";
@@ -469,7 +473,9 @@ TEST_F(StoreBadInputTest, AFullDiskFailsTheWholeMeasurementAndFit) {
   for (int extra_pages = 0; extra_pages < 6; ++extra_pages) {
     SCOPED_TRACE("cap " + std::to_string(extra_pages) + " pages past the empty database");
     const auto path = dir_.file("full-" + std::to_string(extra_pages) + ".db");
-    { value_of(Store::open(path)); }
+    {
+      value_of(Store::open(path));
+    }
     const auto empty_pages = testing::sqlite_integer(path, "PRAGMA page_count");
     OpenOptions options;
     options.max_pages = empty_pages + 12 + extra_pages;

@@ -16,9 +16,9 @@
 
 #include "skinspec/store/copy.hpp"
 #include "skinspec/store/store.hpp"
-#include "support/postgres_cluster.hpp"
-#include "support/store_samples.hpp"
-#include "support/unix_relay.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
+#include "skinspec/testkit/store_samples.hpp"
+#include "skinspec/testkit/unix_relay.hpp"
 
 namespace skinspec {
 namespace {

@@ -14,9 +14,9 @@
 #include <set>
 
 #include "skinspec/store/store.hpp"
-#include "support/postgres_cluster.hpp"
-#include "support/raw_database.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
+#include "skinspec/testkit/raw_database.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec {
 namespace {

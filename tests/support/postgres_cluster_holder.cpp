@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <exception>
 
-#include "support/postgres_cluster.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
 
 int main() {
   try {

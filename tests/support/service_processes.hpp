@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "support/process.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 

@@ -12,7 +12,7 @@
 #include <thread>
 
 #include "skinspec/store/store.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 using namespace skinspec::store;
 
@@ -31,9 +31,9 @@ T must(Result<T> result, const char* what) {
 
 int main(int argc, char** argv) {
   int reading_ms = 1;
-  const bool reading_ok = argc < 3 || (std::from_chars(argv[2], argv[2] + std::strlen(argv[2]), reading_ms).ec ==
-                                           std::errc{} &&
-                                       reading_ms >= 0);
+  const bool reading_ok =
+      argc < 3 ||
+      (std::from_chars(argv[2], argv[2] + std::strlen(argv[2]), reading_ms).ec == std::errc{} && reading_ms >= 0);
   if (argc < 2 || argc > 3 || !reading_ok) {
     std::fprintf(stderr, "usage: store_crash_writer DATABASE [READING_MS]\n");
     return 2;

@@ -10,7 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 
 namespace skinspec::testing {
 

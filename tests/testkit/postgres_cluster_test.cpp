@@ -13,10 +13,10 @@
 #include <fstream>
 #include <thread>
 
-#include "support/postgres_cluster.hpp"
-#include "support/process.hpp"
-#include "support/raw_database.hpp"
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/raw_database.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 namespace {
@@ -62,7 +62,7 @@ TEST(PostgresClusterTest, StartsWithItsRolesAndMakesSeparateDatabasesOwnedBySkin
   EXPECT_EQ(cluster.text("postgres", "SHOW listen_addresses"), "");
 
   // Root never runs the server: PostgreSQL refuses to, so it runs as nobody.
-  struct stat server {};
+  struct stat server{};
   ASSERT_EQ(::stat(("/proc/" + std::to_string(cluster.server_pid())).c_str(), &server), 0);
   const passwd* nobody = ::getpwnam("nobody");
   ASSERT_NE(nobody, nullptr);

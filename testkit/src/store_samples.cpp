@@ -1,4 +1,4 @@
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 #include <sqlite3.h>
 #include <stdlib.h>

@@ -1,10 +1,10 @@
-#include "support/raw_database.hpp"
+#include "skinspec/testkit/raw_database.hpp"
 
 #include <libpq-fe.h>
 
 #include <stdexcept>
 
-#include "support/store_samples.hpp"
+#include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
 

@@ -1,4 +1,4 @@
-#include "support/unix_relay.hpp"
+#include "skinspec/testkit/unix_relay.hpp"
 
 #include <fcntl.h>
 #include <poll.h>

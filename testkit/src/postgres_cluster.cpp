@@ -1,4 +1,4 @@
-#include "support/postgres_cluster.hpp"
+#include "skinspec/testkit/postgres_cluster.hpp"
 
 #include <fcntl.h>
 #include <grp.h>
@@ -19,8 +19,8 @@
 #include <optional>
 #include <stdexcept>
 
-#include "support/process.hpp"
-#include "support/raw_database.hpp"
+#include "skinspec/testkit/process.hpp"
+#include "skinspec/testkit/raw_database.hpp"
 
 extern char** environ;
 
@@ -103,7 +103,7 @@ void hand_to_server_user(const fs::path& root) {
 }
 
 bool usable_base(const fs::path& base) {
-  struct stat info {};
+  struct stat info{};
   // Others must be able to pass through it when the server runs as nobody.
   return ::stat(base.c_str(), &info) == 0 && S_ISDIR(info.st_mode) && ::access(base.c_str(), W_OK | X_OK) == 0 &&
          (!server_user().switched || (info.st_mode & S_IXOTH) != 0);

@@ -1,4 +1,4 @@
-#include "support/acquisition_rig.hpp"
+#include "skinspec/testkit/acquisition_rig.hpp"
 
 #include <algorithm>
 #include <csignal>

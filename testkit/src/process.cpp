@@ -1,4 +1,4 @@
-#include "support/process.hpp"
+#include "skinspec/testkit/process.hpp"
 
 #include <cerrno>
 #include <csignal>
