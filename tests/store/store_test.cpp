@@ -44,7 +44,7 @@ struct ManualClock {
 };
 
 // Each test on a new SQLite file and on a new PostgreSQL database of the test program's
-// throwaway cluster (support/postgres_cluster.hpp).
+// throwaway cluster (skinspec/testkit/postgres_cluster.hpp).
 class StoreTest : public ::testing::TestWithParam<Backend> {
  protected:
   StoreTest()
