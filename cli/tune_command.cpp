@@ -35,14 +35,25 @@ struct TuneArgs {
   }
 };
 
-nlohmann::json quality_json(const FitQuality& q) {
+// The fits that left each watched parameter on a bound (ModelSpec::bound_watched).
+nlohmann::json at_bound_json(ModelKind model, const FitQuality& q) {
+  nlohmann::json counts = nlohmann::json::object();
+  const auto watched = model_spec(model).bound_watched;
+  for (std::size_t w = 0; w < watched.size(); ++w)
+    counts[std::string(model_spec(model).params[static_cast<std::size_t>(watched[w])].name)] =
+        w < q.at_bound.size() ? q.at_bound[w] : 0;
+  return counts;
+}
+
+nlohmann::json quality_json(ModelKind model, const FitQuality& q) {
   return {{"spectra", q.count},
           {"converged", q.converged},
           {"median_rmse", q.median_rmse},
           {"p95_rmse", q.p95_rmse},
           {"max_rmse", q.max_rmse},
           {"median_delta_e00_d65", q.median_delta_e00},
-          {"p95_delta_e00_d65", q.p95_delta_e00}};
+          {"p95_delta_e00_d65", q.p95_delta_e00},
+          {"at_bound", at_bound_json(model, q)}};
 }
 
 FitScores score(const Fitter& f, const std::vector<Spectrum>& spectra, const TuneArgs& args) {
@@ -115,13 +126,15 @@ std::string constants_csv(const TuneArgs& args, const ModelConstants& c, const s
                                 : fmt::format("Fixed constants of the {} skin model", to_string(args.model));
   std::string out = fmt::format(
       "# title: {}\n"
-      "# source: chosen by `{}` (scripts/tune-model): minimum mean fit RMSE over {}; spectra from the NIST "
+      "# source: chosen by `{}` (scripts/tune-model): minimum mean fit RMSE over {}{}; spectra from the NIST "
       "Reference Data Set of Human Skin Reflectance, C. C. Cooksey et al., J. Res. NIST 122:26 (2017), "
       "doi:10.18434/M38597\n"
       "# licence: skinspec project data; the NIST spectra are public domain\n"
       "# units: {}\n"
       "name,value\n",
       title, tune_command_line(args), chosen_on,
+      model_spec(args.model).bound_watched.empty() ? ""
+                                                   : ", with few fits leaving a parameter on a bound (docs/model.md)",
       args.model == ModelKind::paper ? "scales dimensionless; lateral_radius_mm millimetres"
                                      : "scales dimensionless; lateral_radius_mm millimetres; baseline_absorption_N "
                                        "dimensionless Legendre coefficients of ln(correction factor)");
@@ -150,7 +163,7 @@ nlohmann::json cross_validate(const std::vector<NamedSpectrum>& spectra, const T
                                fmt::format("the {} spectra outside fold {} of {} (spectrum i is in fold i mod {} + 1)",
                                            training.size(), fold + 1, folds, folds)));
   }
-  return {{"folds", folds}, {"held_out", quality_json(summarize(pooled))}};
+  return {{"folds", folds}, {"held_out", quality_json(args.model, summarize(pooled))}};
 }
 
 void run_tune(const TuneArgs& args) {
@@ -184,12 +197,12 @@ void run_tune(const TuneArgs& args) {
       {"model", to_string(args.model)},
       {"constants", constants},
       {"evaluations", tuned.evaluations},
-      {"before", {{"training", quality_json(assess(starting_fitter(args), training, args))}}},
-      {"after", {{"training", quality_json(assess(tuned_model, training, args))}}},
+      {"before", {{"training", quality_json(args.model, assess(starting_fitter(args), training, args))}}},
+      {"after", {{"training", quality_json(args.model, assess(tuned_model, training, args))}}},
   };
   if (!held_out.empty()) {
-    report["before"]["held_out"] = quality_json(assess(starting_fitter(args), held_out, args));
-    report["after"]["held_out"] = quality_json(assess(tuned_model, held_out, args));
+    report["before"]["held_out"] = quality_json(args.model, assess(starting_fitter(args), held_out, args));
+    report["after"]["held_out"] = quality_json(args.model, assess(tuned_model, held_out, args));
   }
   if (args.cross_validate > 1) report["cross_validation"] = cross_validate(spectra, args);
   std::cout << report.dump(2) << '\n';

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
-#include <numeric>
+#include <optional>
 
 #include "skinspec/spectral/parallel.hpp"
 
@@ -129,18 +129,54 @@ std::pair<Vector, double> nelder_mead(F&& f, const Vector& x0, double step, int 
   return simplex[0];
 }
 
+// Adds one to each watched parameter (ModelSpec::bound_watched) the fit left on a bound.
+void count_at_bound(const FitResult& fit, std::vector<std::size_t>& at_bound) {
+  const auto watched = model_spec(fit.model).bound_watched;
+  at_bound.resize(watched.size());
+  for (std::size_t w = 0; w < watched.size(); ++w)
+    at_bound[w] += fit.determination[static_cast<std::size_t>(watched[w])].status == Determination::at_bound ? 1 : 0;
+}
+
+// How much a parameter piled on a bound costs the search: the mean RMSE is multiplied by 1 +
+// this times the share of fits beyond the model's limit. Large enough that one fit too many
+// outweighs any gain in RMSE the constants can buy, so the limit acts as a constraint, yet
+// graded, so that the search is led back inside it from a start outside.
+constexpr double kBoundPenalty = 10;
+
+// The search keeps its training fits within this share of the model's limit: a limit met
+// exactly on the training spectra was exceeded on held-out ones.
+constexpr double kBoundMargin = 0.75;
+
+double bound_excess(ModelKind model, const std::vector<std::size_t>& at_bound, std::size_t fits) {
+  const double most = kBoundMargin * model_spec(model).most_at_bound;
+  double excess = 0;
+  for (const std::size_t count : at_bound)
+    excess += std::max(0.0, static_cast<double>(count) / static_cast<double>(fits) - most);
+  return excess;
+}
+
 }  // namespace
+
+void FitScores::add(const FitResult& fit) {
+  rmse.push_back(fit.rmse);
+  delta_e00.push_back(fit.delta_e00_d65);
+  converged += fit.converged ? 1 : 0;
+  count_at_bound(fit, at_bound);
+}
 
 void FitScores::append(const FitScores& other) {
   rmse.insert(rmse.end(), other.rmse.begin(), other.rmse.end());
   delta_e00.insert(delta_e00.end(), other.delta_e00.begin(), other.delta_e00.end());
   converged += other.converged;
+  at_bound.resize(std::max(at_bound.size(), other.at_bound.size()));
+  for (std::size_t w = 0; w < other.at_bound.size(); ++w) at_bound[w] += other.at_bound[w];
 }
 
 FitQuality summarize(const FitScores& scores) {
   FitQuality q;
   q.count = scores.rmse.size();
   q.converged = scores.converged;
+  q.at_bound = scores.at_bound;
   if (q.count == 0) return q;
   q.median_rmse = quantile(scores.rmse, 0.5);
   q.p95_rmse = quantile(scores.rmse, 0.95);
@@ -157,9 +193,7 @@ std::expected<FitScores, std::string> score_fits(const Fitter& fitter, const std
   FitScores scores;
   for (const auto& fit : fits) {
     if (!fit) return std::unexpected(fit.error());
-    scores.converged += fit->converged ? 1 : 0;
-    scores.rmse.push_back(fit->rmse);
-    scores.delta_e00.push_back(fit->delta_e00_d65);
+    scores.add(*fit);
   }
   return scores;
 }
@@ -176,20 +210,50 @@ std::expected<TuningResult, std::string> tune_constants(const Fitter& start, con
   ModelConstants initial = optics.constants();
   if (initial.lateral_radius_mm <= 0) initial.lateral_radius_mm = 3;  // the search needs a finite start
   const SearchSpace space(model, initial, options.held_constants);
-  const auto mean_rmse = [&](const Vector& x) {
-    if (!space.plausible(x)) return std::numeric_limits<double>::infinity();
+  // The training fits' mean RMSE and the objective for constants x.
+  const auto assess = [&](const Vector& x) {
+    constexpr double kNever = std::numeric_limits<double>::infinity();
+    if (!space.plausible(x)) return std::pair{kNever, kNever};
     const Fitter candidate = start.with_optics(optics.with_constants(space.constants(x)));
-    std::vector<double> rmse(training.size(), std::numeric_limits<double>::infinity());
+    std::vector<std::optional<FitResult>> fits(training.size());
     parallel_for(training.size(), options.threads, [&](std::size_t i) {
-      if (auto fit = candidate.fit(training[i], options.fit)) rmse[i] = fit->rmse;
+      if (auto fit = candidate.fit(training[i], options.fit)) fits[i] = std::move(*fit);
     });
-    return std::accumulate(rmse.begin(), rmse.end(), 0.0) / static_cast<double>(rmse.size());
+    double sum = 0;
+    std::vector<std::size_t> at_bound;
+    for (const auto& fit : fits) {
+      if (!fit) return std::pair{kNever, kNever};
+      sum += fit->rmse;
+      count_at_bound(*fit, at_bound);
+    }
+    const double mean = sum / static_cast<double>(fits.size());
+    return std::pair{mean, mean * (1 + kBoundPenalty * bound_excess(model, at_bound, fits.size()))};
   };
+  // A model with no limit on bounds takes one simplex search for the best fit. Otherwise, first
+  // the best fit alone, then, from there, within the limit: the penalty is a count, flat
+  // between steps, and a simplex started where it already bites stalls on its plateaus. Each
+  // phase restarts the simplex around its best point while that still helps, which frees a
+  // simplex collapsed onto a ridge.
   TuningResult result;
-  const auto [best, value] =
-      nelder_mead(mean_rmse, space.start_point(), 0.3, options.max_evaluations, result.evaluations);
+  Vector best = space.start_point();
+  const bool limited = !model_spec(model).bound_watched.empty();
+  const auto search = [&](auto&& objective, int budget) {
+    double value = objective(best);
+    for (int used = 0; used < budget;) {
+      int evaluations = 0;
+      auto [x, f] = nelder_mead(objective, best, 0.3, budget - used, evaluations);
+      used += evaluations;
+      result.evaluations += evaluations;
+      const bool improved = f < value * (1 - 1e-4);
+      if (f < value) best = std::move(x), value = f;
+      if (!improved || !limited) break;
+    }
+  };
+  search([&](const Vector& x) { return assess(x).first; },
+         limited ? options.max_evaluations / 2 : options.max_evaluations);
+  if (limited) search([&](const Vector& x) { return assess(x).second; }, options.max_evaluations - result.evaluations);
+  std::tie(result.mean_rmse, result.objective) = assess(best);
   result.constants = space.constants(best);
-  result.mean_rmse = value;
   return result;
 }
 

@@ -66,9 +66,7 @@ CrossValidation cross_validate(ModelKind model) {
       auto fit = fitter.fit(nist_forearms()[i], options_for(model));
       EXPECT_TRUE(fit) << fit.error();
       if (!fit) continue;
-      scores.rmse.push_back(fit->rmse);
-      scores.delta_e00.push_back(fit->delta_e00_d65);
-      scores.converged += fit->converged ? 1 : 0;
+      scores.add(*fit);
       cv.fits.push_back(std::move(*fit));
     }
   }
@@ -102,9 +100,51 @@ TEST(RealSkin, ExtendedCrossValidatedMeetsItsGoals) {
   record(q);
   EXPECT_EQ(q.count, 50u);
   EXPECT_EQ(q.converged, 50u);
-  EXPECT_LE(q.median_rmse, 0.0065);
-  EXPECT_LE(q.p95_rmse, 0.0095);
+  // Issue 36: no worse than the figures the forearms had before the limit on bounds.
+  EXPECT_LE(q.median_rmse, 0.0055);
+  EXPECT_LE(q.p95_rmse, 0.0075);
   EXPECT_LE(q.median_delta_e00, 0.75);
+}
+
+// Issue 36: on healthy skin, the saturation, surface reflectance and scattering power may each
+// be left on a bound in at most the model's share of fits; beyond it the bound decides them.
+TEST(RealSkin, ExtendedCrossValidatedLeavesFewParametersOnABound) {
+  const ModelSpec& spec = model_spec(ModelKind::extended);
+  const FitQuality& q = cross_validated(ModelKind::extended).quality;
+  ASSERT_EQ(q.at_bound.size(), spec.bound_watched.size());
+  for (std::size_t w = 0; w < spec.bound_watched.size(); ++w) {
+    const auto name = spec.params[static_cast<std::size_t>(spec.bound_watched[w])].name;
+    RecordProperty(fmt::format("at_bound_{}", name), static_cast<int>(q.at_bound[w]));
+    EXPECT_LE(static_cast<double>(q.at_bound[w]), spec.most_at_bound * static_cast<double>(q.count)) << name;
+  }
+}
+
+// The tuning's limit on bounds at work: from the untuned constants, under which every training
+// fit leaves the surface reflectance on a bound, a short search ends with each watched
+// parameter on a bound in at most three quarters of the model's share of the fits, and with
+// nothing left of the penalty in its objective.
+TEST(RealSkin, TuningKeepsTheTrainingFitsOffTheBounds) {
+  const ModelSpec& spec = model_spec(ModelKind::extended);
+  std::vector<Spectrum> training;
+  for (std::size_t i = 0; i < nist_forearms().size(); i += 2) training.push_back(nist_forearms()[i]);
+  const Fitter textbook(
+      testing::shipped_optics(ModelKind::extended).with_constants(textbook_constants(ModelKind::extended)),
+      testing::colorimetry());
+  const FitOptions options = options_for(ModelKind::extended);
+  const auto before = score_fits(textbook, training, options);
+  ASSERT_TRUE(before) << before.error();
+  EXPECT_GT(static_cast<double>(std::ranges::max(before->at_bound)), spec.most_at_bound * training.size());
+
+  const auto tuned =
+      tune_constants(textbook, training, {.fit = options, .max_evaluations = 400, .threads = 0, .held_constants = {}});
+  ASSERT_TRUE(tuned) << tuned.error();
+  EXPECT_DOUBLE_EQ(tuned->objective, tuned->mean_rmse);
+  const auto after = score_fits(
+      textbook.with_optics(textbook.optics(ModelKind::extended).with_constants(tuned->constants)), training, options);
+  ASSERT_TRUE(after) << after.error();
+  for (std::size_t w = 0; w < spec.bound_watched.size(); ++w)
+    EXPECT_LE(static_cast<double>(after->at_bound[w]), 0.75 * spec.most_at_bound * training.size())
+        << spec.params[static_cast<std::size_t>(spec.bound_watched[w])].name;
 }
 
 // A parameter on a bound of its plausible range is a number the spectrum did not give: it

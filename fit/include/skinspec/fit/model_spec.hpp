@@ -97,6 +97,12 @@ struct ModelSpec {
   double bound_overshoot;
   // How many of the coarse search's best points the solver refines (docs/model.md, "The fit").
   std::size_t starts;
+  // The parameters whose bounds are no physical value (a fraction, an exponent; not an amount,
+  // whose zero is one), and the largest share of fits of healthy skin that may leave one of them
+  // on a bound: beyond it the bound, not the skin, decides the value (docs/model.md, "Body
+  // sites"). The tuning keeps its training fits within it.
+  std::span<const int> bound_watched;
+  double most_at_bound;
 };
 
 const ModelSpec& model_spec(ModelKind kind);

@@ -3,7 +3,8 @@
 // thickness scales, lateral-diffusion radius, baseline-absorption correction) on measured skin:
 // the constants that minimise the mean fit RMSE of a training set, found by a Nelder-Mead
 // search over their logarithms (or values, for coefficients that may be negative) within
-// their plausible ranges. Repeatable: no randomness.
+// their plausible ranges, and within which no more than the model's share of the training fits
+// leaves a watched parameter on a bound (ModelSpec::most_at_bound). Repeatable: no randomness.
 
 #include <expected>
 #include <string>
@@ -19,12 +20,17 @@ struct FitQuality {
   std::size_t converged = 0;
   double median_rmse = 0, p95_rmse = 0, max_rmse = 0;
   double median_delta_e00 = 0, p95_delta_e00 = 0;
+  // Per watched parameter (ModelSpec::bound_watched, in its order): the fits that left it on a
+  // bound.
+  std::vector<std::size_t> at_bound;
 };
 
 // Per-spectrum figures of a set of fits, for pooling across cross-validation folds.
 struct FitScores {
   std::vector<double> rmse, delta_e00;
   std::size_t converged = 0;
+  std::vector<std::size_t> at_bound;  // as in FitQuality
+  void add(const FitResult& fit);
   void append(const FitScores& other);
 };
 
@@ -44,7 +50,10 @@ struct TuningOptions {
 
 struct TuningResult {
   ModelConstants constants;
-  double mean_rmse = 0;  // the minimised objective, on the training set
+  double mean_rmse = 0;  // on the training set
+  // The minimised objective: the mean RMSE, raised for every watched parameter left on a bound
+  // by more than the model's share of the training fits.
+  double objective = 0;
   int evaluations = 0;
 };
 
