@@ -58,6 +58,7 @@ CLI::Option* add_scale_option(CLI::App& app, ScaleRequest& scale, std::string_vi
 
 void add_fit_command(CLI::App& app);
 void add_model_command(CLI::App& app);
+void add_map_command(CLI::App& app);
 void add_optics_command(CLI::App& app);
 void add_colour_command(CLI::App& app);
 void add_tune_command(CLI::App& app);

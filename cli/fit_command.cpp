@@ -77,7 +77,7 @@ void run_fit(const FitArgs& args) {
                      .site = args.site,
                      .lateral_diffusion = !args.no_lateral_diffusion,
                      .weights = {},
-                     .held = held_for(args.model, args.fixes)};
+                     .held = held_for(args.model, args.fixes), .start = {}};
   if (auto site = fitter().optics(args.model).site(args.site); !site) throw Failure{kBadInput, site.error()};
   const auto results = fit_all(spectra, options);
   // Refuse the whole file before printing anything, so a failure never leaves partial output.

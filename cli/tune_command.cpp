@@ -31,7 +31,7 @@ struct TuneArgs {
   bool only_cross_validation = false;
 
   FitOptions fit_options() const {
-    return {.model = model, .site = site, .lateral_diffusion = true, .weights = {}, .held = held_for(model, fixes)};
+    return {.model = model, .site = site, .lateral_diffusion = true, .weights = {}, .held = held_for(model, fixes), .start = {}};
   }
 };
 

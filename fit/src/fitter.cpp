@@ -154,6 +154,11 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   if (!samples) return std::unexpected(samples.error());
   auto held = held_parameters(options);
   if (!held) return std::unexpected(held.error());
+  if (options.start && !std::ranges::all_of(*options.start, [](double v) { return std::isfinite(v); }))
+    return std::unexpected("a start must be finite numbers");
+  if (options.start && options.start->size() != model_spec(options.model).params.size())
+    return std::unexpected(fmt::format("a start of {} values for the {} model's {} parameters", options.start->size(),
+                                       to_string(options.model), model_spec(options.model).params.size()));
 
   FitResult result;
   result.model = options.model;
@@ -170,10 +175,16 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   // The coarse search's layers depend on what is held; the prepared ones hold nothing.
   const detail::CoarseLayers coarse =
       holds_any ? detail::coarse_layers(model, held_flags, held_values) : detail::CoarseLayers{};
-  const detail::Problem problem{
-      model,           prepared->columns, prepared->bounds, holds_any ? coarse : prepared->coarse,
-      result.measured, samples->weights,  sqrt_weights,     held_flags,
-      held_values};
+  const detail::Problem problem{model,
+                                prepared->columns,
+                                prepared->bounds,
+                                holds_any ? coarse : prepared->coarse,
+                                result.measured,
+                                samples->weights,
+                                sqrt_weights,
+                                held_flags,
+                                held_values,
+                                options.start ? &*options.start : nullptr};
 
   const detail::Solution best = detail::solve(problem);
   result.params = best.params;

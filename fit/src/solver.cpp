@@ -48,6 +48,15 @@ Params start_point(ModelKind kind, const std::vector<bool>& held, const Params& 
   return p;
 }
 
+// problem.start inside the bounds, with the held parameters at their values.
+Params given_start(const Problem& problem) {
+  Params p = *problem.start;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    p[i] =
+        problem.held[i] ? problem.held_values[i] : std::clamp(p[i], problem.bounds.lower[i], problem.bounds.upper[i]);
+  return p;
+}
+
 double blood_of(ModelKind kind, const Params& p) {
   return kind == ModelKind::paper ? p[kOxyhemoglobin] + p[kDeoxyhemoglobin] : p[kTotalHemoglobin];
 }
@@ -262,7 +271,8 @@ Solution solve_with(const Problem& problem) {
   const Engine<N> engine(problem, thread_workspace());
   Solution best;
   best.cost = std::numeric_limits<double>::infinity();
-  for (const Params& start : coarse_starts(problem, model_spec(problem.model.kind()).starts)) {
+  for (const Params& start : problem.start ? std::vector<Params>{given_start(problem)}
+                                           : coarse_starts(problem, model_spec(problem.model.kind()).starts)) {
     Solution s = engine.solve_from(start);
     if (s.cost < best.cost) best = std::move(s);
   }

@@ -45,6 +45,7 @@ struct Problem {
   const std::vector<double>& sqrt_weights;
   const std::vector<bool>& held;  // held at their given value, never fitted
   const Params& held_values;      // the values of the held parameters (others unused)
+  const Params* start = nullptr;  // the solver's one start instead of the coarse search's
 };
 
 struct Solution {
@@ -61,8 +62,8 @@ struct Solution {
   Eigen::MatrixXd jacobian;
 };
 
-// The best solution from the coarse search's best starts, refined once more from a restart
-// when an absorber ends at zero; with its residuals and Jacobian.
+// The best solution from the coarse search's best starts (or from problem.start), refined once
+// more from a restart when an absorber ends at zero; with its residuals and Jacobian.
 Solution solve(const Problem& problem);
 
 // The model's reflectance at every sample for p, as the solver computes it.

@@ -253,7 +253,7 @@ std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, cons
   if (observer && !observer(0, spectra->size())) return ImportedFile{{}, true};
 
   const FitOptions options{
-      .model = *model, .site = session->site, .lateral_diffusion = true, .weights = {}, .held = {}};
+      .model = *model, .site = session->site, .lateral_diffusion = true, .weights = {}, .held = {}, .start = {}};
   const auto now = store::Time(
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()));
   FittedRows rows(fitter, *spectra, options, observer);

@@ -311,7 +311,7 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   ASSERT_EQ(stored.status, 200);
   auto direct = shared_fitter().fit(
       *Spectrum::create(grid(), skin_like(grid())),
-      FitOptions{.model = kDefaultModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}});
+      FitOptions{.model = kDefaultModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}, .start = {}});
   ASSERT_TRUE(direct);
   const json cli = json::parse(fit_to_json("x", *direct).dump());
   // The stored fit is the fit as the command line gives it, its judgement of what the spectrum

@@ -94,7 +94,7 @@ FitOptions options_for(bool lateral_diffusion = true, std::vector<double> weight
           .site = kSite,
           .lateral_diffusion = lateral_diffusion,
           .weights = std::move(weights),
-          .held = {}};
+          .held = {}, .start = {}};
 }
 
 const auto& kSpecs = model_spec(ModelKind::paper).params;

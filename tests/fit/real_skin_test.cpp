@@ -147,6 +147,38 @@ TEST(RealSkin, TuningKeepsTheTrainingFitsOffTheBounds) {
         << spec.params[static_cast<std::size_t>(spec.bound_watched[w])].name;
 }
 
+// A start given instead of the coarse search (a neighbouring pixel's answer, docs/maps.md)
+// reaches the same fit: each forearm started from the previous subject's answer, a start far
+// worse than a neighbouring pixel's, ends where the coarse search's starts end, within the
+// solver's tolerance. (Here it takes more steps than the coarse search's starts; from a
+// neighbouring pixel's answer it takes fewer, docs/maps.md.)
+TEST(RealSkin, AStartFromAnotherSkinsAnswerReachesTheSameFit) {
+  const Fitter fitter(testing::shipped_optics(ModelKind::extended), testing::colorimetry());
+  const FitOptions searched = options_for(ModelKind::extended);
+  int searched_steps = 0, started_steps = 0;
+  std::optional<FitResult> previous;
+  for (const Spectrum& spectrum : nist_forearms()) {
+    const auto reference = fitter.fit(spectrum, searched);
+    ASSERT_TRUE(reference) << reference.error();
+    if (previous) {
+      FitOptions started = searched;
+      started.start = previous->params;
+      const auto fit = fitter.fit(spectrum, started);
+      ASSERT_TRUE(fit) << fit.error();
+      searched_steps += reference->iterations, started_steps += fit->iterations;
+      EXPECT_NEAR(fit->rmse, reference->rmse, 1e-4 * reference->rmse);
+      for (std::size_t i = 0; i < fit->params.size(); ++i)
+        if (reference->determination[i].determined()) {
+          EXPECT_NEAR(fit->params[i], reference->params[i], reference->standard_error[i])
+              << model_spec(ModelKind::extended).params[i].name;
+        }
+    }
+    previous = *reference;
+  }
+  RecordProperty("steps_searched", searched_steps);
+  RecordProperty("steps_started", started_steps);
+}
+
 // A parameter on a bound of its plausible range is a number the spectrum did not give: it
 // must be marked, never reported as found.
 void expect_bounds_marked(const FitResult& fit, std::size_t index) {

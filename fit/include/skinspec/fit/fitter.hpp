@@ -37,6 +37,10 @@ struct FitOptions {
   std::vector<double> weights;
   // Parameters held at a value instead of fitted: (index in the model's table, value).
   std::vector<std::pair<std::size_t, double>> held;
+  // Where the solver starts instead of the coarse search's best points: an answer for a
+  // similar spectrum, such as a neighbouring pixel's (docs/maps.md). Values outside the bounds
+  // are brought inside; held parameters keep their held values. Empty: the coarse search.
+  std::optional<Params> start;
 };
 
 // Whether the spectrum determines a parameter, and if not, why (docs/model.md, "What the

@@ -1,0 +1,59 @@
+#pragma once
+// A spectral image ("cube": lines × samples × bands) read through GDAL: ENVI of every
+// interleave, data type and byte order, multi-band float TIFF, HDF5. Its wavelengths, scale and
+// ignore value come from the header (docs/maps.md, "Cubes"). Lines are read in blocks, so that
+// memory stays bounded whatever the cube's size.
+
+#include <cstddef>
+#include <expected>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace skinspec::maps {
+
+// What is wrong with a cube: the file, the header field (empty when none is to blame) and why.
+struct CubeError {
+  std::string file;
+  std::string field;
+  std::string message;
+  std::string what() const;  // "FILE: FIELD: MESSAGE"
+};
+
+struct CubeInfo {
+  std::string file;
+  std::size_t lines = 0, samples = 0, bands = 0;
+  std::vector<double> wavelength_nm;  // one per band, increasing
+  // What a stored value is divided by to give reflectance as a fraction (the ENVI header's
+  // "reflectance scale factor"; 1 when absent).
+  double reflectance_scale = 1;
+  std::optional<double> ignore_value;  // "data ignore value", or the band's no-data value
+  // The largest value the data type stores (integer types): a pixel holding it is saturated.
+  std::optional<double> type_maximum;
+};
+
+class Cube {
+ public:
+  // Errors name the file and the header field at fault: a file GDAL cannot read as a raster,
+  // sizes that disagree with the data file, a data type that is not a real number,
+  // wavelengths missing, unparsable or not increasing.
+  static std::expected<Cube, CubeError> open(const std::string& path);
+  ~Cube();
+  Cube(Cube&&) noexcept;
+  Cube& operator=(Cube&&) noexcept;
+
+  const CubeInfo& info() const { return info_; }
+  // `count` lines from `first`, as stored values (not yet divided by the scale), pixel by
+  // pixel: value (line, sample, band) at ((line - first) * samples + sample) * bands + band.
+  // Errors: a data file shorter than its header says.
+  std::expected<std::vector<float>, CubeError> read_lines(std::size_t first, std::size_t count) const;
+
+ private:
+  struct Dataset;
+  Cube(std::unique_ptr<Dataset> dataset, CubeInfo info);
+  std::unique_ptr<Dataset> dataset_;
+  CubeInfo info_;
+};
+
+}  // namespace skinspec::maps

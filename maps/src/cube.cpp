@@ -1,0 +1,251 @@
+#include "skinspec/maps/cube.hpp"
+
+#include "gdal_setup.hpp"
+
+#include <gdal_priv.h>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cpl_conv.h>
+#include <cpl_error.h>
+#include <cpl_vsi.h>
+#include <filesystem>
+#include <fmt/format.h>
+#include <limits>
+#include <mutex>
+#include <string_view>
+
+namespace skinspec::maps {
+
+std::string CubeError::what() const {
+  return field.empty() ? fmt::format("{}: {}", file, message) : fmt::format("{}: {}: {}", file, field, message);
+}
+
+struct Cube::Dataset {
+  std::unique_ptr<GDALDataset> gdal;
+};
+
+void detail::start_gdal() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    CPLSetConfigOption("GDAL_PAM_ENABLED", "NO");
+    CPLSetErrorHandler(CPLQuietErrorHandler);
+    GDALAllRegister();
+  });
+}
+
+namespace {
+
+std::string last_gdal_error() {
+  const std::string message = CPLGetLastErrorMsg();
+  return message.empty() ? "GDAL gave no reason" : message;
+}
+
+std::string lower(std::string_view text) {
+  std::string out(text);
+  std::ranges::transform(out, out.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return out;
+}
+
+std::optional<double> number(std::string_view text) {
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.front()))) text.remove_prefix(1);
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.remove_suffix(1);
+  double value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || text.empty()) return std::nullopt;
+  return value;
+}
+
+// "{400, 410.5, ...}" (an ENVI list) as numbers; nullopt if any is not one.
+std::optional<std::vector<double>> number_list(std::string_view text) {
+  if (const auto open = text.find('{'); open != std::string_view::npos) text.remove_prefix(open + 1);
+  if (const auto close = text.rfind('}'); close != std::string_view::npos) text = text.substr(0, close);
+  std::vector<double> values;
+  while (!text.empty()) {
+    const auto comma = text.find(',');
+    const auto value = number(text.substr(0, comma));
+    if (!value) return std::nullopt;
+    values.push_back(*value);
+    if (comma == std::string_view::npos) break;
+    text.remove_prefix(comma + 1);
+  }
+  return values;
+}
+
+// Nanometres per unit of an ENVI "wavelength units" value; nullopt for one we do not know.
+std::optional<double> nanometres_per(std::string_view units) {
+  const std::string u = lower(units);
+  if (u.empty() || u == "nanometers" || u == "nanometres" || u == "nm") return 1.0;
+  if (u == "micrometers" || u == "micrometres" || u == "um" || u == "\u00b5m" || u == "microns") return 1000.0;
+  return std::nullopt;
+}
+
+// An ENVI header field as GDAL keeps it, in its "ENVI" metadata domain, under its own name or
+// with underscores for the spaces.
+const char* envi_item(GDALDataset& d, std::string_view field) {
+  std::string key(field);
+  if (const char* value = d.GetMetadataItem(key.c_str(), "ENVI")) return value;
+  std::ranges::replace(key, ' ', '_');
+  return d.GetMetadataItem(key.c_str(), "ENVI");
+}
+
+// The band centres in nm: the ENVI header's list, else each band's "wavelength" item.
+std::expected<std::vector<double>, CubeError> wavelengths(GDALDataset& d, const std::string& file) {
+  std::optional<std::vector<double>> values;
+  std::string units;
+  if (const char* list = envi_item(d, "wavelength")) {
+    values = number_list(list);
+    if (!values) return std::unexpected(CubeError{file, "wavelength", fmt::format("not a list of numbers: {}", list)});
+    if (const char* u = envi_item(d, "wavelength units")) units = u;
+  } else {
+    std::vector<double> per_band;
+    for (int b = 1; b <= d.GetRasterCount(); ++b) {
+      const char* item = d.GetRasterBand(b)->GetMetadataItem("wavelength");
+      const auto value = item ? number(item) : std::nullopt;
+      if (!value) break;
+      per_band.push_back(*value);
+      if (const char* u = d.GetRasterBand(b)->GetMetadataItem("wavelength_units")) units = u;
+    }
+    if (!per_band.empty()) values = std::move(per_band);
+  }
+  if (!values) return std::unexpected(CubeError{file, "wavelength", "missing: the band centres are needed to fit"});
+  if (values->size() != static_cast<std::size_t>(d.GetRasterCount()))
+    return std::unexpected(
+        CubeError{file, "wavelength", fmt::format("{} values for {} bands", values->size(), d.GetRasterCount())});
+  const auto scale = nanometres_per(units);
+  if (!scale) return std::unexpected(CubeError{file, "wavelength units", fmt::format("unknown unit '{}'", units)});
+  for (double& w : *values) w *= *scale;
+  for (std::size_t i = 1; i < values->size(); ++i)
+    if (!((*values)[i] > (*values)[i - 1]))
+      return std::unexpected(CubeError{
+          file, "wavelength", fmt::format("not increasing: {} nm after {} nm", (*values)[i], (*values)[i - 1])});
+  return *values;
+}
+
+std::optional<double> type_maximum(GDALDataType type) {
+  switch (type) {
+    case GDT_Byte:
+      return 255.0;
+    case GDT_UInt16:
+      return 65535.0;
+    case GDT_Int16:
+      return 32767.0;
+    case GDT_UInt32:
+      return 4294967295.0;
+    case GDT_Int32:
+      return 2147483647.0;
+    default:
+      return std::nullopt;
+  }
+}
+
+// ENVI's data file must hold exactly what its header describes: a GDAL raw dataset reads
+// zeros (or fails late) past a short file, and a longer one means the sizes are wrong.
+std::optional<CubeError> envi_size_error(GDALDataset& d, const CubeInfo& info) {
+  if (std::string_view(d.GetDriver()->GetDescription()) != "ENVI") return std::nullopt;
+  char** files = d.GetFileList();
+  std::string data_file = files && files[0] ? files[0] : "";
+  CSLDestroy(files);
+  VSIStatBufL stat{};
+  if (data_file.empty() || VSIStatL(data_file.c_str(), &stat) != 0) return std::nullopt;
+  const auto offset = number(envi_item(d, "header offset") ? envi_item(d, "header offset") : "0").value_or(0);
+  const auto bytes = static_cast<double>(GDALGetDataTypeSizeBytes(d.GetRasterBand(1)->GetRasterDataType()));
+  const double needed = offset + static_cast<double>(info.lines * info.samples * info.bands) * bytes;
+  if (static_cast<double>(stat.st_size) == needed) return std::nullopt;
+  return CubeError{info.file, "lines",
+                   fmt::format("{} samples × {} lines × {} bands of {} bytes after a header offset of {} need {} "
+                               "bytes; the data file {} has {}",
+                               info.samples, info.lines, info.bands, bytes, offset, needed, data_file, stat.st_size)};
+}
+
+// GDAL opens an ENVI cube by its data file; people name the header. The data file is the
+// header's name without ".hdr", or with one of the usual extensions instead.
+std::expected<std::string, CubeError> data_file_of(const std::string& path) {
+  const std::filesystem::path header(path);
+  if (lower(header.extension().string()) != ".hdr") return path;
+  const std::filesystem::path stem = header.parent_path() / header.stem();
+  for (const char* extension : {"", ".img", ".dat", ".raw", ".bil", ".bsq", ".bip", ".bin", ".IMG", ".DAT", ".RAW"}) {
+    std::filesystem::path candidate = stem;
+    candidate += extension;
+    std::error_code error;
+    if (std::filesystem::is_regular_file(candidate, error)) return candidate.string();
+  }
+  return std::unexpected(CubeError{path, "",
+                                   fmt::format("no data file beside the header (looked for {} with no "
+                                               "extension, .img, .dat, .raw, .bil, .bsq, .bip or .bin)",
+                                               stem.string())});
+}
+
+}  // namespace
+
+Cube::Cube(std::unique_ptr<Dataset> dataset, CubeInfo info) : dataset_(std::move(dataset)), info_(std::move(info)) {}
+Cube::~Cube() = default;
+Cube::Cube(Cube&&) noexcept = default;
+Cube& Cube::operator=(Cube&&) noexcept = default;
+
+std::expected<Cube, CubeError> Cube::open(const std::string& path) {
+  detail::start_gdal();
+  CPLErrorReset();
+  const auto data_file = data_file_of(path);
+  if (!data_file) return std::unexpected(data_file.error());
+  auto dataset = std::make_unique<Dataset>();
+  dataset->gdal.reset(GDALDataset::Open(data_file->c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  if (!dataset->gdal) {
+    const std::string why = last_gdal_error();
+    const bool type =
+        lower(why).find("data type") != std::string::npos || lower(why).find("data_type") != std::string::npos;
+    const std::string field = type ? "data type" : "";
+    return std::unexpected(CubeError{path, field, fmt::format("not a spectral image GDAL can read: {}", why)});
+  }
+  GDALDataset& d = *dataset->gdal;
+  CubeInfo info;
+  info.file = path;
+  info.lines = static_cast<std::size_t>(d.GetRasterYSize());
+  info.samples = static_cast<std::size_t>(d.GetRasterXSize());
+  info.bands = static_cast<std::size_t>(d.GetRasterCount());
+  if (info.bands == 0) return std::unexpected(CubeError{path, "bands", "the image has no bands"});
+  const GDALDataType type = d.GetRasterBand(1)->GetRasterDataType();
+  if (GDALDataTypeIsComplex(type))
+    return std::unexpected(
+        CubeError{path, "data type", fmt::format("{} is not a real number", GDALGetDataTypeName(type))});
+  info.type_maximum = type_maximum(type);
+  if (auto w = wavelengths(d, path)) info.wavelength_nm = std::move(*w);
+  else return std::unexpected(w.error());
+  if (const char* scale = envi_item(d, "reflectance scale factor")) {
+    const auto value = number(scale);
+    if (!value || !(*value > 0))
+      return std::unexpected(
+          CubeError{path, "reflectance scale factor", fmt::format("not a positive number: {}", scale)});
+    info.reflectance_scale = *value;
+  }
+  if (const char* ignore = envi_item(d, "data ignore value")) {
+    info.ignore_value = number(ignore);
+    if (!info.ignore_value)
+      return std::unexpected(CubeError{path, "data ignore value", fmt::format("not a number: {}", ignore)});
+  } else {
+    int has = 0;
+    const double no_data = d.GetRasterBand(1)->GetNoDataValue(&has);
+    if (has) info.ignore_value = no_data;
+  }
+  if (auto error = envi_size_error(d, info)) return std::unexpected(*error);
+  return Cube(std::move(dataset), std::move(info));
+}
+
+std::expected<std::vector<float>, CubeError> Cube::read_lines(std::size_t first, std::size_t count) const {
+  std::vector<float> values(count * info_.samples * info_.bands);
+  const auto bands = static_cast<GSpacing>(info_.bands);
+  CPLErrorReset();
+  const CPLErr result = dataset_->gdal->RasterIO(
+      GF_Read, 0, static_cast<int>(first), static_cast<int>(info_.samples), static_cast<int>(count), values.data(),
+      static_cast<int>(info_.samples), static_cast<int>(count), GDT_Float32, static_cast<int>(info_.bands), nullptr,
+      bands * static_cast<GSpacing>(sizeof(float)), bands * static_cast<GSpacing>(info_.samples * sizeof(float)),
+      static_cast<GSpacing>(sizeof(float)), nullptr);
+  if (result != CE_None)
+    return std::unexpected(CubeError{
+        info_.file, "", fmt::format("lines {}-{} cannot be read: {}", first, first + count - 1, last_gdal_error())});
+  return values;
+}
+
+}  // namespace skinspec::maps

@@ -1,0 +1,194 @@
+#include "skinspec/maps/mapper.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+#include <numeric>
+
+#include "skinspec/spectral/parallel.hpp"
+
+namespace skinspec::maps {
+
+namespace {
+
+constexpr float kNotDetermined = std::numeric_limits<float>::quiet_NaN();
+
+// Skins the spectral-angle test compares a pixel with: the model's light, medium and dark
+// skin (melanin 2, 10, 40 and 80; everything else at its default).
+constexpr double kReferenceMelanin[] = {2, 10, 40, 80};
+
+std::vector<double> unit_length(std::vector<double> v) {
+  const double norm = std::sqrt(std::inner_product(v.begin(), v.end(), v.begin(), 0.0));
+  for (double& x : v) x /= norm;
+  return v;
+}
+
+// A neighbour's start that ends with an RMSE above this many times the neighbour's, plus
+// kRestartSlack, is fitted again from the coarse search: the two pixels differ too much for the
+// one answer to lead to the other's.
+constexpr double kRestartRatio = 1.5, kRestartSlack = 0.001;
+
+}  // namespace
+
+std::string_view to_string(MaskReason reason) {
+  switch (reason) {
+    case MaskReason::skin:
+      return "skin";
+    case MaskReason::no_data:
+      return "no_data";
+    case MaskReason::saturated:
+      return "saturated";
+    case MaskReason::too_dark:
+      return "too_dark";
+    case MaskReason::not_skin:
+      return "not_skin";
+    case MaskReason::not_fitted:
+      return "not_fitted";
+  }
+  return "not_fitted";
+}
+
+std::expected<void, CubeError> check_coverage(const CubeInfo& cube) {
+  const auto inside = [](double nm) { return nm >= SkinOptics::kFirstNm && nm <= SkinOptics::kLastNm; };
+  const auto first = std::ranges::find_if(cube.wavelength_nm, inside);
+  const auto last = std::ranges::find_if(cube.wavelength_nm.rbegin(), cube.wavelength_nm.rend(), inside);
+  if (first == cube.wavelength_nm.end() || *first > kMinCoverFromNm || *last < kMinCoverToNm)
+    return std::unexpected(
+        CubeError{cube.file, "wavelength",
+                  cube.wavelength_nm.empty()
+                      ? "no bands"
+                      : fmt::format("the bands span {}-{} nm; a fit needs {}-{} nm inside the model's {}-{} nm",
+                                    cube.wavelength_nm.front(), cube.wavelength_nm.back(), kMinCoverFromNm,
+                                    kMinCoverToNm, SkinOptics::kFirstNm, SkinOptics::kLastNm)});
+  return {};
+}
+
+std::vector<MapBand> map_bands(ModelKind model) {
+  std::vector<MapBand> bands;
+  for (const ParamSpec& p : model_spec(model).params) {
+    bands.push_back({std::string(p.name), std::string(p.unit)});
+    bands.push_back({std::string(p.name) + "_stderr", std::string(p.unit)});
+  }
+  bands.push_back({"rmse", std::string(kRmseUnit)});
+  bands.push_back({"delta_e00_d65", std::string(kDeltaE00Unit)});
+  bands.push_back({"iterations", "solver steps"});
+  std::string terminations = "number:", reasons = "number:";
+  for (const auto& [termination, name] : termination_names())
+    terminations += fmt::format(" {} {}", static_cast<int>(termination), name);
+  for (const MaskReason reason : kMaskReasons) reasons += fmt::format(" {} {}", static_cast<int>(reason), to_string(reason));
+  bands.push_back({"termination", terminations});
+  bands.push_back({"mask", reasons});
+  return bands;
+}
+
+void MapTally::add(const MapTally& other) {
+  for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] += other.pixels[i];
+  iterations += other.iterations;
+  started_from_neighbour += other.started_from_neighbour;
+  restarted += other.restarted;
+}
+
+Mapper::Mapper(const Fitter& fitter, MapOptions options, const CubeInfo& cube)
+    : fitter_(fitter), options_(std::move(options)), cube_(cube), band_count_(map_bands(options_.fit.model).size()) {
+  for (std::size_t b = 0; b < cube_.bands; ++b) {
+    const double nm = cube_.wavelength_nm[b];
+    if (nm >= SkinOptics::kFirstNm && nm <= SkinOptics::kLastNm) fitted_bands_.push_back(b), fitted_nm_.push_back(nm);
+    if (nm >= kMinCoverFromNm && nm <= kMinCoverToNm) visible_bands_.push_back(b);
+  }
+  const SkinOptics& optics = fitter_.optics(options_.fit.model);
+  const auto site = optics.site(options_.fit.site);
+  if (!site || fitted_nm_.size() < 2) return;
+  const SkinModel model(optics, *site, fitted_nm_, options_.fit.lateral_diffusion);
+  for (const double melanin : kReferenceMelanin) {
+    Params p = default_params(options_.fit.model);
+    p[kMelanin] = melanin;
+    std::vector<double> r(fitted_nm_.size());
+    for (std::size_t i = 0; i < r.size(); ++i) r[i] = model.reflectance_at(i, p.data());
+    references_.push_back(unit_length(std::move(r)));
+  }
+}
+
+MaskReason Mapper::judge(std::span<const double> reflectance, bool clipped) const {
+  for (const double r : reflectance)
+    if (!std::isfinite(r)) return MaskReason::no_data;
+  if (clipped || std::ranges::any_of(reflectance, [](double r) { return r > 1; })) return MaskReason::saturated;
+  double visible = 0;
+  for (const std::size_t b : visible_bands_) visible += reflectance[b];
+  if (visible_bands_.empty() || visible / static_cast<double>(visible_bands_.size()) < options_.min_mean_reflectance)
+    return MaskReason::too_dark;
+  std::vector<double> fitted(fitted_bands_.size());
+  for (std::size_t i = 0; i < fitted.size(); ++i) fitted[i] = reflectance[fitted_bands_[i]];
+  const std::vector<double> direction = unit_length(std::move(fitted));
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& reference : references_) {
+    const double cosine = std::inner_product(direction.begin(), direction.end(), reference.begin(), 0.0);
+    best = std::min(best, std::acos(std::clamp(cosine, -1.0, 1.0)));
+  }
+  return best > options_.max_spectral_angle ? MaskReason::not_skin : MaskReason::skin;
+}
+
+void Mapper::map_line(std::span<const float> line, std::span<float> out, MapTally& tally) const {
+  std::optional<FitResult> left;  // the last fitted pixel's answer, while its right neighbour is skin
+  std::vector<double> reflectance(cube_.bands);
+  for (std::size_t s = 0; s < cube_.samples; ++s) {
+    const std::span<const float> stored = line.subspan(s * cube_.bands, cube_.bands);
+    const std::span<float> answer = out.subspan(s * band_count_, band_count_);
+    std::ranges::fill(answer, kNotDetermined);
+    bool clipped = false;
+    for (std::size_t b = 0; b < cube_.bands; ++b) {
+      const double v = stored[b];
+      if (cube_.ignore_value && v == *cube_.ignore_value) reflectance[b] = std::numeric_limits<double>::quiet_NaN();
+      else reflectance[b] = v / cube_.reflectance_scale;
+      clipped = clipped || (cube_.type_maximum && v == *cube_.type_maximum);
+    }
+    MaskReason reason = judge(reflectance, clipped);
+    std::optional<FitResult> fit;
+    if (reason == MaskReason::skin) {
+      const Spectrum spectrum = *Spectrum::create(cube_.wavelength_nm, reflectance);  // finite, increasing
+      FitOptions options = options_.fit;
+      if (options_.neighbour_starts && left) {
+        options.start = left->params;
+        auto started = fitter_.fit(spectrum, options);
+        ++tally.started_from_neighbour;
+        if (started && started->converged && started->rmse <= kRestartRatio * left->rmse + kRestartSlack)
+          fit = std::move(*started);
+        else ++tally.restarted;
+        options.start.reset();
+      }
+      if (!fit) {
+        auto searched = fitter_.fit(spectrum, options);
+        if (searched) fit = std::move(*searched);
+        else reason = MaskReason::not_fitted;
+      }
+    }
+    ++tally.pixels[static_cast<std::size_t>(reason)];
+    answer[band_count_ - 1] = static_cast<float>(reason);
+    left = fit;
+    if (!fit) continue;
+    tally.iterations += static_cast<std::size_t>(fit->iterations);
+    for (std::size_t p = 0; p < fit->params.size(); ++p)
+      if (fit->determination[p].determined()) {
+        answer[2 * p] = static_cast<float>(fit->params[p]);
+        answer[2 * p + 1] = static_cast<float>(fit->standard_error[p]);
+      }
+    const std::size_t figures = 2 * fit->params.size();
+    answer[figures] = static_cast<float>(fit->rmse);
+    answer[figures + 1] = static_cast<float>(fit->delta_e00_d65);
+    answer[figures + 2] = static_cast<float>(fit->iterations);
+    answer[figures + 3] = static_cast<float>(fit->termination ? static_cast<int>(*fit->termination) : -1);
+  }
+}
+
+std::vector<float> Mapper::map_lines(std::span<const float> values, std::size_t lines, MapTally& tally) const {
+  std::vector<float> out(lines * cube_.samples * band_count_);
+  std::vector<MapTally> tallies(lines);
+  const std::size_t stored = cube_.samples * cube_.bands, answered = cube_.samples * band_count_;
+  parallel_for(lines, options_.threads, [&](std::size_t l) {
+    map_line(values.subspan(l * stored, stored), std::span(out).subspan(l * answered, answered), tallies[l]);
+  });
+  for (const MapTally& t : tallies) tally.add(t);
+  return out;
+}
+
+}  // namespace skinspec::maps
