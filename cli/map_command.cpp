@@ -2,8 +2,14 @@
 // judged and fitted, the answers as an ENVI cube with a band per quantity, and a summary.
 
 #include <algorithm>
+#include <array>
 #include <atomic>
+#include <charconv>
+#include <cstdlib>
+#include <map>
+#include <optional>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fmt/format.h>
@@ -35,49 +41,167 @@ struct MapArgs {
   std::size_t block_lines = 32;
   unsigned threads = 0;
   bool no_neighbour_starts = false;
+  std::string format = "envi";
+  std::string shard;  // "I/N"
+  // Radiance cubes: the white panel (a cube of its own, or a region of each cube), its
+  // calibrated reflectance (a number or a spectra CSV), and a dark cube.
+  std::string white, white_roi, white_reflectance = "0.99", dark;
+  bool radiance() const { return !white.empty() || !white_roi.empty(); }
 };
 
-// Percentiles of each determined parameter over the skin pixels.
-struct Percentiles {
-  std::vector<std::vector<float>> values;  // per parameter
-  void add(std::span<const float> answers, std::size_t band_count, std::size_t params) {
-    for (std::size_t at = 0; at < answers.size(); at += band_count)
-      for (std::size_t p = 0; p < params; ++p)
-        if (!std::isnan(answers[at + 2 * p])) values[p].push_back(answers[at + 2 * p]);
-  }
-  nlohmann::json json(ModelKind model) {
-    nlohmann::json out = nlohmann::json::object();
-    const auto specs = model_spec(model).params;
-    for (std::size_t p = 0; p < values.size(); ++p) {
-      auto& v = values[p];
-      nlohmann::json entry = {{"unit", specs[p].unit}, {"determined_pixels", v.size()}};
-      std::ranges::sort(v);
-      for (const int q : {5, 25, 50, 75, 95})
-        entry[fmt::format("p{}", q)] =
-            v.empty() ? nlohmann::json(nullptr) : nlohmann::json(v[(v.size() - 1) * static_cast<std::size_t>(q) / 100]);
-      out[std::string(specs[p].name)] = entry;
-    }
-    return out;
-  }
-};
+std::optional<std::size_t> whole_number(std::string_view text) {
+  std::size_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || text.empty()) return std::nullopt;
+  return value;
+}
 
-void map_cube(const std::string& path, const MapArgs& args) {
+// --white-roi x,y,w,h.
+maps::Region region_of(const std::string& text) {
+  std::array<std::size_t, 4> v{};
+  std::string_view rest = text;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const auto comma = rest.find(',');
+    const auto value = whole_number(rest.substr(0, comma));
+    if (!value || (i < 3) == (comma == std::string_view::npos))
+      throw Failure{kBadInput, fmt::format("--white-roi {}: expected x,y,w,h in pixels", text)};
+    v[i] = *value;
+    rest.remove_prefix(comma == std::string_view::npos ? rest.size() : comma + 1);
+  }
+  if (v[2] == 0 || v[3] == 0) throw Failure{kBadInput, fmt::format("--white-roi {}: an empty region", text)};
+  return {v[0], v[1], v[2], v[3]};
+}
+
+maps::Cube open_cube(const std::string& path) {
   auto cube = maps::Cube::open(path);
   if (!cube) throw Failure{kBadInput, cube.error().what()};
+  return std::move(*cube);
+}
+
+std::vector<double> mean_of(const maps::Cube& cube, maps::Region region, const maps::CubeInfo& mapped) {
+  if (cube.info().wavelength_nm != mapped.wavelength_nm)
+    throw Failure{
+        kBadInput,
+        maps::CubeError{cube.info().file, "wavelength", fmt::format("not the bands of {}", mapped.file)}.what()};
+  auto mean = maps::mean_spectrum(cube, region);
+  if (!mean) throw Failure{kBadInput, mean.error().what()};
+  return std::move(*mean);
+}
+
+// The white panel's calibrated reflectance on the cube's bands: one number for every band, or
+// a spectra CSV's first spectrum, interpolated.
+std::vector<double> white_reflectance_on(const maps::CubeInfo& cube, const std::string& given) {
+  double flat = 0;
+  const auto [end, error] = std::from_chars(given.data(), given.data() + given.size(), flat);
+  if (error == std::errc() && end == given.data() + given.size()) {
+    if (!(flat > 0 && flat <= 1)) throw Failure{kBadInput, fmt::format("--white-reflectance {}: not in (0, 1]", given)};
+    return std::vector<double>(cube.bands, flat);
+  }
+  const auto spectra = read_spectra(given);
+  const Spectrum& white = spectra.front().spectrum;
+  std::vector<double> on_bands;
+  for (const double nm : cube.wavelength_nm) {
+    if (nm < white.first_nm() || nm > white.last_nm())
+      throw Failure{kBadInput,
+                    fmt::format("{}: the white's reflectance does not reach {} nm of {}", given, nm, cube.file)};
+    on_bands.push_back(white.at(nm));
+  }
+  return on_bands;
+}
+
+std::optional<maps::Radiometry> radiometry_of(const maps::Cube& cube, const MapArgs& args) {
+  if (!args.radiance()) {
+    if (!args.dark.empty()) throw Failure{kBadInput, "--dark is for radiance cubes: give --white or --white-roi too"};
+    return std::nullopt;
+  }
+  const maps::CubeInfo& info = cube.info();
+  const std::vector<double> white =
+      args.white.empty() ? mean_of(cube, region_of(args.white_roi), info) : mean_of(open_cube(args.white), {}, info);
+  const std::vector<double> dark = args.dark.empty() ? std::vector<double>{} : mean_of(open_cube(args.dark), {}, info);
+  auto r = maps::radiometry(info, white, white_reflectance_on(info, args.white_reflectance), dark);
+  if (!r) throw Failure{kBadInput, r.error().what()};
+  return std::move(*r);
+}
+
+// This process's share of the cubes: I of N (0 <= I < N) from --shard, else from a Slurm job
+// array's SLURM_ARRAY_TASK_ID (less SLURM_ARRAY_TASK_MIN) and SLURM_ARRAY_TASK_COUNT, else all.
+struct Shard {
+  std::size_t index = 0, count = 1;
+};
+
+Shard shard_of(const std::string& option) {
+  Shard shard;
+  if (!option.empty()) {
+    const auto slash = option.find('/');
+    const std::string_view text(option);
+    // A missing or malformed I or N reads as an empty share, which is refused.
+    const std::size_t count = slash == std::string::npos ? 0 : whole_number(text.substr(slash + 1)).value_or(0);
+    const std::size_t index = whole_number(text.substr(0, slash)).value_or(count);
+    if (index >= count) throw Failure{kBadInput, fmt::format("--shard {}: expected I/N with 0 <= I < N", option)};
+    return {index, count};
+  }
+  const char* id = std::getenv("SLURM_ARRAY_TASK_ID");
+  const char* count = std::getenv("SLURM_ARRAY_TASK_COUNT");
+  if (!id || !count) return shard;
+  const char* min = std::getenv("SLURM_ARRAY_TASK_MIN");
+  const auto task = whole_number(id), tasks = whole_number(count), first = whole_number(min ? min : "0");
+  if (!task || !tasks || !first || *tasks == 0 || *task < *first || *task - *first >= *tasks)
+    throw Failure{kBadInput, fmt::format("SLURM_ARRAY_TASK_ID={} SLURM_ARRAY_TASK_COUNT={} SLURM_ARRAY_TASK_MIN={}: "
+                                         "not a task of the array",
+                                         id, count, min ? min : "")};
+  return {*task - *first, *tasks};
+}
+
+// The cubes of this shard: every Nth of them in sorted order from the Ith, so that the same
+// list gives each task the same share whatever order the shell expanded it in.
+std::vector<std::string> cubes_of(std::vector<std::string> cubes, const Shard& shard) {
+  std::ranges::sort(cubes);
+  cubes.erase(std::unique(cubes.begin(), cubes.end()), cubes.end());
+  std::vector<std::string> share;
+  for (std::size_t i = shard.index; i < cubes.size(); i += shard.count) share.push_back(cubes[i]);
+  return share;
+}
+
+// Two cubes of one name would write the same files. (The same path twice is one cube.)
+void refuse_same_names(const std::vector<std::string>& cubes) {
+  std::map<std::string, std::string> by_name;
+  for (const auto& cube : cubes) {
+    const auto [at, added] = by_name.emplace(fs::path(cube).stem().string(), cube);
+    if (!added)
+      throw Failure{kBadInput, fmt::format("{} and {} would both be mapped to {}.*", at->second, cube, at->first)};
+  }
+}
+
+// Each parameter's unit, how many pixels determined it, and its percentiles over them.
+nlohmann::json parameters_json(const std::vector<maps::ParameterSummary>& summaries) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& p : summaries) {
+    nlohmann::json entry = {{"unit", p.band.unit}, {"determined_pixels", p.determined_pixels}};
+    for (std::size_t q = 0; q < maps::kSummaryPercentiles.size(); ++q)
+      entry[fmt::format("p{}", maps::kSummaryPercentiles[q])] =
+          std::isnan(p.percentiles[q]) ? nlohmann::json(nullptr) : nlohmann::json(p.percentiles[q]);
+    out[p.band.name] = entry;
+  }
+  return out;
+}
+
+void map_cube(const std::string& path, const MapArgs& args) {
+  const auto cube = std::make_unique<maps::Cube>(open_cube(path));
   const maps::CubeInfo& info = cube->info();
   maps::MapOptions options;
   options.fit.model = args.model;
   options.fit.site = args.site;
   options.neighbour_starts = !args.no_neighbour_starts;
   options.threads = args.threads;
+  options.radiance = radiometry_of(*cube, args);
   if (auto covered = maps::check_coverage(info); !covered) throw Failure{kBadInput, covered.error().what()};
   const maps::Mapper mapper(fitter(), options, info);
   const auto bands = maps::map_bands(args.model);
-  auto writer = maps::MapWriter::create(args.out, fs::path(path).stem().string(), info, bands);
+  auto writer = maps::MapWriter::create(args.out, fs::path(path).stem().string(), info, bands,
+                                        args.format == "tiff" ? maps::MapFormat::tiff : maps::MapFormat::envi);
   if (!writer) throw Failure{kFailure, writer.error()};
 
   maps::MapTally tally;
-  Percentiles percentiles{std::vector<std::vector<float>>(model_spec(args.model).params.size())};
   const auto started = Clock::now();
   auto reported = started;
   for (std::size_t first = 0; first < info.lines; first += args.block_lines) {
@@ -86,7 +210,6 @@ void map_cube(const std::string& path, const MapArgs& args) {
     auto values = cube->read_lines(first, count);
     if (!values) throw Failure{kBadInput, values.error().what()};
     const auto answers = mapper.map_lines(*values, count, tally);
-    percentiles.add(answers, bands.size(), model_spec(args.model).params.size());
     if (auto written = writer->write_lines(first, count, answers); !written) throw Failure{kFailure, written.error()};
     const auto now = Clock::now();
     if (now - reported > std::chrono::seconds(1)) {
@@ -98,6 +221,8 @@ void map_cube(const std::string& path, const MapArgs& args) {
     }
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
+  const auto parameters = writer->close(args.model, true);
+  if (!parameters) throw Failure{kFailure, parameters.error()};
   nlohmann::json by_reason = nlohmann::json::object();
   for (const maps::MaskReason reason : maps::kMaskReasons)
     by_reason[std::string(maps::to_string(reason))] = tally.pixels[static_cast<std::size_t>(reason)];
@@ -110,7 +235,7 @@ void map_cube(const std::string& path, const MapArgs& args) {
       {"samples", info.samples},
       {"bands", info.bands},
       {"pixels", by_reason},
-      {"parameters", percentiles.json(args.model)},
+      {"parameters", parameters_json(*parameters)},
       {"solver",
        {{"mean_iterations", skin ? static_cast<double>(tally.iterations) / static_cast<double>(skin) : 0.0},
         {"started_from_neighbour", tally.started_from_neighbour},
@@ -138,9 +263,25 @@ void add_map_command(CLI::App& app) {
   map->add_option("--threads", args->threads, "threads fitting lines; 0: one per core")->capture_default_str();
   map->add_flag("--no-neighbour-starts", args->no_neighbour_starts,
                 "start every pixel's fit from the coarse search instead of its left neighbour's answer");
+  map->add_option("--format", args->format, "the answer cube: envi (NAME.map.img, .hdr) or tiff (NAME.map.tif)")
+      ->check(CLI::IsMember({"envi", "tiff"}))
+      ->capture_default_str();
+  map->add_option("--white", args->white, "for radiance cubes: a cube of the white panel, its mean over every pixel");
+  map->add_option("--white-roi", args->white_roi,
+                  "for radiance cubes: the white panel as a region x,y,w,h (pixels) of each cube")
+      ->excludes("--white");
+  map->add_option("--white-reflectance", args->white_reflectance,
+                  "the white panel's calibrated reflectance: a number, or a spectra CSV")
+      ->capture_default_str();
+  map->add_option("--dark", args->dark, "for radiance cubes: a dark cube, its mean subtracted from cube and white");
+  map->add_option("--shard", args->shard,
+                  "map only share I of N (0 <= I < N) of the cubes, in sorted order; by default a Slurm job "
+                  "array's task");
   map->callback([args] {
+    refuse_same_names(cubes_of(args->cubes, {}));  // across every shard: they share DIR
+    const auto cubes = cubes_of(args->cubes, shard_of(args->shard));
     std::signal(SIGINT, on_interrupt);
-    for (const auto& cube : args->cubes) map_cube(cube, *args);
+    for (const auto& cube : cubes) map_cube(cube, *args);
   });
 }
 

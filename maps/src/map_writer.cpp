@@ -1,9 +1,13 @@
 #include "skinspec/maps/map_writer.hpp"
 
 #include "gdal_setup.hpp"
+#include "skinspec/maps/map_picture.hpp"
+#include "skinspec/render/png.hpp"
 
 #include <gdal_priv.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fmt/format.h>
 #include <fstream>
 #include <limits>
@@ -15,7 +19,7 @@ namespace skinspec::maps {
 namespace fs = std::filesystem;
 
 struct MapWriter::State {
-  fs::path dir, partial, name;
+  fs::path dir, partial, name, cube_file;
   std::size_t samples = 0, bands = 0;
   std::unique_ptr<GDALDataset> cube;
   bool finished = false;
@@ -44,7 +48,8 @@ MapWriter::~MapWriter() {
 }
 
 std::expected<MapWriter, std::string> MapWriter::create(const fs::path& dir, const std::string& name,
-                                                        const CubeInfo& cube, std::vector<MapBand> bands) {
+                                                        const CubeInfo& cube, std::vector<MapBand> bands,
+                                                        MapFormat format) {
   auto state = std::make_unique<State>();
   state->dir = dir;
   state->name = name;
@@ -55,14 +60,18 @@ std::expected<MapWriter, std::string> MapWriter::create(const fs::path& dir, con
   fs::create_directories(state->partial, error);
   if (error) return std::unexpected(fmt::format("{}: cannot create: {}", dir.string(), error.message()));
   detail::start_gdal();
-  GDALDriver* envi = GetGDALDriverManager()->GetDriverByName("ENVI");
-  if (!envi) return std::unexpected("GDAL has no ENVI driver");
-  const char* options[] = {"INTERLEAVE=BIL", nullptr};
-  // The header GDAL writes is the data file's name with ".hdr" for its extension: NAME.map.hdr.
-  const fs::path path = state->partial / (name + ".map.img");
-  state->cube.reset(envi->Create(path.c_str(), static_cast<int>(cube.samples), static_cast<int>(cube.lines),
-                                 static_cast<int>(bands.size()), GDT_Float32, const_cast<char**>(options)));
-  if (!state->cube) return std::unexpected(fmt::format("{}: cannot create: {}", path.string(), CPLGetLastErrorMsg()));
+  const bool envi = format == MapFormat::envi;
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName(envi ? "ENVI" : "GTiff");
+  if (!driver) return std::unexpected(fmt::format("GDAL has no {} driver", envi ? "ENVI" : "GTiff"));
+  // ENVI: the header GDAL writes is the data file's name with ".hdr" for its extension.
+  const char* envi_options[] = {"INTERLEAVE=BIL", nullptr};
+  const char* tiff_options[] = {"INTERLEAVE=BAND", "TILED=YES", "BIGTIFF=IF_SAFER", nullptr};
+  state->cube_file = state->partial / (name + (envi ? ".map.img" : ".map.tif"));
+  state->cube.reset(driver->Create(state->cube_file.c_str(), static_cast<int>(cube.samples),
+                                   static_cast<int>(cube.lines), static_cast<int>(bands.size()), GDT_Float32,
+                                   const_cast<char**>(envi ? envi_options : tiff_options)));
+  if (!state->cube)
+    return std::unexpected(fmt::format("{}: cannot create: {}", state->cube_file.string(), CPLGetLastErrorMsg()));
   std::string units = "{";
   for (std::size_t b = 0; b < bands.size(); ++b) {
     GDALRasterBand* band = state->cube->GetRasterBand(static_cast<int>(b + 1));
@@ -70,7 +79,10 @@ std::expected<MapWriter, std::string> MapWriter::create(const fs::path& dir, con
     band->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());  // not determined, or not skin
     units += (b ? ", " : " ") + header_item(bands[b].unit);
   }
-  state->cube->SetMetadataItem("band_units", (units + " }").c_str(), "ENVI");
+  if (envi) state->cube->SetMetadataItem("band_units", (units + " }").c_str(), "ENVI");
+  // A TIFF's bands carry their names (above) and units as GDAL band metadata.
+  for (std::size_t b = 0; b < bands.size() && !envi; ++b)
+    state->cube->GetRasterBand(static_cast<int>(b + 1))->SetMetadataItem("unit", bands[b].unit.c_str());
   state->cube->SetDescription(fmt::format("skinspec map of {}", cube.file).c_str());
   return MapWriter(std::move(state));
 }
@@ -87,12 +99,56 @@ std::expected<void, std::string> MapWriter::write_lines(std::size_t first, std::
   return {};
 }
 
-std::expected<std::vector<fs::path>, std::string> MapWriter::finish(const std::string& summary_json) {
+std::expected<std::vector<ParameterSummary>, std::string> MapWriter::close(ModelKind model, bool pictures) {
   CPLErrorReset();
   state_->cube->FlushCache(true);
   state_->cube.reset();  // closing writes the header
   if (CPLGetLastErrorType() >= CE_Failure)
     return std::unexpected(fmt::format("cannot write the map: {}", CPLGetLastErrorMsg()));
+  std::unique_ptr<GDALDataset> cube(GDALDataset::Open(state_->cube_file.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  if (!cube) return std::unexpected(fmt::format("cannot read the map back: {}", CPLGetLastErrorMsg()));
+  const auto lines = static_cast<std::size_t>(cube->GetRasterYSize());
+  const auto read_band = [&](int index) -> std::expected<std::vector<float>, std::string> {
+    std::vector<float> band(lines * state_->samples);
+    if (cube->GetRasterBand(index)->RasterIO(GF_Read, 0, 0, static_cast<int>(state_->samples), static_cast<int>(lines),
+                                             band.data(), static_cast<int>(state_->samples), static_cast<int>(lines),
+                                             GDT_Float32, 0, 0, nullptr) != CE_None)
+      return std::unexpected(fmt::format("cannot read the map back: {}", CPLGetLastErrorMsg()));
+    return band;
+  };
+  const auto mask = read_band(static_cast<int>(state_->bands));
+  if (!mask) return std::unexpected(mask.error());
+  const auto bands = map_bands(model);
+  std::vector<ParameterSummary> summaries;
+  for (std::size_t p = 0; p < model_spec(model).params.size(); ++p) {
+    const auto values = read_band(static_cast<int>(2 * p + 1));
+    if (!values) return std::unexpected(values.error());
+    std::vector<float> determined;
+    for (const float v : *values)
+      if (!std::isnan(v)) determined.push_back(v);
+    std::ranges::sort(determined);
+    const auto percentile = [&](int q) {
+      return determined.empty()
+                 ? std::numeric_limits<double>::quiet_NaN()
+                 : static_cast<double>(determined[(determined.size() - 1) * static_cast<std::size_t>(q) / 100]);
+    };
+    ParameterSummary summary{bands[2 * p], determined.size(), {}};
+    for (std::size_t q = 0; q < kSummaryPercentiles.size(); ++q)
+      summary.percentiles[q] = percentile(kSummaryPercentiles[q]);
+    summaries.push_back(summary);
+    if (!pictures) continue;
+    const auto picture = render::encode_png(
+        parameter_picture(*values, *mask, lines, state_->samples, bands[2 * p], percentile(2), percentile(98)), 8);
+    if (!picture) return std::unexpected(picture.error());
+    const fs::path png = state_->partial / fmt::format("{}.{}.png", state_->name.string(), bands[2 * p].name);
+    std::ofstream out(png, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(picture->data()), static_cast<std::streamsize>(picture->size()));
+    if (!out.flush()) return std::unexpected(fmt::format("{}: cannot write", png.string()));
+  }
+  return summaries;
+}
+
+std::expected<std::vector<fs::path>, std::string> MapWriter::finish(const std::string& summary_json) {
   {
     std::ofstream summary(state_->partial / (state_->name.string() + ".summary.json"));
     summary << summary_json << '\n';

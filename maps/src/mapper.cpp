@@ -76,7 +76,8 @@ std::vector<MapBand> map_bands(ModelKind model) {
   std::string terminations = "number:", reasons = "number:";
   for (const auto& [termination, name] : termination_names())
     terminations += fmt::format(" {} {}", static_cast<int>(termination), name);
-  for (const MaskReason reason : kMaskReasons) reasons += fmt::format(" {} {}", static_cast<int>(reason), to_string(reason));
+  for (const MaskReason reason : kMaskReasons)
+    reasons += fmt::format(" {} {}", static_cast<int>(reason), to_string(reason));
   bands.push_back({"termination", terminations});
   bands.push_back({"mask", reasons});
   return bands;
@@ -87,6 +88,52 @@ void MapTally::add(const MapTally& other) {
   iterations += other.iterations;
   started_from_neighbour += other.started_from_neighbour;
   restarted += other.restarted;
+}
+
+std::expected<std::vector<double>, CubeError> mean_spectrum(const Cube& cube, Region region) {
+  const CubeInfo& info = cube.info();
+  if (region.w == 0 || region.h == 0) region = {0, 0, info.samples, info.lines};
+  if (region.x + region.w > info.samples || region.y + region.h > info.lines)
+    return std::unexpected(CubeError{info.file, "",
+                                     fmt::format("the region {},{},{},{} is not inside its {} × {} pixels", region.x,
+                                                 region.y, region.w, region.h, info.samples, info.lines)});
+  std::vector<double> sum(info.bands, 0.0);
+  constexpr std::size_t kBlock = 32;
+  for (std::size_t first = region.y; first < region.y + region.h; first += kBlock) {
+    const std::size_t count = std::min(kBlock, region.y + region.h - first);
+    const auto values = cube.read_lines(first, count);
+    if (!values) return std::unexpected(values.error());
+    for (std::size_t l = 0; l < count; ++l)
+      for (std::size_t s = region.x; s < region.x + region.w; ++s)
+        for (std::size_t b = 0; b < info.bands; ++b) {
+          const double v = (*values)[(l * info.samples + s) * info.bands + b];
+          if (!std::isfinite(v) || (info.ignore_value && v == *info.ignore_value) ||
+              (info.type_maximum && v == *info.type_maximum))
+            return std::unexpected(CubeError{
+                info.file, "",
+                fmt::format("pixel {},{} at {} nm is missing or saturated", s, first + l, info.wavelength_nm[b])});
+          sum[b] += v;
+        }
+  }
+  for (double& v : sum) v /= static_cast<double>(region.w * region.h);
+  return sum;
+}
+
+std::expected<Radiometry, CubeError> radiometry(const CubeInfo& cube, const std::vector<double>& white,
+                                                const std::vector<double>& white_reflectance,
+                                                const std::vector<double>& dark) {
+  Radiometry r{dark.empty() ? std::vector<double>(cube.bands, 0.0) : dark, std::vector<double>(cube.bands)};
+  if (white.size() != cube.bands || white_reflectance.size() != cube.bands || r.dark.size() != cube.bands)
+    return std::unexpected(
+        CubeError{cube.file, "bands", "the white, its reflectance and the dark need one value a band"});
+  for (std::size_t b = 0; b < cube.bands; ++b) {
+    if (!(white[b] > r.dark[b]))
+      return std::unexpected(CubeError{cube.file, "white",
+                                       fmt::format("at {} nm the white ({}) is not above the dark ({})",
+                                                   cube.wavelength_nm[b], white[b], r.dark[b])});
+    r.gain[b] = white_reflectance[b] / (white[b] - r.dark[b]);
+  }
+  return r;
 }
 
 Mapper::Mapper(const Fitter& fitter, MapOptions options, const CubeInfo& cube)
@@ -139,6 +186,7 @@ void Mapper::map_line(std::span<const float> line, std::span<float> out, MapTall
     for (std::size_t b = 0; b < cube_.bands; ++b) {
       const double v = stored[b];
       if (cube_.ignore_value && v == *cube_.ignore_value) reflectance[b] = std::numeric_limits<double>::quiet_NaN();
+      else if (options_.radiance) reflectance[b] = (v - options_.radiance->dark[b]) * options_.radiance->gain[b];
       else reflectance[b] = v / cube_.reflectance_scale;
       clipped = clipped || (cube_.type_maximum && v == *cube_.type_maximum);
     }

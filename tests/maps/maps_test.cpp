@@ -5,14 +5,19 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fmt/format.h>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <string>
 #include <unistd.h>
 
+#include "skinspec/maps/colour_map.hpp"
+#include "skinspec/maps/map_picture.hpp"
 #include "skinspec/maps/mapper.hpp"
+#include "skinspec/spectral/colour.hpp"
 #include "support/data.hpp"
 #include "support/envi_cube.hpp"
 
@@ -320,6 +325,69 @@ TEST_F(MapsTest, PixelsThatCannotBeFittedAreMaskedWithTheirReason) {
   for (std::size_t b = 0; b < n; ++b) dark[b] = skin[b] / 100;
   EXPECT_EQ(mapper.judge(dark, false), MaskReason::too_dark);
   EXPECT_EQ(mapper.judge(std::vector<double>(n, 0.4), false), MaskReason::not_skin);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The pictures' colour map and a picture.
+
+// Linear sRGB to CIELAB with the IEC 61966-2-1 matrix to XYZ, written out here: the map's own
+// conversion goes the other way, through spectral/'s matrix.
+Lab lab_of_linear_srgb(const std::array<double, 3>& rgb) {
+  const Xyz xyz{0.4124 * rgb[0] + 0.3576 * rgb[1] + 0.1805 * rgb[2],
+                0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2],
+                0.0193 * rgb[0] + 0.1192 * rgb[1] + 0.9505 * rgb[2]};
+  return xyz_to_lab(xyz, {0.95047, 1.0, 1.08883});
+}
+
+TEST(ColourMap, IsInsideSrgbAndItsStepsLookAlike) {
+  constexpr int kSteps = 256;
+  std::vector<double> steps;
+  double lightness = -1;
+  for (int i = 0; i < kSteps; ++i) {
+    const double t = static_cast<double>(i) / (kSteps - 1);
+    const auto rgb = map_linear_srgb(t);
+    for (const double c : rgb) {
+      EXPECT_GE(c, -1e-9) << t;
+      EXPECT_LE(c, 1 + 1e-9) << t;
+    }
+    const Lab lab = lab_of_linear_srgb(rgb);
+    const LabColour intended = map_lab(t);
+    EXPECT_NEAR(lab.l, intended.l, 0.01) << t;
+    EXPECT_NEAR(lab.a, intended.a, 0.05) << t;
+    EXPECT_NEAR(lab.b, intended.b, 0.05) << t;
+    EXPECT_GT(lab.l, lightness) << t;  // reads dark to light, in grey too
+    lightness = lab.l;
+    if (i > 0) steps.push_back(delta_e2000(lab_of_linear_srgb(map_linear_srgb(t - 1.0 / (kSteps - 1))), lab));
+  }
+  // Equal steps of the map are equal in CIELAB by construction; in CIEDE2000, computed
+  // independently (spectral/colour.hpp), they stay within a factor of kMostUneven of each other.
+  constexpr double kMostUneven = 2.0;
+  EXPECT_LT(std::ranges::max(steps) / std::ranges::min(steps), kMostUneven);
+  RecordProperty("ciede2000_step_ratio", fmt::format("{:.3f}", std::ranges::max(steps) / std::ranges::min(steps)));
+}
+
+TEST(MapPicture, DrawsValuesNotDeterminedAndMaskedPixelsAndTheBar) {
+  // One line of four pixels: the lowest value, the highest, not determined, not skin.
+  const std::vector<float> values = {1.0f, 3.0f, std::nanf(""), std::nanf("")};
+  const std::vector<float> mask = {0, 0, 0, static_cast<float>(MaskReason::not_skin)};
+  const render::Image picture = parameter_picture(values, mask, 1, 4, {"melanin", "x 1 %"}, 1.0, 3.0);
+  const int enlarge = 256 / 4, at_y = 8 + enlarge / 2;
+  const auto near = [](const render::Rgb& got, const std::array<double, 3>& want) {
+    return std::abs(static_cast<double>(got.r) - want[0]) < 1e-6 &&
+           std::abs(static_cast<double>(got.g) - want[1]) < 1e-6 &&
+           std::abs(static_cast<double>(got.b) - want[2]) < 1e-6;
+  };
+  EXPECT_TRUE(near(picture.at(8 + enlarge / 2, at_y), map_linear_srgb(0)));
+  EXPECT_TRUE(near(picture.at(8 + enlarge + enlarge / 2, at_y), map_linear_srgb(1)));
+  EXPECT_TRUE(near(picture.at(8 + 2 * enlarge + enlarge / 2, at_y), lab_to_linear_srgb(kNotDeterminedLab)));
+  EXPECT_TRUE(near(picture.at(8 + 3 * enlarge + enlarge / 2, at_y), lab_to_linear_srgb(kMaskedLab)));
+  // The bar, right of the map: a column 256 pixels high from the map's end down to its start.
+  bool found = false;
+  for (int x = 8 + 4 * enlarge; x < picture.width() && !found; ++x)
+    for (int y = 0; y + 255 < picture.height() && !found; ++y)
+      found = near(picture.at(x, y), map_linear_srgb(1)) && near(picture.at(x, y + 255), map_linear_srgb(0)) &&
+              near(picture.at(x, y + 128), map_linear_srgb(1 - 128.0 / 255));
+  EXPECT_TRUE(found) << "no colour bar";
 }
 
 }  // namespace

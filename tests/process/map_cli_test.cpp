@@ -6,17 +6,22 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fmt/format.h>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <unistd.h>
 
 #include "skinspec/testkit/process.hpp"
 #include "support/envi_cube.hpp"
+#include "support/png_reader.hpp"
 
 namespace skinspec {
 namespace {
@@ -30,6 +35,13 @@ constexpr int kInterrupted = 130;
 
 testing::ProcessResult skinspec(const std::vector<std::string>& args) {
   return testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args);
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
 }
 
 std::string bytes_of(const fs::path& file) {
@@ -154,6 +166,109 @@ TEST_F(MapCli, SigintStopsAMapAndLeavesNothingUnderItsNames) {
   EXPECT_EQ(result.exit_status, kInterrupted) << result.describe();
   EXPECT_THAT(result.err, HasSubstr("interrupted"));
   EXPECT_THAT(left_in(out), ::testing::IsEmpty());
+}
+
+// The floats of an ENVI map (a band per quantity, band-interleaved by line).
+std::vector<float> floats_of(const fs::path& file) {
+  const std::string bytes = bytes_of(file);
+  std::vector<float> values(bytes.size() / sizeof(float));
+  std::memcpy(values.data(), bytes.data(), values.size() * sizeof(float));
+  return values;
+}
+
+TEST_F(MapCli, ARadianceCubeWithAWhiteRegionAndADarkMapsAsItsReflectance) {
+  // Line 0 is the white panel (reflectance 0.99); the rest is skin. The light rises towards
+  // the red; the dark is a constant offset.
+  CubeValues reflectance = skin_cube(5, 6);
+  for (std::size_t s = 0; s < reflectance.samples; ++s)
+    for (std::size_t b = 0; b < reflectance.bands; ++b) reflectance.at(0, s, b) = 0.99;
+  CubeValues radiance = reflectance, dark{2, 2, reflectance.bands, reflectance.wavelength_nm, {}};
+  constexpr double kDark = 40;
+  for (std::size_t l = 0; l < radiance.lines; ++l)
+    for (std::size_t s = 0; s < radiance.samples; ++s)
+      for (std::size_t b = 0; b < radiance.bands; ++b)
+        radiance.at(l, s, b) = reflectance.at(l, s, b) * (500 + 2 * radiance.wavelength_nm[b]) + kDark;
+  dark.values.assign(2 * 2 * dark.bands, kDark);
+  write_envi(dir_ / "reflectance", reflectance, {});
+  write_envi(dir_ / "radiance", radiance, {});
+  write_envi(dir_ / "dark", dark, {});
+  const auto by_reflectance = skinspec({"map", (dir_ / "reflectance.hdr").string(), "-o", (dir_ / "out").string()});
+  ASSERT_EQ(by_reflectance.exit_status, 0) << by_reflectance.describe();
+  const auto by_radiance = skinspec({"map", (dir_ / "radiance.hdr").string(), "-o", (dir_ / "out").string(),
+                                     "--white-roi", "0,0,6,1", "--dark", (dir_ / "dark.hdr").string()});
+  ASSERT_EQ(by_radiance.exit_status, 0) << by_radiance.describe();
+  const auto expected = floats_of(dir_ / "out" / "reflectance.map.img");
+  const auto got = floats_of(dir_ / "out" / "radiance.map.img");
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    if (std::isnan(expected[i])) {
+      EXPECT_TRUE(std::isnan(got[i])) << i;
+    } else {
+      EXPECT_NEAR(got[i], expected[i], 1e-3 * std::abs(static_cast<double>(expected[i])) + 1e-6) << i;
+    }
+  }
+  // Without a white, --dark is refused; a white region outside the cube names it.
+  const auto no_white = skinspec(
+      {"map", (dir_ / "radiance.hdr").string(), "-o", (dir_ / "o2").string(), "--dark", (dir_ / "dark.hdr").string()});
+  EXPECT_EQ(no_white.exit_status, kBadInput) << no_white.describe();
+  const auto outside =
+      skinspec({"map", (dir_ / "radiance.hdr").string(), "-o", (dir_ / "o3").string(), "--white-roi", "4,4,6,6"});
+  EXPECT_EQ(outside.exit_status, kBadInput) << outside.describe();
+  EXPECT_THAT(outside.err, HasSubstr("not inside"));
+  EXPECT_THAT(left_in(dir_ / "o2"), ::testing::IsEmpty());
+  EXPECT_THAT(left_in(dir_ / "o3"), ::testing::IsEmpty());
+}
+
+TEST_F(MapCli, AFloatTiffMapHoldsWhatTheEnviMapHoldsAndEachParameterHasAPicture) {
+  write_envi(dir_ / "face", skin_cube(6, 5), {});
+  const auto envi = skinspec({"map", (dir_ / "face.hdr").string(), "-o", (dir_ / "envi").string()});
+  ASSERT_EQ(envi.exit_status, 0) << envi.describe();
+  const auto tiff = skinspec({"map", (dir_ / "face.hdr").string(), "-o", (dir_ / "tiff").string(), "--format", "tiff"});
+  ASSERT_EQ(tiff.exit_status, 0) << tiff.describe();
+  EXPECT_TRUE(fs::exists(dir_ / "tiff" / "face.map.tif"));
+  // Each summary is computed from the cube as written and read back.
+  auto from_envi = nlohmann::json::parse(bytes_of(dir_ / "envi" / "face.summary.json"));
+  auto from_tiff = nlohmann::json::parse(bytes_of(dir_ / "tiff" / "face.summary.json"));
+  EXPECT_EQ(from_tiff["parameters"], from_envi["parameters"]);
+  EXPECT_EQ(from_tiff["pixels"], from_envi["pixels"]);
+  for (const char* parameter : {"surface_reflectance", "melanin", "total_hemoglobin", "oxygen_saturation", "bilirubin",
+                                "dermis_scattering", "dermis_scattering_power"}) {
+    const auto png = testing::decode_png(bytes_of(dir_ / "envi" / fmt::format("face.{}.png", parameter)));
+    ASSERT_TRUE(png) << parameter;
+    EXPECT_GE(png->height, 256) << parameter;
+    EXPECT_GT(png->width, png->height) << parameter;  // the map, then the colour bar beside it
+  }
+}
+
+TEST_F(MapCli, ShardsSplitTheCubesTheSameWayInEveryTask) {
+  for (const char* name : {"c", "a", "b"}) write_envi(dir_ / name, skin_cube(1, 2), {});
+  const auto mapped = [&](const std::vector<std::string>& extra, const std::vector<std::string>& environment) {
+    std::vector<std::string> args = {
+        "map", (dir_ / "c.hdr").string(), (dir_ / "a.hdr").string(), (dir_ / "b.hdr").string(),
+        "-o",  (dir_ / "out").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    testing::ProcessOptions options;
+    options.environment = environment;
+    const auto run = testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args, options);
+    EXPECT_EQ(run.exit_status, 0) << run.describe();
+    std::vector<std::string> cubes;
+    for (const auto& line : lines_of(run.out))
+      if (line.ends_with(".summary.json")) cubes.push_back(fs::path(line).stem().stem().string());
+    return cubes;
+  };
+  EXPECT_EQ(mapped({"--shard", "0/2"}, {}), (std::vector<std::string>{"a", "c"}));
+  EXPECT_EQ(mapped({"--shard", "1/2"}, {}), (std::vector<std::string>{"b"}));
+  EXPECT_EQ(mapped({}, {"SLURM_ARRAY_TASK_ID=4", "SLURM_ARRAY_TASK_COUNT=2", "SLURM_ARRAY_TASK_MIN=3"}),
+            (std::vector<std::string>{"b"}));
+  EXPECT_EQ(mapped({}, {}), (std::vector<std::string>{"a", "b", "c"}));
+  const auto bad = skinspec({"map", (dir_ / "a.hdr").string(), "-o", (dir_ / "out").string(), "--shard", "2/2"});
+  EXPECT_EQ(bad.exit_status, kBadInput) << bad.describe();
+  fs::create_directories(dir_ / "other");
+  write_envi(dir_ / "other" / "a", skin_cube(1, 2), {});
+  const auto twice =
+      skinspec({"map", (dir_ / "a.hdr").string(), (dir_ / "other" / "a.hdr").string(), "-o", (dir_ / "out2").string()});
+  EXPECT_EQ(twice.exit_status, kBadInput) << twice.describe();
+  EXPECT_THAT(twice.err, HasSubstr("would both be mapped"));
 }
 
 }  // namespace

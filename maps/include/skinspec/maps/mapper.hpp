@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <expected>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -33,8 +34,16 @@ std::string_view to_string(MaskReason reason);
 // fit needs (kMinCoverFromNm, kMinCoverToNm).
 std::expected<void, CubeError> check_coverage(const CubeInfo& cube);
 
+// How a radiance cube becomes reflectance, band by band: (stored - dark) × gain, with gain the
+// white panel's calibrated reflectance over (white - dark) (docs/maps.md, "Radiance cubes").
+struct Radiometry {
+  std::vector<double> dark, gain;
+};
+
 struct MapOptions {
   FitOptions fit;  // model, site, lateral diffusion (weights and starts are the mapper's)
+  // Empty for a reflectance cube: stored values over its reflectance scale factor.
+  std::optional<Radiometry> radiance;
   // The spectral-angle test against skin (docs/maps.md, "Which pixels are skin").
   double max_spectral_angle = 0.2;
   double min_mean_reflectance = 0.02;
@@ -60,6 +69,23 @@ struct MapTally {
   std::size_t restarted = 0;  // a neighbour's start that ended worse, fitted again from the coarse search
   void add(const MapTally& other);
 };
+
+// A rectangle of a cube's pixels: from sample x, line y, w samples wide and h lines high.
+struct Region {
+  std::size_t x = 0, y = 0, w = 0, h = 0;
+};
+
+// The mean stored spectrum over a region of a cube (the whole cube when w or h is 0), read in
+// blocks of lines. Errors: a region outside the cube, a pixel with NaN, the ignore value or the
+// type's largest value (a saturated white).
+std::expected<std::vector<double>, CubeError> mean_spectrum(const Cube& cube, Region region = {});
+
+// The radiometry of a radiance cube from the white panel's mean spectrum, its calibrated
+// reflectance on the cube's bands, and the dark's mean spectrum (empty: none). Errors name
+// `white`: a band where the white is not above the dark.
+std::expected<Radiometry, CubeError> radiometry(const CubeInfo& cube, const std::vector<double>& white,
+                                                const std::vector<double>& white_reflectance,
+                                                const std::vector<double>& dark);
 
 class Mapper {
  public:
