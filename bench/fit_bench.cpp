@@ -105,6 +105,31 @@ BENCHMARK(FitOne)
     ->Repetitions(5)
     ->ReportAggregatesOnly(true);
 
+// A fit started from its own answer (FitOptions::start): what a fit costs beyond its solver's
+// steps, as a map's pixel started from a neighbour that is nearly the same skin does.
+void FitFromAnswer(benchmark::State& state) {
+  const ModelKind kind = model_of(state);
+  const auto spectra = synthetic_spectra(kind, 64);
+  std::vector<FitOptions> started;
+  for (const Spectrum& spectrum : spectra) {
+    FitOptions options;
+    options.model = kind;
+    options.start = fitter().fit(spectrum, options)->params;
+    started.push_back(options);
+  }
+  std::size_t i = 0;
+  double iterations = 0;
+  for (auto _ : state) {
+    auto fit = fitter().fit(spectra[i % spectra.size()], started[i % spectra.size()]);
+    ++i;
+    if (fit) iterations += fit->iterations;
+    benchmark::DoNotOptimize(fit);
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["solver_iterations"] = benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
+}
+BENCHMARK(FitFromAnswer)->ArgName("extended")->Arg(1);
+
 void FitBatch(benchmark::State& state) {
   const ModelKind kind = model_of(state);
   const auto spectra = synthetic_spectra(kind, static_cast<std::size_t>(state.range(1)));

@@ -176,7 +176,12 @@ MaskReason Mapper::judge(std::span<const double> reflectance, bool clipped) cons
 }
 
 void Mapper::map_line(std::span<const float> line, std::span<float> out, MapTally& tally) const {
-  std::optional<FitResult> left;  // the last fitted pixel's answer, while its right neighbour is skin
+  // The last fitted pixel's answer and RMSE, while its right neighbour is skin.
+  struct Neighbour {
+    Params params;
+    double rmse;
+  };
+  std::optional<Neighbour> left;
   std::vector<double> reflectance(cube_.bands);
   for (std::size_t s = 0; s < cube_.samples; ++s) {
     const std::span<const float> stored = line.subspan(s * cube_.bands, cube_.bands);
@@ -212,8 +217,9 @@ void Mapper::map_line(std::span<const float> line, std::span<float> out, MapTall
     }
     ++tally.pixels[static_cast<std::size_t>(reason)];
     answer[band_count_ - 1] = static_cast<float>(reason);
-    left = fit;
+    left.reset();
     if (!fit) continue;
+    left = Neighbour{fit->params, fit->rmse};
     tally.iterations += static_cast<std::size_t>(fit->iterations);
     for (std::size_t p = 0; p < fit->params.size(); ++p)
       if (fit->determination[p].determined()) {
