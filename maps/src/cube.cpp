@@ -160,7 +160,9 @@ std::optional<CubeError> envi_size_error(GDALDataset& d, const CubeInfo& info) {
   if (data_file.empty() || VSIStatL(data_file.c_str(), &stat) != 0) return std::nullopt;
   const auto offset = number(envi_item(d, "header offset") ? envi_item(d, "header offset") : "0").value_or(0);
   const auto bytes = static_cast<double>(GDALGetDataTypeSizeBytes(d.GetRasterBand(1)->GetRasterDataType()));
-  const double needed = offset + static_cast<double>(info.lines * info.samples * info.bands) * bytes;
+  // In floating point: a header's sizes may multiply past any integer type.
+  const double needed = offset + static_cast<double>(info.lines) * static_cast<double>(info.samples) *
+                                     static_cast<double>(info.bands) * bytes;
   if (static_cast<double>(stat.st_size) == needed) return std::nullopt;
   return CubeError{info.file, "lines",
                    fmt::format("{} samples × {} lines × {} bands of {} bytes after a header offset of {} need {} "

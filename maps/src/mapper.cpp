@@ -106,7 +106,7 @@ std::expected<std::vector<double>, CubeError> mean_spectrum(const Cube& cube, Re
     for (std::size_t l = 0; l < count; ++l)
       for (std::size_t s = region.x; s < region.x + region.w; ++s)
         for (std::size_t b = 0; b < info.bands; ++b) {
-          const double v = (*values)[(l * info.samples + s) * info.bands + b];
+          const auto v = static_cast<double>((*values)[(l * info.samples + s) * info.bands + b]);
           if (!std::isfinite(v) || (info.ignore_value && v == *info.ignore_value) ||
               (info.type_maximum && v == *info.type_maximum))
             return std::unexpected(CubeError{
@@ -189,7 +189,7 @@ void Mapper::map_line(std::span<const float> line, std::span<float> out, MapTall
     std::ranges::fill(answer, kNotDetermined);
     bool clipped = false;
     for (std::size_t b = 0; b < cube_.bands; ++b) {
-      const double v = stored[b];
+      const auto v = static_cast<double>(stored[b]);
       if (cube_.ignore_value && v == *cube_.ignore_value) reflectance[b] = std::numeric_limits<double>::quiet_NaN();
       else if (options_.radiance) reflectance[b] = (v - options_.radiance->dark[b]) * options_.radiance->gain[b];
       else reflectance[b] = v / cube_.reflectance_scale;

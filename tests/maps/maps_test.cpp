@@ -293,7 +293,7 @@ TEST_F(MapsTest, ASyntheticCubeIsRecoveredPixelByPixelAsSkinspecFitRecoversEach)
       const auto fit = fitter.fit(*Spectrum::create(values.wavelength_nm, spectrum), options);
       ASSERT_TRUE(fit) << fit.error();
       // Never worse than `skinspec fit`; where that found the same minimum, the same answer.
-      const double rmse = answer[2 * kExtendedParamCount];
+      const auto rmse = static_cast<double>(answer[2 * kExtendedParamCount]);
       EXPECT_LE(rmse, fit->rmse * (1 + 1e-4)) << l << "," << s;
       const bool same_minimum = rmse >= fit->rmse * (1 - 1e-4);
       better_than_fit += same_minimum ? 0 : 1;
