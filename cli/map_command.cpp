@@ -27,11 +27,10 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-// Exit status of a map stopped by SIGINT, as a shell reports a process it killed.
-constexpr int kInterrupted = 130;
-
-std::atomic<bool> g_interrupted{false};
-extern "C" void on_interrupt(int) { g_interrupted = true; }
+// SIGINT (Ctrl-C) or SIGTERM (a scheduler's time limit, `scancel`) stop a map between blocks of
+// lines; it exits with 128 + the signal's number, as a shell reports a process it killed.
+std::atomic<int> g_stopped_by{0};
+extern "C" void on_stop(int signal) { g_stopped_by = signal; }
 
 struct MapArgs {
   std::vector<std::string> cubes;
@@ -205,7 +204,9 @@ void map_cube(const std::string& path, const MapArgs& args) {
   const auto started = Clock::now();
   auto reported = started;
   for (std::size_t first = 0; first < info.lines; first += args.block_lines) {
-    if (g_interrupted) throw Failure{kInterrupted, fmt::format("{}: interrupted; nothing was written", path)};
+    if (const int signal = g_stopped_by)
+      throw Failure{128 + signal, fmt::format("{}: stopped by {}; nothing was written", path,
+                                              signal == SIGINT ? "SIGINT" : "SIGTERM")};
     const std::size_t count = std::min(args.block_lines, info.lines - first);
     auto values = cube->read_lines(first, count);
     if (!values) throw Failure{kBadInput, values.error().what()};
@@ -280,7 +281,10 @@ void add_map_command(CLI::App& app) {
   map->callback([args] {
     refuse_same_names(cubes_of(args->cubes, {}));  // across every shard: they share DIR
     const auto cubes = cubes_of(args->cubes, shard_of(args->shard));
-    std::signal(SIGINT, on_interrupt);
+    std::signal(SIGINT, on_stop);
+    std::signal(SIGTERM, on_stop);
+    if (fs::exists(args->out) && !fs::is_directory(args->out))
+      throw Failure{kBadInput, fmt::format("-o {}: not a directory", args->out)};
     for (const auto& cube : cubes) map_cube(cube, *args);
   });
 }

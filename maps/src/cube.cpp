@@ -215,7 +215,17 @@ std::expected<Cube, CubeError> Cube::open(const std::string& path) {
   info.lines = static_cast<std::size_t>(d.GetRasterYSize());
   info.samples = static_cast<std::size_t>(d.GetRasterXSize());
   info.bands = static_cast<std::size_t>(d.GetRasterCount());
-  if (info.bands == 0) return std::unexpected(CubeError{path, "bands", "the image has no bands"});
+  if (info.bands == 0) {
+    // HDF5 (and MATLAB v7.3) files hold several datasets: GDAL names each as a subdataset.
+    std::string names;
+    for (char** item = d.GetMetadata("SUBDATASETS"); item && *item; ++item)
+      if (std::string_view entry(*item); entry.find("_NAME=") != std::string_view::npos)
+        names += fmt::format("{}{}", names.empty() ? "" : ", ", entry.substr(entry.find('=') + 1));
+    return std::unexpected(CubeError{path, "bands",
+                                     names.empty()
+                                         ? "the image has no bands"
+                                         : fmt::format("the file holds several datasets; name one: {}", names)});
+  }
   const GDALDataType type = d.GetRasterBand(1)->GetRasterDataType();
   if (GDALDataTypeIsComplex(type))
     return std::unexpected(

@@ -1,6 +1,7 @@
 // `skinspec map` through the built program: a cube written by Debian's python3-spectral (SPy)
 // maps exactly as the same cube written here; a bad cube ends with exit 2 naming the file and
-// the header field, and leaves nothing under the output's names; SIGINT stops a map cleanly.
+// the header field, and leaves nothing under the output's names; SIGINT and SIGTERM stop a map
+// cleanly.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -31,7 +32,6 @@ using testing::CubeValues;
 using ::testing::HasSubstr;
 
 constexpr int kBadInput = 2;
-constexpr int kInterrupted = 130;
 
 testing::ProcessResult skinspec(const std::vector<std::string>& args) {
   return testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args);
@@ -163,9 +163,27 @@ TEST_F(MapCli, SigintStopsAMapAndLeavesNothingUnderItsNames) {
   ASSERT_FALSE(left_in(out).empty());
   map.send_signal(SIGINT);
   const auto result = map.wait(std::chrono::seconds(30));
-  EXPECT_EQ(result.exit_status, kInterrupted) << result.describe();
-  EXPECT_THAT(result.err, HasSubstr("interrupted"));
+  EXPECT_EQ(result.exit_status, 128 + SIGINT) << result.describe();
+  EXPECT_THAT(result.err, HasSubstr("stopped by SIGINT"));
   EXPECT_THAT(left_in(out), ::testing::IsEmpty());
+}
+
+// A scheduler's time limit (Slurm sends SIGTERM) stops a map as cleanly.
+TEST_F(MapCli, SigtermStopsAMapAndLeavesNothingUnderItsNames) {
+  write_envi(dir_ / "large", skin_cube(400, 300), {});
+  const fs::path out = dir_ / "out";
+  testing::BackgroundProcess map(SKINSPEC_TEST_BIN_DIR "/skinspec",
+                                 {"map", (dir_ / "large.hdr").string(), "-o", out.string(), "--block-lines", "4"});
+  ASSERT_TRUE(map.started()) << map.start_error();
+  for (int i = 0; i < 200 && left_in(out).empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_FALSE(left_in(out).empty());
+  map.send_signal(SIGTERM);
+  const auto result = map.wait(std::chrono::seconds(30));
+  EXPECT_EQ(result.exit_status, 128 + SIGTERM) << result.describe();
+  EXPECT_THAT(left_in(out), ::testing::IsEmpty());
+  std::ofstream(dir_ / "a-file") << "x";
+  const auto not_a_directory = skinspec({"map", (dir_ / "large.hdr").string(), "-o", (dir_ / "a-file").string()});
+  EXPECT_EQ(not_a_directory.exit_status, kBadInput) << not_a_directory.describe();
 }
 
 // The floats of an ENVI map (a band per quantity, band-interleaved by line).
