@@ -5,6 +5,7 @@
 #include <gdal_priv.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -24,7 +25,12 @@ std::string CubeError::what() const {
 }
 
 struct Cube::Dataset {
-  std::unique_ptr<GDALDataset> gdal;
+  std::unique_ptr<GDALDataset> gdal;  // an image: ENVI, TIFF, ...
+  // Or a container of arrays (HDF5, netCDF) and its cube's array, with which of its dimensions
+  // runs along the bands, the samples and the lines.
+  std::unique_ptr<GDALDataset> container;
+  std::shared_ptr<GDALMDArray> array;
+  std::size_t band_dim = 0, sample_dim = 0, line_dim = 0;
 };
 
 namespace {
@@ -99,6 +105,17 @@ const char* envi_item(GDALDataset& d, std::string_view field) {
   return d.GetMetadataItem(key.c_str(), "ENVI");
 }
 
+// Finite and increasing, or an error naming the wavelength field.
+std::expected<std::vector<double>, CubeError> increasing(std::vector<double> values, const std::string& file) {
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if (!std::isfinite(values[i]) || (i > 0 && !(values[i] > values[i - 1])))
+      return std::unexpected(CubeError{file, "wavelength",
+                                       i > 0
+                                           ? fmt::format("not increasing: {} nm after {} nm", values[i], values[i - 1])
+                                           : fmt::format("not a wavelength: {}", values[i])});
+  return values;
+}
+
 // The band centres in nm: the ENVI header's list, else each band's "wavelength" item.
 std::expected<std::vector<double>, CubeError> wavelengths(GDALDataset& d, const std::string& file) {
   std::optional<std::vector<double>> values;
@@ -125,11 +142,7 @@ std::expected<std::vector<double>, CubeError> wavelengths(GDALDataset& d, const 
   const auto scale = nanometres_per(units);
   if (!scale) return std::unexpected(CubeError{file, "wavelength units", fmt::format("unknown unit '{}'", units)});
   for (double& w : *values) w *= *scale;
-  for (std::size_t i = 1; i < values->size(); ++i)
-    if (!((*values)[i] > (*values)[i - 1]))
-      return std::unexpected(CubeError{
-          file, "wavelength", fmt::format("not increasing: {} nm after {} nm", (*values)[i], (*values)[i - 1])});
-  return *values;
+  return increasing(std::move(*values), file);
 }
 
 std::optional<double> type_maximum(GDALDataType type) {
@@ -152,7 +165,8 @@ std::optional<double> type_maximum(GDALDataType type) {
 // ENVI's data file must hold exactly what its header describes: a GDAL raw dataset reads
 // zeros (or fails late) past a short file, and a longer one means the sizes are wrong.
 std::optional<CubeError> envi_size_error(GDALDataset& d, const CubeInfo& info) {
-  if (std::string_view(d.GetDriver()->GetDescription()) != "ENVI") return std::nullopt;
+  // An image made from an array has no driver of its own.
+  if (!d.GetDriver() || std::string_view(d.GetDriver()->GetDescription()) != "ENVI") return std::nullopt;
   char** files = d.GetFileList();
   std::string data_file = files && files[0] ? files[0] : "";
   CSLDestroy(files);
@@ -188,12 +202,111 @@ std::expected<std::string, CubeError> data_file_of(const std::string& path) {
                                                stem.string())});
 }
 
+// A cube inside a container of arrays (HDF5, such as MATLAB v7.3 files, or netCDF): its one
+// three-dimensional array, seen as an image whose bands run along the dimension as long as a
+// one-dimensional array named for wavelengths ("wavelength", "wavelengths", "wl", "lambda"),
+// which gives their centres: in nm, or as its "units" attribute says. MATLAB writes its arrays
+// in column order, so there the image's first other dimension is its samples; elsewhere (C
+// order) its lines.
+struct ArrayCube {
+  std::unique_ptr<GDALDataset> container;
+  std::shared_ptr<GDALMDArray> array;
+  std::size_t band_dim = 0, sample_dim = 0, line_dim = 0;
+  std::vector<double> wavelength_nm;
+};
+
+bool names_wavelengths(const std::string& name) {
+  const std::string n = lower(name);
+  return n == "wavelength" || n == "wavelengths" || n == "wl" || n == "lambda";
+}
+
+std::expected<std::vector<double>, CubeError> array_values(GDALMDArray& array, const std::string& path) {
+  std::vector<double> values(static_cast<std::size_t>(array.GetDimensions()[0]->GetSize()));
+  const GUInt64 start = 0;
+  const std::size_t count = values.size();
+  if (!array.Read(&start, &count, nullptr, nullptr, GDALExtendedDataType::Create(GDT_Float64), values.data()))
+    return std::unexpected(CubeError{path, "wavelength", fmt::format("cannot be read: {}", last_gdal_error())});
+  if (const auto units = array.GetAttribute("units"); units && units->ReadAsString()) {
+    const auto scale = nanometres_per(units->ReadAsString());
+    if (!scale)
+      return std::unexpected(
+          CubeError{path, "wavelength units", fmt::format("unknown unit '{}'", units->ReadAsString())});
+    for (double& w : values) w *= *scale;
+  }
+  return values;
+}
+
+std::expected<ArrayCube, CubeError> open_array_cube(const std::string& path) {
+  std::unique_ptr<GDALDataset> container(GDALDataset::Open(path.c_str(), GDAL_OF_MULTIDIM_RASTER | GDAL_OF_READONLY));
+  const auto root = container ? container->GetRootGroup() : nullptr;
+  if (!root) return std::unexpected(CubeError{path, "bands", "the file holds no image and no arrays GDAL can read"});
+  std::shared_ptr<GDALMDArray> cube, wavelengths;
+  std::string names;
+  for (const std::string& name : root->GetMDArrayNames()) {
+    auto array = root->OpenMDArray(name);
+    if (!array) continue;
+    names += (names.empty() ? "" : ", ") + name;
+    if (array->GetDimensionCount() == 3) {
+      if (cube)
+        return std::unexpected(
+            CubeError{path, "bands", fmt::format("more than one three-dimensional array: {}", names)});
+      cube = array;
+    } else if (array->GetDimensionCount() == 1 && names_wavelengths(name)) {
+      wavelengths = array;
+    }
+  }
+  if (!cube)
+    return std::unexpected(CubeError{path, "bands", fmt::format("no three-dimensional array among: {}", names)});
+  if (!wavelengths)
+    return std::unexpected(CubeError{path, "wavelength", fmt::format("no array of wavelengths among: {}", names)});
+  auto values = array_values(*wavelengths, path);
+  if (!values) return std::unexpected(values.error());
+  const auto& dims = cube->GetDimensions();
+  std::vector<std::size_t> image;  // the two dimensions that are not the bands'
+  std::size_t band = dims.size();
+  for (std::size_t d = 0; d < dims.size(); ++d) {
+    if (band == dims.size() && dims[d]->GetSize() == values->size()) band = d;
+    else image.push_back(d);
+  }
+  if (band == dims.size() || image.size() != 2)
+    return std::unexpected(CubeError{
+        path, "wavelength", fmt::format("{} wavelengths, but no dimension of the cube is as long", values->size())});
+  const bool column_order = cube->GetAttribute("MATLAB_class") != nullptr;
+  const std::size_t x = column_order ? image[0] : image[1], y = column_order ? image[1] : image[0];
+  return ArrayCube{std::move(container), std::move(cube), band, x, y, std::move(*values)};
+}
+
 }  // namespace
 
 Cube::Cube(std::unique_ptr<Dataset> dataset, CubeInfo info) : dataset_(std::move(dataset)), info_(std::move(info)) {}
 Cube::~Cube() = default;
 Cube::Cube(Cube&&) noexcept = default;
 Cube& Cube::operator=(Cube&&) noexcept = default;
+
+std::expected<Cube, CubeError> Cube::open_array(const std::string& path, const std::string& file) {
+  auto arrays = open_array_cube(file);
+  if (!arrays) return std::unexpected(arrays.error());
+  auto dataset = std::make_unique<Dataset>();
+  const auto& dims = arrays->array->GetDimensions();
+  CubeInfo info;
+  info.file = path;
+  info.lines = static_cast<std::size_t>(dims[arrays->line_dim]->GetSize());
+  info.samples = static_cast<std::size_t>(dims[arrays->sample_dim]->GetSize());
+  info.bands = static_cast<std::size_t>(dims[arrays->band_dim]->GetSize());
+  const GDALExtendedDataType& type = arrays->array->GetDataType();
+  if (type.GetClass() != GEDTC_NUMERIC || GDALDataTypeIsComplex(type.GetNumericDataType()))
+    return std::unexpected(CubeError{path, "data type", "the cube's values are not real numbers"});
+  info.type_maximum = type_maximum(type.GetNumericDataType());
+  if (auto checked = increasing(std::move(arrays->wavelength_nm), path)) info.wavelength_nm = std::move(*checked);
+  else return std::unexpected(checked.error());
+  bool has = false;
+  const double no_data = arrays->array->GetNoDataValueAsDouble(&has);
+  if (has) info.ignore_value = no_data;
+  dataset->container = std::move(arrays->container);
+  dataset->array = std::move(arrays->array);
+  dataset->band_dim = arrays->band_dim, dataset->sample_dim = arrays->sample_dim, dataset->line_dim = arrays->line_dim;
+  return Cube(std::move(dataset), std::move(info));
+}
 
 std::expected<Cube, CubeError> Cube::open(const std::string& path) {
   detail::start_gdal();
@@ -209,23 +322,20 @@ std::expected<Cube, CubeError> Cube::open(const std::string& path) {
     const std::string field = type ? "data type" : "";
     return std::unexpected(CubeError{path, field, fmt::format("not a spectral image GDAL can read: {}", why)});
   }
+  // Containers of arrays are read as arrays: GDAL's image of their one dataset knows neither
+  // its wavelengths nor MATLAB's column order.
+  const std::string_view driver = dataset->gdal->GetDriver()->GetDescription();
+  if (dataset->gdal->GetRasterCount() == 0 || driver == "HDF5" || driver == "HDF5Image" || driver == "netCDF") {
+    dataset->gdal.reset();
+    return open_array(path, *data_file);
+  }
   GDALDataset& d = *dataset->gdal;
   CubeInfo info;
   info.file = path;
   info.lines = static_cast<std::size_t>(d.GetRasterYSize());
   info.samples = static_cast<std::size_t>(d.GetRasterXSize());
   info.bands = static_cast<std::size_t>(d.GetRasterCount());
-  if (info.bands == 0) {
-    // HDF5 (and MATLAB v7.3) files hold several datasets: GDAL names each as a subdataset.
-    std::string names;
-    for (char** item = d.GetMetadata("SUBDATASETS"); item && *item; ++item)
-      if (std::string_view entry(*item); entry.find("_NAME=") != std::string_view::npos)
-        names += fmt::format("{}{}", names.empty() ? "" : ", ", entry.substr(entry.find('=') + 1));
-    return std::unexpected(CubeError{path, "bands",
-                                     names.empty()
-                                         ? "the image has no bands"
-                                         : fmt::format("the file holds several datasets; name one: {}", names)});
-  }
+  if (info.bands == 0) return std::unexpected(CubeError{path, "bands", "the image has no bands"});
   const GDALDataType type = d.GetRasterBand(1)->GetRasterDataType();
   if (GDALDataTypeIsComplex(type))
     return std::unexpected(
@@ -256,12 +366,28 @@ std::expected<Cube, CubeError> Cube::open(const std::string& path) {
 std::expected<std::vector<float>, CubeError> Cube::read_lines(std::size_t first, std::size_t count) const {
   std::vector<float> values(count * info_.samples * info_.bands);
   const auto bands = static_cast<GSpacing>(info_.bands);
+  const auto word = static_cast<GSpacing>(sizeof(float));
   CPLErrorReset();
-  const CPLErr result = dataset_->gdal->RasterIO(
-      GF_Read, 0, static_cast<int>(first), static_cast<int>(info_.samples), static_cast<int>(count), values.data(),
-      static_cast<int>(info_.samples), static_cast<int>(count), GDT_Float32, static_cast<int>(info_.bands), nullptr,
-      bands * static_cast<GSpacing>(sizeof(float)), bands * static_cast<GSpacing>(info_.samples * sizeof(float)),
-      static_cast<GSpacing>(sizeof(float)), nullptr);
+  CPLErr result = CE_None;
+  if (!dataset_->array) {
+    result = dataset_->gdal->RasterIO(GF_Read, 0, static_cast<int>(first), static_cast<int>(info_.samples),
+                                      static_cast<int>(count), values.data(), static_cast<int>(info_.samples),
+                                      static_cast<int>(count), GDT_Float32, static_cast<int>(info_.bands), nullptr,
+                                      bands * word, bands * static_cast<GSpacing>(info_.samples) * word, word, nullptr);
+  } else {
+    // The array's own dimensions, read straight into pixel-interleaved order.
+    std::array<GUInt64, 3> start{};
+    std::array<std::size_t, 3> counts{};
+    std::array<GPtrDiff_t, 3> strides{};
+    start[dataset_->line_dim] = first;
+    counts[dataset_->line_dim] = count, counts[dataset_->sample_dim] = info_.samples,
+    counts[dataset_->band_dim] = info_.bands;
+    strides[dataset_->band_dim] = 1, strides[dataset_->sample_dim] = static_cast<GPtrDiff_t>(info_.bands),
+    strides[dataset_->line_dim] = static_cast<GPtrDiff_t>(info_.samples * info_.bands);
+    if (!dataset_->array->Read(start.data(), counts.data(), nullptr, strides.data(),
+                               GDALExtendedDataType::Create(GDT_Float32), values.data()))
+      result = CE_Failure;
+  }
   if (result != CE_None)
     return std::unexpected(CubeError{
         info_.file, "", fmt::format("lines {}-{} cannot be read: {}", first, first + count - 1, last_gdal_error())});

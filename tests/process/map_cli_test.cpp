@@ -119,6 +119,43 @@ TEST_F(MapCli, ACubeWrittenBySpyMapsAsTheSameCubeWrittenHere) {
   EXPECT_THAT(bytes_of(dir_ / "out" / "here.map.hdr"), HasSubstr("melanin_stderr"));
 }
 
+// HDF5 as h5py writes it (C order, the wavelengths in µm with their unit) and as MATLAB v7.3
+// does (column order, a MATLAB_class attribute, nm): both map as the same cube written as ENVI.
+TEST_F(MapCli, Hdf5CubesInCAndMatlabOrderMapAsTheEnviCube) {
+  const CubeValues cube = skin_cube(4, 6);
+  write_envi(dir_ / "here", cube, {});
+  const std::string script =
+      "import numpy, sys, h5py\n"
+      "lines, samples, bands = " +
+      fmt::format("{}, {}, {}", cube.lines, cube.samples, cube.bands) +
+      "\n"
+      "bil = numpy.fromfile(sys.argv[1], dtype='<f4').reshape(lines, bands, samples)\n"
+      "cube = bil.transpose(0, 2, 1)  # lines, samples, bands\n"
+      "wl = numpy.array([float(w) for w in sys.argv[4].split(',')])\n"
+      "with h5py.File(sys.argv[2], 'w') as f:\n"
+      "    f['cube'] = cube\n"
+      "    f['wavelength'] = wl / 1000\n"
+      "    f['wavelength'].attrs['units'] = 'um'\n"
+      "with h5py.File(sys.argv[3], 'w') as f:\n"
+      "    f['hsi'] = numpy.ascontiguousarray(cube.transpose(2, 1, 0))  # MATLAB's column order\n"
+      "    f['hsi'].attrs['MATLAB_class'] = numpy.bytes_('single')\n"
+      "    f['wl'] = wl.reshape(1, -1)[0]\n";
+  std::string wavelengths;
+  for (const double w : cube.wavelength_nm) wavelengths += (wavelengths.empty() ? "" : ",") + std::to_string(w);
+  const auto h5 = testing::run_process("/usr/bin/python3",
+                                       {"-c", script, (dir_ / "here.img").string(), (dir_ / "c_order.h5").string(),
+                                        (dir_ / "matlab.mat").string(), wavelengths});
+  ASSERT_EQ(h5.exit_status, 0) << h5.describe();
+  const fs::path out = dir_ / "out";
+  for (const char* file : {"here.hdr", "c_order.h5", "matlab.mat"}) {
+    const auto run = skinspec({"map", (dir_ / file).string(), "-o", out.string()});
+    ASSERT_EQ(run.exit_status, 0) << file << ": " << run.describe();
+  }
+  const std::string envi = bytes_of(out / "here.map.img");
+  EXPECT_EQ(bytes_of(out / "c_order.map.img"), envi);
+  EXPECT_EQ(bytes_of(out / "matlab.map.img"), envi);
+}
+
 TEST_F(MapCli, ABadCubeExitsWithStatus2NamingTheFileAndFieldAndWritesNothing) {
   struct Case {
     std::string name, from, to, field;

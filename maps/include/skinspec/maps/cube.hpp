@@ -52,6 +52,8 @@ class Cube {
  private:
   struct Dataset;
   Cube(std::unique_ptr<Dataset> dataset, CubeInfo info);
+  // A cube that is an array of a container (HDF5, netCDF) at `file`, named `path` in errors.
+  static std::expected<Cube, CubeError> open_array(const std::string& path, const std::string& file);
   std::unique_ptr<Dataset> dataset_;
   CubeInfo info_;
 };
