@@ -1,6 +1,7 @@
 #include "skinspec/maps/cube.hpp"
 
-#include "gdal_setup.hpp"
+#include "array_cube.hpp"
+#include "gdal_support.hpp"
 
 #include <gdal_priv.h>
 
@@ -34,34 +35,11 @@ struct Cube::Dataset {
 };
 
 namespace {
-constexpr GIntBig kGdalCacheBytes = 32 << 20;
-}  // namespace
 
-void detail::start_gdal() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    CPLSetConfigOption("GDAL_PAM_ENABLED", "NO");
-    // GDAL keeps the blocks it read or wrote in a cache of 5 % of the machine's memory by
-    // default: 1.2 GB of a 24 GB machine, for blocks a map reads once. Its lines are read in
-    // blocks of our own, so a small cache is enough.
-    GDALSetCacheMax64(kGdalCacheBytes);
-    CPLSetErrorHandler(CPLQuietErrorHandler);
-    GDALAllRegister();
-  });
-}
-
-namespace {
-
-std::string last_gdal_error() {
-  const std::string message = CPLGetLastErrorMsg();
-  return message.empty() ? "GDAL gave no reason" : message;
-}
-
-std::string lower(std::string_view text) {
-  std::string out(text);
-  std::ranges::transform(out, out.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return out;
-}
+using detail::increasing;
+using detail::last_gdal_error;
+using detail::lower;
+using detail::nanometres_per;
 
 std::optional<double> number(std::string_view text) {
   while (!text.empty() && std::isspace(static_cast<unsigned char>(text.front()))) text.remove_prefix(1);
@@ -88,14 +66,6 @@ std::optional<std::vector<double>> number_list(std::string_view text) {
   return values;
 }
 
-// Nanometres per unit of an ENVI "wavelength units" value; nullopt for one we do not know.
-std::optional<double> nanometres_per(std::string_view units) {
-  const std::string u = lower(units);
-  if (u.empty() || u == "nanometers" || u == "nanometres" || u == "nm") return 1.0;
-  if (u == "micrometers" || u == "micrometres" || u == "um" || u == "\u00b5m" || u == "microns") return 1000.0;
-  return std::nullopt;
-}
-
 // An ENVI header field as GDAL keeps it, in its "ENVI" metadata domain, under its own name or
 // with underscores for the spaces.
 const char* envi_item(GDALDataset& d, std::string_view field) {
@@ -103,17 +73,6 @@ const char* envi_item(GDALDataset& d, std::string_view field) {
   if (const char* value = d.GetMetadataItem(key.c_str(), "ENVI")) return value;
   std::ranges::replace(key, ' ', '_');
   return d.GetMetadataItem(key.c_str(), "ENVI");
-}
-
-// Finite and increasing, or an error naming the wavelength field.
-std::expected<std::vector<double>, CubeError> increasing(std::vector<double> values, const std::string& file) {
-  for (std::size_t i = 0; i < values.size(); ++i)
-    if (!std::isfinite(values[i]) || (i > 0 && !(values[i] > values[i - 1])))
-      return std::unexpected(CubeError{file, "wavelength",
-                                       i > 0
-                                           ? fmt::format("not increasing: {} nm after {} nm", values[i], values[i - 1])
-                                           : fmt::format("not a wavelength: {}", values[i])});
-  return values;
 }
 
 // The band centres in nm: the ENVI header's list, else each band's "wavelength" item.
@@ -202,80 +161,6 @@ std::expected<std::string, CubeError> data_file_of(const std::string& path) {
                                                stem.string())});
 }
 
-// A cube inside a container of arrays (HDF5, such as MATLAB v7.3 files, or netCDF): its one
-// three-dimensional array, seen as an image whose bands run along the dimension as long as a
-// one-dimensional array named for wavelengths ("wavelength", "wavelengths", "wl", "lambda"),
-// which gives their centres: in nm, or as its "units" attribute says. MATLAB writes its arrays
-// in column order, so there the image's first other dimension is its samples; elsewhere (C
-// order) its lines.
-struct ArrayCube {
-  std::unique_ptr<GDALDataset> container;
-  std::shared_ptr<GDALMDArray> array;
-  std::size_t band_dim = 0, sample_dim = 0, line_dim = 0;
-  std::vector<double> wavelength_nm;
-};
-
-bool names_wavelengths(const std::string& name) {
-  const std::string n = lower(name);
-  return n == "wavelength" || n == "wavelengths" || n == "wl" || n == "lambda";
-}
-
-std::expected<std::vector<double>, CubeError> array_values(GDALMDArray& array, const std::string& path) {
-  std::vector<double> values(static_cast<std::size_t>(array.GetDimensions()[0]->GetSize()));
-  const GUInt64 start = 0;
-  const std::size_t count = values.size();
-  if (!array.Read(&start, &count, nullptr, nullptr, GDALExtendedDataType::Create(GDT_Float64), values.data()))
-    return std::unexpected(CubeError{path, "wavelength", fmt::format("cannot be read: {}", last_gdal_error())});
-  if (const auto units = array.GetAttribute("units"); units && units->ReadAsString()) {
-    const auto scale = nanometres_per(units->ReadAsString());
-    if (!scale)
-      return std::unexpected(
-          CubeError{path, "wavelength units", fmt::format("unknown unit '{}'", units->ReadAsString())});
-    for (double& w : values) w *= *scale;
-  }
-  return values;
-}
-
-std::expected<ArrayCube, CubeError> open_array_cube(const std::string& path) {
-  std::unique_ptr<GDALDataset> container(GDALDataset::Open(path.c_str(), GDAL_OF_MULTIDIM_RASTER | GDAL_OF_READONLY));
-  const auto root = container ? container->GetRootGroup() : nullptr;
-  if (!root) return std::unexpected(CubeError{path, "bands", "the file holds no image and no arrays GDAL can read"});
-  std::shared_ptr<GDALMDArray> cube, wavelengths;
-  std::string names;
-  for (const std::string& name : root->GetMDArrayNames()) {
-    auto array = root->OpenMDArray(name);
-    if (!array) continue;
-    names += (names.empty() ? "" : ", ") + name;
-    if (array->GetDimensionCount() == 3) {
-      if (cube)
-        return std::unexpected(
-            CubeError{path, "bands", fmt::format("more than one three-dimensional array: {}", names)});
-      cube = array;
-    } else if (array->GetDimensionCount() == 1 && names_wavelengths(name)) {
-      wavelengths = array;
-    }
-  }
-  if (!cube)
-    return std::unexpected(CubeError{path, "bands", fmt::format("no three-dimensional array among: {}", names)});
-  if (!wavelengths)
-    return std::unexpected(CubeError{path, "wavelength", fmt::format("no array of wavelengths among: {}", names)});
-  auto values = array_values(*wavelengths, path);
-  if (!values) return std::unexpected(values.error());
-  const auto& dims = cube->GetDimensions();
-  std::vector<std::size_t> image;  // the two dimensions that are not the bands'
-  std::size_t band = dims.size();
-  for (std::size_t d = 0; d < dims.size(); ++d) {
-    if (band == dims.size() && dims[d]->GetSize() == values->size()) band = d;
-    else image.push_back(d);
-  }
-  if (band == dims.size() || image.size() != 2)
-    return std::unexpected(CubeError{
-        path, "wavelength", fmt::format("{} wavelengths, but no dimension of the cube is as long", values->size())});
-  const bool column_order = cube->GetAttribute("MATLAB_class") != nullptr;
-  const std::size_t x = column_order ? image[0] : image[1], y = column_order ? image[1] : image[0];
-  return ArrayCube{std::move(container), std::move(cube), band, x, y, std::move(*values)};
-}
-
 }  // namespace
 
 Cube::Cube(std::unique_ptr<Dataset> dataset, CubeInfo info) : dataset_(std::move(dataset)), info_(std::move(info)) {}
@@ -284,7 +169,7 @@ Cube::Cube(Cube&&) noexcept = default;
 Cube& Cube::operator=(Cube&&) noexcept = default;
 
 std::expected<Cube, CubeError> Cube::open_array(const std::string& path, const std::string& file) {
-  auto arrays = open_array_cube(file);
+  auto arrays = detail::open_array_cube(file);
   if (!arrays) return std::unexpected(arrays.error());
   auto dataset = std::make_unique<Dataset>();
   const auto& dims = arrays->array->GetDimensions();

@@ -1,6 +1,6 @@
 #include "skinspec/maps/map_writer.hpp"
 
-#include "gdal_setup.hpp"
+#include "gdal_support.hpp"
 #include "skinspec/maps/map_picture.hpp"
 #include "skinspec/render/png.hpp"
 

@@ -1,0 +1,25 @@
+#pragma once
+// What the maps' readers and writer share of GDAL, and of reading wavelengths.
+
+#include <expected>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "skinspec/maps/cube.hpp"
+
+namespace skinspec::maps::detail {
+
+// GDAL once per process: every driver registered; no side files (a .aux.xml beside a cube
+// that was only read); a small block cache; GDAL's errors kept for our messages, not printed.
+void start_gdal();
+// GDAL's last error message, or a word that it gave none.
+std::string last_gdal_error();
+std::string lower(std::string_view text);
+// Nanometres per unit of a "wavelength units" value; nullopt for one we do not know.
+std::optional<double> nanometres_per(std::string_view units);
+// The values if finite and increasing, else an error naming `file`'s wavelength field.
+std::expected<std::vector<double>, CubeError> increasing(std::vector<double> values, const std::string& file);
+
+}  // namespace skinspec::maps::detail
