@@ -289,6 +289,21 @@ Solution solve_with(const Problem& problem) {
     s.iterations += best.iterations;
     if (s.cost < best.cost) best = std::move(s);
   }
+  // A dermal scattering on its upper bound can be a basin of its own: with much melanin and
+  // blood (melanin 16-18, blood 10-12), 14 of 256 synthetic skins fitted from the coarse search
+  // ended there (RMSE 0.00227 against the true skin's 0.00182 in one), while the true skin's
+  // start found it (tests/maps/maps_test.cpp). Solved once more from there with the scattering
+  // and its power at their defaults, all 256 reach the true skin; on the NIST forearms it
+  // costs the few fits really on that bound another solve.
+  if (problem.model.kind() == ModelKind::extended && !problem.held[kDermisScattering] &&
+      best.params[kDermisScattering] >= params[kDermisScattering].upper) {
+    Params again = best.params;
+    again[kDermisScattering] = params[kDermisScattering].initial;
+    if (!problem.held[kDermisScatteringPower]) again[kDermisScatteringPower] = params[kDermisScatteringPower].initial;
+    Solution s = engine.solve_from(again);
+    s.iterations += best.iterations;
+    if (s.cost < best.cost) best = std::move(s);
+  }
   return best;
 }
 
