@@ -83,11 +83,13 @@ fs::path write_cube(const fs::path& dir, const Fitter& fitter, const Args& a) {
     const std::size_t count = std::min(distinct, a.lines - first);
     for (std::size_t i = 0; i < count * a.bands * a.samples; ++i)
       noisy[i] = block[i] + static_cast<float>(noise(random));
-    raw.write(reinterpret_cast<const char*>(noisy.data()), static_cast<std::streamsize>(count * a.bands * a.samples * sizeof(float)));
+    raw.write(reinterpret_cast<const char*>(noisy.data()),
+              static_cast<std::streamsize>(count * a.bands * a.samples * sizeof(float)));
   }
   std::ofstream header(dir / "cube.hdr");
-  header << "ENVI\nsamples = " << a.samples << "\nlines = " << a.lines << "\nbands = " << a.bands
-         << "\nheader offset = 0\ndata type = 4\ninterleave = bil\nbyte order = 0\nwavelength units = nm\nwavelength = {";
+  header
+      << "ENVI\nsamples = " << a.samples << "\nlines = " << a.lines << "\nbands = " << a.bands
+      << "\nheader offset = 0\ndata type = 4\ninterleave = bil\nbyte order = 0\nwavelength units = nm\nwavelength = {";
   for (std::size_t b = 0; b < a.bands; ++b) header << (b ? ", " : "") << grid[b];
   header << "}\n";
   return dir / "cube.hdr";
@@ -132,8 +134,9 @@ double batch_seconds(const fs::path& header, const Fitter& fitter) {
   if (!values) throw std::runtime_error(values.error().what());
   std::vector<Spectrum> spectra;
   for (std::size_t p = 0; p < info.lines * info.samples; ++p)
-    spectra.push_back(*Spectrum::create(info.wavelength_nm, std::vector<double>(values->begin() + static_cast<std::ptrdiff_t>(p * info.bands),
-                                                                               values->begin() + static_cast<std::ptrdiff_t>((p + 1) * info.bands))));
+    spectra.push_back(*Spectrum::create(
+        info.wavelength_nm, std::vector<double>(values->begin() + static_cast<std::ptrdiff_t>(p * info.bands),
+                                                values->begin() + static_cast<std::ptrdiff_t>((p + 1) * info.bands))));
   FitOptions options;
   (void)fitter.fit(spectra.front(), options);  // the model prepared for the grid, as in FitBatch
   const auto start = Clock::now();
@@ -161,10 +164,12 @@ int run(const Args& args) {
   const long rss_map = max_rss_mib();
   std::printf("{\"lines\": %zu, \"samples\": %zu, \"bands\": %zu, \"threads\": %u,\n", args.lines, args.samples,
               args.bands, detail::thread_count(0));
-  std::printf(" \"map_seconds\": %.3f, \"fitting_seconds\": %.3f, \"map_pixels_per_second\": %.0f, \"mean_solver_steps\": %.2f,\n",
-              mapped.seconds, mapped.fitting_seconds, pixels / mapped.seconds,
-              static_cast<double>(mapped.tally.iterations) /
-                  static_cast<double>(mapped.tally.pixels[static_cast<std::size_t>(maps::MaskReason::skin)]));
+  std::printf(
+      " \"map_seconds\": %.3f, \"fitting_seconds\": %.3f, \"map_pixels_per_second\": %.0f, \"mean_solver_steps\": "
+      "%.2f,\n",
+      mapped.seconds, mapped.fitting_seconds, pixels / mapped.seconds,
+      static_cast<double>(mapped.tally.iterations) /
+          static_cast<double>(mapped.tally.pixels[static_cast<std::size_t>(maps::MaskReason::skin)]));
   std::printf(" \"max_rss_mib_before_map\": %ld, \"max_rss_mib_after_map\": %ld", rss_before, rss_map);
   if (args.batch) {
     const double batch = batch_seconds(header, *fitter);
