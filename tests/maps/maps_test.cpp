@@ -336,6 +336,31 @@ TEST_F(MapsTest, NeighbourStartsTakeFewerSteps) {
   EXPECT_LT(started.tally.iterations, searched.tally.iterations);
 }
 
+// A camera's bands beyond the model's 380-780 nm (many reach 950 or 1000 nm) are read and
+// ignored: the map is the one of the same cube cut at 780 nm.
+TEST_F(MapsTest, BandsBeyondTheModelsRangeChangeNothing) {
+  const CubeValues visible = ground_truth_cube();
+  CubeValues wider{visible.lines, visible.samples, 0, visible.wavelength_nm, {}};
+  for (double nm = 790; nm <= 950; nm += 10) wider.wavelength_nm.push_back(nm);
+  wider.bands = wider.wavelength_nm.size();
+  for (std::size_t p = 0; p < visible.lines * visible.samples; ++p) {
+    for (std::size_t b = 0; b < visible.bands; ++b) wider.values.push_back(visible.values[p * visible.bands + b]);
+    for (std::size_t b = visible.bands; b < wider.bands; ++b) wider.values.push_back(0.6);
+  }
+  const auto narrow_cube = Cube::open(write_envi(dir_ / "visible", visible, {}).string());
+  const auto wide_cube = Cube::open(write_envi(dir_ / "wider", wider, {}).string());
+  ASSERT_TRUE(narrow_cube && wide_cube);
+  const MappedCube narrow = map_cube(*narrow_cube, true), wide = map_cube(*wide_cube, true);
+  ASSERT_EQ(wide.answers.size(), narrow.answers.size());
+  for (std::size_t i = 0; i < narrow.answers.size(); ++i) {
+    if (std::isnan(narrow.answers[i])) {
+      EXPECT_TRUE(std::isnan(wide.answers[i])) << i;
+    } else {
+      EXPECT_EQ(wide.answers[i], narrow.answers[i]) << i;
+    }
+  }
+}
+
 TEST_F(MapsTest, PixelsThatCannotBeFittedAreMaskedWithTheirReason) {
   const auto cube = Cube::open(write_envi(dir_ / "few", quantized_cube(1, 1), {}).string());
   ASSERT_TRUE(cube);
