@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 
 #include "kernels/kernels.hpp"
 #include "levenberg_marquardt.hpp"
@@ -259,6 +260,37 @@ bool restarts_at_zero(ModelKind kind, std::size_t i) {
   return i == static_cast<std::size_t>(kTotalHemoglobin);
 }
 
+// The start of a second solve when absorbers that restart at zero (restarts_at_zero) ended
+// there: those absorbers at kRestartAbsorber.
+std::optional<Params> absorber_restart(const Problem& problem, const Params& fitted) {
+  const auto params = model_spec(problem.model.kind()).params;
+  Params reseeded = fitted;
+  bool restart = false;
+  for (std::size_t i = 0; i < reseeded.size(); ++i)
+    if (restarts_at_zero(problem.model.kind(), i) && !problem.held[i] && reseeded[i] == params[i].lower) {
+      reseeded[i] = kRestartAbsorber;
+      restart = true;
+    }
+  return restart ? std::optional(reseeded) : std::nullopt;
+}
+
+// A dermal scattering on its upper bound can be a basin of its own: with much melanin and
+// blood (melanin 16-18, blood 10-12), 14 of 256 synthetic skins fitted from the coarse search
+// ended there (RMSE 0.00227 against the true skin's 0.00182 in one), while the true skin's
+// start found it (tests/maps/maps_test.cpp). Solved once more from there with the scattering
+// and its power at their defaults, all 256 reach the true skin; on the NIST forearms it costs
+// the few fits really on that bound another solve.
+std::optional<Params> scattering_restart(const Problem& problem, const Params& fitted) {
+  const auto params = model_spec(problem.model.kind()).params;
+  if (problem.model.kind() != ModelKind::extended || problem.held[kDermisScattering] ||
+      fitted[kDermisScattering] < params[kDermisScattering].upper)
+    return std::nullopt;
+  Params again = fitted;
+  again[kDermisScattering] = params[kDermisScattering].initial;
+  if (!problem.held[kDermisScatteringPower]) again[kDermisScatteringPower] = params[kDermisScatteringPower].initial;
+  return again;
+}
+
 // Room for the model's evaluations, reused by every fit on this thread, so that evaluating
 // the model allocates nothing.
 Workspace& thread_workspace() {
@@ -276,34 +308,14 @@ Solution solve_with(const Problem& problem) {
     Solution s = engine.solve_from(start);
     if (s.cost < best.cost) best = std::move(s);
   }
-  const auto params = model_spec(problem.model.kind()).params;
-  bool restart = false;
-  Params reseeded = best.params;
-  for (std::size_t i = 0; i < N; ++i)
-    if (restarts_at_zero(problem.model.kind(), i) && !problem.held[i] && reseeded[i] == params[i].lower) {
-      reseeded[i] = kRestartAbsorber;
-      restart = true;
+  // Each second basin the solve may have fallen into, in turn: solved once more from a start
+  // out of it, kept where that ends lower.
+  for (const auto& restart : {absorber_restart, scattering_restart})
+    if (const auto start = restart(problem, best.params)) {
+      Solution s = engine.solve_from(*start);
+      s.iterations += best.iterations;
+      if (s.cost < best.cost) best = std::move(s);
     }
-  if (restart) {
-    Solution s = engine.solve_from(reseeded);
-    s.iterations += best.iterations;
-    if (s.cost < best.cost) best = std::move(s);
-  }
-  // A dermal scattering on its upper bound can be a basin of its own: with much melanin and
-  // blood (melanin 16-18, blood 10-12), 14 of 256 synthetic skins fitted from the coarse search
-  // ended there (RMSE 0.00227 against the true skin's 0.00182 in one), while the true skin's
-  // start found it (tests/maps/maps_test.cpp). Solved once more from there with the scattering
-  // and its power at their defaults, all 256 reach the true skin; on the NIST forearms it
-  // costs the few fits really on that bound another solve.
-  if (problem.model.kind() == ModelKind::extended && !problem.held[kDermisScattering] &&
-      best.params[kDermisScattering] >= params[kDermisScattering].upper) {
-    Params again = best.params;
-    again[kDermisScattering] = params[kDermisScattering].initial;
-    if (!problem.held[kDermisScatteringPower]) again[kDermisScatteringPower] = params[kDermisScatteringPower].initial;
-    Solution s = engine.solve_from(again);
-    s.iterations += best.iterations;
-    if (s.cost < best.cost) best = std::move(s);
-  }
   return best;
 }
 

@@ -164,15 +164,19 @@ MaskReason Mapper::judge(std::span<const double> reflectance, bool clipped) cons
   for (const std::size_t b : visible_bands_) visible += reflectance[b];
   if (visible_bands_.empty() || visible / static_cast<double>(visible_bands_.size()) < options_.min_mean_reflectance)
     return MaskReason::too_dark;
-  std::vector<double> fitted(fitted_bands_.size());
-  for (std::size_t i = 0; i < fitted.size(); ++i) fitted[i] = reflectance[fitted_bands_[i]];
-  const std::vector<double> direction = unit_length(std::move(fitted));
-  double best = std::numeric_limits<double>::infinity();
+  // The smallest angle is the largest cosine: the dot product with each unit reference over
+  // the pixel's length, taken in place, since this runs for every pixel.
+  double squares = 0;
+  for (const std::size_t b : fitted_bands_) squares += reflectance[b] * reflectance[b];
+  double cosine = -1;
   for (const auto& reference : references_) {
-    const double cosine = std::inner_product(direction.begin(), direction.end(), reference.begin(), 0.0);
-    best = std::min(best, std::acos(std::clamp(cosine, -1.0, 1.0)));
+    double dot = 0;
+    for (std::size_t i = 0; i < fitted_bands_.size(); ++i) dot += reflectance[fitted_bands_[i]] * reference[i];
+    cosine = std::max(cosine, dot / std::sqrt(squares));
   }
-  return best > options_.max_spectral_angle ? MaskReason::not_skin : MaskReason::skin;
+  const double angle =
+      references_.empty() ? std::numeric_limits<double>::infinity() : std::acos(std::clamp(cosine, -1.0, 1.0));
+  return angle > options_.max_spectral_angle ? MaskReason::not_skin : MaskReason::skin;
 }
 
 void Mapper::map_line(std::span<const float> line, std::span<float> out, MapTally& tally) const {

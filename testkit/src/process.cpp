@@ -421,4 +421,11 @@ std::string BackgroundProcess::err() const {
   return err_;
 }
 
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
 }  // namespace skinspec::testing

@@ -43,12 +43,7 @@ testing::ProcessResult skinspec(const std::vector<std::string>& args,
   return testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args, options);
 }
 
-std::vector<std::string> lines_of(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream in(text);
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
-  return lines;
-}
+using testing::lines_of;
 
 // Each line of stdout as JSON; a line that does not parse fails the test.
 std::vector<Json> json_lines(const std::string& out) {

@@ -41,12 +41,7 @@ testing::ProcessResult skinspec(const std::vector<std::string>& args) {
   return testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args);
 }
 
-std::vector<std::string> lines_of(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream in(text);
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
-  return lines;
-}
+using testing::lines_of;
 
 std::vector<std::string> fields_of(const std::string& line) {
   std::vector<std::string> fields(1);

@@ -37,12 +37,7 @@ testing::ProcessResult skinspec(const std::vector<std::string>& args) {
   return testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", args);
 }
 
-std::vector<std::string> lines_of(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream in(text);
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
-  return lines;
-}
+using testing::lines_of;
 
 std::string bytes_of(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
@@ -84,6 +79,20 @@ class MapCli : public ::testing::Test {
     if (fs::exists(out))
       for (const auto& entry : fs::directory_iterator(out)) names.push_back(entry.path().filename().string());
     return names;
+  }
+  // A map of a large cube into DIR/out, sent `signal` once it is under way (its hidden
+  // directory exists), and how it ended.
+  testing::ProcessResult map_stopped_by(int signal) {
+    write_envi(dir_ / "large", skin_cube(400, 300), {});
+    const fs::path out = dir_ / "out";
+    testing::BackgroundProcess map(SKINSPEC_TEST_BIN_DIR "/skinspec",
+                                   {"map", (dir_ / "large.hdr").string(), "-o", out.string(), "--block-lines", "4"});
+    EXPECT_TRUE(map.started()) << map.start_error();
+    if (!map.started()) return {};
+    for (int i = 0; i < 200 && left_in(out).empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    EXPECT_FALSE(left_in(out).empty()) << "the map never started";
+    map.send_signal(signal);
+    return map.wait(std::chrono::seconds(30));
   }
   fs::path dir_;
 };
@@ -190,34 +199,17 @@ TEST_F(MapCli, ABadCubeExitsWithStatus2NamingTheFileAndFieldAndWritesNothing) {
 }
 
 TEST_F(MapCli, SigintStopsAMapAndLeavesNothingUnderItsNames) {
-  write_envi(dir_ / "large", skin_cube(400, 300), {});
-  const fs::path out = dir_ / "out";
-  testing::BackgroundProcess map(SKINSPEC_TEST_BIN_DIR "/skinspec",
-                                 {"map", (dir_ / "large.hdr").string(), "-o", out.string(), "--block-lines", "4"});
-  ASSERT_TRUE(map.started()) << map.start_error();
-  // Wait until the map is under way: its hidden directory exists.
-  for (int i = 0; i < 200 && left_in(out).empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  ASSERT_FALSE(left_in(out).empty());
-  map.send_signal(SIGINT);
-  const auto result = map.wait(std::chrono::seconds(30));
+  const auto result = map_stopped_by(SIGINT);
   EXPECT_EQ(result.exit_status, 128 + SIGINT) << result.describe();
   EXPECT_THAT(result.err, HasSubstr("stopped by SIGINT"));
-  EXPECT_THAT(left_in(out), ::testing::IsEmpty());
+  EXPECT_THAT(left_in(dir_ / "out"), ::testing::IsEmpty());
 }
 
 // A scheduler's time limit (Slurm sends SIGTERM) stops a map as cleanly.
 TEST_F(MapCli, SigtermStopsAMapAndLeavesNothingUnderItsNames) {
-  write_envi(dir_ / "large", skin_cube(400, 300), {});
-  const fs::path out = dir_ / "out";
-  testing::BackgroundProcess map(SKINSPEC_TEST_BIN_DIR "/skinspec",
-                                 {"map", (dir_ / "large.hdr").string(), "-o", out.string(), "--block-lines", "4"});
-  ASSERT_TRUE(map.started()) << map.start_error();
-  for (int i = 0; i < 200 && left_in(out).empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  ASSERT_FALSE(left_in(out).empty());
-  map.send_signal(SIGTERM);
-  const auto result = map.wait(std::chrono::seconds(30));
+  const auto result = map_stopped_by(SIGTERM);
   EXPECT_EQ(result.exit_status, 128 + SIGTERM) << result.describe();
-  EXPECT_THAT(left_in(out), ::testing::IsEmpty());
+  EXPECT_THAT(left_in(dir_ / "out"), ::testing::IsEmpty());
   std::ofstream(dir_ / "a-file") << "x";
   const auto not_a_directory = skinspec({"map", (dir_ / "large.hdr").string(), "-o", (dir_ / "a-file").string()});
   EXPECT_EQ(not_a_directory.exit_status, kBadInput) << not_a_directory.describe();

@@ -110,4 +110,7 @@ class BackgroundProcess {
   bool outputs_closed_ = false;
 };
 
+// A program's output split into its lines, without their line feeds.
+std::vector<std::string> lines_of(const std::string& text);
+
 }  // namespace skinspec::testing
