@@ -7,7 +7,10 @@
 #include <gdal_priv.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <charconv>
 #include <cmath>
+#include <csignal>
 #include <fmt/format.h>
 #include <fstream>
 #include <limits>
@@ -32,6 +35,23 @@ std::string header_item(std::string text) {
   for (char& c : text)
     if (c == ',' || c == '{' || c == '}') c = ';';
   return text;
+}
+
+// A map killed outright (SIGKILL, a power cut) leaves its hidden directory behind, under no
+// final name. Those of the same cube whose process is gone are removed when it is mapped
+// again; one whose process still runs is another map's, and is left alone.
+void remove_abandoned(const fs::path& dir, const std::string& name) {
+  const std::string prefix = fmt::format(".{}.partial-", name);
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(dir, error)) {
+    const std::string file = entry.path().filename().string();
+    if (!file.starts_with(prefix)) continue;
+    pid_t pid = 0;
+    const char* digits = file.data() + prefix.size();
+    const auto [end, parsed] = std::from_chars(digits, file.data() + file.size(), pid);
+    if (parsed != std::errc() || end != file.data() + file.size() || pid <= 0) continue;
+    if (::kill(pid, 0) == -1 && errno == ESRCH) fs::remove_all(entry.path(), error);
+  }
 }
 
 }  // namespace
@@ -59,6 +79,7 @@ std::expected<MapWriter, std::string> MapWriter::create(const fs::path& dir, con
   std::error_code error;
   fs::create_directories(state->partial, error);
   if (error) return std::unexpected(fmt::format("{}: cannot create: {}", dir.string(), error.message()));
+  remove_abandoned(dir, name);
   detail::start_gdal();
   const bool envi = format == MapFormat::envi;
   GDALDriver* driver = GetGDALDriverManager()->GetDriverByName(envi ? "ENVI" : "GTiff");

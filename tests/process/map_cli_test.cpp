@@ -205,6 +205,24 @@ TEST_F(MapCli, SigintStopsAMapAndLeavesNothingUnderItsNames) {
   EXPECT_THAT(left_in(dir_ / "out"), ::testing::IsEmpty());
 }
 
+// A map killed outright leaves its hidden directory; mapping the cube again removes it, but not
+// the directory of a map whose process still runs.
+TEST_F(MapCli, AMapKilledOutrightIsClearedAwayByTheNextMapOfItsCube) {
+  write_envi(dir_ / "face", skin_cube(3, 4), {});
+  const fs::path out = dir_ / "out";
+  const fs::path abandoned = out / ".face.partial-2147483646",
+                 running = out / fmt::format(".face.partial-{}", ::getpid());
+  for (const auto& partial : {abandoned, running}) {
+    fs::create_directories(partial);
+    std::ofstream(partial / "face.map.img") << "half";
+  }
+  const auto run = skinspec({"map", (dir_ / "face.hdr").string(), "-o", out.string()});
+  ASSERT_EQ(run.exit_status, 0) << run.describe();
+  EXPECT_FALSE(fs::exists(abandoned));
+  EXPECT_TRUE(fs::exists(running / "face.map.img"));
+  EXPECT_TRUE(fs::exists(out / "face.map.img"));
+}
+
 // A scheduler's time limit (Slurm sends SIGTERM) stops a map as cleanly.
 TEST_F(MapCli, SigtermStopsAMapAndLeavesNothingUnderItsNames) {
   const auto result = map_stopped_by(SIGTERM);
