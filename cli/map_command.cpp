@@ -9,16 +9,14 @@
 #include <map>
 #include <optional>
 #include <chrono>
-#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fmt/format.h>
 #include <iostream>
-#include <nlohmann/json.hpp>
 
 #include "common.hpp"
 #include "model_options.hpp"
-#include "skinspec/maps/map_writer.hpp"
+#include "skinspec/maps/map_run.hpp"
 
 namespace skinspec::cli {
 
@@ -171,82 +169,37 @@ void refuse_same_names(const std::vector<std::string>& cubes) {
   }
 }
 
-// Each parameter's unit, how many pixels determined it, and its percentiles over them.
-nlohmann::json parameters_json(const std::vector<maps::ParameterSummary>& summaries) {
-  nlohmann::json out = nlohmann::json::object();
-  for (const auto& p : summaries) {
-    nlohmann::json entry = {{"unit", p.band.unit}, {"determined_pixels", p.determined_pixels}};
-    for (std::size_t q = 0; q < maps::kSummaryPercentiles.size(); ++q)
-      entry[fmt::format("p{}", maps::kSummaryPercentiles[q])] =
-          std::isnan(p.percentiles[q]) ? nlohmann::json(nullptr) : nlohmann::json(p.percentiles[q]);
-    out[p.band.name] = entry;
-  }
-  return out;
-}
-
 void map_cube(const std::string& path, const MapArgs& args) {
   const auto cube = std::make_unique<maps::Cube>(open_cube(path));
-  const maps::CubeInfo& info = cube->info();
-  maps::MapOptions options;
-  options.fit.model = args.model;
-  options.fit.site = args.site;
-  options.neighbour_starts = !args.no_neighbour_starts;
-  options.threads = args.threads;
-  options.radiance = radiometry_of(*cube, args);
-  if (auto covered = maps::check_coverage(info); !covered) throw Failure{kBadInput, covered.error().what()};
-  const maps::Mapper mapper(fitter(), options, info);
-  const auto bands = maps::map_bands(args.model);
-  auto writer = maps::MapWriter::create(args.out, fs::path(path).stem().string(), info, bands,
-                                        args.format == "tiff" ? maps::MapFormat::tiff : maps::MapFormat::envi);
-  if (!writer) throw Failure{kFailure, writer.error()};
-
-  maps::MapTally tally;
-  const auto started = Clock::now();
-  auto reported = started;
-  for (std::size_t first = 0; first < info.lines; first += args.block_lines) {
-    if (const int signal = g_stopped_by)
-      throw Failure{128 + signal, fmt::format("{}: stopped by {}; nothing was written", path,
-                                              signal == SIGINT ? "SIGINT" : "SIGTERM")};
-    const std::size_t count = std::min(args.block_lines, info.lines - first);
-    auto values = cube->read_lines(first, count);
-    if (!values) throw Failure{kBadInput, values.error().what()};
-    const auto answers = mapper.map_lines(*values, count, tally);
-    if (auto written = writer->write_lines(first, count, answers); !written) throw Failure{kFailure, written.error()};
-    const auto now = Clock::now();
-    if (now - reported > std::chrono::seconds(1)) {
+  maps::MapRunOptions options;
+  options.map.fit.model = args.model;
+  options.map.fit.site = args.site;
+  options.map.neighbour_starts = !args.no_neighbour_starts;
+  options.map.threads = args.threads;
+  options.map.radiance = radiometry_of(*cube, args);
+  options.block_lines = args.block_lines;
+  options.format = args.format == "tiff" ? maps::MapFormat::tiff : maps::MapFormat::envi;
+  options.cube_label = path;
+  auto reported = Clock::now();
+  const auto observer = [&](const maps::MapProgress& at) {
+    if (g_stopped_by != 0) return false;
+    if (const auto now = Clock::now(); now - reported > std::chrono::seconds(1)) {
       reported = now;
-      const double done = static_cast<double>(first + count) / static_cast<double>(info.lines);
-      const double seconds = std::chrono::duration<double>(now - started).count();
-      std::cerr << fmt::format("skinspec map: {}: {:.0f} % of {} lines, {:.0f} s left\n", path, 100 * done, info.lines,
-                               seconds / done - seconds);
+      std::cerr << fmt::format("skinspec map: {}: {:.0f} % of {} lines, {:.0f} s left\n", path,
+                               100.0 * static_cast<double>(at.lines_done) / static_cast<double>(at.lines), at.lines,
+                               at.remaining_s().value_or(0));
     }
-  }
-  const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
-  const auto parameters = writer->close(args.model, true);
-  if (!parameters) throw Failure{kFailure, parameters.error()};
-  nlohmann::json by_reason = nlohmann::json::object();
-  for (const maps::MaskReason reason : maps::kMaskReasons)
-    by_reason[std::string(maps::to_string(reason))] = tally.pixels[static_cast<std::size_t>(reason)];
-  const std::size_t skin = tally.pixels[static_cast<std::size_t>(maps::MaskReason::skin)];
-  const nlohmann::json summary = {
-      {"cube", path},
-      {"model", to_string(args.model)},
-      {"site", args.site},
-      {"lines", info.lines},
-      {"samples", info.samples},
-      {"bands", info.bands},
-      {"pixels", by_reason},
-      {"parameters", parameters_json(*parameters)},
-      {"solver",
-       {{"mean_iterations", skin ? static_cast<double>(tally.iterations) / static_cast<double>(skin) : 0.0},
-        {"started_from_neighbour", tally.started_from_neighbour},
-        {"restarted_from_search", tally.restarted}}},
-      {"seconds", seconds},
-      {"pixels_per_second", static_cast<double>(info.lines * info.samples) / std::max(seconds, 1e-9)},
+    return true;
   };
-  auto written = writer->finish(summary.dump(2));
-  if (!written) throw Failure{kFailure, written.error()};
-  for (const auto& file : *written) std::cout << file.string() << '\n';
+  const auto run = maps::run_map(fitter(), *cube, fs::path(path).stem().string(), args.out, options, observer);
+  if (!run)
+    throw Failure{run.error().kind == maps::MapRunError::Kind::bad_cube ? kBadInput : kFailure, run.error().message};
+  if (run->stopped) {
+    const int signal = g_stopped_by;
+    throw Failure{128 + signal,
+                  fmt::format("{}: stopped by {}; nothing was written", path, signal == SIGINT ? "SIGINT" : "SIGTERM")};
+  }
+  for (const auto& file : run->files) std::cout << file.string() << '\n';
 }
 
 }  // namespace
