@@ -27,15 +27,17 @@ enum class Column { integer, real, boolean, text, blob, time };
 
 struct Table {
   std::string_view name;
-  std::string_view columns;  // as rows.hpp lists them, id first
+  std::string_view columns;  // as rows.hpp lists them, the key's columns first
   std::vector<Column> types;
+  std::string_view key = "id";  // its rows' order: its primary key, integers
+  int page_rows = 256;          // read at a time, so that a large table is never held whole
 };
 
 // Each table after those its rows refer to; a measurement refers to an earlier one (its white),
-// so rows go in id order.
-const std::array<Table, 7>& tables() {
+// so rows go in key order. A page of a map's data is a few MiB.
+const std::array<Table, 10>& tables() {
   using enum Column;
-  static const std::array<Table, 7> kTables = {{
+  static const std::array<Table, 10> kTables = {{
       {"instruments", detail::kInstrumentColumns, {integer, text, text, text, text, time, time}},
       {"white_standards", detail::kWhiteStandardColumns, {integer, text, text, blob, time}},
       {"sessions",
@@ -52,6 +54,9 @@ const std::array<Table, 7>& tables() {
       {"rejected_readings",
        detail::kRejectedReadingColumns,
        {integer, integer, integer, integer, integer, integer, text, text, blob, time, time}},
+      {"maps", detail::kMapColumns, {integer, integer, integer, text, text, text, integer, time}},
+      {"map_data", detail::kMapDataColumns, {integer, integer, blob}, "map_id, piece", 4},
+      {"map_pictures", detail::kMapPictureColumns, {integer, integer, text, blob}, "map_id, ordinal"},
   }};
   return kTables;
 }
@@ -136,33 +141,37 @@ class Digest {
   std::uint64_t hash_ = 0xcbf29ce484222325ULL;
 };
 
-// A page of rows at a time, so that a large table is never held in memory whole (PostgreSQL
-// hands over all of a statement's rows at once).
-constexpr int kPageRows = 256;
-
+// A page of rows at a time, after the key ?1... of the page before (PostgreSQL hands over all
+// of a statement's rows at once).
 std::string select_page(const Table& table) {
-  return fmt::format("SELECT {} FROM {} WHERE id > ?1 ORDER BY id LIMIT {}", table.columns, table.name, kPageRows);
+  const auto key_columns = static_cast<int>(column_count(table.key));
+  return fmt::format("SELECT {} FROM {} WHERE ({}) > ({}) ORDER BY {} LIMIT {}", table.columns, table.name, table.key,
+                     detail::placeholders(1, key_columns), table.key, table.page_rows);
 }
 
-// Every row of `table` on `c`, in id order: their count and digest, each row also handed to
+void check_listed(const Table& table) {
+  if (column_count(table.columns) != table.types.size() || !table.columns.starts_with(table.key))
+    detail::fail(Kind::internal, fmt::format("the copy lists {} types and the key ({}) for the columns of {}",
+                                             table.types.size(), table.key, table.name));
+}
+
+// Every row of `table` on `c`, in key order: their count and digest, each row also handed to
 // `each` when given.
 TableCopy scan(Connection& c, const Table& table, const std::function<void(const Row&)>& each = {}) {
-  if (column_count(table.columns) != table.types.size())
-    detail::fail(Kind::internal,
-                 fmt::format("the copy lists {} types for the columns of {}", table.types.size(), table.name));
+  check_listed(table);
   TableCopy out{std::string(table.name), 0, ""};
   Digest digest;
   Row row;
-  Id after = std::numeric_limits<Id>::min();
-  for (int in_page = kPageRows; in_page == kPageRows;) {
+  std::vector<Id> after(column_count(table.key), std::numeric_limits<Id>::min());
+  for (int in_page = table.page_rows; in_page == table.page_rows;) {
     auto rows = c.prepare(select_page(table));
-    rows.bind(after);
+    for (std::size_t k = 0; k < after.size(); ++k) rows.bind_at(static_cast<int>(k) + 1, after[k]);
     for (in_page = 0; rows.step(); ++in_page) {
       read_row(rows, table, row);
       for (const auto& value : row.values) digest.add(value);
       if (each) each(row);
       ++out.rows;
-      after = rows.integer(0);
+      for (std::size_t k = 0; k < after.size(); ++k) after[k] = rows.integer(static_cast<int>(k));
     }
   }
   out.digest = digest.hex();
@@ -184,6 +193,7 @@ std::int64_t rows_in(Connection& c, const Table& table) {
 void continue_ids_after_copied_ones(Connection& c) {
   if (c.dialect() != detail::Dialect::postgresql) return;
   for (const auto& table : tables()) {
+    if (table.key != "id") continue;  // a table without ids of its own
     c.execute(
         fmt::format("SELECT setval(pg_get_serial_sequence('{0}', 'id'), max(id)) FROM {0} HAVING max(id) IS "
                     "NOT NULL",

@@ -6,8 +6,8 @@
 
 namespace skinspec::store::detail {
 
-// Such a job has stored nothing: a job's measurement is stored in the transaction that ends it
-// (complete_measurement_job). ?1 is the bench, NULL for every bench; a bench's recovery also
+// Such a job has stored nothing: a job's measurement or map is stored in the transaction that
+// ends it (complete_measurement_job, complete_map_job). ?1 is the bench, NULL for every bench; a bench's recovery also
 // covers what was written before benches (bench '') when ?2.
 RecoveryReport mark_interrupted(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now) {
   RecoveryReport report;

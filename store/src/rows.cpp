@@ -168,4 +168,17 @@ RejectedReading read_rejected_reading(const Statement& row) {
   return out;
 }
 
+Map read_map(const Statement& row) {
+  Map out;
+  out.id = row.integer(0);
+  out.job_id = row.integer(1);
+  out.session_id = row.optional_integer(2);
+  out.name = row.text(3);
+  out.summary = row.text(4);
+  out.header = row.text(5);
+  out.data_bytes = row.integer(6);
+  out.created_at = row.time(7);
+  return out;
+}
+
 }  // namespace skinspec::store::detail

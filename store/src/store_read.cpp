@@ -4,7 +4,11 @@
 
 #include <fmt/format.h>
 
+#include <map>
+#include <vector>
+
 #include "codec.hpp"
+#include "map_pieces.hpp"
 #include "rows.hpp"
 #include "store_impl.hpp"
 
@@ -216,6 +220,104 @@ Result<std::vector<Job>> Store::jobs(std::optional<Id> session_id, int limit) co
         "SELECT {} FROM jobs WHERE (session_id = ?1 OR ?1 IS NULL) ORDER BY id DESC LIMIT ?2", detail::kJobColumns);
     return all(c, sql, detail::read_job, session_id, limit);
   });
+}
+
+namespace {
+
+// The maps `sql` selects with `args`, and the names of their pictures, which `pictures` selects
+// as (map_id, parameter) in the order stored, with the same `args`.
+template <typename... Args>
+std::vector<Map> maps_in(Connection& c, const std::string& sql, const std::string& pictures, const Args&... args) {
+  auto maps = all(c, sql, detail::read_map, args...);
+  std::map<Id, Map*> by_id;
+  for (auto& map : maps) by_id[map.id] = &map;
+  auto rows = c.prepare(pictures);
+  rows.bind(args...);
+  while (rows.step())
+    if (const auto found = by_id.find(rows.integer(0)); found != by_id.end())
+      found->second->pictures.push_back(rows.text(1));
+  return maps;
+}
+
+}  // namespace
+
+Result<Map> Store::map(Id id) const {
+  return impl_->read("reading a map", [&](Connection& c) {
+    static const std::string sql = select_by_id(detail::kMapColumns, "maps");
+    static const std::string pictures = "SELECT map_id, parameter FROM map_pictures WHERE map_id = ?1 ORDER BY ordinal";
+    auto maps = maps_in(c, sql, pictures, id);
+    if (maps.empty()) fail(Kind::not_found, fmt::format("map {} does not exist", id));
+    return std::move(maps.front());
+  });
+}
+
+Result<std::vector<Map>> Store::maps(std::optional<Id> session_id, int limit) const {
+  return impl_->read("listing maps", [&](Connection& c) {
+    if (limit < 1 || limit > 1000) fail(Kind::invalid_argument, fmt::format("limit {} is outside 1-1000", limit));
+    static const std::string page = "FROM maps WHERE (session_id = ?1 OR ?1 IS NULL) ORDER BY id DESC LIMIT ?2";
+    static const std::string sql = fmt::format("SELECT {} {}", detail::kMapColumns, page);
+    static const std::string pictures = fmt::format(
+        "SELECT map_id, parameter FROM map_pictures WHERE map_id IN (SELECT id {}) ORDER BY map_id, ordinal", page);
+    return maps_in(c, sql, pictures, session_id, limit);
+  });
+}
+
+Result<std::string> Store::map_picture(Id id, std::string_view parameter) const {
+  return impl_->read_one("reading a map's picture", [&](Connection& c) {
+    // No row: no such map; a NULL: no such picture of it.
+    auto row = c.prepare(
+        "SELECT p.png FROM maps m LEFT JOIN map_pictures p ON p.map_id = m.id AND p.parameter = ?2 WHERE m.id = ?1");
+    row.bind(id, parameter);
+    if (!row.step()) fail(Kind::not_found, fmt::format("map {} does not exist", id));
+    if (row.is_null(0)) fail(Kind::not_found, fmt::format("map {} has no picture of '{}'", id, parameter));
+    return row.blob(0);
+  });
+}
+
+namespace {
+
+// Map `id`'s data, each piece inflated and handed to `sink` until it returns false, inside the
+// caller's read transaction; whether `sink` had all. Its pieces must be those its size makes,
+// each inflating to its length: corrupt otherwise.
+bool read_pieces(Connection& c, Id id, const std::function<bool(std::string_view)>& sink) {
+  const auto size = one(c, "SELECT data_bytes FROM maps WHERE id = ?1", id, "map",
+                        [](const detail::Statement& row) { return row.integer(0); });
+  const auto count = detail::map_piece_count(size);
+  auto counted = c.prepare("SELECT count(*) FROM map_data WHERE map_id = ?1");
+  counted.bind(id);
+  counted.step();
+  if (counted.integer(0) != count)
+    fail(Kind::corrupt,
+         fmt::format("map {}: {} pieces of data where its {} bytes make {}", id, counted.integer(0), size, count));
+  std::string raw;
+  for (std::int64_t piece = 0; piece < count; ++piece) {
+    auto row = c.prepare("SELECT bytes FROM map_data WHERE map_id = ?1 AND piece = ?2");
+    row.bind(id, piece);
+    if (!row.step()) fail(Kind::corrupt, fmt::format("map {} has no piece {} of its data", id, piece));
+    raw.resize(static_cast<std::size_t>(detail::map_piece_length(size, piece)));
+    detail::inflate_piece(row.blob(0), raw, fmt::format("map {}, piece {}", id, piece));
+    if (!sink(raw)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+Result<void> Store::read_map_data(Id id, const std::function<bool(std::string_view piece)>& sink) const {
+  const auto read = impl_->read(fmt::format("reading map {}'s data", id), [&](Connection& c) {
+    bool handed = false;  // once `sink` has had a piece, the read must not start again
+    try {
+      return read_pieces(c, id, [&](std::string_view piece) {
+        handed = true;
+        return sink(piece);
+      });
+    } catch (detail::Failure& failure) {
+      if (handed) failure.retryable = false;
+      throw;
+    }
+  });
+  if (!read) return std::unexpected(read.error());
+  return {};
 }
 
 }  // namespace skinspec::store

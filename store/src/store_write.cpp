@@ -2,11 +2,16 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <span>
 
 #include "codec.hpp"
+#include "map_pieces.hpp"
 #include "postgresql/statements.hpp"
 #include "rows.hpp"
 #include "store_impl.hpp"
@@ -173,11 +178,17 @@ void check_job_update(const JobUpdate& update) {
   if (update.error) detail::check_not_empty(update.error->message, "the job error's message");
 }
 
+// That job `job_id`, found in state `state`, is running: only a running job ends with what it
+// made.
+void require_running(Id job_id, JobState state) {
+  if (state != JobState::running)
+    fail(Kind::conflict, fmt::format("job {} is {}, not running", job_id, to_string(state)));
+}
+
 // That the job a measurement ends, found in state `state`, is running and of the measurement's
 // session.
 void check_job_ended_by(Id job_id, JobState state, std::optional<Id> job_session, Id session_id) {
-  if (state != JobState::running)
-    fail(Kind::conflict, fmt::format("job {} is {}, not running", job_id, to_string(state)));
+  require_running(job_id, state);
   if (job_session != session_id) invalid(fmt::format("job {} is not of session {}", job_id, session_id));
 }
 
@@ -311,13 +322,12 @@ RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement&
   return ids;
 }
 
-// A job's result without the ids its measurement got, as the text they complete: the caller's
-// object (any ids in it left out) without its closing brace, and a comma when it has members.
-std::string result_head(const std::string& result) {
+// A job's result without the ids of what it stored, as the text they complete: the caller's
+// object (any of `ids` in it left out) without its closing brace, and a comma when it has members.
+std::string result_head(const std::string& result, std::initializer_list<std::string_view> ids) {
   auto object = nlohmann::json::parse(result, nullptr, false);
   if (object.is_discarded() || !object.is_object()) invalid("the job's result: not a JSON object");
-  object.erase("measurement_id");
-  object.erase("fit_id");
+  for (const auto id : ids) object.erase(std::string(id));
   auto text = object.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   text.pop_back();
   if (!object.empty()) text += ',';
@@ -428,8 +438,7 @@ std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store:
     return out;
   }
   const auto running = job_in(c, job->job_id);
-  if (running.state != JobState::running)
-    fail(Kind::conflict, fmt::format("job {} is {}, not running", job->job_id, to_string(running.state)));
+  require_running(job->job_id, running.state);
   while (const auto* row = next()) {
     const auto& [m, fit] = *row;
     if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
@@ -474,7 +483,7 @@ Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measuremen
     Measurement of_job = m;
     of_job.job_id = job_id;
     const auto now = impl_->now();
-    const auto head = result_head(result);
+    const auto head = result_head(result, {"measurement_id", "fit_id"});
     if (c.dialect() == detail::Dialect::postgresql) {
       auto recorded = record_by_one_statement(c, of_job, fit, head, true, now);
       return CompletedJob{.job = std::move(*recorded.job), .ids = recorded.ids};
@@ -485,6 +494,65 @@ Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measuremen
     out.ids = insert_measurement_and_fit(c, of_job, fit, now);
     out.job = change_job(c, job, {.state = JobState::succeeded, .result = with_ids(head, out.ids)}, now);
     return out;
+  });
+}
+
+namespace {
+
+void check_map(const Map& map, const MapData& data, const std::vector<MapPicture>& pictures) {
+  detail::check_not_empty(map.name, "the map's name");
+  detail::check_json_object(map.summary, "the map's summary");
+  if (data.size < 0) invalid(fmt::format("the map's data cannot be {} bytes", data.size));
+  if (data.size > 0 && !data.read) invalid("the map's data has no reader");
+  std::set<std::string_view> parameters;
+  for (const auto& picture : pictures) {
+    detail::check_not_empty(picture.parameter, "a map picture's parameter");
+    if (!parameters.insert(picture.parameter).second)
+      invalid(fmt::format("the map has two pictures of '{}'", picture.parameter));
+  }
+}
+
+// The map's data, read and deflated a piece at a time (never all of it at once), inside the
+// caller's transaction.
+void insert_map_data(Connection& c, Id map_id, const MapData& data) {
+  static const std::string sql = fmt::format("INSERT INTO map_data ({}) VALUES (?1, ?2, ?3)", detail::kMapDataColumns);
+  std::vector<char> raw(static_cast<std::size_t>(std::min(data.size, detail::kMapPieceBytes)));
+  for (std::int64_t piece = 0; piece < detail::map_piece_count(data.size); ++piece) {
+    const std::span<char> into(raw.data(), static_cast<std::size_t>(detail::map_piece_length(data.size, piece)));
+    data.read(piece * detail::kMapPieceBytes, into);
+    const auto deflated = detail::deflate_piece(into);
+    c.prepare(sql).bind(map_id, piece, Blob{deflated}).run();
+  }
+}
+
+// The pictures in the order given, which their ordinals keep.
+void insert_map_pictures(Connection& c, Id map_id, const std::vector<MapPicture>& pictures) {
+  static const std::string sql =
+      fmt::format("INSERT INTO map_pictures ({}) VALUES (?1, ?2, ?3, ?4)", detail::kMapPictureColumns);
+  for (std::size_t i = 0; i < pictures.size(); ++i) {
+    c.prepare(sql).bind(map_id, static_cast<std::int64_t>(i), pictures[i].parameter, Blob{pictures[i].png}).run();
+  }
+}
+
+}  // namespace
+
+Result<Job> Store::complete_map_job(Id job_id, const Map& map, const MapData& data,
+                                    const std::vector<MapPicture>& pictures, const std::string& result) {
+  return impl_->write(fmt::format("completing map job {}", job_id), [&](Connection& c) {
+    check_map(map, data, pictures);
+    const auto head = result_head(result, {"map_id"});
+    const auto now = impl_->now();
+    const auto job = job_in(c, job_id);
+    require_running(job_id, job.state);
+    if (map.session_id) require_row(c, "SELECT 1 FROM sessions WHERE id = ?1", *map.session_id, "session");
+    const Id map_id = returned_id(
+        c.prepare("INSERT INTO maps (job_id, session_id, name, summary, header, data_bytes, created_at) VALUES (?1, "
+                  "?2, ?3, ?4, ?5, ?6, ?7) RETURNING id")
+            .bind(job_id, map.session_id, map.name, map.summary, map.header, data.size, now));
+    insert_map_data(c, map_id, data);
+    insert_map_pictures(c, map_id, pictures);
+    const auto ended = fmt::format(R"({}"map_id":{}}})", head, map_id);
+    return change_job(c, job, {.state = JobState::succeeded, .result = ended}, now);
   });
 }
 

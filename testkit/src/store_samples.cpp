@@ -3,8 +3,11 @@
 #include <sqlite3.h>
 #include <stdlib.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 
@@ -117,6 +120,47 @@ Fit sample_fit(int n) {
   f.measured = reflectance.values;
   for (const double v : f.measured) f.fitted.push_back(v + 1e-3);
   return f;
+}
+
+std::string sample_map_bytes(std::int64_t size, unsigned seed) {
+  std::string bytes(static_cast<std::size_t>(size), '\0');
+  const auto half = bytes.size() / 2;
+  std::mt19937 random(seed);
+  std::generate_n(bytes.begin(), half, [&] { return static_cast<char>(random()); });
+  for (std::size_t at = half; at + sizeof(float) <= bytes.size(); at += sizeof(float)) {
+    const auto value = static_cast<float>(seed + (at - half) / 4096);
+    std::memcpy(bytes.data() + at, &value, sizeof value);
+  }
+  return bytes;
+}
+
+MapData map_data_of(const std::string& bytes, std::vector<std::int64_t>* offsets) {
+  return {static_cast<std::int64_t>(bytes.size()), [&bytes, offsets](std::int64_t offset, std::span<char> into) {
+            if (offsets) offsets->push_back(offset);
+            if (offset < 0 || static_cast<std::size_t>(offset) + into.size() > bytes.size())
+              throw std::out_of_range("a read beyond the map's data");
+            std::memcpy(into.data(), bytes.data() + offset, into.size());
+          }};
+}
+
+Id running_job(Store& store, const std::string& kind, std::optional<Id> session) {
+  Job job;
+  job.kind = kind;
+  job.session_id = session;
+  const Id id = value_of(store.create_job(job)).job.id;
+  value_of(store.update_job(id, {.state = JobState::running}));
+  return id;
+}
+
+Id store_sample_map(Store& store, std::optional<Id> session, const std::string& name, const std::string& bytes) {
+  Map map;
+  map.session_id = session;
+  map.name = name;
+  map.summary = R"({"pixels":12})";
+  map.header = "ENVI\n";
+  value_of(store.complete_map_job(running_job(store, "map", session), map, map_data_of(bytes),
+                                  {{"melanin", "png 1"}, {"bilirubin", "png 2"}}, "{}"));
+  return value_of(store.maps(std::nullopt, 1)).front().id;  // the newest: this one
 }
 
 std::string check_sample_measurement(const Measurement& stored) {

@@ -134,6 +134,7 @@ const std::map<int, std::string> kRowsAtVersion = {
     {5, kVersion5Rows + kVersion4Job},
     {6, rows_with_benches(kVersion5Rows + kVersion4Job)},
     {7, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 7 changed nothing in a SQLite file
+    {8, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 8 only admitted imported measurements
 };
 
 // What every version's rows must read back as under the current schema.
@@ -229,6 +230,8 @@ TEST_F(StoreMigrationTest, EveryEarlierVersionOpensWithItsRowsIntact) {
       const auto rejected_id = value_of(store.record_rejected_reading(rejected));
       EXPECT_EQ(value_of(store.rejected_reading(rejected_id)).raw_reply, rejected.raw_reply);
       EXPECT_EQ(value_of(store.session_detail(1)).rejected_readings.size(), 1u);
+      const Id map = testing::store_sample_map(store, 1, "arm", testing::sample_map_bytes(1000, 1));
+      EXPECT_EQ(value_of(store.map(map)).session_id, 1);
     }
     EXPECT_EQ(testing::sqlite_integer(path, "PRAGMA user_version"), current_schema_version());
     EXPECT_EQ(testing::sqlite_text(path, "PRAGMA integrity_check"), "ok");

@@ -180,13 +180,31 @@ TEST(PostgresqlStoreTest, AVersion6DatabaseIsMigratedWithItsRows) {
   EXPECT_EQ(tables_keeping_rows_whole(db.name), 2);
   postgres_cluster().execute(db.name,
                              "ALTER TABLE measurements RESET (toast_tuple_target); ALTER TABLE fits RESET "
-                             "(toast_tuple_target); UPDATE skinspec_schema SET version = 6");
+                             "(toast_tuple_target); DROP TABLE map_pictures, map_data, maps; "
+                             "UPDATE skinspec_schema SET version = 6");
   ASSERT_EQ(tables_keeping_rows_whole(db.name), 0);
   auto store = value_of(Store::open(db.uri));
   EXPECT_EQ(store.schema_version(), current_schema_version());
   EXPECT_EQ(tables_keeping_rows_whole(db.name), 2);
   EXPECT_EQ(testing::check_sample_measurement(value_of(store.measurement(measurement))), "");
   EXPECT_EQ(value_of(store.fits_of_measurement(measurement)).size(), 1u);
+}
+
+// Version 9 adds maps to a version-8 database, beside its rows.
+TEST(PostgresqlStoreTest, AVersion8DatabaseGetsMaps) {
+  Database db;
+  Id session = 0;
+  {
+    auto store = value_of(Store::open(db.uri));
+    session = value_of(store.create_session(sample_session(1)));
+  }
+  postgres_cluster().execute(db.name,
+                             "DROP TABLE map_pictures, map_data, maps; UPDATE skinspec_schema SET version = 8");
+  auto store = value_of(Store::open(db.uri));
+  EXPECT_EQ(store.schema_version(), current_schema_version());
+  const Id map = testing::store_sample_map(store, session, "arm", testing::sample_map_bytes(1000, 8));
+  EXPECT_EQ(value_of(store.map(map)).session_id, session);
+  EXPECT_EQ(value_of(store.session(session)).subject, sample_session(1).subject);
 }
 
 // Two programs opening one new database at the same moment: one becomes the writer and makes
@@ -422,7 +440,7 @@ TEST(PostgresqlStoreTest, ACopyOfManyPagesOfRowsArrivesWhole) {
   auto to = value_of(Store::open(db.uri));
   const auto report = value_of(copy_database(from, to));
   EXPECT_FALSE(report.already_copied);
-  ASSERT_EQ(report.tables.size(), 7u);
+  ASSERT_EQ(report.tables.size(), 10u);
   EXPECT_EQ(report.tables[2].table, "sessions");
   EXPECT_EQ(report.tables[2].rows, kSessions);
   EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM sessions"), kSessions);
@@ -430,6 +448,47 @@ TEST(PostgresqlStoreTest, ACopyOfManyPagesOfRowsArrivesWhole) {
   EXPECT_TRUE(again.already_copied);
   EXPECT_EQ(again.tables[2].digest, report.tables[2].digest);
   EXPECT_EQ(value_of(to.create_session(sample_session(1))), kSessions + 1);
+}
+
+// A map's data of several pieces, its pictures and its job go onto PostgreSQL and back into a
+// file with the same digests, and read back the same from each.
+TEST(PostgresqlStoreTest, AMapIsCopiedOntoPostgresqlAndBackWhole) {
+  testing::ScratchDirectory dir;
+  const auto file = dir.file("lab.db");
+  const auto bytes = testing::sample_map_bytes(9 * (std::int64_t{1} << 20) / 2, 7);
+  Id map = 0;
+  {
+    auto lab = value_of(Store::open(file));
+    const Id session = value_of(lab.create_session(sample_session(1)));
+    value_of(lab.record_measurement(sample_measurement(session, 1), sample_fit(1)));
+    testing::store_sample_map(lab, session, "small", testing::sample_map_bytes(10, 1));
+    map = testing::store_sample_map(lab, std::nullopt, "arm", bytes);
+  }
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  const auto from = value_of(Store::open(file, read_only));
+  Database db;
+  auto onto = value_of(Store::open(db.uri));
+  const auto there = value_of(copy_database(from, onto));
+  const auto back_file = dir.file("back.db");
+  auto back = value_of(Store::open(back_file));
+  const auto returned = value_of(copy_database(onto, back));
+  ASSERT_EQ(there.tables.size(), returned.tables.size());
+  for (std::size_t i = 0; i < there.tables.size(); ++i) {
+    EXPECT_EQ(there.tables[i].digest, returned.tables[i].digest) << there.tables[i].table;
+    EXPECT_EQ(there.tables[i].rows, returned.tables[i].rows) << there.tables[i].table;
+  }
+  EXPECT_EQ(there.tables[9].table, "map_pictures");
+  EXPECT_EQ(there.tables[8].rows, 6);  // five pieces and one
+  for (const Store* store : {&onto, &back}) {
+    std::string data;
+    ASSERT_TRUE(store->read_map_data(map, [&](std::string_view piece) {
+      data += piece;
+      return true;
+    }));
+    EXPECT_TRUE(data == bytes);
+    EXPECT_EQ(value_of(store->map(map)).pictures, (std::vector<std::string>{"melanin", "bilirubin"}));
+  }
 }
 
 // A copy the destination refuses part way (PostgreSQL takes only UTF-8 text; a SQLite file may

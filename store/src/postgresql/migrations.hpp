@@ -11,6 +11,7 @@ extern const detail::MigrationStep kBaseline;
 extern const detail::MigrationStep kVersion6;
 extern const detail::MigrationStep kVersion7;
 extern const detail::MigrationStep kVersion8;
+extern const detail::MigrationStep kVersion9;
 
 // The version of the database `writer` is connected to; 0 for an empty one. Throws corrupt for
 // a database whose schema holds another application's tables.

@@ -321,6 +321,38 @@ void admit_imported_measurements(detail::Connection& writer) {
 
 constexpr detail::MigrationStep kVersion8{"", admit_imported_measurements};
 
+// Maps (docs/store.md, "Maps"): a map with the job that made it, its data deflated in pieces of
+// 1 MiB of raw data (a cube's data runs to hundreds of MB, which no one statement should hold),
+// and its pictures, whose ordinal keeps the order they were given in on every engine.
+constexpr std::string_view kVersion9Sql = R"sql(
+CREATE TABLE maps (
+  id         INTEGER PRIMARY KEY,
+  job_id     INTEGER NOT NULL UNIQUE REFERENCES jobs (id),
+  session_id INTEGER REFERENCES sessions (id),
+  name       TEXT NOT NULL,
+  summary    TEXT NOT NULL CHECK (json_valid(summary) AND json_type(summary) = 'object'),
+  header     TEXT NOT NULL,
+  data_bytes INTEGER NOT NULL CHECK (data_bytes >= 0),
+  created_at INTEGER NOT NULL
+);
+CREATE INDEX maps_by_session ON maps (session_id);
+CREATE TABLE map_data (
+  map_id INTEGER NOT NULL REFERENCES maps (id),
+  piece  INTEGER NOT NULL CHECK (piece >= 0),
+  bytes  BLOB NOT NULL,
+  PRIMARY KEY (map_id, piece)
+);
+CREATE TABLE map_pictures (
+  map_id    INTEGER NOT NULL REFERENCES maps (id),
+  ordinal   INTEGER NOT NULL CHECK (ordinal >= 0),
+  parameter TEXT NOT NULL CHECK (parameter <> ''),
+  png       BLOB NOT NULL,
+  PRIMARY KEY (map_id, parameter),
+  UNIQUE (map_id, ordinal)
+);
+)sql";
+constexpr detail::MigrationStep kVersion9{kVersion9Sql};
+
 int schema_version(detail::Connection& writer) { return static_cast<int>(writer.query_integer("PRAGMA user_version")); }
 
 void set_schema_version(detail::Connection& writer, int version) {

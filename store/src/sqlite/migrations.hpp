@@ -18,6 +18,7 @@ extern const detail::MigrationStep kVersion4;
 extern const detail::MigrationStep kVersion5;
 extern const detail::MigrationStep kVersion6;
 extern const detail::MigrationStep kVersion8;
+extern const detail::MigrationStep kVersion9;
 
 int schema_version(detail::Connection& writer);
 void set_schema_version(detail::Connection& writer, int version);

@@ -14,8 +14,9 @@ namespace skinspec::store {
 struct TableCopy {
   std::string table;
   std::int64_t rows = 0;
-  // 16 hex digits (FNV-1a, 64 bits) over every value of every row in id order, as typed values:
-  // equal on two databases, of whichever engines, exactly when they hold the same rows.
+  // 16 hex digits (FNV-1a, 64 bits) over every value of every row in key order (the id, or a
+  // map's id and the piece or ordinal), as typed values: equal on two databases, of whichever
+  // engines, exactly when they hold the same rows.
   std::string digest;
 };
 

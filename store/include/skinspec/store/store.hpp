@@ -259,6 +259,31 @@ class Store {
   // Newest first; of one session when given.
   Result<std::vector<Job>> jobs(std::optional<Id> session_id = std::nullopt, int limit = 100) const;
 
+  // ---- Maps (docs/store.md, "Maps") ----
+
+  // The end of a running job that mapped a cube: the map (its id, job_id and created_at set
+  // here), its data, its pictures and the job `succeeded` with `result` (a JSON object, to which
+  // the store adds "map_id"), in one transaction: all of it or nothing. The data is stored
+  // deflated in pieces, so neither this call nor a reader holds all of it at once. `map.pictures`
+  // is ignored: the pictures are those given. Refused: a job that is not running (conflict), a
+  // session that does not exist (not_found; it need not be open), an empty name, a summary or
+  // result that is not a JSON object, a negative size, a picture without a parameter or two of
+  // one parameter (invalid_argument). `data.read` may end it by throwing, as
+  // record_measurements_as_ready's `next` may: the exception leaves this call as thrown, nothing
+  // is stored and the job stays running. A write tried again (a connection found lost before the
+  // commit) reads the data again from the start.
+  Result<Job> complete_map_job(Id job_id, const Map& map, const MapData& data, const std::vector<MapPicture>& pictures,
+                               const std::string& result);
+  // One map, without its data or pictures' bytes (Map::pictures names them).
+  Result<Map> map(Id id) const;
+  // Newest first, at most `limit` (1-1000); of one session when given.
+  Result<std::vector<Map>> maps(std::optional<Id> session_id = std::nullopt, int limit = 100) const;
+  // A map's picture of `parameter` (not_found when the map or the picture does not exist).
+  Result<std::string> map_picture(Id id, std::string_view parameter) const;
+  // A map's data, inflated, handed to `sink` piece by piece in order (each view valid during the
+  // call); the read stops early when `sink` returns false. One snapshot from first to last piece.
+  Result<void> read_map_data(Id id, const std::function<bool(std::string_view piece)>& sink) const;
+
   // ---- Benches (docs/store.md, "Benches") ----
 
   // The bench this Store writes for (OpenOptions::bench).

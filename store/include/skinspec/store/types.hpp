@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdint>
 #include <expected>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -227,6 +228,35 @@ struct Job {
   std::string result = "{}";        // a JSON object: the ids it produced
   Time created_at{};
   std::optional<Time> started_at{}, finished_at{};
+};
+
+// A skin map of a spectral image (docs/maps.md), as the service stores it (v9): the answer
+// cube's ENVI header and data, its summary, and a PNG picture of each parameter. Made by one
+// job, which it names; stored whole with that job's end, or not at all.
+struct MapPicture {
+  std::string parameter;  // the band it pictures ("melanin")
+  std::string png;        // the picture's bytes
+  bool operator==(const MapPicture&) const = default;
+};
+
+struct Map {
+  Id id = 0;
+  Id job_id = 0;  // the job that made it
+  std::optional<Id> session_id{};
+  std::string name;                   // the cube's name: its file's stem, or the upload's name
+  std::string summary = "{}";         // a JSON object: the map's summary.json, as written
+  std::string header;                 // the answer cube's ENVI header (NAME.map.hdr), as written
+  std::int64_t data_bytes = 0;        // the size of the answer cube's data (NAME.map.img)
+  std::vector<std::string> pictures;  // the parameters it has a picture of, in the order stored
+  Time created_at{};
+};
+
+// The answer cube's data as the store reads it to store it: `size` bytes, read piece by piece
+// in order from offset 0 by `read(offset, into)`, which fills `into` whole or throws. Read again
+// from the start when a write is tried again.
+struct MapData {
+  std::int64_t size = 0;
+  std::function<void(std::int64_t offset, std::span<char> into)> read;
 };
 
 // A skinspecd writing the database for one bench (a PC with its meter), as its last heartbeat

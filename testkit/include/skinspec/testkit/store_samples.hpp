@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "skinspec/store/types.hpp"
+#include "skinspec/store/store.hpp"
 
 namespace skinspec::testing {
 
@@ -44,6 +44,18 @@ store::Session sample_session(int n);
 store::Measurement sample_measurement(store::Id session_id, int n);
 // A fit whose values follow from `n`, with an undetermined (infinite) bilirubin error.
 store::Fit sample_fit(int n);
+
+// `size` bytes of a map's data that follow from `seed`: the first half random (which deflating
+// cannot shrink), the rest a slowly changing series of floats (which it shrinks much).
+std::string sample_map_bytes(std::int64_t size, unsigned seed);
+// `bytes` as a map's data, read from memory; each read's offset is added to `offsets` when given.
+store::MapData map_data_of(const std::string& bytes, std::vector<std::int64_t>* offsets = nullptr);
+// A new job of `kind` (of `session` when given), running: as a job is when it ends with what it made.
+store::Id running_job(store::Store& store, const std::string& kind, std::optional<store::Id> session = std::nullopt);
+// A map of `session` named `name`, with `bytes` as its data, the summary {"pixels":12}, the
+// header "ENVI\n" and pictures of melanin and bilirubin, stored with the end of a job of its own.
+store::Id store_sample_map(store::Store& store, std::optional<store::Id> session, const std::string& name,
+                           const std::string& bytes);
 
 // Whether `stored` holds exactly what sample_measurement(session, n) / sample_fit(n) gave, for
 // the n in its label; an explanation when not.
