@@ -1,6 +1,7 @@
 // skinspecd: stored skin spectra, sessions and fits over HTTP/JSON (docs/api.md).
 
 #include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -59,6 +60,12 @@ int serve(const skinspec::daemon::Options& o) {
     spdlog::warn("event=recovered interrupted_sessions={}", db->recovery().interrupted_sessions.size());
   context.store = &*db;
   context.fitter = &*fitter;
+  for (const auto& [flag, dir] : {std::pair{"--data-dir", o.data_dir}, std::pair{"--work-dir", o.work_dir}}) {
+    std::error_code error;
+    if (!dir.empty() && !std::filesystem::is_directory(dir, error))
+      return spdlog::error("event=bad_option message=\"{} {}: not a directory\"", flag, dir), 2;
+  }
+  context.maps = {o.data_dir, o.work_dir};
   if (o.reconnect_initial_ms < 1 || o.reconnect_max_ms < 1 || o.instrument_check_ms < 0)
     return spdlog::error(
                "event=bad_option message=\"reconnect_initial_ms and reconnect_max_ms must be positive, "
@@ -165,6 +172,10 @@ int main(int argc, char** argv) {
                  "seconds this bench may stay silent before the others count it gone and interrupt its jobs")
       ->check(CLI::Range(2, 3600))
       ->capture_default_str();
+  app.add_option("--data-dir", o.data_dir,
+                 "the directory whose spectral images POST /api/v1/maps may name by path (default: uploads only)");
+  app.add_option("--work-dir", o.work_dir,
+                 "where map jobs keep uploads and answers until they are stored (default: the temporary directory)");
   app.add_option("--token-file", o.token_file,
                  "0600 JSON file with read_token and operator_token; required off loopback");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical or off")

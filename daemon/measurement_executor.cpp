@@ -160,9 +160,8 @@ void MeasurementExecutor::finish(store::Id id, const Step<store::CompletedJob>& 
 
 std::optional<store::StoreError> MeasurementExecutor::record_end(store::Id id, const store::JobError& error,
                                                                  std::optional<std::string> result) {
-  const auto written = with_retries("job_end", id, [&] {
-    return db_.update_job(id, {ended_state(error), error, result});
-  });
+  const auto written =
+      with_retries("job_end", id, [&] { return db_.update_job(id, {ended_state(error), error, result}); });
   if (written) return std::nullopt;
   return written.error();
 }

@@ -29,6 +29,8 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       else if (key == "model") o.model = v.get<std::string>();
       else if (key == "token_file") o.token_file = v.get<std::string>();
       else if (key == "bench") o.bench = v.get<std::string>();
+      else if (key == "data_dir") o.data_dir = v.get<std::string>();
+      else if (key == "work_dir") o.work_dir = v.get<std::string>();
       else if (key == "lease") o.lease_s = v.get<int>();
       else if (key == "log_level") o.log_level = v.get<std::string>();
       else if (key == "body_limit") o.body_limit = v.get<std::size_t>();
@@ -82,7 +84,7 @@ bool is_loopback(const std::string& address) {
 }
 
 std::expected<api::AccessPolicy, std::string> read_token_file(const std::string& path) {
-  struct stat st {};
+  struct stat st{};
   if (::stat(path.c_str(), &st) != 0) return std::unexpected(path + ": cannot read the token file");
   if ((st.st_mode & 077) != 0)
     return std::unexpected(path + ": the token file must be readable by its owner only (chmod 600)");

@@ -17,6 +17,10 @@ struct Options {
   std::string device;          // serial:, tcp:, usb: URI or "auto"; empty: no instrument
   std::string model = "auto";  // the meter's model (a profile id), or auto: found out when connecting
   std::string token_file;
+  // Skin maps: the directory whose cubes POST /api/v1/maps may name (empty: uploads only), and
+  // where map jobs work (empty: the system's temporary directory).
+  std::string data_dir;
+  std::string work_dir;
   std::string bench;  // this PC's bench among those writing one database; empty: the host name
   int lease_s = 15;   // how long the bench may stay silent before other programs count it gone
   std::string log_level = "info";

@@ -186,7 +186,7 @@ void FitJobs::work() {
   }
 }
 
-void FitJobs::run(store::Id id, const Work& work) {
+void FitJobs::run(store::Id id, Work& work) {
   auto started = store_.update_job(id, {store::JobState::running, std::nullopt, std::nullopt, store::JobState::queued});
   if (!started) {
     // Cancelled by another program meanwhile (a conflict): not run. Otherwise the record could
@@ -198,6 +198,7 @@ void FitJobs::run(store::Id id, const Work& work) {
   // Nothing thrown may leave this thread, which would end the whole service with it.
   try {
     if (const auto* upload = std::get_if<ImportUpload>(&work)) run_import(id, *upload);
+    else if (auto* map = std::get_if<MapRequest>(&work)) run_map(id, *map);
     else run_refit(id, std::get<records::RefitRequest>(work));
   } catch (const std::exception& e) {
     end(id, ended(store::JobState::failed, job_error(store::JobErrorCode::internal, e.what())));
@@ -205,8 +206,9 @@ void FitJobs::run(store::Id id, const Work& work) {
 }
 
 std::size_t FitJobs::held_bytes(const Work& work) {
-  const auto* upload = std::get_if<ImportUpload>(&work);
-  return upload ? upload->bytes.size() : 0;
+  if (const auto* upload = std::get_if<ImportUpload>(&work)) return upload->bytes.size();
+  if (const auto* map = std::get_if<MapRequest>(&work)) return map->upload_bytes;
+  return 0;
 }
 
 void FitJobs::run_import(store::Id id, const ImportUpload& upload) {

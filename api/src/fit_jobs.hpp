@@ -1,6 +1,7 @@
 #pragma once
 // Jobs that fit spectra already in hand instead of measuring them: a file of spectra imported
-// into a session (records::import_file) and stored measurements fitted again (records::refit).
+// into a session (records::import_file), stored measurements fitted again (records::refit) and
+// every pixel of a spectral image mapped (map_jobs.*).
 // They run one at a time, in the order posted, on a thread of their own; each spreads its fits
 // over every core, so two of them at once would only share the cores. Their records are the
 // store's jobs (kinds import and refit); their live place and progress are the JobBoard's.
@@ -14,6 +15,7 @@
 
 #include "skinspec/api/errors.hpp"
 #include "skinspec/api/job_board.hpp"
+#include "map_jobs.hpp"
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/records/import.hpp"
 #include "skinspec/records/refit.hpp"
@@ -48,6 +50,8 @@ class FitJobs final {
   // Queues a refit of every session's measurements, or one session's.
   std::expected<store::CreatedJob, ApiError> submit_refit(const records::RefitRequest& request,
                                                           const std::string& idempotency_key);
+  // Queues a checked map (prepare_map); its scratch directory goes with the job.
+  std::expected<store::CreatedJob, ApiError> submit_map(MapRequest request, const std::string& idempotency_key);
   // Cancels a queued job, or asks the running one to stop at its next step; the job as it is
   // afterwards. A job of another program is refused (409): that program runs it.
   std::expected<store::Job, ApiError> cancel(store::Id job_id);
@@ -56,7 +60,7 @@ class FitJobs final {
   const JobWatch& jobs() const { return board_; }
 
  private:
-  using Work = std::variant<ImportUpload, records::RefitRequest>;
+  using Work = std::variant<ImportUpload, records::RefitRequest, MapRequest>;
 
   std::expected<store::CreatedJob, ApiError> enqueue(JobKind kind, store::Job job, Work work);
   // Counts a job's file against kMaxHeldBytes; the refusal when there is no room.
@@ -64,17 +68,21 @@ class FitJobs final {
   // The job's work, no longer held here.
   std::optional<Work> take_work(store::Id id);
   void work();
-  void run(store::Id id, const Work& work);
+  void run(store::Id id, Work& work);
   void run_import(store::Id id, const ImportUpload& upload);
   void run_refit(store::Id id, const records::RefitRequest& request);
+  // map_jobs.cpp: the cube mapped in its scratch directory, then stored with the job's end.
+  void run_map(store::Id id, MapRequest& request);
   // The job's record ended, then its live progress dropped.
   void end(store::Id id, const store::JobUpdate& update);
+  // A map's end: its scratch directory removed first, so that a job seen ended has left no file.
+  void end_map(store::Id id, MapRequest& request, const store::JobUpdate& update);
   // Its live progress dropped (kept as a failure when its end could not be recorded).
   void release(store::Id id, std::optional<store::JobError> unrecorded = std::nullopt);
-  // The bytes a queued job holds in memory: an import's file.
+  // The bytes a queued job holds: an import's file in memory, a map's upload on disk.
   static std::size_t held_bytes(const Work& work);
 
-  // Files queued or being imported, at most (they wait in memory).
+  // Files queued or being imported or mapped, at most (they wait in memory or on disk).
   static constexpr std::size_t kMaxHeldBytes = std::size_t{1} << 30;
 
   store::Store& store_;

@@ -40,7 +40,7 @@ json spectra_progress_json(JobPhase phase, std::int64_t done, std::int64_t total
 
 bool counts_spectra(const store::Job& job) {
   const auto kind = parse_job_kind(job.kind);
-  return kind == JobKind::import || kind == JobKind::refit;
+  return kind == JobKind::import || kind == JobKind::refit || kind == JobKind::map;
 }
 
 // Measuring takes most of a job's time: it covers 0 to 0.9, reading by reading; fitting and
@@ -63,10 +63,11 @@ std::int64_t integer_in(const json& object, const char* key, std::int64_t fallba
   return it != object.end() && it->is_number_integer() ? it->get<std::int64_t>() : fallback;
 }
 
-// An import or refit nobody here runs any more (or not yet): what its record says. Its result
-// counts what it stored (records::import_job_result, FitJobs' refit result).
+// An import, refit or map nobody here runs any more (or not yet): what its record says. Its
+// result counts what it stored (records::import_job_result, FitJobs' refit and map results).
 json stored_spectra_progress(const store::Job& job, const json& result) {
-  const std::int64_t done = integer_in(result, "imported", integer_in(result, "refitted", 0));
+  const std::int64_t done =
+      integer_in(result, "imported", integer_in(result, "refitted", integer_in(result, "pixels_mapped", 0)));
   const std::int64_t total = integer_in(result, "total", done);
   switch (job.state) {
     case store::JobState::queued:

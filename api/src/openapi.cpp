@@ -1,6 +1,7 @@
 // GET /openapi.json: generated from the route table, so that every route is documented and
 // nothing is documented that is not a route.
 
+#include "maps_route.hpp"
 #include "models_route.hpp"
 #include "render_route.hpp"
 #include "skinspec/api/acquisition.hpp"
@@ -253,6 +254,48 @@ json schemas() {
           {"model", {{"type", "object"}}},
           {"instrument", ref("Instrument")}}}}},
       {"SiteList", site_list},
+      {"MapRequest",
+       {{"type", "object"},
+        {"required", {"path"}},
+        {"additionalProperties", false},
+        {"properties",
+         {{"path", {{"type", "string"}, {"description", "the cube, relative to skinspecd's --data-dir"}}},
+          {"name", {{"type", "string"}, {"maxLength", 100}}},
+          {"model", model_schema()},
+          {"site", {{"type", "string"}, {"default", "forearm"}}},
+          {"session_id", {{"type", "integer"}, {"minimum", 1}}},
+          {"white_roi", {{"type", "array"}, {"items", {{"type", "integer"}}}, {"minItems", 4}, {"maxItems", 4}}},
+          {"white_reflectance", {{"type", "number"}, {"default", 0.99}}}}}}},
+      {"Map",
+       {{"type", "object"},
+        {"properties",
+         {{"id", {{"type", "integer"}}},
+          {"job_id", {{"type", "integer"}}},
+          {"session_id", nullable("integer")},
+          {"name", {{"type", "string"}}},
+          {"created_at", {{"type", "string"}}},
+          {"summary", {{"type", "object"}, {"description", "summary.json of `skinspec map` (docs/maps.md)"}}},
+          {"bands",
+           {{"type", "array"},
+            {"items",
+             {{"type", "object"}, {"properties", {{"name", {{"type", "string"}}}, {"unit", {{"type", "string"}}}}}}}}},
+          {"interleave", {{"type", "string"}}},
+          {"data_type", {{"type", "string"}}},
+          {"byte_order", {{"type", "string"}}},
+          {"data_bytes", {{"type", "integer"}}},
+          {"links", {{"type", "object"}}}}}}},
+      {"MapPixel",
+       {{"type", "object"},
+        {"properties",
+         {{"x", {{"type", "integer"}}},
+          {"y", {{"type", "integer"}}},
+          {"mask", {{"type", "string"}}},
+          {"values", {{"type", "object"}, {"description", "each answer band's value, null where not determined"}}},
+          {"wavelength_nm", numbers()},
+          {"measured", {{"type", "array"}, {"items", nullable("number")}}},
+          {"fit",
+           {{"type", json::array({"object", "null"})}, {"description", "the fit of a skin pixel's spectrum"}}}}}}},
+      {"MapList", {{"type", "object"}, {"properties", {{"maps", {{"type", "array"}, {"items", ref("Map")}}}}}}},
       {"ModelList", detail::model_list_schema()},
       {"OpenApi", {{"type", "object"}}},
       {"FitRequest",
@@ -522,8 +565,8 @@ json Router::openapi_document() {
     if (r.response_schema == "text/csv" || r.response_schema == "text/plain" ||
         r.response_schema == "text/event-stream")
       content = {{r.response_schema, {{"schema", {{"type", "string"}}}}}};
-    else if (r.response_schema == "image/png")
-      content = {{r.response_schema, {{"schema", {{"type", "string"}, {"contentMediaType", "image/png"}}}}}};
+    else if (r.response_schema == "image/png" || r.response_schema == "application/octet-stream")
+      content = {{r.response_schema, {{"schema", {{"type", "string"}, {"contentMediaType", r.response_schema}}}}}};
     else content = {{"application/json", {{"schema", ref(r.response_schema)}}}};
     op["responses"] = {{std::to_string(r.success_status), {{"description", "success"}, {"content", content}}},
                        {"4XX", error_reply("the request was refused")},
@@ -532,6 +575,12 @@ json Router::openapi_document() {
       op["requestBody"] = {{"required", true},
                            {"description", "the file's bytes, with any text/* content type"},
                            {"content", {{"text/plain", {{"schema", {{"type", "string"}}}}}}}};
+    else if (r.upload)
+      op["requestBody"] = {{"required", true},
+                           {"description", "a cube named in the data directory (JSON), or the cube's file"},
+                           {"content",
+                            {{"application/json", {{"schema", ref(r.request_schema)}}},
+                             {"application/octet-stream", {{"schema", {{"type", "string"}, {"format", "binary"}}}}}}}};
     else if (!r.request_schema.empty())
       op["requestBody"] = {{"required", r.path != "/api/v1/measurements/{id}/fit"},
                            {"content", {{"application/json", {{"schema", ref(r.request_schema)}}}}}};
@@ -544,6 +593,25 @@ json Router::openapi_document() {
       for (const auto& p : detail::render_query_parameters()) params.push_back(p);
     if (r.path == "/api/v1/sessions/{id}/imports")
       for (const auto& p : import_parameters()) params.push_back(p);
+    if (r.method == "POST" && r.path == "/api/v1/maps")
+      for (const auto& p : detail::map_upload_parameters()) params.push_back(p);
+    if (r.path == "/api/v1/maps/{id}/pixel")
+      for (const char* axis : {"x", "y"})
+        params.push_back(
+            {{"name", axis}, {"in", "query"}, {"required", true}, {"schema", {{"type", "integer"}, {"minimum", 0}}}});
+    if (r.method == "GET" && r.path == "/api/v1/maps")
+      params = json::array(
+          {{{"name", "session_id"}, {"in", "query"}, {"required", false}, {"schema", {{"type", "integer"}}}},
+           {{"name", "limit"},
+            {"in", "query"},
+            {"required", false},
+            {"schema", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}, {"default", 100}}}}});
+    if (r.path.find("{parameter}") != std::string::npos)
+      params.push_back({{"name", "parameter"},
+                        {"in", "path"},
+                        {"required", true},
+                        {"schema", {{"type", "string"}}},
+                        {"description", "a parameter of the map's model"}});
     if (!params.empty()) op["parameters"] = params;
     if (r.mutating) op["security"] = json::array({{{"bearer", json::array()}}});
     std::string method = r.method;

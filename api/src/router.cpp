@@ -23,6 +23,7 @@
 #include "fit_json.hpp"
 #include "models_route.hpp"
 #include "render_route.hpp"
+#include "maps_route.hpp"
 
 namespace skinspec::api {
 
@@ -35,12 +36,24 @@ namespace {
 // Stored fit `id`'s key in the cache of answers.
 std::string fit_cache_key(store::Id id) { return "fit/" + std::to_string(id); }
 
+// The media type of the request's body, lower case without parameters; empty when not given.
+std::string media_type(const Request& request) {
+  const auto it = request.headers.find("content-type");
+  if (it == request.headers.end()) return {};
+  std::string type = it->second.substr(0, it->second.find(';'));
+  std::transform(type.begin(), type.end(), type.begin(),
+                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  while (!type.empty() && type.back() == ' ') type.pop_back();
+  return type;
+}
+
 }  // namespace
 
 // What a matched route's handler gets: the request, the ids from its path, its query.
 struct Call {
   const Request& request;
   std::vector<store::Id> ids;
+  std::vector<std::string> names;  // from {parameter} segments, in order
   std::map<std::string, std::string> query;
   // Set only for a route marked RouteInfo::from_memory, whose handler must then throw
   // NotInMemory rather than go to the database: it runs on the thread that read the request.
@@ -583,6 +596,45 @@ struct Router::Handlers {
     r.headers.insert(r.headers.end(), image.headers.begin(), image.headers.end());
     return r;
   }
+  // POST /api/v1/maps: a cube named in the data directory (JSON), or uploaded (any other type)
+  static Response post_map(const RouterContext& c, const Call& call) {
+    const bool named = media_type(call.request) == "application/json";
+    if (named) no_query(call);
+    auto ask =
+        named ? detail::map_ask_of_json(call.request.body) : detail::map_ask_of_upload(call.request.body, call.query);
+    FitJobs& jobs = fit_jobs_of(c);
+    auto request = prepare_map(std::move(ask), c.maps, fitter_of(c));
+    if (!request) throw detail::HandlerError{request.error()};
+    return accepted(c, jobs.submit_map(std::move(*request), idempotency_key(call)));
+  }
+  // GET /api/v1/maps
+  static Response list_maps(const RouterContext& c, const Call& call) {
+    return json_response(detail::map_list_json(store_of(c), call.query));
+  }
+  // GET /api/v1/maps/{id}
+  static Response get_map(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return json_response(detail::map_json(value(store_of(c).map(call.ids[0]))));
+  }
+  // GET /api/v1/maps/{id}/{parameter}.png
+  static Response map_picture(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return detail::map_picture_response(call.request, store_of(c), call.ids[0], call.names[0]);
+  }
+  // GET /api/v1/maps/{id}/cube.hdr
+  static Response map_header(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return detail::map_header_response(call.request, store_of(c), call.ids[0]);
+  }
+  // GET /api/v1/maps/{id}/pixel?x=&y=
+  static Response map_pixel(const RouterContext& c, const Call& call) {
+    return json_response(detail::map_pixel_json(store_of(c), fitter_of(c), call.ids[0], call.query));
+  }
+  // GET /api/v1/maps/{id}/cube
+  static Response map_cube(const RouterContext& c, const Call& call) {
+    no_query(call);
+    return detail::map_cube_response(call.request, store_of(c), call.ids[0]);
+  }
 };
 
 namespace {
@@ -719,6 +771,37 @@ const std::vector<Route>& route_table() {
           true},
          &H::render_fit,
          {}},
+        {{"POST", "/api/v1/maps",
+          "Map a spectral image: a cube named in the data directory (JSON) or uploaded (a TIFF, HDF5 or netCDF "
+          "file, or a tar of an ENVI header and data), every skin pixel fitted: a job",
+          true, "MapRequest", "Job", 202, false, true},
+         &H::post_map,
+         {}},
+        {{"GET", "/api/v1/maps", "List skin maps, newest first; of one session with session_id", false, "", "MapList",
+          200},
+         &H::list_maps,
+         {}},
+        {{"GET", "/api/v1/maps/{id}", "One skin map: its summary, bands and links", false, "", "Map", 200},
+         &H::get_map,
+         {}},
+        {{"GET", "/api/v1/maps/{id}/{parameter}.png", "A skin map's picture of one parameter, with its colour bar",
+          false, "", "image/png", 200},
+         &H::map_picture,
+         {}},
+        {{"GET", "/api/v1/maps/{id}/cube.hdr", "A skin map's answer cube: its ENVI header", false, "", "text/plain",
+          200},
+         &H::map_header,
+         {}},
+        {{"GET", "/api/v1/maps/{id}/pixel",
+          "One pixel of a skin map: its answers, its measured reflectance and the fit of it (x, y from 0)", false, "",
+          "MapPixel", 200, true},
+         &H::map_pixel,
+         {}},
+        {{"GET", "/api/v1/maps/{id}/cube",
+          "A skin map's answer cube: its ENVI data (float32, little-endian, band-interleaved by line)", false, "",
+          "application/octet-stream", 200},
+         &H::map_cube,
+         {}},
     };
     for (auto& r : t) r.segments = split_path(r.info.path);
     return t;
@@ -726,7 +809,20 @@ const std::vector<Route>& route_table() {
   return table;
 }
 
-bool segment_matches(const std::string& pattern, const std::string& segment, std::vector<store::Id>& ids) {
+// A path segment against a route's: literally, or {id} (a positive integer, into `ids`), or
+// {parameter}.png (a band's name: lower-case letters, digits and '_', into `names`).
+bool segment_matches(const std::string& pattern, const std::string& segment, std::vector<store::Id>& ids,
+                     std::vector<std::string>& names) {
+  if (pattern == "{parameter}.png") {
+    constexpr std::string_view kPng = ".png";
+    if (!segment.ends_with(kPng) || segment.size() == kPng.size() || segment.size() > 64 + kPng.size()) return false;
+    const std::string name = segment.substr(0, segment.size() - kPng.size());
+    if (!std::ranges::all_of(name,
+                             [](char ch) { return (ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9') || ch == '_'; }))
+      return false;
+    names.push_back(name);
+    return true;
+  }
   if (pattern != "{id}") return pattern == segment;
   if (segment.empty() || segment.size() > 18 ||
       !std::all_of(segment.begin(), segment.end(), [](char ch) { return ch >= '0' && ch <= '9'; }))
@@ -740,16 +836,18 @@ bool segment_matches(const std::string& pattern, const std::string& segment, std
 // The route for `method` on a path's segments, with the ids taken from them; nullptr when there
 // is none, and then the methods the path has in `allow`.
 const Route* find_route(const std::string& method, const std::vector<std::string>& segments,
-                        std::vector<store::Id>& ids, std::string& allow) {
+                        std::vector<store::Id>& ids, std::vector<std::string>& names, std::string& allow) {
   for (const auto& route : route_table()) {
     if (route.segments.size() != segments.size()) continue;
     std::vector<store::Id> route_ids;
+    std::vector<std::string> route_names;
     bool ok = true;
     for (std::size_t i = 0; ok && i < segments.size(); ++i)
-      ok = segment_matches(route.segments[i], segments[i], route_ids);
+      ok = segment_matches(route.segments[i], segments[i], route_ids, route_names);
     if (!ok) continue;
     if (route.info.method == method) {
       ids = std::move(route_ids);
+      names = std::move(route_names);
       return &route;
     }
     allow += (allow.empty() ? "" : ", ") + route.info.method;
@@ -789,19 +887,9 @@ void check_access(const AccessPolicy& access, const Request& request, const Rout
   fail(ErrorKind::unauthorized, "unauthorized", "unknown token");
 }
 
-// The media type of the request's body, lower case without parameters; empty when not given.
-std::string media_type(const Request& request) {
-  const auto it = request.headers.find("content-type");
-  if (it == request.headers.end()) return {};
-  std::string type = it->second.substr(0, it->second.find(';'));
-  std::transform(type.begin(), type.end(), type.begin(),
-                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
-  while (!type.empty() && type.back() == ' ') type.pop_back();
-  return type;
-}
-
 // A route that reads JSON takes application/json (a refit of a measurement may have no body);
-// one that reads a file takes any text type, or none named.
+// one that reads a text file takes any text type, or none named; one that reads a file of
+// another kind takes any type.
 void check_content_type(const Request& request, const RouteInfo& route) {
   if (route.request_schema.empty()) return;
   const std::string type = media_type(request);
@@ -812,6 +900,7 @@ void check_content_type(const Request& request, const RouteInfo& route) {
     return;
   }
   if (request.body.empty() && route.path == "/api/v1/measurements/{id}/fit") return;
+  if (route.upload) return;  // a file of any type, or a JSON request (POST /api/v1/maps)
   if (type != "application/json")
     fail(ErrorKind::unsupported_media_type, "unsupported_media_type", "the body must be application/json");
 }
@@ -827,8 +916,10 @@ Router::Router(RouterContext context) : context_(std::move(context)) {
   if (!context_.render_cache) context_.render_cache = std::make_shared<RenderCache>();
   if (!context_.body_cache) context_.body_cache = std::make_shared<BodyCache>();
   if (!context_.job_board) context_.job_board = std::make_shared<JobBoard>();
-  if (!context_.fit_jobs && context_.store && context_.fitter)
+  if (!context_.fit_jobs && context_.store && context_.fitter) {
+    remove_abandoned_map_work(context_.maps);
     context_.fit_jobs = std::make_shared<FitJobs>(*context_.store, *context_.fitter, *context_.job_board);
+  }
 }
 Router::~Router() = default;
 
@@ -847,8 +938,9 @@ const RouteInfo* Router::route_of(const std::string& method, const std::string& 
   const auto decoded = detail::percent_decode(path, false);
   if (!decoded) return nullptr;
   std::vector<store::Id> ids;
+  std::vector<std::string> names;
   std::string allow;
-  const Route* route = find_route(method, split_path(*decoded), ids, allow);
+  const Route* route = find_route(method, split_path(*decoded), ids, names, allow);
   return route != nullptr ? &route->info : nullptr;
 }
 
@@ -922,8 +1014,9 @@ std::optional<Response> Router::answer(const Request& request, bool from_memory_
       return response;
     }
     std::vector<store::Id> ids;
+    std::vector<std::string> names;
     std::string allow;
-    const Route* matched = find_route(request.method, segments, ids, allow);
+    const Route* matched = find_route(request.method, segments, ids, names, allow);
     if (matched == nullptr) {
       if (allow.empty()) fail(ErrorKind::not_found, "not_found", "no route for " + *path);
       response = error_response(
@@ -937,7 +1030,8 @@ std::optional<Response> Router::answer(const Request& request, bool from_memory_
       auto query = detail::parse_query(qmark == std::string_view::npos ? std::string_view{} : target.substr(qmark + 1));
       if (!query)
         fail(ErrorKind::bad_request, "invalid_query", "the query string is malformed, repeats a name or is not UTF-8");
-      response = matched->handler(context_, Call{request, std::move(ids), std::move(*query), from_memory_only});
+      response = matched->handler(context_,
+                                  Call{request, std::move(ids), std::move(names), std::move(*query), from_memory_only});
     }
   } catch (const NotInMemory&) {
     return std::nullopt;

@@ -35,10 +35,11 @@ constexpr std::array<std::pair<SyncRequest::Mode, std::string_view>, 2> kSyncMod
     {SyncRequest::Mode::automatic, "auto"},
 }};
 
-constexpr std::array<std::pair<JobKind, std::string_view>, 3> kJobKinds = {{
+constexpr std::array<std::pair<JobKind, std::string_view>, 4> kJobKinds = {{
     {JobKind::measure, "measure"},
     {JobKind::import, "import"},
     {JobKind::refit, "refit"},
+    {JobKind::map, "map"},
 }};
 
 template <typename E>

@@ -55,6 +55,13 @@ export async function imageUrl(path, signal) {
   return URL.createObjectURL(await response.blob());
 }
 
+// A binary download (a map's answer cube) through the token, as an ArrayBuffer.
+export async function bytes(path) {
+  const response = await fetch(path, { headers: headers() });
+  if (!response.ok) throw await failure(response);
+  return response.arrayBuffer();
+}
+
 // A text download (CSV) through the token.
 export async function text(path) {
   const response = await fetch(path, { headers: headers() });

@@ -3,6 +3,7 @@
 
 import { api, setToken } from "./api.js";
 import { h, measurementView, sessionView, sessionsView } from "./views.js";
+import { mapView, mapsView } from "./maps.js";
 
 const main = document.getElementById("main");
 const statusBox = document.getElementById("instrument");
@@ -55,6 +56,8 @@ async function route() {
   try {
     if (parts[0] === "sessions" && parts[1]) keys = (await sessionView(screen, Number(parts[1]))).keys || {};
     else if (parts[0] === "measurements" && parts[1]) await measurementView(screen, Number(parts[1]));
+    else if (parts[0] === "maps" && parts[1]) await mapView(screen, Number(parts[1]));
+    else if (parts[0] === "maps") await mapsView(screen);
     else await sessionsView(screen, query);
   } catch (e) {
     screen.replaceChildren(h("section", { class: "card error", role: "alert" }, h("h2", {}, "Cannot show this"), h("p", {}, e.message)));

@@ -19,23 +19,23 @@ export function h(tag, attributes = {}, ...children) {
 // The skin models as the service describes them (GET /api/v1/models): every label and unit the
 // console shows comes from there. Asked for once, and again after a failure.
 let modelList = null;
-function models() {
+export function models() {
   if (!modelList) modelList = api("GET", "/api/v1/models").catch((e) => { modelList = null; throw e; });
   return modelList;
 }
-function modelOf(list, name) {
+export function modelOf(list, name) {
   return list.models.find((m) => m.name === name) || { name, params: [], derived: [], fit_quality: [] };
 }
 // A parameter, derived quantity or figure of fit quality (rmse, delta_e00_d65) of a model by
 // name; its bare name when the model has none.
-function describe(model, name) {
+export function describe(model, name) {
   return model.params.find((p) => p.name === name) || model.derived.find((d) => d.name === name)
     || model.fit_quality.find((q) => q.name === name) || { name, label: name, unit: "" };
 }
 const unitNote = (unit) => (unit ? h("span", { class: "unit" }, unit) : null);
 
-const fmt = (v, digits = 4) => (v === null || v === undefined || !Number.isFinite(v) ? "–" : Number(v).toPrecision(digits));
-const when = (t) => (t ? new Date(t).toLocaleString() : "–");
+export const fmt = (v, digits = 4) => (v === null || v === undefined || !Number.isFinite(v) ? "–" : Number(v).toPrecision(digits));
+export const when = (t) => (t ? new Date(t).toLocaleString() : "–");
 
 function download(name, type, content) {
   const url = URL.createObjectURL(new Blob([content], { type }));

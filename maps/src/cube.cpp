@@ -187,6 +187,7 @@ std::expected<Cube, CubeError> Cube::open_array(const std::string& path, const s
   bool has = false;
   const double no_data = arrays->array->GetNoDataValueAsDouble(&has);
   if (has) info.ignore_value = no_data;
+  info.files = {file};
   dataset->container = std::move(arrays->container);
   dataset->array = std::move(arrays->array);
   dataset->band_dim = arrays->band_dim, dataset->sample_dim = arrays->sample_dim, dataset->line_dim = arrays->line_dim;
@@ -217,6 +218,9 @@ std::expected<Cube, CubeError> Cube::open(const std::string& path) {
   GDALDataset& d = *dataset->gdal;
   CubeInfo info;
   info.file = path;
+  char** files = d.GetFileList();
+  for (char** f = files; f && *f; ++f) info.files.emplace_back(*f);
+  CSLDestroy(files);
   info.lines = static_cast<std::size_t>(d.GetRasterYSize());
   info.samples = static_cast<std::size_t>(d.GetRasterXSize());
   info.bands = static_cast<std::size_t>(d.GetRasterCount());

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 namespace skinspec::maps {
@@ -17,10 +18,12 @@ using nlohmann::json;
 json parameters_json(const std::vector<ParameterSummary>& summaries) {
   json out = json::object();
   for (const auto& p : summaries) {
-    json entry = {{"unit", p.band.unit}, {"determined_pixels", p.determined_pixels}};
+    const auto number = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
+    json entry = {{"unit", p.band.unit},
+                  {"determined_pixels", p.determined_pixels},
+                  {"picture_range", {number(p.picture_range[0]), number(p.picture_range[1])}}};
     for (std::size_t q = 0; q < kSummaryPercentiles.size(); ++q)
-      entry[fmt::format("p{}", kSummaryPercentiles[q])] =
-          std::isnan(p.percentiles[q]) ? json(nullptr) : json(p.percentiles[q]);
+      entry[fmt::format("p{}", kSummaryPercentiles[q])] = number(p.percentiles[q]);
     out[p.band.name] = entry;
   }
   return out;
@@ -39,6 +42,7 @@ json summary_json(const CubeInfo& info, const MapRunOptions& options, const MapT
       {"lines", info.lines},
       {"samples", info.samples},
       {"bands", info.bands},
+      {"wavelength_nm", info.wavelength_nm},
       {"pixels", by_reason},
       {"parameters", parameters_json(parameters)},
       {"solver",
@@ -66,9 +70,16 @@ std::expected<MapRun, MapRunError> run_map(const Fitter& fitter, const Cube& cub
   const CubeInfo& info = cube.info();
   if (auto covered = check_coverage(info); !covered) return std::unexpected(bad_cube(covered.error()));
   const Mapper mapper(fitter, options.map, info);
-  auto writer = MapWriter::create(dir, name, info, map_bands(options.map.fit.model), options.format);
+  CubeInfo labelled = info;  // the header's description names the cube as the caller knows it
+  if (!options.cube_label.empty()) labelled.file = options.cube_label;
+  auto writer = MapWriter::create(dir, name, labelled, map_bands(options.map.fit.model), options.format);
   if (!writer) return std::unexpected(failed(writer.error()));
 
+  std::ofstream reflectance;
+  if (!options.reflectance_file.empty()) {
+    reflectance.open(options.reflectance_file, std::ios::binary | std::ios::trunc);
+    if (!reflectance) return std::unexpected(failed(options.reflectance_file.string() + " cannot be written"));
+  }
   MapTally tally;
   const auto started = Clock::now();
   const auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - started).count(); };
@@ -80,9 +91,17 @@ std::expected<MapRun, MapRunError> run_map(const Fitter& fitter, const Cube& cub
     const auto answers = mapper.map_lines(*values, count, tally);
     if (auto written = writer->write_lines(first, count, answers); !written)
       return std::unexpected(failed(written.error()));
+    if (reflectance.is_open()) {
+      const auto r = mapper.reflectance_lines(*values);
+      if (!reflectance.write(reinterpret_cast<const char*>(r.data()),
+                             static_cast<std::streamsize>(r.size() * sizeof(float))))
+        return std::unexpected(failed(options.reflectance_file.string() + " cannot be written"));
+    }
     if (observer && !observer({first + count, info.lines, seconds()}))
       return MapRun{.stopped = true, .files = {}, .summary_json = {}};
   }
+  if (reflectance.is_open() && !reflectance.flush())
+    return std::unexpected(failed(options.reflectance_file.string() + " cannot be written"));
   const double mapped_in = seconds();
   const auto parameters = writer->close(options.map.fit.model, options.pictures);
   if (!parameters) return std::unexpected(failed(parameters.error()));

@@ -153,13 +153,14 @@ std::expected<std::vector<ParameterSummary>, std::string> MapWriter::close(Model
                  ? std::numeric_limits<double>::quiet_NaN()
                  : static_cast<double>(determined[(determined.size() - 1) * static_cast<std::size_t>(q) / 100]);
     };
-    ParameterSummary summary{bands[2 * p], determined.size(), {}};
+    ParameterSummary summary{bands[2 * p], determined.size(), {}, {percentile(2), percentile(98)}};
     for (std::size_t q = 0; q < kSummaryPercentiles.size(); ++q)
       summary.percentiles[q] = percentile(kSummaryPercentiles[q]);
     summaries.push_back(summary);
     if (!pictures) continue;
-    const auto picture = render::encode_png(
-        parameter_picture(*values, *mask, lines, state_->samples, bands[2 * p], percentile(2), percentile(98)), 8);
+    const auto picture = render::encode_png(parameter_picture(*values, *mask, lines, state_->samples, bands[2 * p],
+                                                              summary.picture_range[0], summary.picture_range[1]),
+                                            8);
     if (!picture) return std::unexpected(picture.error());
     const fs::path png = state_->partial / fmt::format("{}.{}.png", state_->name.string(), bands[2 * p].name);
     std::ofstream out(png, std::ios::binary);

@@ -179,6 +179,19 @@ MaskReason Mapper::judge(std::span<const double> reflectance, bool clipped) cons
   return angle > options_.max_spectral_angle ? MaskReason::not_skin : MaskReason::skin;
 }
 
+double Mapper::reflectance_of(double stored, std::size_t band) const {
+  if (cube_.ignore_value && stored == *cube_.ignore_value) return std::numeric_limits<double>::quiet_NaN();
+  if (options_.radiance) return (stored - options_.radiance->dark[band]) * options_.radiance->gain[band];
+  return stored / cube_.reflectance_scale;
+}
+
+std::vector<float> Mapper::reflectance_lines(std::span<const float> values) const {
+  std::vector<float> out(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i)
+    out[i] = static_cast<float>(reflectance_of(static_cast<double>(values[i]), i % cube_.bands));
+  return out;
+}
+
 void Mapper::map_line(std::span<const float> line, std::span<float> out, MapTally& tally) const {
   // The last fitted pixel's answer and RMSE, while its right neighbour is skin.
   struct Neighbour {
@@ -194,9 +207,7 @@ void Mapper::map_line(std::span<const float> line, std::span<float> out, MapTall
     bool clipped = false;
     for (std::size_t b = 0; b < cube_.bands; ++b) {
       const auto v = static_cast<double>(stored[b]);
-      if (cube_.ignore_value && v == *cube_.ignore_value) reflectance[b] = std::numeric_limits<double>::quiet_NaN();
-      else if (options_.radiance) reflectance[b] = (v - options_.radiance->dark[b]) * options_.radiance->gain[b];
-      else reflectance[b] = v / cube_.reflectance_scale;
+      reflectance[b] = reflectance_of(v, b);
       clipped = clipped || (cube_.type_maximum && v == *cube_.type_maximum);
     }
     MaskReason reason = judge(reflectance, clipped);

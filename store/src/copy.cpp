@@ -54,8 +54,8 @@ const std::array<Table, 10>& tables() {
       {"rejected_readings",
        detail::kRejectedReadingColumns,
        {integer, integer, integer, integer, integer, integer, text, text, blob, time, time}},
-      {"maps", detail::kMapColumns, {integer, integer, integer, text, text, text, integer, time}},
-      {"map_data", detail::kMapDataColumns, {integer, integer, blob}, "map_id, piece", 4},
+      {"maps", detail::kMapColumns, {integer, integer, integer, text, text, text, integer, integer, time}},
+      {"map_data", detail::kMapDataColumns, {integer, integer, integer, blob}, "map_id, part, piece", 4},
       {"map_pictures", detail::kMapPictureColumns, {integer, integer, text, blob}, "map_id, ordinal"},
   }};
   return kTables;

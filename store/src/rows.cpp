@@ -177,7 +177,8 @@ Map read_map(const Statement& row) {
   out.summary = row.text(4);
   out.header = row.text(5);
   out.data_bytes = row.integer(6);
-  out.created_at = row.time(7);
+  out.reflectance_bytes = row.integer(7);
+  out.created_at = row.time(8);
   return out;
 }
 

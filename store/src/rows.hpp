@@ -32,9 +32,10 @@ inline constexpr std::string_view kBenchColumns =
     "name, host, pid, started_at, heartbeat_at, lease_ms, instrument, stopped_at";
 inline constexpr std::string_view kRejectedReadingColumns =
     "id, session_id, job_id, instrument_id, attempt, quality_code, quality, reason, raw_reply, measured_at, created_at";
-inline constexpr std::string_view kMapColumns = "id, job_id, session_id, name, summary, header, data_bytes, created_at";
+inline constexpr std::string_view kMapColumns =
+    "id, job_id, session_id, name, summary, header, data_bytes, reflectance_bytes, created_at";
 // A map's data and pictures, their keys first (the copy pages through them by key).
-inline constexpr std::string_view kMapDataColumns = "map_id, piece, bytes";
+inline constexpr std::string_view kMapDataColumns = "map_id, part, piece, bytes";
 inline constexpr std::string_view kMapPictureColumns = "map_id, ordinal, parameter, png";
 
 // Every row `sql` selects with `args` bound, each decoded by `read`.

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <map>
 #include <vector>
 
@@ -276,23 +277,30 @@ Result<std::string> Store::map_picture(Id id, std::string_view parameter) const 
 
 namespace {
 
-// Map `id`'s data, each piece inflated and handed to `sink` until it returns false, inside the
-// caller's read transaction; whether `sink` had all. Its pieces must be those its size makes,
-// each inflating to its length: corrupt otherwise.
-bool read_pieces(Connection& c, Id id, const std::function<bool(std::string_view)>& sink) {
-  const auto size = one(c, "SELECT data_bytes FROM maps WHERE id = ?1", id, "map",
-                        [](const detail::Statement& row) { return row.integer(0); });
+// The size of a part of map `id`'s data; its pieces must be those the size makes: corrupt
+// otherwise.
+std::int64_t part_size(Connection& c, Id id, MapPart part) {
+  const auto size = one(c, "SELECT data_bytes, reflectance_bytes FROM maps WHERE id = ?1", id, "map",
+                        [part](const detail::Statement& row) { return row.integer(part == MapPart::answers ? 0 : 1); });
   const auto count = detail::map_piece_count(size);
-  auto counted = c.prepare("SELECT count(*) FROM map_data WHERE map_id = ?1");
-  counted.bind(id);
+  auto counted = c.prepare("SELECT count(*) FROM map_data WHERE map_id = ?1 AND part = ?2");
+  counted.bind(id, static_cast<std::int64_t>(part));
   counted.step();
   if (counted.integer(0) != count)
     fail(Kind::corrupt,
          fmt::format("map {}: {} pieces of data where its {} bytes make {}", id, counted.integer(0), size, count));
+  return size;
+}
+
+// Pieces `first` to `last` (inclusive) of a part, each inflated and handed to `sink` until it
+// returns false, inside the caller's read transaction; whether `sink` had all. Each must
+// inflate to its length: corrupt otherwise.
+bool read_pieces(Connection& c, Id id, MapPart part, std::int64_t size, std::int64_t first, std::int64_t last,
+                 const std::function<bool(std::string_view)>& sink) {
   std::string raw;
-  for (std::int64_t piece = 0; piece < count; ++piece) {
-    auto row = c.prepare("SELECT bytes FROM map_data WHERE map_id = ?1 AND piece = ?2");
-    row.bind(id, piece);
+  for (std::int64_t piece = first; piece <= last; ++piece) {
+    auto row = c.prepare("SELECT bytes FROM map_data WHERE map_id = ?1 AND part = ?2 AND piece = ?3");
+    row.bind(id, static_cast<std::int64_t>(part), piece);
     if (!row.step()) fail(Kind::corrupt, fmt::format("map {} has no piece {} of its data", id, piece));
     raw.resize(static_cast<std::size_t>(detail::map_piece_length(size, piece)));
     detail::inflate_piece(row.blob(0), raw, fmt::format("map {}, piece {}", id, piece));
@@ -303,11 +311,12 @@ bool read_pieces(Connection& c, Id id, const std::function<bool(std::string_view
 
 }  // namespace
 
-Result<void> Store::read_map_data(Id id, const std::function<bool(std::string_view piece)>& sink) const {
+Result<void> Store::read_map_data(Id id, const std::function<bool(std::string_view piece)>& sink, MapPart part) const {
   const auto read = impl_->read(fmt::format("reading map {}'s data", id), [&](Connection& c) {
     bool handed = false;  // once `sink` has had a piece, the read must not start again
     try {
-      return read_pieces(c, id, [&](std::string_view piece) {
+      const auto size = part_size(c, id, part);
+      return read_pieces(c, id, part, size, 0, detail::map_piece_count(size) - 1, [&](std::string_view piece) {
         handed = true;
         return sink(piece);
       });
@@ -318,6 +327,26 @@ Result<void> Store::read_map_data(Id id, const std::function<bool(std::string_vi
   });
   if (!read) return std::unexpected(read.error());
   return {};
+}
+
+Result<std::string> Store::read_map_bytes(Id id, MapPart part, std::int64_t offset, std::int64_t length) const {
+  return impl_->read(fmt::format("reading map {}'s data", id), [&](Connection& c) {
+    if (offset < 0 || length < 0) fail(Kind::invalid_argument, "a map's data is read from a place within it");
+    const auto size = part_size(c, id, part);
+    const auto end = std::min(size, offset + std::min(length, size));
+    std::string out;
+    if (offset >= end) return out;
+    const auto first = offset / detail::kMapPieceBytes, last = (end - 1) / detail::kMapPieceBytes;
+    std::int64_t at = first * detail::kMapPieceBytes;  // where the piece handed next starts
+    read_pieces(c, id, part, size, first, last, [&](std::string_view piece) {
+      const auto from = std::max(offset, at) - at,
+                 to = std::min(end, at + static_cast<std::int64_t>(piece.size())) - at;
+      out.append(piece.substr(static_cast<std::size_t>(from), static_cast<std::size_t>(to - from)));
+      at += static_cast<std::int64_t>(piece.size());
+      return true;
+    });
+    return out;
+  });
 }
 
 }  // namespace skinspec::store

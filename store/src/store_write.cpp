@@ -499,11 +499,17 @@ Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measuremen
 
 namespace {
 
-void check_map(const Map& map, const MapData& data, const std::vector<MapPicture>& pictures) {
-  detail::check_not_empty(map.name, "the map's name");
-  detail::check_json_object(map.summary, "the map's summary");
+void check_map_data(const MapData& data) {
   if (data.size < 0) invalid(fmt::format("the map's data cannot be {} bytes", data.size));
   if (data.size > 0 && !data.read) invalid("the map's data has no reader");
+}
+
+void check_map(const Map& map, const MapData& answers, const MapData& reflectance,
+               const std::vector<MapPicture>& pictures) {
+  detail::check_not_empty(map.name, "the map's name");
+  detail::check_json_object(map.summary, "the map's summary");
+  check_map_data(answers);
+  check_map_data(reflectance);
   std::set<std::string_view> parameters;
   for (const auto& picture : pictures) {
     detail::check_not_empty(picture.parameter, "a map picture's parameter");
@@ -514,14 +520,15 @@ void check_map(const Map& map, const MapData& data, const std::vector<MapPicture
 
 // The map's data, read and deflated a piece at a time (never all of it at once), inside the
 // caller's transaction.
-void insert_map_data(Connection& c, Id map_id, const MapData& data) {
-  static const std::string sql = fmt::format("INSERT INTO map_data ({}) VALUES (?1, ?2, ?3)", detail::kMapDataColumns);
+void insert_map_data(Connection& c, Id map_id, MapPart part, const MapData& data) {
+  static const std::string sql =
+      fmt::format("INSERT INTO map_data ({}) VALUES (?1, ?2, ?3, ?4)", detail::kMapDataColumns);
   std::vector<char> raw(static_cast<std::size_t>(std::min(data.size, detail::kMapPieceBytes)));
   for (std::int64_t piece = 0; piece < detail::map_piece_count(data.size); ++piece) {
     const std::span<char> into(raw.data(), static_cast<std::size_t>(detail::map_piece_length(data.size, piece)));
     data.read(piece * detail::kMapPieceBytes, into);
     const auto deflated = detail::deflate_piece(into);
-    c.prepare(sql).bind(map_id, piece, Blob{deflated}).run();
+    c.prepare(sql).bind(map_id, static_cast<std::int64_t>(part), piece, Blob{deflated}).run();
   }
 }
 
@@ -536,20 +543,21 @@ void insert_map_pictures(Connection& c, Id map_id, const std::vector<MapPicture>
 
 }  // namespace
 
-Result<Job> Store::complete_map_job(Id job_id, const Map& map, const MapData& data,
+Result<Job> Store::complete_map_job(Id job_id, const Map& map, const MapData& answers, const MapData& reflectance,
                                     const std::vector<MapPicture>& pictures, const std::string& result) {
   return impl_->write(fmt::format("completing map job {}", job_id), [&](Connection& c) {
-    check_map(map, data, pictures);
+    check_map(map, answers, reflectance, pictures);
     const auto head = result_head(result, {"map_id"});
     const auto now = impl_->now();
     const auto job = job_in(c, job_id);
     require_running(job_id, job.state);
     if (map.session_id) require_row(c, "SELECT 1 FROM sessions WHERE id = ?1", *map.session_id, "session");
     const Id map_id = returned_id(
-        c.prepare("INSERT INTO maps (job_id, session_id, name, summary, header, data_bytes, created_at) VALUES (?1, "
-                  "?2, ?3, ?4, ?5, ?6, ?7) RETURNING id")
-            .bind(job_id, map.session_id, map.name, map.summary, map.header, data.size, now));
-    insert_map_data(c, map_id, data);
+        c.prepare("INSERT INTO maps (job_id, session_id, name, summary, header, data_bytes, reflectance_bytes, "
+                  "created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8) RETURNING id")
+            .bind(job_id, map.session_id, map.name, map.summary, map.header, answers.size, reflectance.size, now));
+    insert_map_data(c, map_id, MapPart::answers, answers);
+    insert_map_data(c, map_id, MapPart::reflectance, reflectance);
     insert_map_pictures(c, map_id, pictures);
     const auto ended = fmt::format(R"({}"map_id":{}}})", head, map_id);
     return change_job(c, job, {.state = JobState::succeeded, .result = ended}, now);

@@ -158,7 +158,8 @@ Id store_sample_map(Store& store, std::optional<Id> session, const std::string& 
   map.name = name;
   map.summary = R"({"pixels":12})";
   map.header = "ENVI\n";
-  value_of(store.complete_map_job(running_job(store, "map", session), map, map_data_of(bytes),
+  const std::string reflectance = bytes.substr(0, bytes.size() / 3);
+  value_of(store.complete_map_job(running_job(store, "map", session), map, map_data_of(bytes), map_data_of(reflectance),
                                   {{"melanin", "png 1"}, {"bilirubin", "png 2"}}, "{}"));
   return value_of(store.maps(std::nullopt, 1)).front().id;  // the newest: this one
 }

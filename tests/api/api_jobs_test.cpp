@@ -318,7 +318,7 @@ TEST_F(ApiJobsTest, TheOpenApiJobSchemaHasPositionAndProgress) {
     EXPECT_NE(std::ranges::find(codes, json(name)), codes.end()) << name;
   EXPECT_EQ(doc["components"]["schemas"]["JobProgress"]["properties"]["phase"]["enum"],
             json({"queued", "connecting", "measuring", "reading", "fitting", "storing", "done"}));
-  EXPECT_EQ(job["kind"]["enum"], json({"measure", "import", "refit"}));
+  EXPECT_EQ(job["kind"]["enum"], json({"measure", "import", "refit", "map"}));
   // An import takes the file itself as its body, with its format, scale and name in the query.
   const json& import = doc["paths"]["/api/v1/sessions/{id}/imports"]["post"];
   EXPECT_TRUE(import["requestBody"]["content"].contains("text/plain")) << import;

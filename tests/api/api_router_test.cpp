@@ -690,6 +690,7 @@ TEST_F(ApiRouterTest, OpenApiDocumentAndRouteTableAgree) {
     for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
     std::string target = path;
     if (const auto at = target.find("{id}"); at != std::string::npos) target.replace(at, 4, "1");
+    if (const auto at = target.find("{parameter}"); at != std::string::npos) target.replace(at, 11, "melanin");
     const auto answer = call(upper, target, "{}");
     EXPECT_NE(answer.status, 405) << method << ' ' << path;
     if (answer.status == 404) {
@@ -848,7 +849,7 @@ TEST(ApiRouterRoutes, FitsAndRendersAreTheHeavyRoutes) {
   for (const auto& r : Router::routes())
     if (r.heavy) heavy.insert(r.method + " " + r.path);
   EXPECT_EQ(heavy, (std::set<std::string>{"POST /api/v1/fit", "POST /api/v1/measurements/{id}/fit",
-                                          "GET /api/v1/fits/{id}/render.png"}));
+                                          "GET /api/v1/fits/{id}/render.png", "GET /api/v1/maps/{id}/pixel"}));
 }
 
 TEST_F(ApiRouterTest, TheWebConsoleIsServedWithoutATokenAndOutsideTheApiDocument) {

@@ -44,26 +44,7 @@ std::string bytes_of(const fs::path& file) {
   return {std::istreambuf_iterator<char>(in), {}};
 }
 
-// Skin-like spectra (rising towards the red, a haemoglobin dip near 560 nm), varied per pixel.
-CubeValues skin_cube(std::size_t lines, std::size_t samples) {
-  CubeValues cube{lines, samples, 0, {}, {}};
-  for (double nm = 400; nm <= 760; nm += 5) cube.wavelength_nm.push_back(nm);
-  cube.bands = cube.wavelength_nm.size();
-  cube.values.resize(lines * samples * cube.bands);
-  std::mt19937 random(3900);
-  std::uniform_real_distribution vary(-0.03, 0.03);
-  for (std::size_t l = 0; l < lines; ++l)
-    for (std::size_t s = 0; s < samples; ++s) {
-      const double shift = vary(random);
-      for (std::size_t b = 0; b < cube.bands; ++b) {
-        const double nm = cube.wavelength_nm[b];
-        const double rise = 0.18 + 0.42 / (1 + std::exp(-(nm - 590) / 18));
-        const double dip = 0.06 * std::exp(-std::pow((nm - 560) / 25, 2));
-        cube.at(l, s, b) = std::round((rise - dip + shift) * 4096) / 4096;
-      }
-    }
-  return cube;
-}
+using testing::skin_cube;
 
 class MapCli : public ::testing::Test {
  protected:
@@ -166,36 +147,13 @@ TEST_F(MapCli, Hdf5CubesInCAndMatlabOrderMapAsTheEnviCube) {
 }
 
 TEST_F(MapCli, ABadCubeExitsWithStatus2NamingTheFileAndFieldAndWritesNothing) {
-  struct Case {
-    std::string name, from, to, field;
-  };
-  const CubeValues cube = skin_cube(3, 3);
-  for (const Case& c :
-       std::vector<Case>{{"type", "data type = 4", "data type = 99", "data type"},
-                         {"sizes", "samples = 3", "samples = 4", "lines"},
-                         {"decreasing", "wavelength = {400, 405", "wavelength = {405, 400", "wavelength"},
-                         {"narrow", "wavelength = {400", "wavelength = {500", "wavelength"}}) {
-    const auto header = write_envi(dir_ / c.name, cube, {});
-    std::string text = bytes_of(header);
-    text.replace(text.find(c.from), c.from.size(), c.to);
-    if (c.name == "narrow") {  // every band 100 nm further: 500-860 nm
-      std::string list = "wavelength = {";
-      for (std::size_t b = 0; b < cube.bands; ++b) list += (b ? ", " : "") + std::to_string(500 + 5 * b);
-      text = text.substr(0, text.find("wavelength = {")) + list + "}\n";
-    }
-    std::ofstream(header) << text;
-    const fs::path out = dir_ / ("out-" + c.name);
+  for (const auto& bad : testing::write_bad_cubes(dir_)) {
+    const fs::path header = dir_ / (bad.name + ".hdr"), out = dir_ / ("out-" + bad.name);
     const auto run = skinspec({"map", header.string(), "-o", out.string()});
-    EXPECT_EQ(run.exit_status, kBadInput) << c.name << ": " << run.describe();
-    EXPECT_THAT(run.err, HasSubstr(header.string() + ": " + c.field)) << c.name;
-    EXPECT_THAT(left_in(out), ::testing::IsEmpty()) << c.name;
+    EXPECT_EQ(run.exit_status, kBadInput) << bad.name << ": " << run.describe();
+    EXPECT_THAT(run.err, HasSubstr(header.string() + ": " + bad.field)) << bad.name;
+    EXPECT_THAT(left_in(out), ::testing::IsEmpty()) << bad.name;
   }
-  const auto truncated = write_envi(dir_ / "truncated", cube, {});
-  fs::resize_file(dir_ / "truncated.img", fs::file_size(dir_ / "truncated.img") / 2);
-  const auto run = skinspec({"map", truncated.string(), "-o", (dir_ / "out-truncated").string()});
-  EXPECT_EQ(run.exit_status, kBadInput) << run.describe();
-  EXPECT_THAT(run.err, HasSubstr(truncated.string() + ": lines"));
-  EXPECT_THAT(left_in(dir_ / "out-truncated"), ::testing::IsEmpty());
 }
 
 TEST_F(MapCli, SigintStopsAMapAndLeavesNothingUnderItsNames) {

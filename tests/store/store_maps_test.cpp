@@ -89,8 +89,9 @@ TEST_P(StoreMapsTest, AMapRoundTripsItsDataPicturesAndSummaryWithItsJobsEnd) {
   map.header = "ENVI\nsamples = 3\n";
   map.pictures = {"ignored"};
   const std::vector<MapPicture> pictures{{"oxyhemoglobin", std::string("\x89PNG\0\x01", 6)}, {"melanin", "png"}};
-  const auto job =
-      value_of(store_.complete_map_job(job_id, map, map_data_of(bytes, &offsets), pictures, R"({"map_id":5,"z":1})"));
+  const auto reflectance = sample_map_bytes(3 * kMiB / 2, 4);
+  const auto job = value_of(store_.complete_map_job(job_id, map, map_data_of(bytes, &offsets), map_data_of(reflectance),
+                                                    pictures, R"({"map_id":5,"z":1})"));
   EXPECT_THAT(offsets, ElementsAre(0, kMiB, 2 * kMiB, 3 * kMiB));
 
   EXPECT_EQ(job.state, JobState::succeeded);
@@ -114,9 +115,26 @@ TEST_P(StoreMapsTest, AMapRoundTripsItsDataPicturesAndSummaryWithItsJobsEnd) {
   EXPECT_EQ(value_of(store_.map_picture(id, "melanin")), "png");
 
   EXPECT_TRUE(data_of(id) == bytes);
-  EXPECT_EQ(rows_in("map_data"), 4);
+  EXPECT_EQ(stored.reflectance_bytes, static_cast<std::int64_t>(reflectance.size()));
+  std::string reflectance_read;
+  expect_done(store_.read_map_data(
+      id,
+      [&](std::string_view piece) {
+        reflectance_read += piece;
+        return true;
+      },
+      MapPart::reflectance));
+  EXPECT_TRUE(reflectance_read == reflectance);
+  EXPECT_EQ(rows_in("map_data"), 4 + 2);
+  // A run of bytes across a piece's end, one inside a piece, and one running past the end.
+  EXPECT_EQ(value_of(store_.read_map_bytes(id, MapPart::answers, kMiB - 10, 30)), bytes.substr(kMiB - 10, 30));
+  EXPECT_EQ(value_of(store_.read_map_bytes(id, MapPart::reflectance, 17, 8)), reflectance.substr(17, 8));
+  EXPECT_EQ(value_of(store_.read_map_bytes(id, MapPart::reflectance, 3 * kMiB / 2 - 4, 100)),
+            reflectance.substr(3 * kMiB / 2 - 4));
+  EXPECT_EQ(value_of(store_.read_map_bytes(id, MapPart::answers, 7 * kMiB, 4)), "");
+  EXPECT_EQ(store_.read_map_bytes(id + 1, MapPart::answers, 0, 4).error().kind, Kind::not_found);
   // The random half is stored about as large as it is, the rest far smaller.
-  const auto deflated = raw_->integer("SELECT sum(length(bytes)) FROM map_data");
+  const auto deflated = raw_->integer("SELECT sum(length(bytes)) FROM map_data WHERE part = 0");
   EXPECT_GT(deflated, static_cast<long long>(bytes.size()) / 2);
   EXPECT_LT(deflated, static_cast<long long>(bytes.size()) * 2 / 3);
 }
@@ -131,7 +149,8 @@ TEST_P(StoreMapsTest, ADataSourceThatFailsPartWayStoresNothingAndTheJobRunsOn) {
     map_data_of(bytes).read(offset, into);
   };
   const auto map = map_of(session, "arm");
-  EXPECT_THROW((void)store_.complete_map_job(job_id, map, data, {{"melanin", "png"}}, "{}"), std::runtime_error);
+  EXPECT_THROW((void)store_.complete_map_job(job_id, map, map_data_of(bytes), data, {{"melanin", "png"}}, "{}"),
+               std::runtime_error);
   EXPECT_EQ(rows_in("maps"), 0);
   EXPECT_EQ(rows_in("map_data"), 0);
   EXPECT_EQ(rows_in("map_pictures"), 0);
@@ -139,7 +158,7 @@ TEST_P(StoreMapsTest, ADataSourceThatFailsPartWayStoresNothingAndTheJobRunsOn) {
   EXPECT_TRUE(value_of(store_.maps()).empty());
 
   // The store goes on: the same job ends with its map.
-  const auto job = value_of(store_.complete_map_job(job_id, map, map_data_of(bytes), {}, "{}"));
+  const auto job = value_of(store_.complete_map_job(job_id, map, map_data_of(bytes), {}, {}, "{}"));
   EXPECT_EQ(job.state, JobState::succeeded);
   EXPECT_EQ(rows_in("map_data"), 3);
 }
@@ -151,7 +170,7 @@ TEST_P(StoreMapsTest, AMapNeedsItsJobRunningItsSessionAndValuesThatCanBeStored) 
                            const std::string& result = "{}", std::int64_t size = 100) {
     auto data = map_data_of(bytes);
     data.size = size;
-    const auto refused = store_.complete_map_job(job, map, data, pictures, result);
+    const auto refused = store_.complete_map_job(job, map, data, {}, pictures, result);
     return refused ? std::optional<Kind>() : std::optional(refused.error().kind);
   };
   const auto map = map_of(session, "arm");

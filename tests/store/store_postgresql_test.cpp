@@ -479,7 +479,7 @@ TEST(PostgresqlStoreTest, AMapIsCopiedOntoPostgresqlAndBackWhole) {
     EXPECT_EQ(there.tables[i].rows, returned.tables[i].rows) << there.tables[i].table;
   }
   EXPECT_EQ(there.tables[9].table, "map_pictures");
-  EXPECT_EQ(there.tables[8].rows, 6);  // five pieces and one
+  EXPECT_EQ(there.tables[8].rows, 9);  // the answers and reflectance of each: five and two pieces, one and one
   for (const Store* store : {&onto, &back}) {
     std::string data;
     ASSERT_TRUE(store->read_map_data(map, [&](std::string_view piece) {

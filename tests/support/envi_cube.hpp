@@ -30,9 +30,22 @@ struct CubeValues {
   }
 };
 
+// Skin-like reflectance spectra, 400-760 nm by 5 nm (rising towards the red, a haemoglobin dip
+// near 560 nm), varied a little from pixel to pixel, each value a multiple of 1/4096.
+CubeValues skin_cube(std::size_t lines, std::size_t samples);
+
 // Writes STEM.hdr and STEM.img; returns the header's path. `extra_header` is appended to the
 // header as is; `write_wavelengths` false leaves the wavelength field out.
 std::filesystem::path write_envi(const std::filesystem::path& stem, const CubeValues& cube, const EnviLayout& layout,
                                  const std::string& extra_header = {}, bool write_wavelengths = true);
+
+// A cube every reader must refuse, and the header field its refusal names.
+struct BadCube {
+  std::string name, field;
+};
+// Writes DIR/NAME.hdr and DIR/NAME.img for each bad cube: an unknown data type (field "data
+// type"), sizes that disagree with the data file ("lines"), decreasing wavelengths, none, bands
+// of 600-960 nm that miss 420-680 nm ("wavelength"), and a truncated data file ("lines").
+std::vector<BadCube> write_bad_cubes(const std::filesystem::path& dir);
 
 }  // namespace skinspec::testing

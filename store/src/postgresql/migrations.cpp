@@ -189,14 +189,16 @@ CREATE TABLE maps (
   summary    json NOT NULL CHECK (json_typeof(summary) = 'object'),
   header     text NOT NULL,
   data_bytes bigint NOT NULL CHECK (data_bytes >= 0),
+  reflectance_bytes bigint NOT NULL CHECK (reflectance_bytes >= 0),
   created_at timestamptz NOT NULL
 );
 CREATE INDEX maps_by_session ON maps (session_id);
 CREATE TABLE map_data (
   map_id bigint NOT NULL REFERENCES maps (id),
+  part   bigint NOT NULL CHECK (part IN (0, 1)),
   piece  bigint NOT NULL CHECK (piece >= 0),
   bytes  bytea NOT NULL,
-  PRIMARY KEY (map_id, piece)
+  PRIMARY KEY (map_id, part, piece)
 );
 ALTER TABLE map_data ALTER COLUMN bytes SET STORAGE EXTERNAL;
 CREATE TABLE map_pictures (

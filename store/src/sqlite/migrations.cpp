@@ -321,8 +321,8 @@ void admit_imported_measurements(detail::Connection& writer) {
 
 constexpr detail::MigrationStep kVersion8{"", admit_imported_measurements};
 
-// Maps (docs/store.md, "Maps"): a map with the job that made it, its data deflated in pieces of
-// 1 MiB of raw data (a cube's data runs to hundreds of MB, which no one statement should hold),
+// Maps (docs/store.md, "Maps"): a map with the job that made it, its two parts of data (0 the
+// answer cube, 1 the pixels' reflectance) deflated in pieces of 1 MiB of raw data (a cube's data runs to hundreds of MB, which no one statement should hold),
 // and its pictures, whose ordinal keeps the order they were given in on every engine.
 constexpr std::string_view kVersion9Sql = R"sql(
 CREATE TABLE maps (
@@ -333,14 +333,16 @@ CREATE TABLE maps (
   summary    TEXT NOT NULL CHECK (json_valid(summary) AND json_type(summary) = 'object'),
   header     TEXT NOT NULL,
   data_bytes INTEGER NOT NULL CHECK (data_bytes >= 0),
+  reflectance_bytes INTEGER NOT NULL CHECK (reflectance_bytes >= 0),
   created_at INTEGER NOT NULL
 );
 CREATE INDEX maps_by_session ON maps (session_id);
 CREATE TABLE map_data (
   map_id INTEGER NOT NULL REFERENCES maps (id),
+  part   INTEGER NOT NULL CHECK (part IN (0, 1)),
   piece  INTEGER NOT NULL CHECK (piece >= 0),
   bytes  BLOB NOT NULL,
-  PRIMARY KEY (map_id, piece)
+  PRIMARY KEY (map_id, part, piece)
 );
 CREATE TABLE map_pictures (
   map_id    INTEGER NOT NULL REFERENCES maps (id),

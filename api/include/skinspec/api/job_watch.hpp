@@ -20,6 +20,7 @@ enum class JobKind {
   measure,  // a measurement with the instrument (POST /sessions/{id}/measurements)
   import,   // a file of spectra imported into a session (POST /sessions/{id}/imports)
   refit,    // stored measurements fitted again (POST /refits)
+  map,      // every pixel of a spectral image fitted, the skin map stored (POST /maps)
 };
 std::string_view to_string(JobKind kind);
 std::optional<JobKind> parse_job_kind(std::string_view text);
@@ -27,7 +28,7 @@ std::span<const std::pair<JobKind, std::string_view>> job_kind_names();
 
 // Where a job is, in order; `done` only finished jobs show. A measurement goes queued,
 // connecting, measuring, fitting, storing; an import queued, reading, fitting, storing; a refit
-// queued, fitting (each batch stored as it is fitted).
+// queued, fitting (each batch stored as it is fitted); a map queued, reading, fitting, storing.
 enum class JobPhase { queued, connecting, measuring, reading, fitting, storing, done };
 std::string_view to_string(JobPhase phase);
 std::optional<JobPhase> parse_job_phase(std::string_view text);
@@ -42,7 +43,8 @@ struct JobProgress {
   // Set when the job has ended but the store refused its end: the job is shown failed with
   // this error (code `store`) instead of the record's state, which stays behind.
   std::optional<store::JobError> unrecorded_failure{};
-  // An import's or a refit's spectra, and the seconds left at the rate so far once known.
+  // An import's or a refit's spectra (a map's pixels), and the seconds left at the rate so far
+  // once known.
   std::int64_t spectra_done = 0;
   std::int64_t spectra_total = 0;
   std::optional<double> remaining_s{};

@@ -5,6 +5,7 @@
 // is generated from it.
 
 #include <chrono>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
@@ -68,6 +69,15 @@ struct AccessPolicy {
   std::string operator_token;
 };
 
+// Where the cubes of skin maps come from and where map jobs work (docs/maps.md, "In the service").
+struct MapFiles {
+  // The directory whose cubes POST /api/v1/maps may name by a path inside it; empty: uploads only.
+  std::filesystem::path data_dir;
+  // Where map jobs keep uploads and answers until they are stored; the system's temporary
+  // directory when empty.
+  std::filesystem::path work_dir;
+};
+
 struct RouterContext {
   store::Store* store = nullptr;              // null: data routes answer 503
   const Fitter* fitter = nullptr;             // null: fitting routes answer 503
@@ -80,6 +90,7 @@ struct RouterContext {
   std::shared_ptr<JobBoard> job_board;
   // Imports and refits; created on job_board when null and there are a store and a fitter.
   std::shared_ptr<FitJobs> fit_jobs;
+  MapFiles maps;
   AccessPolicy access;
   std::size_t max_spectrum_samples = 10000;
 };

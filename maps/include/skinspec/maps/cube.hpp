@@ -23,6 +23,8 @@ struct CubeError {
 
 struct CubeInfo {
   std::string file;
+  // Every file the cube is read from (an ENVI cube's header and data file), as GDAL names them.
+  std::vector<std::string> files;
   std::size_t lines = 0, samples = 0, bands = 0;
   std::vector<double> wavelength_nm;  // one per band, increasing
   // What a stored value is divided by to give reflectance as a fraction (the ENVI header's
@@ -32,6 +34,15 @@ struct CubeInfo {
   // The largest value the data type stores (integer types): a pixel holding it is saturated.
   std::optional<double> type_maximum;
 };
+
+// A cube sent as one file (an upload to the service): a TIFF, HDF5 or netCDF file is the cube
+// itself; a tar archive, plain or gzipped (`tar cf - cube.hdr cube.img`), of an ENVI header and
+// its data file is unpacked into `dir` (by its members' names alone, never their directories),
+// and the header is the cube. Errors name `name`: an archive without exactly one .hdr, a member
+// that is not a plain file, more than kMaxArchiveMembers.
+inline constexpr std::size_t kMaxArchiveMembers = 16;
+std::expected<std::string, CubeError> cube_of_upload(const std::string& file, const std::string& dir,
+                                                     const std::string& name);
 
 class Cube {
  public:

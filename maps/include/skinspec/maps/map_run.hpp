@@ -19,7 +19,11 @@ struct MapRunOptions {
   std::size_t block_lines = 32;
   MapFormat format = MapFormat::envi;
   bool pictures = true;
-  std::string cube_label;  // how summary.json names the cube; its file when empty
+  std::string cube_label;  // how summary.json and the header name the cube; its file when empty
+  // When set, every pixel's reflectance as fitted is written there too (float32 in native byte
+  // order, pixel by pixel, as Cube::read_lines orders values): what the service keeps with a
+  // map to show a pixel's measured spectrum beside its fit.
+  std::filesystem::path reflectance_file;
 };
 
 struct MapProgress {

@@ -24,6 +24,8 @@ struct ParameterSummary {
   MapBand band;
   std::size_t determined_pixels = 0;
   std::array<double, kSummaryPercentiles.size()> percentiles{};  // NaN where none was determined
+  // The values the picture's colour map spans: the 2nd and 98th percentiles (NaN as above).
+  std::array<double, 2> picture_range{};
 };
 
 // The answer cube's format: ENVI (NAME.map.img and NAME.map.hdr) or a float TIFF (NAME.map.tif),

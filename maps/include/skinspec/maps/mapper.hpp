@@ -97,12 +97,18 @@ class Mapper {
   // answers do not depend on the number of threads.
   std::vector<float> map_lines(std::span<const float> values, std::size_t lines, MapTally& tally) const;
 
+  // The reflectance of every pixel of a block (values as Cube::read_lines gives them), in the
+  // same order: the stored values over the scale, or through the radiometry; NaN for the
+  // cube's ignore value.
+  std::vector<float> reflectance_lines(std::span<const float> values) const;
+
   // The mask reason of one pixel's reflectance (stored values already divided by the scale)
   // and whether a stored value was the type's largest.
   MaskReason judge(std::span<const double> reflectance, bool clipped) const;
 
  private:
   void map_line(std::span<const float> line, std::span<float> out, MapTally& tally) const;
+  double reflectance_of(double stored, std::size_t band) const;
 
   const Fitter& fitter_;
   MapOptions options_;

@@ -272,8 +272,9 @@ class Store {
   // record_measurements_as_ready's `next` may: the exception leaves this call as thrown, nothing
   // is stored and the job stays running. A write tried again (a connection found lost before the
   // commit) reads the data again from the start.
-  Result<Job> complete_map_job(Id job_id, const Map& map, const MapData& data, const std::vector<MapPicture>& pictures,
-                               const std::string& result);
+  // `reflectance` is the pixels' reflectance as fitted (size 0: none kept).
+  Result<Job> complete_map_job(Id job_id, const Map& map, const MapData& answers, const MapData& reflectance,
+                               const std::vector<MapPicture>& pictures, const std::string& result);
   // One map, without its data or pictures' bytes (Map::pictures names them).
   Result<Map> map(Id id) const;
   // Newest first, at most `limit` (1-1000); of one session when given.
@@ -282,7 +283,11 @@ class Store {
   Result<std::string> map_picture(Id id, std::string_view parameter) const;
   // A map's data, inflated, handed to `sink` piece by piece in order (each view valid during the
   // call); the read stops early when `sink` returns false. One snapshot from first to last piece.
-  Result<void> read_map_data(Id id, const std::function<bool(std::string_view piece)>& sink) const;
+  Result<void> read_map_data(Id id, const std::function<bool(std::string_view piece)>& sink,
+                             MapPart part = MapPart::answers) const;
+  // `length` bytes of a map's data from `offset`, inflating only the pieces that hold them (one
+  // pixel's spectrum of a large map): fewer at the end of the data, none past it.
+  Result<std::string> read_map_bytes(Id id, MapPart part, std::int64_t offset, std::int64_t length) const;
 
   // ---- Benches (docs/store.md, "Benches") ----
 

@@ -243,15 +243,21 @@ struct Map {
   Id id = 0;
   Id job_id = 0;  // the job that made it
   std::optional<Id> session_id{};
-  std::string name;                   // the cube's name: its file's stem, or the upload's name
-  std::string summary = "{}";         // a JSON object: the map's summary.json, as written
-  std::string header;                 // the answer cube's ENVI header (NAME.map.hdr), as written
-  std::int64_t data_bytes = 0;        // the size of the answer cube's data (NAME.map.img)
+  std::string name;             // the cube's name: its file's stem, or the upload's name
+  std::string summary = "{}";   // a JSON object: the map's summary.json, as written
+  std::string header;           // the answer cube's ENVI header (NAME.map.hdr), as written
+  std::int64_t data_bytes = 0;  // the size of the answer cube's data (NAME.map.img)
+  // The size of the reflectance of every pixel as it was fitted (float32, the cube's bands,
+  // pixel by pixel); 0 when the map keeps none.
+  std::int64_t reflectance_bytes = 0;
   std::vector<std::string> pictures;  // the parameters it has a picture of, in the order stored
   Time created_at{};
 };
 
-// The answer cube's data as the store reads it to store it: `size` bytes, read piece by piece
+// A map's two runs of data: the answer cube's, and the reflectance it fitted.
+enum class MapPart { answers, reflectance };
+
+// A map's data as the store reads it to store it: `size` bytes, read piece by piece
 // in order from offset 0 by `read(offset, into)`, which fills `into` whole or throws. Read again
 // from the start when a write is tried again.
 struct MapData {
