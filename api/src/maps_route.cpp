@@ -251,9 +251,10 @@ json map_pixel_json(const store::Store& store, const Fitter& fitter, store::Id i
     fail(ErrorKind::unprocessable, "out_of_range", fmt::format("the map has {} × {} pixels", samples, lines));
 
   const auto bands = maps::map_bands(*model);
-  std::vector<float> answers;  // band-interleaved by line: band b of the pixel at (y × bands + b) × samples + x
-  for (std::size_t b = 0; b < bands.size(); ++b)
-    answers.push_back(floats(store, id, store::MapPart::answers, (*y * bands.size() + b) * samples + *x, 1)[0]);
+  // Band-interleaved by line: the pixel's line whole, band b of it at b × samples + x.
+  const auto line = floats(store, id, store::MapPart::answers, *y * bands.size() * samples, bands.size() * samples);
+  std::vector<float> answers;
+  for (std::size_t b = 0; b < bands.size(); ++b) answers.push_back(line[b * samples + *x]);
   const auto measured =
       floats(store, id, store::MapPart::reflectance, (*y * samples + *x) * wavelengths.size(), wavelengths.size());
   json values = json::object();
