@@ -66,6 +66,7 @@ void add_ports_command(CLI::App& app);
 void add_measure_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_migrate_db_command(CLI::App& app);
+void add_backup_command(CLI::App& app);
 void add_refit_command(CLI::App& app);
 void add_import_command(CLI::App& app);
 void add_session_command(CLI::App& app);

@@ -32,6 +32,7 @@ int run(int argc, char** argv) {
   add_measure_command(app);
   add_export_command(app);
   add_migrate_db_command(app);
+  add_backup_command(app);
   add_refit_command(app);
   add_import_command(app);
   add_session_command(app);

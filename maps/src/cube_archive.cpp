@@ -20,6 +20,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
+constexpr int kMaxUnpackedRatio = 20;
+
 enum class Archive { none, tar, gzip };
 
 // A POSIX tar archive has "ustar" at byte 257 of its first header; gzip starts 1f 8b.
@@ -80,6 +82,18 @@ std::expected<std::string, CubeError> cube_of_upload(const std::string& file, co
   CSLDestroy(listed);
   std::vector<std::string> headers;
   std::size_t files = 0;
+  std::error_code error;
+  // A gzipped archive of a cube unpacks to a few times its size; one that claims more than
+  // kMaxUnpackedRatio times is refused before anything is written, so no upload fills the disk.
+  const auto budget = static_cast<double>(fs::file_size(*named, error)) * kMaxUnpackedRatio;
+  double claimed = 0;
+  for (const auto& member : members) {
+    VSIStatBufL stat{};
+    if (VSIStatL((root + "/" + member).c_str(), &stat) == 0) claimed += static_cast<double>(stat.st_size);
+  }
+  if (error || claimed > budget)
+    return refuse(fmt::format("the archive's files come to {:.0f} bytes, more than {} times the archive", claimed,
+                              kMaxUnpackedRatio));
   for (const auto& member : members) {
     VSIStatBufL stat{};
     const std::string path = root + "/" + member;

@@ -308,6 +308,8 @@ std::string PostgresCluster::create_database(const std::string& prefix) {
   return name;
 }
 
+std::string PostgresCluster::program(const std::string& name) { return skinspec::testing::program(name); }
+
 std::string PostgresCluster::uri(const std::string& database, const std::string& role) const {
   return "postgresql://" + role + "@/" + database + "?host=" + directory_.string();
 }

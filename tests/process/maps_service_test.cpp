@@ -193,6 +193,19 @@ TEST_F(MapsServiceTest, BadCubesAreRefusedWithA4xxNamingTheFileAndTheField) {
     EXPECT_EQ(uploaded.status, 422) << c.name << ": " << uploaded.body;
     EXPECT_THAT(uploaded.json()["error"].value("message", ""), HasSubstr(c.field)) << c.name << ": " << uploaded.body;
   }
+  // An archive that would unpack to far more than its size (50 MB of zeros in 50 kB): refused
+  // before anything is unpacked.
+  const fs::path bomb = dir_.path() / "bomb";
+  fs::create_directories(bomb);
+  std::ofstream(bomb / "bomb.hdr") << "ENVI\n";
+  fs::resize_file(bomb / "bomb.hdr", 50'000'000);
+  const auto packed =
+      run_process("/usr/bin/tar", {"czf", (bomb / "bomb.tgz").string(), "-C", bomb.string(), "bomb.hdr"});
+  ASSERT_EQ(packed.exit_status, 0) << packed.describe();
+  const auto refused = post_upload(bytes_of(bomb / "bomb.tgz"), "name=bomb.tgz");
+  EXPECT_EQ(refused.status, 422) << refused.body;
+  EXPECT_THAT(refused.json()["error"].value("message", ""), HasSubstr("more than 20 times the archive"));
+
   const auto garbage = post_upload(std::string(4096, 'x'), "name=garbage.tif");
   EXPECT_EQ(garbage.status, 422) << garbage.body;
   EXPECT_THAT(garbage.json()["error"].value("message", ""), HasSubstr("garbage.tif"));

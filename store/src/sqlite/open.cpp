@@ -58,7 +58,7 @@ std::string file_uri(const std::string& path, std::string_view query) {
 }
 
 ReadAccess read_access(const std::string& path) {
-  struct stat wal {};
+  struct stat wal{};
   if (::stat((path + "-wal").c_str(), &wal) == 0) return {path, SQLITE_OPEN_READONLY, false};
   return {file_uri(path, "immutable=1"), SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, true};
 }
@@ -158,7 +158,7 @@ void configure_writer(Connection& writer, const OpenOptions& options) {
 
 void open_read_write(Store::Impl& impl, SqliteEngine& engine) {
   const auto& path = impl.path;
-  struct stat info {};
+  struct stat info{};
   const bool exists = ::stat(path.c_str(), &info) == 0;
   if (!exists && !impl.options.create_missing) fail(Kind::not_found, "no database file there");
   if (exists && !S_ISREG(info.st_mode)) fail(Kind::invalid_argument, "not a regular file");
@@ -186,7 +186,7 @@ void open_read_write(Store::Impl& impl, SqliteEngine& engine) {
 }
 
 void open_read_only(Store::Impl& impl, SqliteEngine& engine) {
-  struct stat info {};
+  struct stat info{};
   if (::stat(impl.path.c_str(), &info) != 0) fail(Kind::not_found, "no database file there");
   if (!S_ISREG(info.st_mode)) fail(Kind::invalid_argument, "not a regular file");
   if (info.st_size == 0) fail(Kind::corrupt, "an empty file, not a skinspec database");
@@ -209,6 +209,11 @@ void open_read_only(Store::Impl& impl, SqliteEngine& engine) {
 
 }  // namespace
 
+std::unique_ptr<Connection> reading_connection(const std::string& path) {
+  const auto access = read_access(path);
+  return std::make_unique<Connection>(access.filename, access.flags);
+}
+
 void open(Store::Impl& impl) {
   auto engine = std::make_unique<SqliteEngine>(impl.path);
   if (impl.options.mode == OpenMode::read_only) {
@@ -220,7 +225,7 @@ void open(Store::Impl& impl) {
 }
 
 void create_at_version(const std::string& path, int version) {
-  struct stat info {};
+  struct stat info{};
   if (::stat(path.c_str(), &info) == 0) fail(Kind::conflict, "the file exists");
   Connection writer(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
   configure_writer(writer, OpenOptions{});

@@ -138,7 +138,8 @@ struct CreatedJob {
   bool created = true;  // false: an earlier job had the same idempotency key, returned as is
 };
 
-struct CopyReport;  // copy.hpp
+struct CopyReport;    // copy.hpp
+struct BackupReport;  // backup.hpp
 
 // A message between the programs writing one database (docs/store.md, "Benches").
 struct Notification {
@@ -312,6 +313,7 @@ class Store {
 
   struct Impl;  // opaque: store/src/store_impl.hpp
   friend Result<CopyReport> copy_database(const Store& from, Store& to);
+  friend Result<BackupReport> backup_database(const Store& from, const std::string& to);
 
  private:
   explicit Store(std::unique_ptr<Impl> impl);

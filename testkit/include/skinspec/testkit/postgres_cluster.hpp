@@ -44,6 +44,8 @@ class PostgresCluster {
   // The server's process id while it runs (from postmaster.pid), else 0.
   pid_t server_pid() const;
 
+  // A PostgreSQL program of the cluster's version (pg_dump, pg_restore, psql).
+  static std::string program(const std::string& name);
   // A fresh empty database owned by `skinspec`, named `prefix` and a number; returns its name.
   std::string create_database(const std::string& prefix = "t");
   // "postgresql://ROLE@/DATABASE?host=SOCKET_DIR"
