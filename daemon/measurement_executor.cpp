@@ -151,7 +151,9 @@ void MeasurementExecutor::finish(store::Id id, const Step<store::CompletedJob>& 
     log_unrecorded(id, *failure, *refused);
   } else {
     // The service's own failures stand out from the meter's and the operator's.
-    const bool ours = failure->code == store::JobErrorCode::store || failure->code == store::JobErrorCode::internal;
+    const bool ours = failure->code == store::JobErrorCode::store ||
+                      failure->code == store::JobErrorCode::storage_full ||
+                      failure->code == store::JobErrorCode::internal;
     spdlog::log(ours ? spdlog::level::err : spdlog::level::info,
                 "event=job_finished job={} state={} code={} error=\"{}\"", id, store::to_string(ended_state(*failure)),
                 store::to_string(failure->code), failure->message);

@@ -49,7 +49,7 @@ bool finds_link_dead(drivers::InstrumentError::Kind kind) {
 }
 
 std::unexpected<store::JobError> store_error(const std::string& doing, const store::StoreError& e) {
-  return std::unexpected(store::JobError{store::JobErrorCode::store, doing + ": " + e.message});
+  return std::unexpected(store::JobError{store::job_error_code_of(e.kind), doing + ": " + e.message});
 }
 
 // Why a sample cannot be measured: the session has no white. When its last white job failed

@@ -26,6 +26,8 @@ int http_status(ErrorKind kind) {
       return 422;
     case ErrorKind::unavailable:
       return 503;
+    case ErrorKind::insufficient_storage:
+      return 507;
     case ErrorKind::timeout:
       return 504;
     case ErrorKind::internal:
@@ -56,6 +58,8 @@ std::string_view default_code(ErrorKind kind) {
       return "unprocessable";
     case ErrorKind::unavailable:
       return "unavailable";
+    case ErrorKind::insufficient_storage:
+      return "storage_full";
     case ErrorKind::timeout:
       return "timeout";
     case ErrorKind::internal:
@@ -83,7 +87,7 @@ ApiError from_store_error(const store::StoreError& error) {
     case K::busy:
       return as(ErrorKind::unavailable, "database_busy");
     case K::full:
-      return as(ErrorKind::unavailable, "database_full");
+      return as(ErrorKind::insufficient_storage, "storage_full");
     case K::read_only:
       return as(ErrorKind::unavailable, "database_read_only");
     case K::io:

@@ -227,7 +227,9 @@ void FitJobs::run_import(store::Id id, const ImportUpload& upload) {
   const auto imported = records::import_file(store_, fitter_, upload.session_id, upload.bytes, upload.source,
                                              upload.format, observer, id, upload.scale);
   if (!imported) {
-    const auto code = imported.error().bad_file() ? store::JobErrorCode::bad_file : store::JobErrorCode::store;
+    const auto& cause = imported.error().cause;
+    const auto code = imported.error().bad_file() ? store::JobErrorCode::bad_file
+                                                  : store::job_error_code_of(std::get<store::StoreError>(cause).kind);
     return end(id, ended(store::JobState::failed, job_error(code, imported.error().message())));
   }
   if (imported->stopped) return end(id, stopped_update(why.value_or(store::JobErrorCode::stopped)));
@@ -247,7 +249,8 @@ void FitJobs::run_refit(store::Id id, const records::RefitRequest& request) {
   };
   const auto report = records::refit(store_, fitter_, request, observer);
   if (!report)
-    return end(id, ended(store::JobState::failed, job_error(store::JobErrorCode::store, report.error().message)));
+    return end(id, ended(store::JobState::failed,
+                         job_error(store::job_error_code_of(report.error().kind), report.error().message)));
   if (report->stopped)
     return end(id, stopped_update(why.value_or(store::JobErrorCode::stopped), refit_result(*report)));
   end(id, ended(store::JobState::succeeded, std::nullopt, refit_result(*report)));

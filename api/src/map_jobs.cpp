@@ -289,7 +289,8 @@ void FitJobs::run_map(store::Id id, MapRequest& request) {
   const json result = {{"pixels_mapped", request.pixels}, {"total", request.pixels}};
   const auto stored = store_.complete_map_job(id, map, data_of(out / (request.name + ".map.img")),
                                               data_of(options.reflectance_file), pictures, result.dump());
-  if (!stored) return end_map(id, request, failed(store::JobErrorCode::store, stored.error().message));
+  if (!stored)
+    return end_map(id, request, failed(store::job_error_code_of(stored.error().kind), stored.error().message));
   request.scratch = ScratchDir();
   release(id);
 }

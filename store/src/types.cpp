@@ -47,7 +47,7 @@ constexpr std::array<std::pair<JobState, std::string_view>, 5> kJobStates = {{
     {JobState::cancelled, "cancelled"},
 }};
 
-constexpr std::array<std::pair<JobErrorCode, std::string_view>, 16> kJobErrorCodes = {{
+constexpr std::array<std::pair<JobErrorCode, std::string_view>, 17> kJobErrorCodes = {{
     {JobErrorCode::cancelled, "cancelled"},
     {JobErrorCode::stopped, "stopped"},
     {JobErrorCode::interrupted, "interrupted"},
@@ -62,6 +62,7 @@ constexpr std::array<std::pair<JobErrorCode, std::string_view>, 16> kJobErrorCod
     {JobErrorCode::white_mismatch, "white_mismatch"},
     {JobErrorCode::white_dark, "white_dark"},
     {JobErrorCode::store, "store"},
+    {JobErrorCode::storage_full, "storage_full"},
     {JobErrorCode::bad_file, "bad_file"},
     {JobErrorCode::internal, "internal"},
 }};
@@ -114,6 +115,10 @@ bool bench_running(const Bench& bench, Time now) {
 BenchState bench_state(const Bench& bench, Time now) {
   if (bench.stopped_at) return BenchState::stopped;
   return bench_running(bench, now) ? BenchState::running : BenchState::silent;
+}
+
+JobErrorCode job_error_code_of(StoreError::Kind kind) {
+  return kind == StoreError::Kind::full ? JobErrorCode::storage_full : JobErrorCode::store;
 }
 
 }  // namespace skinspec::store

@@ -124,7 +124,7 @@ TEST(ApiErrors, EveryStoreErrorKindHasOneStatusAndCode) {
                                                              {K::not_found, {404, "not_found"}},
                                                              {K::conflict, {409, "conflict"}},
                                                              {K::busy, {503, "database_busy"}},
-                                                             {K::full, {503, "database_full"}},
+                                                             {K::full, {507, "storage_full"}},
                                                              {K::read_only, {503, "database_read_only"}},
                                                              {K::io, {500, "database_io"}},
                                                              {K::corrupt, {500, "database_corrupt"}},
@@ -777,7 +777,7 @@ TEST_F(ApiRouterTest, StoreFailuresReachTheClientAsTheirStatus) {
       values.push_back(0.9);
     }
     const json ws = {{"name", "PTFE"}, {"wavelength_nm", wl}, {"reflectance", values}};
-    expect_error(router->handle(req("POST", "/api/v1/white-standards", ws.dump())), 503, "database_full");
+    expect_error(router->handle(req("POST", "/api/v1/white-standards", ws.dump())), 507, "storage_full");
     EXPECT_EQ(body(router->handle(req("GET", "/api/v1/white-standards")))["white_standards"].size(), 0u);
   }
   testing::sqlite_execute(path, "UPDATE measurements SET radiance = x'0102' WHERE id = " + std::to_string(m));

@@ -21,6 +21,7 @@ enum class ErrorKind {
   unsupported_media_type,  // 415: a body that is not application/json
   unprocessable,           // 422: well-formed JSON with wrong types, missing fields, bad values
   unavailable,             // 503: database or model not available, store busy
+  insufficient_storage,    // 507: the database's disk is full
   timeout,                 // 504: the work did not finish in time
   internal,                // 500: anything else
 };

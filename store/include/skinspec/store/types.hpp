@@ -202,12 +202,15 @@ enum class JobErrorCode {
   white_mismatch,  // the white reference was measured on another grid
   white_dark,      // the white reference has no signal at some wavelength
   store,           // the database failed a read or a write
+  storage_full,    // the database's disk (or its size limit) is full: free space, and post it again
   bad_file,        // a file to import has a defect (its file, line and column in the message)
   internal,        // anything else
 };
 std::string_view to_string(JobErrorCode code);
 std::optional<JobErrorCode> parse_job_error_code(std::string_view text);
 std::span<const std::pair<JobErrorCode, std::string_view>> job_error_code_names();
+// The code of a job that failed because the store did: storage_full for a full disk, else store.
+JobErrorCode job_error_code_of(StoreError::Kind kind);
 
 struct JobError {
   JobErrorCode code = JobErrorCode::internal;
