@@ -75,12 +75,7 @@ maps::Cube open_cube(const std::string& path) {
   return std::move(*cube);
 }
 
-std::vector<double> mean_of(const maps::Cube& cube, maps::Region region, const maps::CubeInfo& mapped) {
-  if (cube.info().wavelength_nm != mapped.wavelength_nm)
-    throw Failure{
-        kBadInput,
-        maps::CubeError{cube.info().file, "wavelength", fmt::format("not the bands of {}", mapped.file)}.what()};
-  auto mean = maps::mean_spectrum(cube, region);
+std::vector<double> mean_or_refuse(std::expected<std::vector<double>, maps::CubeError> mean) {
   if (!mean) throw Failure{kBadInput, mean.error().what()};
   return std::move(*mean);
 }
@@ -113,8 +108,10 @@ std::optional<maps::Radiometry> radiometry_of(const maps::Cube& cube, const MapA
   }
   const maps::CubeInfo& info = cube.info();
   const std::vector<double> white =
-      args.white.empty() ? mean_of(cube, region_of(args.white_roi), info) : mean_of(open_cube(args.white), {}, info);
-  const std::vector<double> dark = args.dark.empty() ? std::vector<double>{} : mean_of(open_cube(args.dark), {}, info);
+      mean_or_refuse(args.white.empty() ? maps::mean_spectrum(cube, region_of(args.white_roi))
+                                        : maps::panel_spectrum(open_cube(args.white), info));
+  const std::vector<double> dark =
+      args.dark.empty() ? std::vector<double>{} : mean_or_refuse(maps::panel_spectrum(open_cube(args.dark), info));
   auto r = maps::radiometry(info, white, white_reflectance_on(info, args.white_reflectance), dark);
   if (!r) throw Failure{kBadInput, r.error().what()};
   return std::move(*r);

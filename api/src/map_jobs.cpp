@@ -74,6 +74,17 @@ std::expected<fs::path, ApiError> confined(const std::string& given, const MapFi
   return full;
 }
 
+// Refused when a file the cube named `path` is read from lies outside the data directory (a
+// header inside whose data file is a link to one outside).
+std::optional<ApiError> files_outside(const maps::CubeInfo& info, const MapFiles& files, const std::string& path) {
+  const fs::path root = fs::canonical(files.data_dir);
+  for (const auto& file : info.files)
+    if (!inside(file, root))
+      return forbidden(
+          fmt::format("'{}' is read from {}, outside the data directory", path, fs::path(file).filename().string()));
+  return std::nullopt;
+}
+
 // The uploaded file unpacked into the scratch directory: the cube's file.
 std::expected<std::string, ApiError> unpack(const MapAsk& ask, const std::string& name, const ScratchDir& scratch) {
   const fs::path file = scratch.path() / ("upload" + fs::path(name).extension().string());
@@ -104,15 +115,49 @@ std::expected<void, ApiError> checked_name(const std::string& name) {
   return {};
 }
 
+// A white or dark panel's cube named in the data directory: its mean spectrum.
+std::expected<std::vector<double>, ApiError> panel_of(const std::string& path, const MapFiles& files,
+                                                      const maps::CubeInfo& mapped) {
+  auto found = confined(path, files);
+  if (!found) return std::unexpected(found.error());
+  auto panel = maps::Cube::open(found->string());
+  if (!panel) return std::unexpected(bad_cube(panel.error(), path));
+  if (auto outside = files_outside(panel->info(), files, path)) return std::unexpected(*outside);
+  auto mean = maps::panel_spectrum(*panel, mapped);
+  if (!mean) return std::unexpected(bad_cube(mean.error(), path));
+  return std::move(*mean);
+}
+
 std::expected<std::optional<maps::Radiometry>, ApiError> radiometry_of(const maps::Cube& cube, const MapAsk& ask,
+                                                                       const MapFiles& files,
                                                                        const std::string& shown) {
-  if (!ask.white_roi) return std::nullopt;
+  if (!ask.white_roi && ask.white.empty()) {
+    if (!ask.dark.empty())
+      return std::unexpected(
+          unprocessable("invalid_value", "'dark' is for radiance cubes: give 'white' or 'white_roi'"));
+    return std::nullopt;
+  }
+  if (ask.white_roi && !ask.white.empty())
+    return std::unexpected(unprocessable("invalid_value", "give 'white' or 'white_roi', not both"));
   if (!(ask.white_reflectance > 0 && ask.white_reflectance <= 1))
     return std::unexpected(unprocessable("out_of_range", "'white_reflectance' must be in (0, 1]"));
-  auto white = maps::mean_spectrum(cube, *ask.white_roi);
-  if (!white) return std::unexpected(bad_cube(white.error(), shown));
   const auto& info = cube.info();
-  auto r = maps::radiometry(info, *white, std::vector<double>(info.bands, ask.white_reflectance), {});
+  std::vector<double> white, dark;
+  if (ask.white_roi) {
+    auto mean = maps::mean_spectrum(cube, *ask.white_roi);
+    if (!mean) return std::unexpected(bad_cube(mean.error(), shown));
+    white = std::move(*mean);
+  } else if (auto mean = panel_of(ask.white, files, info)) {
+    white = std::move(*mean);
+  } else {
+    return std::unexpected(mean.error());
+  }
+  if (!ask.dark.empty()) {
+    auto mean = panel_of(ask.dark, files, info);
+    if (!mean) return std::unexpected(mean.error());
+    dark = std::move(*mean);
+  }
+  auto r = maps::radiometry(info, white, std::vector<double>(info.bands, ask.white_reflectance), dark);
   if (!r) return std::unexpected(bad_cube(r.error(), shown));
   return std::optional(std::move(*r));
 }
@@ -160,16 +205,11 @@ std::expected<MapRequest, ApiError> prepare_map(MapAsk ask, const MapFiles& file
   }
   auto cube = maps::Cube::open(request.cube);
   if (!cube) return std::unexpected(bad_cube(cube.error(), shown));
-  if (!uploaded) {
-    const fs::path root = fs::canonical(files.data_dir);
-    for (const auto& file : cube->info().files)
-      if (!inside(file, root))
-        return std::unexpected(forbidden(fmt::format("'{}' is read from {}, outside the data directory", ask.path,
-                                                     fs::path(file).filename().string())));
-  }
+  if (!uploaded)
+    if (auto outside = files_outside(cube->info(), files, ask.path)) return std::unexpected(*outside);
   if (auto covered = maps::check_coverage(cube->info()); !covered)
     return std::unexpected(bad_cube(covered.error(), shown));
-  auto radiance = radiometry_of(*cube, ask, shown);
+  auto radiance = radiometry_of(*cube, ask, files, shown);
   if (!radiance) return std::unexpected(radiance.error());
   request.radiance = std::move(*radiance);
   request.pixels = cube->info().lines * cube->info().samples;

@@ -24,8 +24,10 @@ struct MapAsk {
   std::string name;  // the map's name; the cube's file stem when empty ("upload" for an upload)
   ModelKind model = kDefaultModel;
   std::string site = "forearm";
-  // A radiance cube: the white panel's region of it and the panel's calibrated reflectance.
+  // A radiance cube: the white panel, as a region of it or a cube of its own inside the data
+  // directory, the panel's calibrated reflectance, and a dark cube there.
   std::optional<maps::Region> white_roi;
+  std::string white, dark;
   double white_reflectance = 0.99;
   std::string path;    // a cube inside MapFiles::data_dir; empty for an upload
   std::string upload;  // the uploaded file: a TIFF, HDF5 or netCDF file, or a tar of an ENVI cube

@@ -103,7 +103,8 @@ T stored(store::Result<T> result) {
 
 MapAsk map_ask_of_json(const std::string& body) {
   const json object = parse_object(body);
-  only_fields(object, {"path", "name", "model", "site", "session_id", "white_roi", "white_reflectance"});
+  only_fields(object,
+              {"path", "name", "model", "site", "session_id", "white_roi", "white", "dark", "white_reflectance"});
   MapAsk ask;
   ask.path = required_string(object, "path", 4096);
   ask.name = optional_string(object, "name", 100).value_or("");
@@ -111,6 +112,8 @@ MapAsk map_ask_of_json(const std::string& body) {
   ask.site = optional_string(object, "site", 64).value_or(ask.site);
   ask.session_id = optional_id(object, "session_id");
   if (const auto it = object.find("white_roi"); it != object.end()) ask.white_roi = region_of(whole_numbers(*it));
+  ask.white = optional_string(object, "white", 4096).value_or("");
+  ask.dark = optional_string(object, "dark", 4096).value_or("");
   if (const auto it = object.find("white_reflectance"); it != object.end()) {
     if (!it->is_number()) fail(ErrorKind::unprocessable, "wrong_type", "'white_reflectance' must be a number");
     ask.white_reflectance = it->get<double>();

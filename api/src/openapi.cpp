@@ -265,6 +265,8 @@ json schemas() {
           {"site", {{"type", "string"}, {"default", "forearm"}}},
           {"session_id", {{"type", "integer"}, {"minimum", 1}}},
           {"white_roi", {{"type", "array"}, {"items", {{"type", "integer"}}}, {"minItems", 4}, {"maxItems", 4}}},
+          {"white", {{"type", "string"}, {"description", "a white panel's cube in the data directory"}}},
+          {"dark", {{"type", "string"}, {"description", "a dark cube in the data directory"}}},
           {"white_reflectance", {{"type", "number"}, {"default", 0.99}}}}}}},
       {"Map",
        {{"type", "object"},

@@ -119,6 +119,12 @@ std::expected<std::vector<double>, CubeError> mean_spectrum(const Cube& cube, Re
   return sum;
 }
 
+std::expected<std::vector<double>, CubeError> panel_spectrum(const Cube& panel, const CubeInfo& mapped) {
+  if (panel.info().wavelength_nm != mapped.wavelength_nm)
+    return std::unexpected(CubeError{panel.info().file, "wavelength", fmt::format("not the bands of {}", mapped.file)});
+  return mean_spectrum(panel);
+}
+
 std::expected<Radiometry, CubeError> radiometry(const CubeInfo& cube, const std::vector<double>& white,
                                                 const std::vector<double>& white_reflectance,
                                                 const std::vector<double>& dark) {

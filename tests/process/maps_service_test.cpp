@@ -6,7 +6,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fmt/format.h>
 #include <fstream>
@@ -160,6 +162,54 @@ TEST_F(MapsServiceTest, AnHdf5CubeUploadedMapsAsItsEnviCube) {
   EXPECT_EQ(map["name"], "here.h5");
   EXPECT_EQ(http_request(port(), "GET", map["links"]["cube"].get<std::string>()).body,
             bytes_of(reference / "here.map.img"));
+}
+
+// The cube's answer bands as floats.
+std::vector<float> floats_of(const std::string& bytes) {
+  std::vector<float> out(bytes.size() / sizeof(float));
+  std::memcpy(out.data(), bytes.data(), out.size() * sizeof(float));
+  return out;
+}
+
+TEST_F(MapsServiceTest, ARadianceCubeWithAWhiteCubeAndADarkCubeMapsAsItsReflectance) {
+  // The light rises towards the red; the dark is a constant offset; the white panel's own cube
+  // has a reflectance of 0.99.
+  const CubeValues reflectance = skin_cube(4, 5);
+  CubeValues radiance = reflectance, white{2, 3, reflectance.bands, reflectance.wavelength_nm, {}},
+             dark{2, 2, reflectance.bands, reflectance.wavelength_nm, {}};
+  constexpr double kDark = 40;
+  const auto light = [&](std::size_t b) { return 500 + 2 * reflectance.wavelength_nm[b]; };
+  for (std::size_t i = 0; i < radiance.values.size(); ++i)
+    radiance.values[i] = reflectance.values[i] * light(i % radiance.bands) + kDark;
+  for (std::size_t i = 0; i < 2 * 3 * white.bands; ++i) white.values.push_back(0.99 * light(i % white.bands) + kDark);
+  dark.values.assign(2 * 2 * dark.bands, kDark);
+  write_envi(data_ / "reflectance", reflectance, {});
+  write_envi(data_ / "radiance", radiance, {});
+  write_envi(data_ / "white", white, {});
+  write_envi(data_ / "dark", dark, {});
+  const auto cube_of = [&](const json& job) {
+    return floats_of(
+        http_request(port(), "GET", fmt::format("/api/v1/maps/{}/cube", job["result"]["map_id"].get<long long>()))
+            .body);
+  };
+  const json expected_job = finished(post_path({{"path", "reflectance.hdr"}}));
+  const json got_job = finished(
+      post_path({{"path", "radiance.hdr"}, {"white", "white.hdr"}, {"dark", "dark.hdr"}, {"white_reflectance", 0.99}}));
+  ASSERT_EQ(got_job["state"], "succeeded") << got_job.dump(2);
+  const auto expected = cube_of(expected_job), got = cube_of(got_job);
+  ASSERT_EQ(got.size(), expected.size());
+  ASSERT_FALSE(got.empty());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    if (std::isnan(expected[i])) EXPECT_TRUE(std::isnan(got[i])) << i;
+    else EXPECT_NEAR(got[i], expected[i], 1e-3 * std::abs(static_cast<double>(expected[i])) + 1e-6) << i;
+  }
+  // A dark without a white, a white of other bands, and a white outside the data directory.
+  EXPECT_EQ(post_path({{"path", "radiance.hdr"}, {"dark", "dark.hdr"}}).status, 422);
+  write_envi(data_ / "narrow", CubeValues{1, 1, 2, {500, 600}, {0.5, 0.5}}, {});
+  const auto other_bands = post_path({{"path", "radiance.hdr"}, {"white", "narrow.hdr"}});
+  EXPECT_EQ(other_bands.status, 422) << other_bands.body;
+  EXPECT_THAT(other_bands.json()["error"].value("message", ""), HasSubstr("narrow.hdr: wavelength"));
+  EXPECT_EQ(post_path({{"path", "radiance.hdr"}, {"white", "../white.hdr"}}).status, 403);
 }
 
 TEST_F(MapsServiceTest, PathsLeadingOutOfTheDataDirectoryAreForbidden) {

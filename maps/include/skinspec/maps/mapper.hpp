@@ -80,6 +80,10 @@ struct Region {
 // type's largest value (a saturated white).
 std::expected<std::vector<double>, CubeError> mean_spectrum(const Cube& cube, Region region = {});
 
+// The mean spectrum of a white or dark panel's own cube (every pixel), which must have the bands
+// of the cube `mapped`: an error naming the panel's wavelength field otherwise.
+std::expected<std::vector<double>, CubeError> panel_spectrum(const Cube& panel, const CubeInfo& mapped);
+
 // The radiometry of a radiance cube from the white panel's mean spectrum, its calibrated
 // reflectance on the cube's bands, and the dark's mean spectrum (empty: none). Errors name
 // `white`: a band where the white is not above the dark.
