@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
+#include "job_updates.hpp"
 #include "skinspec/records/import_file.hpp"
 
 namespace skinspec::api {
@@ -16,17 +17,11 @@ namespace {
 
 std::string compact(const json& value) { return value.dump(-1, ' ', false, json::error_handler_t::replace); }
 
+using detail::ended;
+using detail::failed;
+using detail::stopped_update;
+
 store::JobError job_error(store::JobErrorCode code, std::string message) { return {code, std::move(message)}; }
-
-store::JobUpdate ended(store::JobState state, std::optional<store::JobError> error,
-                       std::optional<std::string> result = std::nullopt) {
-  return {state, std::move(error), std::move(result), std::nullopt};
-}
-
-// The end of a job told to stop: cancelled by request, or by the service stopping.
-store::JobUpdate stopped_update(store::JobErrorCode why, std::optional<std::string> result = std::nullopt) {
-  return ended(store::JobState::cancelled, stop_error(why), std::move(result));
-}
 
 // What a refit did, as its job's result.
 std::string refit_result(const records::RefitReport& report) {
@@ -201,7 +196,7 @@ void FitJobs::run(store::Id id, Work& work) {
     else if (auto* map = std::get_if<MapRequest>(&work)) run_map(id, *map);
     else run_refit(id, std::get<records::RefitRequest>(work));
   } catch (const std::exception& e) {
-    end(id, ended(store::JobState::failed, job_error(store::JobErrorCode::internal, e.what())));
+    end(id, failed(store::JobErrorCode::internal, e.what()));
   }
 }
 
@@ -230,7 +225,7 @@ void FitJobs::run_import(store::Id id, const ImportUpload& upload) {
     const auto& cause = imported.error().cause;
     const auto code = imported.error().bad_file() ? store::JobErrorCode::bad_file
                                                   : store::job_error_code_of(std::get<store::StoreError>(cause).kind);
-    return end(id, ended(store::JobState::failed, job_error(code, imported.error().message())));
+    return end(id, failed(code, imported.error().message()));
   }
   if (imported->stopped) return end(id, stopped_update(why.value_or(store::JobErrorCode::stopped)));
   release(id);  // import_file stored the job's end with the spectra
@@ -248,9 +243,7 @@ void FitJobs::run_refit(store::Id id, const records::RefitRequest& request) {
     return !why;
   };
   const auto report = records::refit(store_, fitter_, request, observer);
-  if (!report)
-    return end(id, ended(store::JobState::failed,
-                         job_error(store::job_error_code_of(report.error().kind), report.error().message)));
+  if (!report) return end(id, failed(store::job_error_code_of(report.error().kind), report.error().message));
   if (report->stopped)
     return end(id, stopped_update(why.value_or(store::JobErrorCode::stopped), refit_result(*report)));
   end(id, ended(store::JobState::succeeded, std::nullopt, refit_result(*report)));

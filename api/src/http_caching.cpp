@@ -127,6 +127,17 @@ Response cached_response(const Request& request, const CachedBody& cached, std::
   return r;
 }
 
+Response identified_response(const Request& request, const std::string& etag, std::string_view cache_control,
+                             std::string content_type, const std::function<std::string()>& body) {
+  Response r{200, std::move(content_type), "", {{"ETag", etag}, {"Cache-Control", std::string(cache_control)}}};
+  if (etag_matches(header(request, "if-none-match"), etag)) {
+    r.status = 304;
+    return r;
+  }
+  r.body = body();
+  return r;
+}
+
 void compress_if_accepted(const Request& request, Response& response) {
   if (response.status != 200 || response.events || response.body.size() < kGzipMinimumBytes ||
       !compressible(response.content_type))

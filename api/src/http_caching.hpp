@@ -2,6 +2,7 @@
 // HTTP's caching and compression as the service uses them: entity tags, conditional GETs,
 // gzip for large bodies (RFC 9110, 9111).
 
+#include <functional>
 #include <string>
 #include <string_view>
 
@@ -39,6 +40,12 @@ CachedBody tagged(std::string body);
 // ETag, `cache_control` and Vary.
 Response cached_response(const Request& request, const CachedBody& cached, std::string_view cache_control,
                          std::string content_type = "application/json");
+
+// The answer to `request` for a stored record that never changes, tagged by what it is rather
+// than by its bytes (a map's data, hundreds of MB): 304 when the client holds `etag`, without
+// making the body; else 200 with `body()`. With the ETag and `cache_control`.
+Response identified_response(const Request& request, const std::string& etag, std::string_view cache_control,
+                             std::string content_type, const std::function<std::string()>& body);
 
 // Compresses a large 200 answer in place when the client accepts gzip and nothing else encoded it.
 void compress_if_accepted(const Request& request, Response& response);

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fit_jobs.hpp"
+#include "job_updates.hpp"
 #include "skinspec/maps/map_run.hpp"
 
 namespace skinspec::api {
@@ -281,10 +282,8 @@ std::expected<store::CreatedJob, ApiError> FitJobs::submit_map(MapRequest reques
 }
 
 void FitJobs::run_map(store::Id id, MapRequest& request) {
-  const auto failed = [](store::JobErrorCode code, std::string message) {
-    return store::JobUpdate{store::JobState::failed, store::JobError{code, std::move(message)}, std::nullopt,
-                            std::nullopt};
-  };
+  using detail::failed;
+  using detail::stopped_update;
   if (const auto why = board_.report(id, {0, JobPhase::reading})) return end_map(id, request, stopped_update(*why));
   auto cube = maps::Cube::open(request.cube);
   if (!cube) return end_map(id, request, failed(store::JobErrorCode::bad_file, cube.error().what()));

@@ -58,18 +58,6 @@ std::string map_etag(const store::Map& map) {
   return fmt::format("\"map-{}-{:x}\"", map.id, map.created_at.time_since_epoch().count());
 }
 
-Response immutable(const Request& request, const std::string& etag, std::string content_type,
-                   const std::function<std::string()>& body) {
-  Response r{200, std::move(content_type), "", {{"ETag", etag}, {"Cache-Control", std::string(kImmutable)}}};
-  const auto it = request.headers.find("if-none-match");
-  if (it != request.headers.end() && etag_matches(it->second, etag)) {
-    r.status = 304;
-    return r;
-  }
-  r.body = body();
-  return r;
-}
-
 // The mask band's numbers and their names.
 json mask_reasons_json() {
   json out = json::array();
@@ -84,13 +72,16 @@ std::string hex(const std::array<double, 3>& linear) {
 
 // The pictures' colour map as 8-bit sRGB, for a client that draws a map itself: the same
 // colours as the PNGs, from maps/'s one definition.
-json colour_map_json() {
-  constexpr int kSteps = 256;
-  json colours = json::array();
-  for (int i = 0; i < kSteps; ++i) colours.push_back(hex(maps::map_linear_srgb(i / double(kSteps - 1))));
-  return {{"colours", colours},
-          {"not_determined", hex(maps::lab_to_linear_srgb(maps::kNotDeterminedLab))},
-          {"not_skin", hex(maps::lab_to_linear_srgb(maps::kMaskedLab))}};
+const json& colour_map_json() {
+  static const json table = [] {
+    constexpr int kSteps = 256;
+    json colours = json::array();
+    for (int i = 0; i < kSteps; ++i) colours.push_back(hex(maps::map_linear_srgb(i / double(kSteps - 1))));
+    return json{{"colours", colours},
+                {"not_determined", hex(maps::lab_to_linear_srgb(maps::kNotDeterminedLab))},
+                {"not_skin", hex(maps::lab_to_linear_srgb(maps::kMaskedLab))}};
+  }();
+  return table;
 }
 
 template <typename T>
@@ -193,18 +184,19 @@ Response map_picture_response(const Request& request, const store::Store& store,
   const auto map = stored(store.map(id));
   if (std::ranges::find(map.pictures, parameter) == map.pictures.end())
     fail(ErrorKind::not_found, "not_found", fmt::format("map {} has no picture of '{}'", id, parameter));
-  return immutable(request, map_etag(map) + parameter, "image/png",
-                   [&] { return stored(store.map_picture(id, parameter)); });
+  return identified_response(request, map_etag(map) + parameter, kImmutable, "image/png",
+                             [&] { return stored(store.map_picture(id, parameter)); });
 }
 
 Response map_header_response(const Request& request, const store::Store& store, store::Id id) {
   const auto map = stored(store.map(id));
-  return immutable(request, map_etag(map) + "hdr", "text/plain; charset=utf-8", [&] { return map.header; });
+  return identified_response(request, map_etag(map) + "hdr", kImmutable, "text/plain; charset=utf-8",
+                             [&] { return map.header; });
 }
 
 Response map_cube_response(const Request& request, const store::Store& store, store::Id id) {
   const auto map = stored(store.map(id));
-  return immutable(request, map_etag(map), "application/octet-stream", [&] {
+  return identified_response(request, map_etag(map), kImmutable, "application/octet-stream", [&] {
     std::string data;
     data.reserve(static_cast<std::size_t>(map.data_bytes));
     const auto read = store.read_map_data(id, [&](std::string_view piece) {

@@ -28,11 +28,6 @@ using namespace skinspec::client;
 using ::testing::HasSubstr;
 using namespace std::chrono_literals;
 
-std::string bytes_of(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
 class MapsServiceTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -54,7 +49,7 @@ class MapsServiceTest : public ::testing::Test {
     const auto made =
         run_process("/usr/bin/tar", {"cf", archive.string(), "-C", dir.string(), stem + ".hdr", stem + ".img"});
     EXPECT_EQ(made.exit_status, 0) << made.describe();
-    return bytes_of(archive);
+    return file_bytes(archive.string());
   }
   // What `skinspec map` writes for a cube, in DIR/reference.
   fs::path reference_map(const fs::path& header) const {
@@ -110,7 +105,7 @@ TEST_F(MapsServiceTest, ACubeNamedInTheDataDirAndTheSameCubeUploadedMapAsTheComm
     EXPECT_EQ(map["bands"].size(), 19u);
     const auto cube = http_request(port(), "GET", map["links"]["cube"].get<std::string>());
     ASSERT_EQ(cube.status, 200);
-    EXPECT_EQ(cube.body, bytes_of(reference / "face.map.img")) << "the answers differ from skinspec map's";
+    EXPECT_EQ(cube.body, file_bytes((reference / "face.map.img").string())) << "the answers differ from skinspec map's";
     // The same header but for its description, which names the cube as it was asked for.
     const auto described = [](std::string text) {
       const auto from = text.find("description = {"), to = text.find('}', from);
@@ -119,12 +114,12 @@ TEST_F(MapsServiceTest, ACubeNamedInTheDataDirAndTheSameCubeUploadedMapAsTheComm
     };
     const auto [served, description] =
         described(http_request(port(), "GET", map["links"]["header"].get<std::string>()).body);
-    EXPECT_EQ(served, described(bytes_of(reference / "face.map.hdr")).first);
+    EXPECT_EQ(served, described(file_bytes((reference / "face.map.hdr").string())).first);
     EXPECT_THAT(description, HasSubstr(job == by_path ? "of face.hdr}" : "of face-upload}"));
     const auto png = http_request(port(), "GET", map["links"]["pictures"]["melanin"].get<std::string>());
     ASSERT_EQ(png.status, 200);
     EXPECT_EQ(png.header("content-type"), "image/png");
-    EXPECT_EQ(png.body, bytes_of(reference / "face.melanin.png"));
+    EXPECT_EQ(png.body, file_bytes((reference / "face.melanin.png").string()));
     // Stored maps never change: a client holding one is told so without the data.
     const auto again = http_request(port(), "GET", map["links"]["cube"].get<std::string>(), "",
                                     {{"If-None-Match", cube.header("etag")}});
@@ -156,12 +151,12 @@ TEST_F(MapsServiceTest, AnHdf5CubeUploadedMapsAsItsEnviCube) {
   const auto made =
       run_process("/usr/bin/python3", {"-c", script, (data_ / "here.img").string(), h5.string(), wavelengths});
   ASSERT_EQ(made.exit_status, 0) << made.describe();
-  const json job = finished(post_upload(bytes_of(h5), "name=here.h5"));
+  const json job = finished(post_upload(file_bytes(h5.string()), "name=here.h5"));
   ASSERT_EQ(job["state"], "succeeded") << job.dump(2);
   const auto map = get_json(port(), fmt::format("/api/v1/maps/{}", job["result"]["map_id"].get<long long>()));
   EXPECT_EQ(map["name"], "here.h5");
   EXPECT_EQ(http_request(port(), "GET", map["links"]["cube"].get<std::string>()).body,
-            bytes_of(reference / "here.map.img"));
+            file_bytes((reference / "here.map.img").string()));
 }
 
 // The cube's answer bands as floats.
@@ -252,7 +247,7 @@ TEST_F(MapsServiceTest, BadCubesAreRefusedWithA4xxNamingTheFileAndTheField) {
   const auto packed =
       run_process("/usr/bin/tar", {"czf", (bomb / "bomb.tgz").string(), "-C", bomb.string(), "bomb.hdr"});
   ASSERT_EQ(packed.exit_status, 0) << packed.describe();
-  const auto refused = post_upload(bytes_of(bomb / "bomb.tgz"), "name=bomb.tgz");
+  const auto refused = post_upload(file_bytes((bomb / "bomb.tgz").string()), "name=bomb.tgz");
   EXPECT_EQ(refused.status, 422) << refused.body;
   EXPECT_THAT(refused.json()["error"].value("message", ""), HasSubstr("more than 20 times the archive"));
 
