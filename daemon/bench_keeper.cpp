@@ -99,6 +99,7 @@ void BenchKeeper::keep_beating(std::stop_token stop) {
       continue;
     }
     if (!beating_since_) beating_since_ = now;
+    supervisor_.record_unrecorded_ends();
     adopt_queued();
     if (settings_.shared) {
       recover_silent(now - *beating_since_);
@@ -120,9 +121,11 @@ void BenchKeeper::adopt_queued() {
 void BenchKeeper::recover_silent(std::chrono::steady_clock::duration heard_for) {
   auto benches = db_.benches();
   if (!benches) return log_refusal("list_failed", benches.error());
-  const auto now = to_store_time(std::chrono::system_clock::now());
+  // By the database's clock, which wrote the heartbeats: this machine's may be minutes off.
+  const auto now = db_.database_time();
+  if (!now) return log_refusal("clock_read_failed", now.error());
   for (const auto& bench : *benches) {
-    if (bench.name == db_.bench() || store::bench_running(bench, now)) continue;
+    if (bench.name == db_.bench() || store::bench_running(bench, *now)) continue;
     if (heard_for <= bench.lease + heartbeat_interval(bench.lease)) continue;
     // One recovery per silence: nothing of it can start again until it beats again.
     if (const auto done = recovered_.find(bench.name); done != recovered_.end() && done->second == bench.heartbeat_at)

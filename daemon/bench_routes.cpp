@@ -33,8 +33,10 @@ std::expected<store::CreatedJob, api::ApiError> BenchRoutes::submit_elsewhere(co
                                                                               store::Job job) {
   auto benches = db_.benches();
   if (!benches) return std::unexpected(api::from_store_error(benches.error()));
+  const auto now = db_.database_time();
+  if (!now) return std::unexpected(api::from_store_error(now.error()));
   const auto owner = std::ranges::find(*benches, session.bench, &store::Bench::name);
-  if (owner == benches->end() || !store::bench_running(*owner, to_store_time(std::chrono::system_clock::now())))
+  if (owner == benches->end() || !store::bench_running(*owner, *now))
     return std::unexpected(api::ApiError{
         api::ErrorKind::conflict, "bench_not_running",
         fmt::format("session {} belongs to bench {}, whose skinspecd is not running", session.id, session.bench)});

@@ -16,8 +16,6 @@ using nlohmann::json;
 
 namespace {
 
-constexpr auto kLane = api::JobLane::instrument;
-
 // What a follower is shown for a job whose end the store refused.
 store::JobError unrecorded(const store::JobError& end, const store::StoreError& refused) {
   return {store::JobErrorCode::store, "the job ended (" + std::string(store::to_string(end.code)) + ": " + end.message +
@@ -162,8 +160,9 @@ void MeasurementExecutor::finish(store::Id id, const Step<store::CompletedJob>& 
 
 std::optional<store::StoreError> MeasurementExecutor::record_end(store::Id id, const store::JobError& error,
                                                                  std::optional<std::string> result) {
-  const auto written =
-      with_retries("job_end", id, [&] { return db_.update_job(id, {ended_state(error), error, result}); });
+  const auto written = outlasting_outages(
+      "job_end", id, [&] { return db_.update_job(id, {ended_state(error), error, result}); },
+      [this] { return board_.closed(kLane); });
   if (written) return std::nullopt;
   return written.error();
 }

@@ -54,6 +54,8 @@ class MeasurementExecutor {
   bool ask_to_stop(store::Id id);
 
  private:
+  static constexpr auto kLane = api::JobLane::instrument;
+
   // A step of a job: its value, or the error the job ends with.
   template <typename T>
   using Step = std::expected<T, store::JobError>;
@@ -87,6 +89,9 @@ class MeasurementExecutor {
                                               const std::optional<store::Fit>& fit, const nlohmann::json& result);
   // Whether the running job was asked to stop: the error it then ends with.
   std::optional<store::JobError> stop_requested(store::Id id) const;
+  // Job `id` as its record says it was stored, when it succeeded: by a commit whose connection
+  // was lost before its answer came.
+  std::optional<store::CompletedJob> stored_before_the_connection_was_lost(store::Id id) const;
   // Stores the end of a job that did not succeed and lets its followers know; a job cancelled
   // meanwhile ends cancelled whatever stopped it.
   void finish(store::Id id, const Step<store::CompletedJob>& outcome, const nlohmann::json& partial);

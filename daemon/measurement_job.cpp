@@ -244,11 +244,30 @@ MeasurementExecutor::Step<store::CompletedJob> MeasurementExecutor::store_measur
     const store::Job& job, const store::Measurement& m, const std::optional<store::Fit>& fit, const json& result) {
   const auto started = Clock::now();
   const auto text = result.dump();
-  auto completed =
-      with_retries("job_success", job.id, [&] { return db_.complete_measurement_job(job.id, m, fit, text); });
+  auto completed = outlasting_outages(
+      "job_success", job.id, [&] { return db_.complete_measurement_job(job.id, m, fit, text); },
+      [this] { return board_.closed(kLane); });
+  if (!completed && completed.error().kind == store::StoreError::Kind::conflict) {
+    if (auto stored = stored_before_the_connection_was_lost(job.id)) return std::move(*stored);
+  }
   if (!completed) return store_error("the measurement could not be stored", completed.error());
   spdlog::debug("event=job_stored job={} store_ms={:.3f}", job.id, ms_since(started));
   return std::move(*completed);
+}
+
+// A connection lost while committing leaves unknown whether the commit was made: when it was, the
+// attempt after it finds the job no longer running, and the job's record names what it stored.
+std::optional<store::CompletedJob> MeasurementExecutor::stored_before_the_connection_was_lost(store::Id id) const {
+  auto job = db_.job(id);
+  if (!job || job->state != store::JobState::succeeded) return std::nullopt;
+  const auto result = json::parse(job->result, nullptr, false);
+  if (!result.is_object() || !result.contains("measurement_id") || !result["measurement_id"].is_number_integer())
+    return std::nullopt;
+  store::CompletedJob stored{*job, {result["measurement_id"].get<store::Id>(), std::nullopt}};
+  if (result.contains("fit_id") && result["fit_id"].is_number_integer())
+    stored.ids.fit_id = result["fit_id"].get<store::Id>();
+  spdlog::info("event=job_stored_before_connection_lost job={} measurement={}", id, stored.ids.measurement_id);
+  return stored;
 }
 
 // One reading for a job. A job whose first command finds the link dead (the meter was switched

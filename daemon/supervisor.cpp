@@ -80,6 +80,20 @@ std::expected<store::Job, api::ApiError> Supervisor::cancel(store::Id job_id) {
   return *job;
 }
 
+// Interrupted rather than the end the job was shown: what made that end (readings, a cancel) is
+// not kept past the refusal.
+void Supervisor::record_unrecorded_ends() {
+  using Kind = store::StoreError::Kind;
+  for (const auto& [id, shown] : board_->unrecorded_ends()) {
+    const store::JobError error{store::JobErrorCode::interrupted, "its end could not be stored then: " + shown.message};
+    auto written = db_.update_job(id, {store::JobState::failed, error, std::nullopt});
+    if (!written && written.error().kind != Kind::conflict && written.error().kind != Kind::not_found) continue;
+    spdlog::info("event=job_end_stored_late job={} state={}", id,
+                 written ? store::to_string(written->state) : std::string_view("ended elsewhere"));
+    board_->end(id);
+  }
+}
+
 void Supervisor::cancel_here(store::Id job_id) {
   if (!board_->knows(job_id)) return;
   if (auto cancelled = cancel(job_id); !cancelled)

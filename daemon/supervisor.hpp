@@ -64,6 +64,9 @@ class Supervisor final : public api::Acquisition {
   // ended since the last call, to publish.
   using LocalJobs = api::JobBoard::LaneJobs;
   LocalJobs local_jobs() { return board_->take_lane_jobs(api::JobLane::instrument); }
+  // Jobs of this program whose end the database refused, ended in their records as interrupted
+  // now that it takes writes again.
+  void record_unrecorded_ends();
   // Other benches' jobs shown live here.
   std::vector<store::Id> remote_jobs() const { return board_->remote_jobs(); }
   // A cancel asked for through another program, of a job this one may be running.

@@ -148,6 +148,14 @@ void JobBoard::end(store::Id id, std::optional<store::JobError> unrecorded) {
   changed();
 }
 
+std::vector<std::pair<store::Id, store::JobError>> JobBoard::unrecorded_ends() const {
+  std::lock_guard lock(mutex_);
+  std::vector<std::pair<store::Id, store::JobError>> out;
+  for (const auto& [id, entry] : live_)
+    if (entry.progress.unrecorded_failure) out.emplace_back(id, *entry.progress.unrecorded_failure);
+  return out;
+}
+
 void JobBoard::note_remote(store::Id id, std::optional<JobProgress> progress) {
   std::lock_guard lock(mutex_);
   if (progress) remote_[id] = *progress;

@@ -133,9 +133,10 @@ struct Router::Handlers {
   static Response benches(const RouterContext& c, const Call& call) {
     no_query(call);
     const store::Store& db = store_of(c);
-    const auto now = std::chrono::floor<std::chrono::microseconds>(std::chrono::system_clock::now());
+    const auto benches = value(db.benches());
+    const auto now = value(db.database_time());  // the clock the heartbeats were written by
     json list = json::array();
-    for (const auto& b : value(db.benches())) {
+    for (const auto& b : benches) {
       const bool here = b.name == db.bench();
       json instrument = json::parse(b.instrument, nullptr, false);
       if (here && c.acquisition != nullptr) instrument = c.acquisition->instrument_status();
@@ -907,8 +908,15 @@ void check_content_type(const Request& request, const RouteInfo& route) {
 
 }  // namespace
 
+// A 503 is a condition that passes (a database server restarting, every compute slot taken):
+// the client is told when to ask again.
+constexpr int kRetryAfterSeconds = 1;
+
 Response error_response(const ApiError& error) {
-  return Response{http_status(error.kind), "application/json", error_body(error), {}};
+  Response response{http_status(error.kind), "application/json", error_body(error), {}};
+  if (error.kind == ErrorKind::unavailable)
+    response.headers.emplace_back("Retry-After", std::to_string(kRetryAfterSeconds));
+  return response;
 }
 
 Router::Router(RouterContext context) : context_(std::move(context)) {

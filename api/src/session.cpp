@@ -24,8 +24,6 @@ namespace {
 constexpr std::size_t kFirstRead = 4096;
 // How long a closing connection waits for the client to stop sending.
 constexpr std::chrono::seconds kLinger{1};
-// When a client refused for a full compute pool is told to try again.
-constexpr int kRetryAfterSeconds = 1;
 }  // namespace
 
 Session::Session(tcp::socket socket, std::shared_ptr<Server::State> state, ConnectionTable::Id id)
@@ -135,7 +133,6 @@ void Session::refuse_busy(const RequestMessage& message) {
   Response busy = error_response({ErrorKind::unavailable, "compute_busy",
                                   "every fit and render slot is taken (" + std::to_string(pool.threads()) +
                                       " running, " + std::to_string(pool.queue()) + " waiting); retry later"});
-  busy.headers.emplace_back("Retry-After", std::to_string(kRetryAfterSeconds));
   state_->router.metrics().record_error("compute_busy");
   respond(message, busy);
 }

@@ -26,7 +26,7 @@ Result<void> Store::beat(const Bench& b) {
          "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, NULL) ON CONFLICT (name) DO UPDATE SET host = excluded.host, "
          "pid = excluded.pid, started_at = excluded.started_at, heartbeat_at = excluded.heartbeat_at, "
          "lease_ms = excluded.lease_ms, instrument = excluded.instrument, stopped_at = NULL")
-        .bind(impl_->options.bench, b.host, b.pid, b.started_at, impl_->now(),
+        .bind(impl_->options.bench, b.host, b.pid, b.started_at, impl_->database_now(c),
               static_cast<std::int64_t>(b.lease.count()), b.instrument)
         .run();
   });
@@ -43,6 +43,10 @@ Result<std::vector<Bench>> Store::benches() const {
     static const std::string sql = fmt::format("SELECT {} FROM benches ORDER BY name", detail::kBenchColumns);
     return detail::all(c, sql, detail::read_bench);
   });
+}
+
+Result<Time> Store::database_time() const {
+  return impl_->read_one("reading the database's clock", [&](Connection& c) { return impl_->database_now(c); });
 }
 
 Result<std::vector<Job>> Store::queued_jobs() const {
@@ -62,7 +66,7 @@ Result<RecoveryReport> Store::recover_bench(const std::string& name) {
     if (!row.step()) return RecoveryReport{};
     const Bench bench = detail::read_bench(row);
     row.run();
-    const auto now = impl_->now();
+    const auto now = impl_->database_now(c);
     if (bench_running(bench, now)) return RecoveryReport{};
     return detail::mark_interrupted(c, RecoveryPolicy::sessions_with_active_jobs, {name, false}, now);
   });

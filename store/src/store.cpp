@@ -18,6 +18,15 @@ Time Store::Impl::now() const {
   return std::chrono::floor<std::chrono::microseconds>(std::chrono::system_clock::now());
 }
 
+Time Store::Impl::database_now(detail::Connection& c) const {
+  if (options.clock || backend == Backend::sqlite) return now();
+  auto row = c.prepare("SELECT clock_timestamp()");
+  if (!row.step()) fail(Kind::internal, "the database server gave no time");
+  const Time server = row.time(0);
+  row.run();
+  return server;
+}
+
 namespace {
 
 // A SQLite target's file: the path, without "sqlite:" when it was given so.

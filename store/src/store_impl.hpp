@@ -49,6 +49,10 @@ struct Store::Impl {
   std::shared_ptr<detail::LocalHub> hub = std::make_shared<detail::LocalHub>();  // SQLite's notifications
 
   Time now() const;
+  // The clock leases are judged by (docs/store.md, "Benches"): the PostgreSQL server's, one
+  // clock for every bench whatever their own machines' say; this machine's for SQLite, whose one
+  // writer works on this machine; OpenOptions::clock when a test sets it.
+  Time database_now(detail::Connection& c) const;
 
   // One write transaction around `body(connection)`, committed when it returns. A failure
   // that left nothing committed and may pass (a lost connection, a serialisation conflict) is

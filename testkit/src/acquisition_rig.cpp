@@ -69,7 +69,9 @@ void AcquisitionRig::start_daemon(const std::vector<std::string>& extra_args) {
   add_default(args, options_.daemon_args, "--log-level", "debug");
   args.insert(args.end(), options_.daemon_args.begin(), options_.daemon_args.end());
   args.insert(args.end(), extra_args.begin(), extra_args.end());
-  daemon = std::make_unique<BackgroundProcess>(options_.bin_dir + "/skinspecd", args);
+  ProcessOptions process;
+  process.environment = options_.daemon_environment;
+  daemon = std::make_unique<BackgroundProcess>(options_.bin_dir + "/skinspecd", args, process);
   port = port_of(daemon->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s));
 }
 

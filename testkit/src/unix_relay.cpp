@@ -66,6 +66,7 @@ struct UnixRelay::State {
   std::array<int, 2> wake{-1, -1};  // written to, to have the loop look at its orders
   std::mutex orders;
   bool stopping = false;
+  bool refusing = false;                 // new connections closed at once (the network down)
   std::vector<std::promise<void>> cuts;  // each kept once the client sides are closed
   std::vector<Pair> pairs;               // the loop's alone while it runs
   std::thread loop;
@@ -85,6 +86,10 @@ struct UnixRelay::State {
   void accept_one() {
     const int client = ::accept4(listener, nullptr, nullptr, SOCK_CLOEXEC);
     if (client < 0) return;
+    if (std::lock_guard lock(orders); refusing) {
+      ::close(client);
+      return;
+    }
     const int server = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
     if (server < 0 ||
         ::connect(server, reinterpret_cast<const sockaddr*>(&server_address), sizeof(server_address)) != 0) {
@@ -188,6 +193,19 @@ UnixRelay::UnixRelay(std::filesystem::path listen_path, std::filesystem::path se
     while (s.carry_once()) {
     }
   });
+}
+
+void UnixRelay::go_down() {
+  {
+    std::lock_guard lock(state_->orders);
+    state_->refusing = true;
+  }
+  cut_clients();
+}
+
+void UnixRelay::come_back() {
+  std::lock_guard lock(state_->orders);
+  state_->refusing = false;
 }
 
 UnixRelay::~UnixRelay() {

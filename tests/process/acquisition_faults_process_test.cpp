@@ -24,8 +24,6 @@ using nlohmann::json;
 using namespace skinspec::client;
 using namespace std::chrono_literals;
 
-std::string session_path(long long session) { return "/api/v1/sessions/" + std::to_string(session); }
-
 // Stored samples without their fit: there must never be any.
 long long samples_without_fit(const std::string& db) {
   return sqlite_integer(db,

@@ -303,20 +303,11 @@ TEST(PostgresqlStoreTest, AWriterConnectionTheServerEndedIsReplacedAndTheWriteSt
             1);
 }
 
-// The cluster's socket, as libpq names it in its directory.
-std::filesystem::path cluster_socket() {
-  for (const auto& entry : std::filesystem::directory_iterator(postgres_cluster().socket_dir())) {
-    const auto name = entry.path().filename().string();
-    if (name.starts_with(".s.PGSQL.") && !name.ends_with(".lock")) return entry.path();
-  }
-  throw std::runtime_error("no socket in " + postgres_cluster().socket_dir().string());
-}
-
 // A relay in front of the cluster's socket, in a directory of its own, and the URI of `db`
 // through it.
 struct RelayedDatabase {
   testing::ScratchDirectory dir;
-  std::filesystem::path server = cluster_socket();
+  std::filesystem::path server = postgres_cluster().socket();
   testing::UnixRelay relay{dir.path() / server.filename(), server};
   std::string uri(const Database& db) const {
     return "postgresql://skinspec@/" + db.name + "?host=" + dir.path().string();

@@ -51,6 +51,10 @@ void take_writer_lock(Connection& writer, int previous_backend, const std::strin
   for (int attempt = 0; attempt < 5; ++attempt) {
     if (try_writer_lock(writer, bench)) return share_with_other_benches(writer, bench);
     if (previous_backend != 0 && holds_writer_lock(writer, previous_backend, bench)) {
+      // Ending that backend frees the lock for a moment before this connection takes it. This
+      // program is alive: its heartbeat is made fresh first, so that no other program, seeing the
+      // lock free and the heartbeat as old as the outage, takes that moment for its death.
+      writer.prepare("UPDATE benches SET heartbeat_at = clock_timestamp() WHERE name = ?1").bind(bench).run();
       writer.prepare("SELECT pg_terminate_backend(?1, 5000)").bind(previous_backend).run();
       continue;
     }
@@ -76,10 +80,11 @@ PgEngine::PgEngine(const Target& target, bool writes, int max_readers, std::stri
 PgEngine::~PgEngine() = default;
 
 Connection& PgEngine::connect_writer() {
-  const int previous_backend = writer_ ? writer_->backend_pid() : 0;
+  if (writer_) lost_backend_ = writer_->backend_pid();
   writer_.reset();
   auto connection = std::make_unique<Connection>(target_, ConnectSettings{});
-  take_writer_lock(*connection, previous_backend, bench_);
+  take_writer_lock(*connection, lost_backend_, bench_);
+  lost_backend_ = 0;
   writer_ = std::move(connection);
   return *writer_;
 }

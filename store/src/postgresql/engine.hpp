@@ -45,6 +45,9 @@ class PgEngine final : public detail::Engine, private ConnectionLease::Owner {
   std::string bench_;
   std::mutex writer_mutex_;
   std::unique_ptr<Connection> writer_;
+  // The backend of the last writer connection found broken, until the writer lock is taken
+  // again: through an outage of several failed connects it may still hold the lock.
+  int lost_backend_ = 0;
   detail::ConnectionPool readers_;
 };
 

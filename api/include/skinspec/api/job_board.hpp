@@ -105,6 +105,9 @@ class JobBoard final : public JobWatch {
   // is free for the next. With `unrecorded`, the store refused its end: it is shown failed
   // with that error meanwhile.
   void end(store::Id id, std::optional<store::JobError> unrecorded = std::nullopt);
+  // The jobs ended with `unrecorded`, and what they are shown: their records are still queued or
+  // running, to be ended once the database takes writes again (end(id) then forgets them).
+  std::vector<std::pair<store::Id, store::JobError>> unrecorded_ends() const;
 
   // ---- Other programs' jobs (docs/store.md, "Benches") --------------------------------------
 

@@ -294,12 +294,16 @@ class Store {
 
   // The bench this Store writes for (OpenOptions::bench).
   const std::string& bench() const;
-  // This bench's heartbeat: `bench` (its name ignored: this Store's) with heartbeat_at now,
-  // running again if it had stopped.
+  // This bench's heartbeat: `bench` (its name ignored: this Store's) with heartbeat_at the
+  // database's time (database_time), running again if it had stopped.
   Result<void> beat(const Bench& bench);
   // This bench stopped cleanly: others see it is not running without waiting for its lease.
   Result<void> leave_bench();
   Result<std::vector<Bench>> benches() const;
+  // The time benches' heartbeats are written in and judged by (bench_running): the PostgreSQL
+  // server's clock, so that benches whose machines' clocks disagree judge each other by one
+  // clock; this machine's for SQLite.
+  Result<Time> database_time() const;
   // This bench's queued jobs, oldest first: those posted through another program too.
   Result<std::vector<Job>> queued_jobs() const;
   // Another bench's queued and running jobs marked failed (`interrupted`), with the open sessions

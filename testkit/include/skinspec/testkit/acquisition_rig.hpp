@@ -24,8 +24,9 @@ struct RigOptions {
   // Added to the simulator's: time scale 0 (unless given here), a power-on window that never closes, a flat 0.99
   // white standard measured first, then the forearm example's subjects.
   std::vector<std::string> sim_args;
-  bool default_scenes = true;            // false: sim_args name the readings' source
-  std::vector<std::string> daemon_args;  // added to the daemon's (log level debug unless given)
+  bool default_scenes = true;                   // false: sim_args name the readings' source
+  std::vector<std::string> daemon_args;         // added to the daemon's (log level debug unless given)
+  std::vector<std::string> daemon_environment;  // "NAME=VALUE" for the daemon alone
 };
 
 #ifdef SKINSPEC_TEST_BIN_DIR
@@ -83,6 +84,8 @@ std::vector<double> first_subject_on_grid(const std::string& csv_path, int first
 
 using Headers = std::vector<std::pair<std::string, std::string>>;
 
+// "/api/v1/sessions/{id}".
+inline std::string session_path(long long session) { return "/api/v1/sessions/" + std::to_string(session); }
 // A new session on the forearm; its id (0 when refused).
 long long new_session(unsigned short port, const std::string& subject);
 // POST /api/v1/sessions/{id}/measurements; the accepted job (202, or 200 for a repeated key).

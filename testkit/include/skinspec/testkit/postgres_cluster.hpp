@@ -41,6 +41,8 @@ class PostgresCluster {
 
   const std::filesystem::path& directory() const { return directory_; }
   const std::filesystem::path& socket_dir() const { return directory_; }
+  // The server's socket in socket_dir(), as libpq names it for the default port.
+  std::filesystem::path socket() const { return directory_ / ".s.PGSQL.5432"; }
   // The server's process id while it runs (from postmaster.pid), else 0.
   pid_t server_pid() const;
 

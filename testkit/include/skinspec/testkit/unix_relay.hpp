@@ -25,6 +25,9 @@ class UnixRelay {
   // Closes the client side of every connection open now, and returns once it is closed; later
   // connections are carried as before.
   void cut_clients();
+  // The network down: cut_clients(), and every connection made until come_back() closed at once.
+  void go_down();
+  void come_back();
 
  private:
   struct State;
