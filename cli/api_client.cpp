@@ -123,6 +123,11 @@ std::string resolve_token(const std::string& token_file) {
   std::string text = read_input(token_file);
   const json tokens = json::parse(text, nullptr, false);
   if (tokens.is_object()) {
+    // skinspecd's file of named tokens holds their hashes only, which no request can carry.
+    if (tokens.contains("tokens"))
+      throw Failure{kBadInput, token_file +
+                                   ": skinspecd's file of named tokens holds only their hashes; give a file holding "
+                                   "your token's secret (as `skinspec token new` printed it), or $SKINSPEC_TOKEN"};
     for (const char* key : {"operator_token", "read_token"})
       if (tokens.contains(key) && tokens[key].is_string()) return tokens[key].get<std::string>();
     throw Failure{kBadInput, token_file + ": a JSON token file needs operator_token or read_token"};

@@ -43,8 +43,8 @@ class ApiClient {
   std::string token_;
 };
 
-// The token for --token-file FILE (the service's token file, whose operator_token is used, or
-// a file holding the token alone), else $SKINSPEC_TOKEN, else none.
+// The token for --token-file FILE (a file holding the token alone, or the service's old
+// two-token file, whose operator_token is used), else $SKINSPEC_TOKEN, else none.
 std::string resolve_token(const std::string& token_file);
 
 // Percent-encodes a query parameter's value.

@@ -72,5 +72,6 @@ void add_import_command(CLI::App& app);
 void add_session_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_figures_command(CLI::App& app);
+void add_token_command(CLI::App& app);
 
 }  // namespace skinspec::cli

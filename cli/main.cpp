@@ -39,6 +39,7 @@ int run(int argc, char** argv) {
   add_render_command(app);
   add_figures_command(app);
   add_map_command(app);
+  add_token_command(app);
   // CLI11 reports a mistyped subcommand only as "a subcommand is required"; name it instead.
   if (argc > 1 && argv[1][0] != '-' &&
       app.get_subcommands([&](CLI::App* sub) { return sub->check_name(argv[1]); }).empty()) {

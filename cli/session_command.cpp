@@ -67,8 +67,9 @@ void print_fits(const json& fits, const std::string& model) {
     for (const auto& name : names)
       row += fmt::format(" {:>{}}", param_cell(f, name), std::max<std::size_t>(9, name.size()));
     const auto tone = f.contains("skin_tone") ? skin_tone_from_json(f["skin_tone"]) : std::nullopt;
-    std::cout << row << fmt::format(" {:>8.4f} {:>7.2f}{}\n", f.value("rmse", 0.0), f.value("delta_e00_d65", 0.0),
-                                    skin_tone_cells(tone));
+    std::cout << row
+              << fmt::format(" {:>8.4f} {:>7.2f}{}\n", f.value("rmse", 0.0), f.value("delta_e00_d65", 0.0),
+                             skin_tone_cells(tone));
   }
   std::cout << not_determined_line("--json") << '\n';
 }
@@ -130,7 +131,7 @@ void run_list(const ServerArgs& server, const ListArgs& args) {
 void add_server_options(CLI::App& command, ServerArgs& args) {
   command.add_option("--server", args.server, "skinspecd's URL")->capture_default_str();
   command.add_option("--token-file", args.token_file,
-                     "bearer token: skinspecd's token file or a file holding the token (else $SKINSPEC_TOKEN)");
+                     "a file holding the bearer token, or skinspecd's old two-token file (else $SKINSPEC_TOKEN)");
   command.add_flag("--json", args.json, "print the server's JSON instead of text");
 }
 

@@ -3,6 +3,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <sstream>
 
@@ -16,6 +17,7 @@
 #include "supervisor.hpp"
 #include "fitter_loader.hpp"
 #include "skinspec/drivers/emergency_quit.hpp"
+#include "skinspec/api/tokens.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/version.hpp"
 
@@ -28,12 +30,17 @@ int serve(const skinspec::daemon::Options& o) {
   const auto model = drivers::ModelChoice::parse(o.model);
   if (!model) return spdlog::error("event=bad_option message=\"--model: {}\"", model.error()), 2;
   api::RouterContext context;
+  std::shared_ptr<api::Keyring> tokens;  // replaced on SIGHUP; the router only reads it
   if (!o.token_file.empty()) {
-    auto access = daemon::read_token_file(o.token_file);
-    if (!access) return spdlog::error("event=bad_token_file message=\"{}\"", access.error()), 2;
-    context.access = *access;
+    auto file = api::read_token_file(o.token_file);
+    if (!file) return spdlog::error("event=bad_token_file message=\"{}\"", file.error()), 2;
+    if (file->format == api::TokenFileFormat::legacy)
+      spdlog::info("event=legacy_token_file file=\"{}\" message=\"read_token has scope read, operator_token admin\"",
+                   o.token_file);
+    tokens = std::make_shared<api::Keyring>(std::move(file->tokens));
+    context.tokens = tokens;
   } else if (!daemon::is_loopback(listen->first)) {
-    spdlog::error("event=refused message=\"listening on {} needs --token-file (read and operator tokens)\"",
+    spdlog::error("event=refused message=\"listening on {} needs --token-file (made by skinspec token new)\"",
                   listen->first);
     return 2;
   }
@@ -117,14 +124,38 @@ int serve(const skinspec::daemon::Options& o) {
         "leaves room for fewer connections than --max-connections\"",
         o.max_connections, limits.max_connections, limits.descriptor_limit);
 
+  // SIGHUP reads the token file again, so that a token is added or revoked without a restart.
+  // A file that cannot be read or parsed then leaves the tokens as they were: a mistake in it
+  // must neither stop the service nor open it to everyone.
+  boost::asio::signal_set hangups(server.context(), SIGHUP);
   boost::asio::signal_set signals(server.context(), SIGINT, SIGTERM);
-  signals.async_wait([&server](const boost::system::error_code& ec, int signal) {
+  signals.async_wait([&server, &hangups](const boost::system::error_code& ec, int signal) {
     if (ec) return;
     spdlog::info("event=stopping signal={}", signal);
+    hangups.cancel();  // the wait for the next SIGHUP would keep the server's context running
     server.stop();
   });
-  spdlog::info("event=listening address={} port={} db=\"{}\" auth={} version={}", options.address, server.port(),
-               store::display_target(o.db), context.access.required ? "tokens" : "none", skinspec::kVersion);
+  int reloads = 0;
+  std::function<void()> await_hangup = [&] {
+    hangups.async_wait([&](const boost::system::error_code& ec, int) {
+      if (ec) return;
+      ++reloads;
+      if (!tokens) {
+        spdlog::warn("event=tokens_not_reloaded reload={} message=\"started without --token-file\"", reloads);
+      } else if (auto file = api::read_token_file(o.token_file); !file) {
+        spdlog::error("event=token_reload_failed reload={} tokens_kept={} message=\"{}\"", reloads, tokens->size(),
+                      file.error());
+      } else {
+        tokens->replace(std::move(file->tokens));
+        spdlog::info("event=tokens_reloaded reload={} tokens={} file=\"{}\"", reloads, tokens->size(), o.token_file);
+      }
+      await_hangup();
+    });
+  };
+  await_hangup();
+  spdlog::info("event=listening address={} port={} db=\"{}\" auth={} tokens={} version={}", options.address,
+               server.port(), store::display_target(o.db), tokens ? "tokens" : "none", tokens ? tokens->size() : 0,
+               skinspec::kVersion);
   // For people and for programs waiting for the service to come up.
   std::cout << "skinspecd listening on http://"
             << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address) << ':'
@@ -177,7 +208,8 @@ int main(int argc, char** argv) {
   app.add_option("--work-dir", o.work_dir,
                  "where map jobs keep uploads and answers until they are stored (default: the temporary directory)");
   app.add_option("--token-file", o.token_file,
-                 "0600 JSON file with read_token and operator_token; required off loopback");
+                 "0600 JSON file of named tokens' hashes (skinspec token new), or with read_token and operator_token; "
+                 "read again on SIGHUP; required off loopback");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical or off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
       ->capture_default_str();

@@ -1,9 +1,6 @@
 #include "options.hpp"
 
 #include <charconv>
-#include <fstream>
-#include <sstream>
-#include <sys/stat.h>
 
 #include <boost/asio/ip/address.hpp>
 #include <nlohmann/json.hpp>
@@ -81,29 +78,6 @@ bool is_loopback(const std::string& address) {
   boost::system::error_code ec;
   const auto a = boost::asio::ip::make_address(address, ec);
   return !ec && a.is_loopback();
-}
-
-std::expected<api::AccessPolicy, std::string> read_token_file(const std::string& path) {
-  struct stat st{};
-  if (::stat(path.c_str(), &st) != 0) return std::unexpected(path + ": cannot read the token file");
-  if ((st.st_mode & 077) != 0)
-    return std::unexpected(path + ": the token file must be readable by its owner only (chmod 600)");
-  std::ifstream in(path);
-  std::stringstream bytes;
-  bytes << in.rdbuf();
-  const json tokens = json::parse(bytes.str(), nullptr, false);
-  if (tokens.is_discarded() || !tokens.is_object()) return std::unexpected(path + ": not a JSON object");
-  api::AccessPolicy access;
-  access.required = true;
-  for (const auto& [key, field] :
-       {std::pair{"read_token", &access.read_token}, std::pair{"operator_token", &access.operator_token}}) {
-    const auto it = tokens.find(key);
-    if (it == tokens.end() || !it->is_string() || it->get<std::string>().size() < 16)
-      return std::unexpected(path + ": '" + key + "' must be a string of at least 16 characters");
-    *field = it->get<std::string>();
-  }
-  if (access.read_token == access.operator_token) return std::unexpected(path + ": the two tokens must differ");
-  return access;
 }
 
 }  // namespace skinspec::daemon

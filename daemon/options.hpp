@@ -1,5 +1,6 @@
 #pragma once
-// skinspecd's settings: command-line flags over an optional JSON config file, and the token file.
+// skinspecd's settings: command-line flags over an optional JSON config file. The token file is
+// read by skinspec::tokens (skinspec/api/tokens.hpp), as `skinspec token` writes it.
 
 #include <expected>
 #include <functional>
@@ -52,9 +53,5 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
 // "host:port" → address and port.
 std::expected<std::pair<std::string, unsigned short>, std::string> parse_listen(const std::string& text);
 bool is_loopback(const std::string& address);
-
-// The bearer tokens from a JSON file {"read_token": "...", "operator_token": "..."} that only its
-// owner may read or write (mode 0600 or stricter).
-std::expected<api::AccessPolicy, std::string> read_token_file(const std::string& path);
 
 }  // namespace skinspec::daemon

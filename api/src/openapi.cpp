@@ -17,6 +17,16 @@ using nlohmann::json;
 
 namespace {
 
+// The token a route needs, when the service asks for tokens at all (off loopback, or with
+// --token-file).
+std::string bearer_description() {
+  std::string scopes;
+  for (const Scope scope : kScopes) scopes += std::string(scopes.empty() ? "" : " < ") + std::string(to_string(scope));
+  return "A named token of skinspecd's token file (docs/security.md), of one scope (" + scopes +
+         ": each may do what the ones before it may). An operation's x-skinspec-scope names the least scope "
+         "that may call it: 401 without a known token, 403 with a token of a lesser scope.";
+}
+
 json ref(const std::string& name) { return {{"$ref", "#/components/schemas/" + name}}; }
 json numbers() { return {{"type", "array"}, {"items", {{"type", "number"}}}}; }
 json nullable(json type) { return {{"type", json::array({type, "null"})}}; }
@@ -615,7 +625,14 @@ json Router::openapi_document() {
                         {"schema", {{"type", "string"}}},
                         {"description", "a parameter of the map's model"}});
     if (!params.empty()) op["parameters"] = params;
-    if (r.mutating) op["security"] = json::array({{{"bearer", json::array()}}});
+    // OpenAPI's own scopes are OAuth's; a bearer scheme has none, so the scope a token needs is
+    // told by an extension of each operation.
+    if (r.needs_token) {
+      op["security"] = json::array({{{"bearer", json::array()}}});
+      op["x-skinspec-scope"] = to_string(r.scope);
+    } else {
+      op["security"] = json::array();
+    }
     std::string method = r.method;
     for (char& ch : method) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
     paths[r.path][method] = op;
@@ -627,7 +644,9 @@ json Router::openapi_document() {
             {"description", "Stored skin spectra, sessions and fits of the two-layer skin model"}}},
           {"paths", paths},
           {"components",
-           {{"schemas", schemas()}, {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
+           {{"schemas", schemas()},
+            {"securitySchemes",
+             {{"bearer", {{"type", "http"}, {"scheme", "bearer"}, {"description", bearer_description()}}}}}}}};
 }
 
 }  // namespace skinspec::api

@@ -58,6 +58,9 @@ struct Call {
   // Set only for a route marked RouteInfo::from_memory, whose handler must then throw
   // NotInMemory rather than go to the database: it runs on the thread that read the request.
   bool from_memory_only = false;
+  // Who made the request, by the token it carried; nobody when the service asks for no token
+  // (or the route needs none). A handler that records who did something takes the name here.
+  std::optional<Caller> caller;
 };
 
 // Thrown by a handler asked for an answer from memory alone that does not hold it.
@@ -662,65 +665,76 @@ const std::vector<Route>& route_table() {
   using H = Router::Handlers;
   static const std::vector<Route> table = [] {
     std::vector<Route> t = {
-        {{"GET", "/healthz", "Liveness, database state and version", false, "", "Health", 200}, &H::healthz, {}},
-        {{"GET", "/openapi.json", "This OpenAPI document", false, "", "OpenApi", 200}, &H::openapi, {}},
-        {{"GET", "/metrics", "Prometheus metrics", false, "", "text/plain", 200}, &H::metrics, {}},
-        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", false, "FitRequest",
-          "FitResponse", 200, true},
+        {{.method = "GET",
+          .path = "/healthz",
+          .summary = "Liveness, database state and version",
+          .scope = Scope::read,
+          .request_schema = "",
+          .response_schema = "Health",
+          .success_status = 200,
+          .needs_token = false},
+         &H::healthz,
+         {}},
+        {{"GET", "/openapi.json", "This OpenAPI document", Scope::read, "", "OpenApi", 200}, &H::openapi, {}},
+        {{"GET", "/metrics", "Prometheus metrics", Scope::read, "", "text/plain", 200}, &H::metrics, {}},
+        {{"POST", "/api/v1/fit", "Fit the skin model to one or several reflectance spectra", Scope::measure,
+          "FitRequest", "FitResponse", 200, true},
          &H::fit,
          {}},
-        {{"GET", "/api/v1/sites", "The body sites the model knows, with their layer thicknesses", false, "", "SiteList",
-          200},
+        {{"GET", "/api/v1/sites", "The body sites the model knows, with their layer thicknesses", Scope::read, "",
+          "SiteList", 200},
          &H::sites,
          {}},
         {{"GET", "/api/v1/models",
           "The skin models and their parameters: name, label, unit, bounds, default, domain; the derived quantities",
-          false, "", "ModelList", 200},
+          Scope::read, "", "ModelList", 200},
          &H::models,
          {}},
-        {{"POST", "/api/v1/white-standards", "Store a white standard", true, "WhiteStandardCreate", "WhiteStandard",
-          201},
+        {{"POST", "/api/v1/white-standards", "Store a white standard", Scope::admin, "WhiteStandardCreate",
+          "WhiteStandard", 201},
          &H::create_white_standard,
          {}},
-        {{"GET", "/api/v1/white-standards", "List white standards", false, "", "WhiteStandardList", 200},
+        {{"GET", "/api/v1/white-standards", "List white standards", Scope::read, "", "WhiteStandardList", 200},
          &H::list_white_standards,
          {}},
-        {{"GET", "/api/v1/white-standards/{id}", "One white standard", false, "", "WhiteStandard", 200},
+        {{"GET", "/api/v1/white-standards/{id}", "One white standard", Scope::read, "", "WhiteStandard", 200},
          &H::get_white_standard,
          {}},
-        {{"POST", "/api/v1/sessions", "Open a session", true, "SessionCreate", "Session", 201}, &H::create_session, {}},
-        {{"GET", "/api/v1/sessions", "List sessions, newest first, with cursor pagination", false, "", "SessionPage",
-          200},
+        {{"POST", "/api/v1/sessions", "Open a session", Scope::measure, "SessionCreate", "Session", 201},
+         &H::create_session,
+         {}},
+        {{"GET", "/api/v1/sessions", "List sessions, newest first, with cursor pagination", Scope::read, "",
+          "SessionPage", 200},
          &H::list_sessions,
          {}},
-        {{"GET", "/api/v1/sessions/{id}", "One session with its measurements, fits and rejected readings", false, "",
-          "SessionDetail", 200},
+        {{"GET", "/api/v1/sessions/{id}", "One session with its measurements, fits and rejected readings", Scope::read,
+          "", "SessionDetail", 200},
          &H::get_session,
          {}},
-        {{"PATCH", "/api/v1/sessions/{id}", "Change a session's notes or close it", true, "SessionUpdate", "Session",
-          200},
+        {{"PATCH", "/api/v1/sessions/{id}", "Change a session's notes or close it", Scope::measure, "SessionUpdate",
+          "Session", 200},
          &H::patch_session,
          {}},
-        {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", false, "", "text/csv", 200},
+        {{"GET", "/api/v1/sessions/{id}/export.csv", "A session as CSV", Scope::read, "", "text/csv", 200},
          &H::export_csv,
          {}},
         {{"GET", "/api/v1/sessions/{id}/export.cgats",
-          "A session's reflectance spectra as CGATS (ArgyllCMS .ti3), one set per measurement", false, "", "text/plain",
-          200},
+          "A session's reflectance spectra as CGATS (ArgyllCMS .ti3), one set per measurement", Scope::read, "",
+          "text/plain", 200},
          &H::export_cgats,
          {}},
         {{"GET", "/api/v1/measurements/{id}", "One measurement: radiance, reflectance, quality, provenance, its fit id",
-          false, "", "Measurement", 200},
+          Scope::read, "", "Measurement", 200},
          &H::get_measurement,
          {}},
-        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", true,
+        {{"POST", "/api/v1/measurements/{id}/fit", "Refit a stored measurement and store the new fit", Scope::measure,
           "RefitRequest", "Fit", 201, true},
          &H::refit,
          {}},
         {{.method = "GET",
           .path = "/api/v1/fits/{id}",
           .summary = "One stored fit, with the fields of `skinspec fit`",
-          .mutating = false,
+          .scope = Scope::read,
           .request_schema = "",
           .response_schema = "Fit",
           .success_status = 200,
@@ -730,76 +744,78 @@ const std::vector<Route>& route_table() {
          &H::get_fit,
          {}},
         {{"GET", "/api/v1/instrument",
-          "The instrument's state (connected, measuring, lost ...), port, last error and reconnection", false, "",
+          "The instrument's state (connected, measuring, lost ...), port, last error and reconnection", Scope::read, "",
           "Instrument", 200},
          &H::instrument,
          {}},
         {{"GET", "/api/v1/benches",
-          "The benches writing this database: each one's program, heartbeat, state and instrument", false, "",
+          "The benches writing this database: each one's program, heartbeat, state and instrument", Scope::read, "",
           "BenchList", 200},
          &H::benches,
          {}},
-        {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session", true,
-          "MeasureRequest", "Job", 202},
+        {{"POST", "/api/v1/sessions/{id}/measurements", "Queue a white or sample measurement of a session",
+          Scope::measure, "MeasureRequest", "Job", 202},
          &H::measure,
          {}},
         {{"POST", "/api/v1/sessions/{id}/imports",
-          "Import a file of spectra (CSV or CGATS) into an open session, each spectrum fitted: a job", true,
+          "Import a file of spectra (CSV or CGATS) into an open session, each spectrum fitted: a job", Scope::measure,
           "text/plain", "Job", 202, false, true},
          &H::import_spectra,
          {}},
         {{"POST", "/api/v1/refits",
-          "Refit stored measurements (every session's, or one's) with the current model and constants: a job", true,
-          "RefitJobRequest", "Job", 202},
+          "Refit stored measurements (every session's, or one's) with the current model and constants: a job",
+          Scope::measure, "RefitJobRequest", "Job", 202},
          &H::refits,
          {}},
-        {{"GET", "/api/v1/jobs/{id}", "One job: state, queue position, progress, error, the ids it produced", false, "",
-          "Job", 200},
+        {{"GET", "/api/v1/jobs/{id}", "One job: state, queue position, progress, error, the ids it produced",
+          Scope::read, "", "Job", 200},
          &H::get_job,
          {}},
-        {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", true, "", "Job", 200}, &H::cancel_job, {}},
-        {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", false, "",
+        {{"DELETE", "/api/v1/jobs/{id}", "Cancel a queued or running job", Scope::measure, "", "Job", 200},
+         &H::cancel_job,
+         {}},
+        {{"GET", "/api/v1/jobs/{id}/events", "The job's changes as Server-Sent Events, until it ends", Scope::read, "",
           "text/event-stream", 200},
          &H::job_events,
          {}},
         {{"GET", "/api/v1/ports",
           "Serial ports, Photo Research meters on USB and USB serial adapters present, with the --device URI of each",
-          false, "", "PortList", 200},
+          Scope::read, "", "PortList", 200},
          &H::ports,
          {}},
         {{"GET", "/api/v1/fits/{id}/render.png",
-          "The fit's skin rendered on the procedural hand (cached by its parameters)", false, "", "image/png", 200,
-          true},
+          "The fit's skin rendered on the procedural hand (cached by its parameters)", Scope::read, "", "image/png",
+          200, true},
          &H::render_fit,
          {}},
         {{"POST", "/api/v1/maps",
           "Map a spectral image: a cube named in the data directory (JSON) or uploaded (a TIFF, HDF5 or netCDF "
           "file, or a tar of an ENVI header and data), every skin pixel fitted: a job",
-          true, "MapRequest", "Job", 202, false, true},
+          Scope::measure, "MapRequest", "Job", 202, false, true},
          &H::post_map,
          {}},
-        {{"GET", "/api/v1/maps", "List skin maps, newest first; of one session with session_id", false, "", "MapList",
-          200},
+        {{"GET", "/api/v1/maps", "List skin maps, newest first; of one session with session_id", Scope::read, "",
+          "MapList", 200},
          &H::list_maps,
          {}},
-        {{"GET", "/api/v1/maps/{id}", "One skin map: its summary, bands and links", false, "", "Map", 200},
+        {{"GET", "/api/v1/maps/{id}", "One skin map: its summary, bands and links", Scope::read, "", "Map", 200},
          &H::get_map,
          {}},
         {{"GET", "/api/v1/maps/{id}/{parameter}.png", "A skin map's picture of one parameter, with its colour bar",
-          false, "", "image/png", 200},
+          Scope::read, "", "image/png", 200},
          &H::map_picture,
          {}},
-        {{"GET", "/api/v1/maps/{id}/cube.hdr", "A skin map's answer cube: its ENVI header", false, "", "text/plain",
-          200},
+        {{"GET", "/api/v1/maps/{id}/cube.hdr", "A skin map's answer cube: its ENVI header", Scope::read, "",
+          "text/plain", 200},
          &H::map_header,
          {}},
         {{"GET", "/api/v1/maps/{id}/pixel",
-          "One pixel of a skin map: its answers, its measured reflectance and the fit of it (x, y from 0)", false, "",
-          "MapPixel", 200, true},
+          "One pixel of a skin map: its answers, its measured reflectance and the fit of it (x, y from 0)", Scope::read,
+          "", "MapPixel", 200, true},
          &H::map_pixel,
          {}},
         {{"GET", "/api/v1/maps/{id}/cube",
-          "A skin map's answer cube: its ENVI data (float32, little-endian, band-interleaved by line)", false, "",
+          "A skin map's answer cube: its ENVI data (float32, little-endian, band-interleaved by line)", Scope::read, "",
           "application/octet-stream", 200},
          &H::map_cube,
          {}},
@@ -856,13 +872,6 @@ const Route* find_route(const std::string& method, const std::vector<std::string
   return nullptr;
 }
 
-bool constant_time_equal(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  unsigned char diff = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) diff = static_cast<unsigned char>(diff | (a[i] ^ b[i]));
-  return diff == 0;
-}
-
 // The token of `Authorization: Bearer TOKEN`; the scheme's name is case-insensitive (RFC 9110 §11.1).
 std::optional<std::string_view> bearer_token(std::string_view credentials) {
   constexpr std::string_view kScheme = "bearer";
@@ -875,17 +884,20 @@ std::optional<std::string_view> bearer_token(std::string_view credentials) {
   return credentials.substr(start);
 }
 
-void check_access(const AccessPolicy& access, const Request& request, const RouteInfo& route) {
-  if (!access.required || route.path == "/healthz") return;
+// Who is calling `route`, from the request's bearer token: 401 without a known token, 403 with
+// one whose scope does not cover the route's. Nobody when no token is asked for.
+std::optional<Caller> check_access(const Keyring* tokens, const Request& request, const RouteInfo& route) {
+  if (tokens == nullptr || !route.needs_token) return std::nullopt;
   const auto it = request.headers.find("authorization");
   const auto token = it == request.headers.end() ? std::nullopt : bearer_token(it->second);
   if (!token) fail(ErrorKind::unauthorized, "unauthorized", "a bearer token is required");
-  if (!access.operator_token.empty() && constant_time_equal(*token, access.operator_token)) return;
-  if (!access.read_token.empty() && constant_time_equal(*token, access.read_token)) {
-    if (route.mutating) fail(ErrorKind::forbidden, "forbidden", "this route needs the operator token");
-    return;
-  }
-  fail(ErrorKind::unauthorized, "unauthorized", "unknown token");
+  auto caller = tokens->identify(*token);
+  if (!caller) fail(ErrorKind::unauthorized, "unauthorized", "unknown token");
+  if (!allows(caller->scope, route.scope))
+    fail(ErrorKind::forbidden, "forbidden",
+         route.method + " " + route.path + " needs a token of scope " + std::string(to_string(route.scope)) + "; '" +
+             caller->name + "' has scope " + std::string(to_string(caller->scope)));
+  return caller;
 }
 
 // A route that reads JSON takes application/json (a refit of a measurement may have no body);
@@ -966,7 +978,7 @@ std::optional<ApiError> Router::refuse_upload(const Request& header) const {
   const RouteInfo* route = route_of(header.method, header.target);
   if (route == nullptr || !route->upload) return std::nullopt;
   try {
-    check_access(context_.access, header, *route);
+    check_access(context_.tokens.get(), header, *route);
   } catch (const detail::HandlerError& e) {
     return e.error;
   }
@@ -1033,13 +1045,13 @@ std::optional<Response> Router::answer(const Request& request, bool from_memory_
     } else {
       if (from_memory_only && !matched->info.from_memory) return std::nullopt;
       route_label = matched->info.method + " " + matched->info.path;
-      check_access(context_.access, request, matched->info);
+      auto caller = check_access(context_.tokens.get(), request, matched->info);
       check_content_type(request, matched->info);
       auto query = detail::parse_query(qmark == std::string_view::npos ? std::string_view{} : target.substr(qmark + 1));
       if (!query)
         fail(ErrorKind::bad_request, "invalid_query", "the query string is malformed, repeats a name or is not UTF-8");
-      response = matched->handler(context_,
-                                  Call{request, std::move(ids), std::move(names), std::move(*query), from_memory_only});
+      response = matched->handler(context_, Call{request, std::move(ids), std::move(names), std::move(*query),
+                                                 from_memory_only, std::move(caller)});
     }
   } catch (const NotInMemory&) {
     return std::nullopt;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <charconv>
+#include <cstring>
 #include <map>
 #include <set>
 
@@ -311,7 +312,8 @@ TEST_F(ApiRouterTest, MeasurementsFitsRefitAndExport) {
   ASSERT_EQ(stored.status, 200);
   auto direct = shared_fitter().fit(
       *Spectrum::create(grid(), skin_like(grid())),
-      FitOptions{.model = kDefaultModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}, .start = {}});
+      FitOptions{
+          .model = kDefaultModel, .site = "cheek", .lateral_diffusion = true, .weights = {}, .held = {}, .start = {}});
   ASSERT_TRUE(direct);
   const json cli = json::parse(fit_to_json("x", *direct).dump());
   // The stored fit is the fit as the command line gives it, its judgement of what the spectrum
@@ -715,16 +717,24 @@ TEST_F(ApiRouterTest, MetricsCountRequestsFitsAndErrors) {
             std::string::npos);
 }
 
+// As skinspecd reads an old two-token file: "read" of scope read, "operator" of scope admin.
+std::shared_ptr<const Keyring> legacy_tokens() {
+  return std::make_shared<const Keyring>(
+      std::vector<NamedToken>{{"read", Scope::read, hash_token("read-token-0123456789")},
+                              {"operator", Scope::admin, hash_token("operator-token-0123456789")}});
+}
+
+Request with_token(Request r, const std::string& token) {
+  r.headers["authorization"] = "Bearer " + token;
+  return r;
+}
+
 TEST_F(ApiRouterTest, TokensGuardEveryRouteButHealthz) {
   RouterContext context;
   context.store = &*db_;
   context.fitter = &shared_fitter();
-  context.access = {true, "read-token-0123456789", "operator-token-0123456789"};
+  context.tokens = legacy_tokens();
   const Router guarded(context);
-  auto with_token = [](Request r, const std::string& token) {
-    r.headers["authorization"] = "Bearer " + token;
-    return r;
-  };
   EXPECT_EQ(guarded.handle(req("GET", "/healthz")).status, 200);
   const auto none = guarded.handle(req("GET", "/api/v1/sessions"));
   expect_error(none, 401, "unauthorized");
@@ -735,6 +745,92 @@ TEST_F(ApiRouterTest, TokensGuardEveryRouteButHealthz) {
                "forbidden");
   EXPECT_EQ(guarded.handle(with_token(req("POST", "/api/v1/sessions", session), "operator-token-0123456789")).status,
             201);
+}
+
+// The scope each route needs, as docs/api.md and docs/security.md give them: every GET is
+// read; the work of a bench (sessions, fits, jobs) is measure; the lab's white standards admin.
+const std::map<std::string, Scope>& expected_scopes() {
+  static const std::map<std::string, Scope> scopes = {
+      {"POST /api/v1/fit", Scope::measure},
+      {"POST /api/v1/sessions", Scope::measure},
+      {"PATCH /api/v1/sessions/{id}", Scope::measure},
+      {"POST /api/v1/measurements/{id}/fit", Scope::measure},
+      {"POST /api/v1/sessions/{id}/measurements", Scope::measure},
+      {"POST /api/v1/sessions/{id}/imports", Scope::measure},
+      {"POST /api/v1/refits", Scope::measure},
+      {"DELETE /api/v1/jobs/{id}", Scope::measure},
+      {"POST /api/v1/maps", Scope::measure},
+      {"POST /api/v1/white-standards", Scope::admin},
+  };
+  return scopes;
+}
+
+TEST(ApiRouterRoutes, EachRouteDeclaresItsScope) {
+  for (const auto& r : Router::routes()) {
+    const std::string route = r.method + " " + r.path;
+    const auto it = expected_scopes().find(route);
+    EXPECT_EQ(r.scope, it == expected_scopes().end() ? Scope::read : it->second) << route;
+    if (r.method != "GET") {
+      EXPECT_NE(r.scope, Scope::read) << route << ": only GETs are read";
+    }
+    EXPECT_EQ(r.needs_token, route != "GET /healthz") << route;
+  }
+}
+
+// A request of every route with a token of every scope: 403 exactly when the token's scope is
+// below the route's, naming both; the handler's own answer (200, 404, 415, 422 ...) otherwise.
+TEST_F(ApiRouterTest, ATokenCallsTheRoutesOfItsScopeAndBelowOnly) {
+  RouterContext context;
+  context.store = &*db_;
+  context.fitter = &shared_fitter();
+  context.tokens =
+      std::make_shared<const Keyring>(std::vector<NamedToken>{{"viewer", Scope::read, hash_token("read-secret")},
+                                                              {"ana", Scope::measure, hash_token("measure-secret")},
+                                                              {"lab", Scope::admin, hash_token("admin-secret")}});
+  const Router guarded(context);
+  const std::map<Scope, std::string> secrets = {
+      {Scope::read, "read-secret"}, {Scope::measure, "measure-secret"}, {Scope::admin, "admin-secret"}};
+  const std::map<Scope, std::string> names = {{Scope::read, "viewer"}, {Scope::measure, "ana"}, {Scope::admin, "lab"}};
+  int refused = 0;
+  for (const auto& route : Router::routes()) {
+    std::string target = route.path;
+    for (const auto& [from, to] : {std::pair{"{id}", "1"}, std::pair{"{parameter}", "melanin"}})
+      for (std::size_t at; (at = target.find(from)) != std::string::npos;) target.replace(at, std::strlen(from), to);
+    for (const Scope scope : kScopes) {
+      const auto r = guarded.handle(with_token(req(route.method, target), secrets.at(scope)));
+      const std::string what = route.method + " " + target + " with a token of scope " + std::string(to_string(scope));
+      if (allows(scope, route.scope)) {
+        EXPECT_NE(r.status, 401) << what << ": " << r.body;
+        EXPECT_NE(r.status, 403) << what << ": " << r.body;
+        continue;
+      }
+      ++refused;
+      expect_error(r, 403, "forbidden");
+      EXPECT_EQ(body(r)["error"]["message"], route.method + " " + route.path + " needs a token of scope " +
+                                                 std::string(to_string(route.scope)) + "; '" + names.at(scope) +
+                                                 "' has scope " + std::string(to_string(scope)))
+          << what;
+    }
+  }
+  // Each non-GET refused to the read token, and the admin route to the measure token too.
+  EXPECT_EQ(refused, static_cast<int>(expected_scopes().size()) + 1);
+}
+
+TEST_F(ApiRouterTest, TheOpenApiDocumentGivesEachOperationItsScope) {
+  const json doc = body(call("GET", "/openapi.json"));
+  EXPECT_EQ(doc["components"]["securitySchemes"]["bearer"]["scheme"], "bearer");
+  for (const auto& r : Router::routes()) {
+    std::string method = r.method;
+    for (char& ch : method) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    const json& op = doc["paths"][r.path][method];
+    if (!r.needs_token) {
+      EXPECT_EQ(op["security"], json::array()) << r.path;
+      EXPECT_FALSE(op.contains("x-skinspec-scope")) << r.path;
+      continue;
+    }
+    EXPECT_EQ(op["x-skinspec-scope"], to_string(r.scope)) << r.method << ' ' << r.path;
+    EXPECT_EQ(op["security"], json::parse(R"([{"bearer": []}])")) << r.method << ' ' << r.path;
+  }
 }
 
 // The routes report the store's refusals through the one mapping: a read-only or full
@@ -817,7 +913,7 @@ TEST_F(ApiRouterTest, ARepeatedKeyInABodyIsRefusedByName) {
 TEST_F(ApiRouterTest, TheBearerSchemeIsCaseInsensitive) {
   RouterContext context;
   context.store = &*db_;
-  context.access = {true, "read-token-0123456789", "operator-token-0123456789"};
+  context.tokens = legacy_tokens();
   const Router guarded(context);
   const auto with = [&](const std::string& credentials) {
     Request r = req("GET", "/api/v1/sessions");

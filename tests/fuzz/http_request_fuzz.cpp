@@ -18,6 +18,7 @@
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <boost/asio/buffer.hpp>
 #include <boost/beast/http/error.hpp>
@@ -71,7 +72,10 @@ struct Service {
     api::RouterContext context;
     context.store = &*store;
     context.fitter = &*fitter;
-    context.access = {true, kReadToken, kOperatorToken};
+    // As skinspecd reads an old two-token file: the operator's token may do everything.
+    context.tokens = std::make_shared<const api::Keyring>(
+        std::vector<api::NamedToken>{{"read", api::Scope::read, api::hash_token(kReadToken)},
+                                     {"operator", api::Scope::admin, api::hash_token(kOperatorToken)}});
     router = std::make_unique<api::Router>(context);
   }
   ~Service() {

@@ -13,7 +13,7 @@ namespace skinspec::api {
 enum class ErrorKind {
   bad_request,             // 400: malformed JSON, invalid UTF-8, a bad path or query
   unauthorized,            // 401: no or unknown bearer token
-  forbidden,               // 403: a read-only token on a mutating route
+  forbidden,               // 403: a token whose scope is below the route's
   not_found,               // 404: no such route or record
   method_not_allowed,      // 405: the path exists, the method does not
   conflict,                // 409: not allowed in the record's current state

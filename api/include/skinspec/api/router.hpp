@@ -17,6 +17,7 @@
 
 #include "skinspec/api/errors.hpp"
 #include "skinspec/api/metrics.hpp"
+#include "skinspec/api/tokens.hpp"
 
 namespace skinspec {
 class Fitter;
@@ -61,14 +62,6 @@ struct Response {
   std::shared_ptr<EventSource> events = nullptr;             // when set, the body: sent in chunks after the header
 };
 
-// Bearer tokens; when `required`, every route but /healthz needs one, and mutating routes need
-// the operator token.
-struct AccessPolicy {
-  bool required = false;
-  std::string read_token;
-  std::string operator_token;
-};
-
 // Where the cubes of skin maps come from and where map jobs work (docs/maps.md, "In the service").
 struct MapFiles {
   // The directory whose cubes POST /api/v1/maps may name by a path inside it; empty: uploads only.
@@ -91,7 +84,10 @@ struct RouterContext {
   // Imports and refits; created on job_board when null and there are a store and a fitter.
   std::shared_ptr<FitJobs> fit_jobs;
   MapFiles maps;
-  AccessPolicy access;
+  // The bearer tokens every route needs one of (but those of RouteInfo::needs_token false),
+  // of a scope that covers the route's; null: no token is asked for (loopback without
+  // --token-file). The daemon replaces the set on SIGHUP.
+  std::shared_ptr<const Keyring> tokens;
   std::size_t max_spectrum_samples = 10000;
 };
 
@@ -99,7 +95,8 @@ struct RouteInfo {
   std::string method;
   std::string path;  // template with {id} segments
   std::string summary;
-  bool mutating = false;
+  // The least scope of a token that may call it (tokens.hpp).
+  Scope scope = Scope::read;
   std::string request_schema;   // name in components/schemas, empty for none
   std::string response_schema;  // name in components/schemas, or "text/csv", "text/plain"
   int success_status = 200;
@@ -110,6 +107,9 @@ struct RouteInfo {
   // A GET its handler may answer from the cache of answers alone (a stored fit): the server
   // asks for that on the thread that read the request (Router::answer_from_memory).
   bool from_memory = false;
+  // False for a route that answers without a token even when the service asks for them (a
+  // liveness probe knows no token).
+  bool needs_token = true;
 };
 
 class Router {
