@@ -1,6 +1,7 @@
 #include "fit_jobs.hpp"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
@@ -257,6 +258,9 @@ void FitJobs::end(store::Id id, const store::JobUpdate& update) {
 }
 
 void FitJobs::release(store::Id id, std::optional<store::JobError> unrecorded) {
+  if (unrecorded)
+    spdlog::error("event=job_end_not_stored job={} code={} error=\"{}\"", id, store::to_string(unrecorded->code),
+                  unrecorded->message);
   board_.end(id, std::move(unrecorded));
 }
 

@@ -189,7 +189,9 @@ TEST(PostgresqlOutageTest, AnImportWhoseEndFindsTheServerGoneIsRecordedInterrupt
                                    {{"Content-Type", "text/csv"}});
   ASSERT_EQ(posted.status, 202) << posted.body;
   cluster.stop("immediate");  // while its 20,000 spectra are fitted
-  std::this_thread::sleep_for(3s);
+  const auto not_stored = "event=job_end_not_stored job=" + posted.json()["id"].dump();
+  ASSERT_TRUE(eventually([&] { return a.rig->daemon->err().find(not_stored) != std::string::npos; }, 60s))
+      << a.rig->logs();
   cluster.start();
 
   expect_serving_again(a, session);
