@@ -308,6 +308,24 @@ json schemas() {
           {"fit",
            {{"type", json::array({"object", "null"})}, {"description", "the fit of a skin pixel's spectrum"}}}}}}},
       {"MapList", {{"type", "object"}, {"properties", {{"maps", {{"type", "array"}, {"items", ref("Map")}}}}}}},
+      {"AuditEntry",
+       {{"type", "object"},
+        {"properties",
+         {{"id", {{"type", "integer"}}},
+          {"at", {{"type", "string"}, {"format", "date-time"}}},
+          {"token",
+           {{"type", json::array({"string", "null"})},
+            {"description", "the token's name; null: no token was asked for"}}},
+          {"address", {{"type", "string"}}},
+          {"request", {{"type", "string"}, {"description", "method and target"}}},
+          {"change", {{"type", "string"}, {"description", "the change the store made"}}}}}}},
+      {"AuditList",
+       {{"type", "object"},
+        {"properties",
+         {{"entries", {{"type", "array"}, {"items", ref("AuditEntry")}}},
+          {"next_before",
+           {{"type", json::array({"integer", "null"})},
+            {"description", "the before= of the next page; null: none"}}}}}}},
       {"ModelList", detail::model_list_schema()},
       {"OpenApi", {{"type", "object"}}},
       {"FitRequest",
@@ -618,6 +636,13 @@ json Router::openapi_document() {
             {"in", "query"},
             {"required", false},
             {"schema", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}, {"default", 100}}}}});
+    if (r.path == "/api/v1/audit")
+      params =
+          json::array({{{"name", "before"}, {"in", "query"}, {"required", false}, {"schema", {{"type", "integer"}}}},
+                       {{"name", "limit"},
+                        {"in", "query"},
+                        {"required", false},
+                        {"schema", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}, {"default", 100}}}}});
     if (r.path.find("{parameter}") != std::string::npos)
       params.push_back({{"name", "parameter"},
                         {"in", "path"},

@@ -445,6 +445,28 @@ struct Router::Handlers {
     return json_response(
         {{"sessions", list}, {"next_cursor", page.next_cursor ? json(*page.next_cursor) : json(nullptr)}});
   }
+  // GET /api/v1/audit?before=&limit=: the changes recorded, newest first (docs/api.md, "Audit").
+  static Response audit(const RouterContext& c, const Call& call) {
+    std::optional<store::Id> before;
+    store::Id limit = 100;
+    for (const auto& [name, text] : call.query) {
+      if (name == "before") before = parse_id(text, "before");
+      else if (name == "limit") limit = parse_id(text, "limit");
+      else fail(ErrorKind::bad_request, "unknown_parameter", "unknown query parameter '" + name + "'");
+    }
+    if (limit > 1000) fail(ErrorKind::bad_request, "invalid_parameter", "'limit' must be 1 to 1000");
+    const auto entries = value(store_of(c).audit(before, static_cast<int>(limit)));
+    json list = json::array();
+    for (const auto& e : entries)
+      list.push_back({{"id", e.id},
+                      {"at", detail::format_time(e.at)},
+                      {"token", e.token.empty() ? json(nullptr) : json(e.token)},
+                      {"address", e.address},
+                      {"request", e.request},
+                      {"change", e.change}});
+    const bool more = std::cmp_equal(entries.size(), limit);
+    return json_response({{"entries", list}, {"next_before", more ? json(entries.back().id) : json(nullptr)}});
+  }
   // The detail always holds every measurement's and fit's spectra, so a notebook has a whole
   // session in one request; `include=spectra` says so explicitly and is the only include.
   static Response get_session(const RouterContext& c, const Call& call) {
@@ -794,6 +816,10 @@ const std::vector<Route>& route_table() {
           Scope::measure, "MapRequest", "Job", 202, false, true},
          &H::post_map,
          {}},
+        {{"GET", "/api/v1/audit", "The changes made through the service, newest first: who, from where, what",
+          Scope::admin, "", "AuditList", 200},
+         &H::audit,
+         {}},
         {{"GET", "/api/v1/maps", "List skin maps, newest first; of one session with session_id", Scope::read, "",
           "MapList", 200},
          &H::list_maps,
@@ -1046,6 +1072,10 @@ std::optional<Response> Router::answer(const Request& request, bool from_memory_
       if (from_memory_only && !matched->info.from_memory) return std::nullopt;
       route_label = matched->info.method + " " + matched->info.path;
       auto caller = check_access(context_.tokens.get(), request, matched->info);
+      // Every change this request makes is recorded with its caller, in the change's transaction.
+      std::optional<store::AuditScope> audited;
+      if (matched->info.method != "GET")
+        audited.emplace(store::Actor{caller ? caller->name : "", request.peer, request.method + " " + request.target});
       check_content_type(request, matched->info);
       auto query = detail::parse_query(qmark == std::string_view::npos ? std::string_view{} : target.substr(qmark + 1));
       if (!query)

@@ -24,10 +24,16 @@ namespace {
 constexpr std::size_t kFirstRead = 4096;
 // How long a closing connection waits for the client to stop sending.
 constexpr std::chrono::seconds kLinger{1};
+
+std::string peer_of(const tcp::socket& socket) {
+  beast::error_code ec;
+  const auto endpoint = socket.remote_endpoint(ec);
+  return ec ? std::string("unknown") : endpoint.address().to_string();
+}
 }  // namespace
 
 Session::Session(tcp::socket socket, std::shared_ptr<Server::State> state, ConnectionTable::Id id)
-    : stream_(std::move(socket)), state_(std::move(state)), id_(id) {}
+    : peer_(peer_of(socket)), stream_(std::move(socket)), state_(std::move(state)), id_(id) {}
 
 Session::~Session() {
   std::lock_guard lock(state_->mutex);
@@ -110,6 +116,7 @@ void Session::on_read_failure(const beast::error_code& ec) {
 
 void Session::answer(const std::shared_ptr<RequestMessage>& message) {
   auto request = std::make_shared<Request>(to_request(*message));
+  request->peer = peer_;
   message->body() = std::string();  // the router's copy is the one needed
   // Handing a request to a worker and its answer back costs two threads woken; an answer held
   // in memory costs less than that to make here.

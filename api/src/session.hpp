@@ -57,6 +57,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void drain();
   void do_close();
 
+  std::string peer_;  // the client's address
   boost::beast::tcp_stream stream_;
   std::shared_ptr<Server::State> state_;
   ConnectionTable::Id id_;

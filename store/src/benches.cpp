@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include "audit_record.hpp"
 #include "codec.hpp"
 #include "postgresql/subscription.hpp"
 #include "postgresql/target.hpp"
@@ -77,6 +78,7 @@ Result<void> Store::notify(const std::string& channel, const std::string& payloa
     impl_->hub->publish({channel, payload});
     return {};
   }
+  const detail::NotAudited between_programs;
   return impl_->write(fmt::format("notifying {}", channel), [&](Connection& c) {
     // Nothing durable is written: the commit need not wait for the disk.
     c.prepare("SET LOCAL synchronous_commit TO off").run();

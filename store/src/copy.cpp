@@ -35,9 +35,9 @@ struct Table {
 
 // Each table after those its rows refer to; a measurement refers to an earlier one (its white),
 // so rows go in key order. A page of a map's data is a few MiB.
-const std::array<Table, 10>& tables() {
+const std::array<Table, 11>& tables() {
   using enum Column;
-  static const std::array<Table, 10> kTables = {{
+  static const std::array<Table, 11> kTables = {{
       {"instruments", detail::kInstrumentColumns, {integer, text, text, text, text, time, time}},
       {"white_standards", detail::kWhiteStandardColumns, {integer, text, text, blob, time}},
       {"sessions",
@@ -57,6 +57,7 @@ const std::array<Table, 10>& tables() {
       {"maps", detail::kMapColumns, {integer, integer, integer, text, text, text, integer, integer, time}},
       {"map_data", detail::kMapDataColumns, {integer, integer, integer, blob}, "map_id, part, piece", 4},
       {"map_pictures", detail::kMapPictureColumns, {integer, integer, text, blob}, "map_id, ordinal"},
+      {"audit", detail::kAuditColumns, {integer, time, text, text, text, text}},
   }};
   return kTables;
 }

@@ -139,6 +139,17 @@ Job read_job_from(const Statement& row, int first) {
   return out;
 }
 
+AuditEntry read_audit_entry(const Statement& row) {
+  AuditEntry out;
+  out.id = row.integer(0);
+  out.at = row.time(1);
+  out.token = row.text(2);
+  out.address = row.text(3);
+  out.request = row.text(4);
+  out.change = row.text(5);
+  return out;
+}
+
 Bench read_bench(const Statement& row) {
   Bench out;
   out.name = row.text(0);

@@ -7,6 +7,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "skinspec/store/audit.hpp"
 #include "skinspec/store/types.hpp"
 #include "db.hpp"
 
@@ -28,6 +29,7 @@ inline constexpr std::string_view kFitColumns =
 inline constexpr std::string_view kJobColumns =
     "id, kind, request, requested_by, session_id, idempotency_key, state, error, result, created_at, started_at, "
     "finished_at, bench";
+inline constexpr std::string_view kAuditColumns = "id, at, token, address, request, change";
 inline constexpr std::string_view kBenchColumns =
     "name, host, pid, started_at, heartbeat_at, lease_ms, instrument, stopped_at";
 inline constexpr std::string_view kRejectedReadingColumns =
@@ -57,6 +59,7 @@ Job read_job(const Statement& row);
 // The job whose columns (kJobColumns) start at column `first`.
 Job read_job_from(const Statement& row, int first);
 Bench read_bench(const Statement& row);
+AuditEntry read_audit_entry(const Statement& row);
 RejectedReading read_rejected_reading(const Statement& row);
 // A map without its pictures' names, which come from map_pictures.
 Map read_map(const Statement& row);

@@ -7,6 +7,7 @@
 #include <string>
 #include <type_traits>
 
+#include "audit_record.hpp"
 #include "engine.hpp"
 #include "local_notifications.hpp"
 #include "skinspec/store/store.hpp"
@@ -54,7 +55,8 @@ struct Store::Impl {
   // writer works on this machine; OpenOptions::clock when a test sets it.
   Time database_now(detail::Connection& c) const;
 
-  // One write transaction around `body(connection)`, committed when it returns. A failure
+  // One write transaction around `body(connection)`, committed when it returns, with its audit
+  // row when this thread has an actor (AuditScope): `what` is the change it records. A failure
   // that left nothing committed and may pass (a lost connection, a serialisation conflict) is
   // tried once more; for a body that consumes its input as it goes, only while `consumed` (set
   // by the body) is still false, as when the writer's connection turns out lost at the first
@@ -69,10 +71,12 @@ struct Store::Impl {
           detail::Transaction transaction(*connection, detail::TransactionKind::write);
           if constexpr (std::is_void_v<std::invoke_result_t<F, detail::Connection&>>) {
             body(*connection);
+            if (detail::recording_changes()) detail::record_change(*connection, what, now());
             transaction.commit();
             return;
           } else {
             auto value = body(*connection);
+            if (detail::recording_changes()) detail::record_change(*connection, what, now());
             transaction.commit();
             return value;
           }

@@ -761,6 +761,7 @@ const std::map<std::string, Scope>& expected_scopes() {
       {"DELETE /api/v1/jobs/{id}", Scope::measure},
       {"POST /api/v1/maps", Scope::measure},
       {"POST /api/v1/white-standards", Scope::admin},
+      {"GET /api/v1/audit", Scope::admin},
   };
   return scopes;
 }
@@ -812,8 +813,9 @@ TEST_F(ApiRouterTest, ATokenCallsTheRoutesOfItsScopeAndBelowOnly) {
           << what;
     }
   }
-  // Each non-GET refused to the read token, and the admin route to the measure token too.
-  EXPECT_EQ(refused, static_cast<int>(expected_scopes().size()) + 1);
+  // Each route above read refused to the read token, and the two admin routes to the measure
+  // token too.
+  EXPECT_EQ(refused, static_cast<int>(expected_scopes().size()) + 2);
 }
 
 TEST_F(ApiRouterTest, TheOpenApiDocumentGivesEachOperationItsScope) {

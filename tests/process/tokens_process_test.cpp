@@ -2,7 +2,8 @@
 // real `skinspec token`: a read token GETs every GET route and posts nothing, a measure token
 // measures but touches no admin route, an admin token does all; a token added or revoked in the
 // file takes effect on SIGHUP, from the very next request; a file broken on SIGHUP keeps the old
-// tokens; the old two-token file still works, and `skinspec token` converts it.
+// tokens; the old two-token file still works, and `skinspec token` converts it; every change is
+// in the audit trail once, with its token's name.
 
 #include <gtest/gtest.h>
 
@@ -168,7 +169,9 @@ TEST_F(TokensProcessTest, EachScopeDoesWhatItMayAndSighupAddsAndRevokes) {
     if (target.ends_with("/pixel")) target += "?x=0&y=0";
     const auto r = as(viewer, p, "GET", target);
     ++gets;
-    EXPECT_EQ(r.status, target.starts_with("/api/v1/maps/") ? 404 : 200) << target << ": " << r.body;
+    // The audit trail is the one GET for admins alone: it names who did what.
+    const int expected = target == "/api/v1/audit" ? 403 : target.starts_with("/api/v1/maps/") ? 404 : 200;
+    EXPECT_EQ(r.status, expected) << target << ": " << r.body;
   }
   EXPECT_GE(gets, 25);
   expect_error(as(viewer, p, "POST", "/api/v1/sessions", kSession), 403, "forbidden");
@@ -209,6 +212,50 @@ TEST_F(TokensProcessTest, EachScopeDoesWhatItMayAndSighupAddsAndRevokes) {
   EXPECT_EQ(as(lab, p, "POST", "/api/v1/white-standards", kWhiteStandard).status, 201);
   expect_error(as(ana, p, "GET", "/api/v1/sessions"), 401, "unauthorized");
   expect_error(http_request(p, "GET", "/api/v1/sessions"), 401, "unauthorized");
+}
+
+// Each change made through the service appears once in the audit trail, with its token's name
+// and address; a request whose change was rolled back does not; only an admin token reads it.
+TEST_F(TokensProcessTest, EachChangeIsInTheAuditTrailOnceWithItsTokensName) {
+  const std::string viewer = new_token(file_, "viewer", "read");
+  const std::string ana = new_token(file_, "ana", "measure");
+  const std::string lab = new_token(file_, "lab", "admin");
+  AcquisitionRig rig(rig_options(dir_.path().string(), {}, {"--token-file", file_}));
+  ASSERT_TRUE(rig.ready()) << rig.logs();
+  const auto p = rig.port;
+
+  const auto session = as(ana, p, "POST", "/api/v1/sessions", kSession);
+  ASSERT_EQ(session.status, 201) << session.body;
+  const std::string sessions = "/api/v1/sessions/" + std::to_string(session.json()["id"].get<long long>());
+  const json white = finished_job(ana, p, as(ana, p, "POST", sessions + "/measurements", R"({"kind": "white"})"));
+  ASSERT_EQ(white["state"], "succeeded") << white;
+  EXPECT_EQ(as(lab, p, "PATCH", sessions, R"({"notes": "by the admin"})").status, 200);
+  ASSERT_EQ(as(lab, p, "POST", "/api/v1/white-standards", kWhiteStandard).status, 201);
+  // Refused inside the store, so rolled back: no entry.
+  expect_error(as(lab, p, "PATCH", "/api/v1/sessions/9999", R"({"notes": "none"})"), 404, "not_found");
+
+  expect_error(as(ana, p, "GET", "/api/v1/audit"), 403, "forbidden");
+  expect_error(as(viewer, p, "GET", "/api/v1/audit"), 403, "forbidden");
+  const auto trail = as(lab, p, "GET", "/api/v1/audit");
+  ASSERT_EQ(trail.status, 200) << trail.body;
+  const json body = trail.json();
+  std::vector<std::string> seen;
+  for (const auto& e : body["entries"]) {
+    EXPECT_EQ(e["address"], "127.0.0.1") << e;
+    seen.push_back(e["token"].get<std::string>() + " | " + e["request"].get<std::string>() + " | " +
+                   e["change"].get<std::string>());
+  }
+  const std::string id = sessions.substr(sessions.rfind('/') + 1);
+  EXPECT_EQ(seen, (std::vector<std::string>{
+                      "lab | POST /api/v1/white-standards | storing a white standard",
+                      "lab | PATCH " + sessions + " | updating session " + id,
+                      "ana | POST " + sessions + "/measurements | creating a job",
+                      "ana | POST /api/v1/sessions | creating a session",
+                  }))
+      << trail.body;
+  const auto page = as(lab, p, "GET", "/api/v1/audit?limit=1");
+  EXPECT_EQ(page.json()["entries"].size(), 1u) << page.body;
+  EXPECT_TRUE(page.json()["next_before"].is_number_integer()) << page.body;
 }
 
 TEST_F(TokensProcessTest, TheOldTwoTokenFileStillWorksAndIsConverted) {

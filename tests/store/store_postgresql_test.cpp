@@ -180,7 +180,7 @@ TEST(PostgresqlStoreTest, AVersion6DatabaseIsMigratedWithItsRows) {
   EXPECT_EQ(tables_keeping_rows_whole(db.name), 2);
   postgres_cluster().execute(db.name,
                              "ALTER TABLE measurements RESET (toast_tuple_target); ALTER TABLE fits RESET "
-                             "(toast_tuple_target); DROP TABLE map_pictures, map_data, maps; "
+                             "(toast_tuple_target); DROP TABLE audit, map_pictures, map_data, maps; "
                              "UPDATE skinspec_schema SET version = 6");
   ASSERT_EQ(tables_keeping_rows_whole(db.name), 0);
   auto store = value_of(Store::open(db.uri));
@@ -199,7 +199,7 @@ TEST(PostgresqlStoreTest, AVersion8DatabaseGetsMaps) {
     session = value_of(store.create_session(sample_session(1)));
   }
   postgres_cluster().execute(db.name,
-                             "DROP TABLE map_pictures, map_data, maps; UPDATE skinspec_schema SET version = 8");
+                             "DROP TABLE audit, map_pictures, map_data, maps; UPDATE skinspec_schema SET version = 8");
   auto store = value_of(Store::open(db.uri));
   EXPECT_EQ(store.schema_version(), current_schema_version());
   const Id map = testing::store_sample_map(store, session, "arm", testing::sample_map_bytes(1000, 8));
@@ -431,7 +431,7 @@ TEST(PostgresqlStoreTest, ACopyOfManyPagesOfRowsArrivesWhole) {
   auto to = value_of(Store::open(db.uri));
   const auto report = value_of(copy_database(from, to));
   EXPECT_FALSE(report.already_copied);
-  ASSERT_EQ(report.tables.size(), 10u);
+  ASSERT_EQ(report.tables.size(), 11u);
   EXPECT_EQ(report.tables[2].table, "sessions");
   EXPECT_EQ(report.tables[2].rows, kSessions);
   EXPECT_EQ(postgres_cluster().integer(db.name, "SELECT count(*) FROM sessions"), kSessions);

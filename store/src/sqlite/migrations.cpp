@@ -322,8 +322,9 @@ void admit_imported_measurements(detail::Connection& writer) {
 constexpr detail::MigrationStep kVersion8{"", admit_imported_measurements};
 
 // Maps (docs/store.md, "Maps"): a map with the job that made it, its two parts of data (0 the
-// answer cube, 1 the pixels' reflectance) deflated in pieces of 1 MiB of raw data (a cube's data runs to hundreds of MB, which no one statement should hold),
-// and its pictures, whose ordinal keeps the order they were given in on every engine.
+// answer cube, 1 the pixels' reflectance) deflated in pieces of 1 MiB of raw data (a cube's data runs to hundreds of
+// MB, which no one statement should hold), and its pictures, whose ordinal keeps the order they were given in on every
+// engine.
 constexpr std::string_view kVersion9Sql = R"sql(
 CREATE TABLE maps (
   id         INTEGER PRIMARY KEY,
@@ -354,6 +355,20 @@ CREATE TABLE map_pictures (
 );
 )sql";
 constexpr detail::MigrationStep kVersion9{kVersion9Sql};
+
+// The audit trail (docs/store.md, "Audit trail"): who asked for each change, written in the
+// change's own transaction. Rows are only ever added.
+constexpr std::string_view kVersion10Sql = R"sql(
+CREATE TABLE audit (
+  id      INTEGER PRIMARY KEY,
+  at      INTEGER NOT NULL,
+  token   TEXT NOT NULL,
+  address TEXT NOT NULL,
+  request TEXT NOT NULL,
+  change  TEXT NOT NULL
+);
+)sql";
+constexpr detail::MigrationStep kVersion10{kVersion10Sql};
 
 int schema_version(detail::Connection& writer) { return static_cast<int>(writer.query_integer("PRAGMA user_version")); }
 

@@ -39,6 +39,7 @@ struct Request {
   std::string target;                          // path and query, as sent: "/api/v1/sessions?site=forearm"
   std::map<std::string, std::string> headers;  // names in lower case
   std::string body;
+  std::string peer = {};  // the client's address, as the audit trail records it
 };
 
 // A body that comes piece by piece after the response's header, such as Server-Sent Events.

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "skinspec/store/audit.hpp"
 #include "skinspec/store/types.hpp"
 
 namespace skinspec::store {
@@ -289,6 +290,12 @@ class Store {
   // `length` bytes of a map's data from `offset`, inflating only the pieces that hold them (one
   // pixel's spectrum of a large map): fewer at the end of the data, none past it.
   Result<std::string> read_map_bytes(Id id, MapPart part, std::int64_t offset, std::int64_t length) const;
+
+  // ---- Audit trail (docs/store.md, "Audit trail") ----
+
+  // The changes recorded (AuditScope), newest first: `limit` (1-1000) of them with ids below
+  // `before` when given.
+  Result<std::vector<AuditEntry>> audit(std::optional<Id> before, int limit) const;
 
   // ---- Benches (docs/store.md, "Benches") ----
 
