@@ -11,7 +11,7 @@ namespace skinspec::store::detail {
 
 namespace {
 
-constexpr std::array<Migration, 9> kMigrations = {{
+constexpr std::array<Migration, 10> kMigrations = {{
     {1, &sqlite::kVersion1, nullptr},
     {2, &sqlite::kVersion2, nullptr},
     {3, &sqlite::kVersion3, nullptr},
@@ -21,6 +21,7 @@ constexpr std::array<Migration, 9> kMigrations = {{
     {7, &kUnchanged, &postgresql::kVersion7},
     {8, &sqlite::kVersion8, &postgresql::kVersion8},
     {9, &sqlite::kVersion9, &postgresql::kVersion9},
+    {10, &sqlite::kVersion10, &postgresql::kVersion10},
 }};
 
 constexpr bool numbered_in_order() {

@@ -14,6 +14,7 @@
 #include "map_pieces.hpp"
 #include "postgresql/statements.hpp"
 #include "rows.hpp"
+#include "staged_imports.hpp"
 #include "store_impl.hpp"
 
 namespace skinspec::store {
@@ -78,6 +79,10 @@ std::string session_state_of(Connection& c, Id session_id) {
   if (!stmt.step()) fail(Kind::not_found, fmt::format("session {} does not exist", session_id));
   return stmt.text(0);
 }
+
+// A measurement that reads may see (not one of an unpublished import) by its id, ?1.
+const std::string kPublishedMeasurement =
+    fmt::format("SELECT 1 FROM measurements WHERE id = ?1 AND {}", detail::kPublished);
 
 void require_row(Connection& c, std::string_view sql, Id id, std::string_view what) {
   auto stmt = c.prepare(sql);
@@ -297,25 +302,29 @@ Recorded record_by_one_statement(Connection& c, const Measurement& m, const std:
 
 // A measurement and its fit, inside the caller's transaction, after the checks every
 // measurement passes; `last`: the transaction's last statement.
+// `import_id`: the unpublished import it is staged in (SQLite; staged_imports.hpp).
 RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
-                                               Time now, bool last = false) {
+                                               Time now, bool last = false, std::optional<Id> import_id = {}) {
   if (c.dialect() == detail::Dialect::postgresql)
     return record_by_one_statement(c, m, fit, std::nullopt, last, now).ids;
   check_measurement(m);
   if (fit) check_fit(*fit);
   // What the checks need, in one query: the session's state, the white reading's kind (NULL
   // when there is none or it does not exist) and whether the instrument exists.
-  auto context = c.prepare(
-      "SELECT s.state, (SELECT kind FROM measurements WHERE id = ?2), (SELECT count(*) FROM instruments WHERE id = "
-      "?3) FROM sessions s WHERE s.id = ?1");
+  static const std::string context_sql = fmt::format(
+      "SELECT s.state, (SELECT kind FROM measurements WHERE id = ?2 AND {}), (SELECT count(*) FROM instruments "
+      "WHERE id = ?3) FROM sessions s WHERE s.id = ?1",
+      detail::kPublished);
+  auto context = c.prepare(context_sql);
   context.bind(m.session_id, m.white_measurement_id, m.instrument_id);
   if (!context.step()) fail(Kind::not_found, fmt::format("session {} does not exist", m.session_id));
   check_context(context, 0, m);
   static const std::string insert_sql =
-      fmt::format("INSERT INTO measurements ({}) VALUES ({}) RETURNING id", kMeasurementColumns,
-                  detail::placeholders(1, kMeasurementColumnCount));
+      fmt::format("INSERT INTO measurements ({}, import_id) VALUES ({}, ?{}) RETURNING id", kMeasurementColumns,
+                  detail::placeholders(1, kMeasurementColumnCount), kMeasurementColumnCount + 1);
   auto insert = c.prepare(insert_sql);
   bind_measurement(insert, 1, m, now);
+  insert.bind_from(kMeasurementColumnCount + 1, import_id);
   RecordedMeasurement ids;
   ids.measurement_id = returned_id(insert);
   if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
@@ -414,9 +423,9 @@ namespace {
 // A measurement stored on its own (not a job's, which complete_measurement_job stores), with its
 // fit, inside the caller's transaction.
 RecordedMeasurement insert_measurement_without_job(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
-                                                   Time now, bool last = false) {
+                                                   Time now, bool last = false, std::optional<Id> import_id = {}) {
   if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
-  return insert_measurement_and_fit(c, m, fit, now, last);
+  return insert_measurement_and_fit(c, m, fit, now, last, import_id);
 }
 
 }  // namespace
@@ -428,13 +437,16 @@ Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, cons
 
 namespace {
 
-// The measurements `next` gives, with the end of their job when there is one, inside the
-// caller's transaction.
+// The measurements `next` gives, inside the caller's transaction: with the end of their job
+// when there is one, or, staged in unpublished import `import_id`, without it (the import's
+// publication ends it).
 std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store::NextMeasurement& next,
-                                                     const std::optional<JobCompletion>& job, Time now) {
+                                                     const std::optional<JobCompletion>& job, Time now,
+                                                     std::optional<Id> import_id = {}) {
   std::vector<RecordedMeasurement> out;
   if (!job) {
-    while (const auto* row = next()) out.push_back(insert_measurement_without_job(c, row->first, row->second, now));
+    while (const auto* row = next())
+      out.push_back(insert_measurement_without_job(c, row->first, row->second, now, false, import_id));
     return out;
   }
   const auto running = job_in(c, job->job_id);
@@ -445,10 +457,104 @@ std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store:
     check_job_ended_by(job->job_id, running.state, running.session_id, m.session_id);
     Measurement of_job = m;
     of_job.job_id = job->job_id;
-    out.push_back(insert_measurement_and_fit(c, of_job, fit, now));
+    out.push_back(insert_measurement_and_fit(c, of_job, fit, now, false, import_id));
   }
-  change_job(c, running, {.state = JobState::succeeded, .result = job->result}, now);
+  if (!import_id) change_job(c, running, {.state = JobState::succeeded, .result = job->result}, now);
   return out;
+}
+
+using MeasurementRow = std::pair<Measurement, std::optional<Fit>>;
+
+// Rows of a batch handed over as `next` hands them, from the first again on each call: a write
+// tried again stores the same ones.
+std::vector<RecordedMeasurement> insert_batch(Connection& c, const std::vector<MeasurementRow>& batch,
+                                              const std::optional<JobCompletion>& job, Time now,
+                                              std::optional<Id> import_id = {}) {
+  std::size_t given = 0;
+  const Store::NextMeasurement next = [&]() { return given < batch.size() ? &batch[given++] : nullptr; };
+  return insert_measurements(c, next, job, now, import_id);
+}
+
+// SQLite's measurements of a file (staged_imports.hpp): in one transaction when they fit in a
+// batch; otherwise each batch committed in an unpublished import as `next` gives it, the writer
+// held only while it is written, then published with the job's end. Whatever fails after the
+// first batch (a store error, or `next` throwing) removes what was staged before it leaves.
+Result<std::vector<RecordedMeasurement>> record_in_batches(Store::Impl& impl, const Store::NextMeasurement& next,
+                                                           const std::optional<JobCompletion>& job) {
+  const auto limit = static_cast<std::size_t>(impl.options.import_batch);
+  std::vector<MeasurementRow> batch;
+  // Whether the batch is full, so that `next` may give more.
+  const auto take_batch = [&] {
+    batch.clear();
+    while (batch.size() < limit) {
+      const auto* row = next();
+      if (!row) return false;
+      batch.push_back(*row);
+    }
+    return true;
+  };
+  const auto now = impl.now();
+  bool more = take_batch();
+  if (!more) {
+    return impl.write(fmt::format("recording {} measurements", batch.size()),
+                      [&](Connection& c) { return insert_batch(c, batch, job, now); });
+  }
+  std::optional<Id> import_id;
+  bool published = false;
+  const auto remove = [&] {
+    if (!import_id || published) return;
+    // A failure here leaves the rest unseen, for the next opening to remove.
+    for (;;) {
+      const auto gone = impl.write("removing an unpublished import", [&](Connection& c) {
+        return detail::remove_part_of_import(c, *import_id, impl.options.import_batch);
+      });
+      if (!gone || *gone) return;
+    }
+  };
+  try {
+    std::vector<RecordedMeasurement> out;
+    std::set<Id> sessions;
+    while (!batch.empty()) {
+      using Written = std::pair<Id, std::vector<RecordedMeasurement>>;
+      auto written = impl.write(fmt::format("storing {} measurements of an import", batch.size()), [&](Connection& c) {
+        const Id id =
+            import_id ? *import_id : detail::begin_import(c, job ? std::optional<Id>(job->job_id) : std::nullopt, now);
+        return Written{id, insert_batch(c, batch, job, now, id)};
+      });
+      if (!written) {
+        remove();
+        return std::unexpected(written.error());
+      }
+      import_id = written->first;
+      out.insert(out.end(), written->second.begin(), written->second.end());
+      for (const auto& row : batch) sessions.insert(row.first.session_id);
+      if (!more) break;
+      more = take_batch();
+    }
+    auto publishing = impl.write("publishing an import", [&](Connection& c) {
+      // Each measurement's session was open when it was stored: it still is when they are seen.
+      for (const Id session : sessions) {
+        const auto state = session_state_of(c, session);
+        if (state != to_string(SessionState::open))
+          fail(Kind::conflict, fmt::format("session {} is {}, not open", session, state));
+      }
+      const auto published_at = impl.now();
+      detail::publish_import(c, *import_id, published_at);
+      if (!job) return;
+      const auto running = job_in(c, job->job_id);
+      require_running(job->job_id, running.state);
+      change_job(c, running, {.state = JobState::succeeded, .result = job->result}, published_at);
+    });
+    if (!publishing) {
+      remove();
+      return std::unexpected(publishing.error());
+    }
+    published = true;
+    return out;
+  } catch (...) {
+    remove();
+    throw;
+  }
 }
 
 }  // namespace
@@ -456,15 +562,21 @@ std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store:
 Result<std::vector<RecordedMeasurement>> Store::record_measurements(
     const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements,
     const std::optional<JobCompletion>& job) {
-  return impl_->write(fmt::format("recording {} measurements", measurements.size()), [&](Connection& c) {
-    std::size_t given = 0;  // from the start again if the write is tried again
-    const NextMeasurement next = [&]() { return given < measurements.size() ? &measurements[given++] : nullptr; };
-    return insert_measurements(c, next, job, impl_->now());
-  });
+  if (impl_->backend == Backend::sqlite) {
+    std::size_t given = 0;
+    return record_in_batches(
+        *impl_, [&]() { return given < measurements.size() ? &measurements[given++] : nullptr; }, job);
+  }
+  return impl_->write(fmt::format("recording {} measurements", measurements.size()),
+                      [&](Connection& c) { return insert_batch(c, measurements, job, impl_->now()); });
 }
 
 Result<std::vector<RecordedMeasurement>> Store::record_measurements_as_ready(const NextMeasurement& next,
                                                                              const std::optional<JobCompletion>& job) {
+  if (impl_->backend == Backend::sqlite) return record_in_batches(*impl_, next, job);
+  // PostgreSQL keeps the one transaction: its log is redo only, recycled by its checkpoints
+  // whatever transactions are open, and the rows it writes leave no page in this program's
+  // memory; its readers never see a transaction before it commits (docs/store.md, "Imports").
   bool consumed = false;
   const NextMeasurement taking = [&] {
     consumed = true;
@@ -567,7 +679,7 @@ Result<Job> Store::complete_map_job(Id job_id, const Map& map, const MapData& an
 Result<Id> Store::add_fit(const Fit& fit) {
   return impl_->write(fmt::format("storing a fit of measurement {}", fit.measurement_id), [&](Connection& c) {
     check_fit(fit);
-    require_row(c, "SELECT 1 FROM measurements WHERE id = ?1", fit.measurement_id, "measurement");
+    require_row(c, kPublishedMeasurement, fit.measurement_id, "measurement");
     return insert_fit(c, fit, fit.measurement_id, impl_->now());
   });
 }
@@ -578,7 +690,7 @@ Result<std::vector<Id>> Store::add_fits(const std::vector<Fit>& fits) {
     const auto now = impl_->now();
     for (const auto& fit : fits) {
       check_fit(fit);
-      require_row(c, "SELECT 1 FROM measurements WHERE id = ?1", fit.measurement_id, "measurement");
+      require_row(c, kPublishedMeasurement, fit.measurement_id, "measurement");
       ids.push_back(insert_fit(c, fit, fit.measurement_id, now));
     }
     return ids;

@@ -322,8 +322,9 @@ void admit_imported_measurements(detail::Connection& writer) {
 constexpr detail::MigrationStep kVersion8{"", admit_imported_measurements};
 
 // Maps (docs/store.md, "Maps"): a map with the job that made it, its two parts of data (0 the
-// answer cube, 1 the pixels' reflectance) deflated in pieces of 1 MiB of raw data (a cube's data runs to hundreds of MB, which no one statement should hold),
-// and its pictures, whose ordinal keeps the order they were given in on every engine.
+// answer cube, 1 the pixels' reflectance) deflated in pieces of 1 MiB of raw data (a cube's data runs to hundreds of
+// MB, which no one statement should hold), and its pictures, whose ordinal keeps the order they were given in on every
+// engine.
 constexpr std::string_view kVersion9Sql = R"sql(
 CREATE TABLE maps (
   id         INTEGER PRIMARY KEY,
@@ -354,6 +355,23 @@ CREATE TABLE map_pictures (
 );
 )sql";
 constexpr detail::MigrationStep kVersion9{kVersion9Sql};
+
+// Imports in batches (docs/store.md, "Imports"): a large file's measurements are committed a
+// batch at a time, each naming its import, and stay unseen by every read until the import's row
+// is published; an import never published (its writer died) is removed when the file is next
+// opened. A published import's row is kept: its measurements still name it.
+constexpr std::string_view kVersion10Sql = R"sql(
+CREATE TABLE imports (
+  id           INTEGER PRIMARY KEY,
+  job_id       INTEGER REFERENCES jobs (id),
+  started_at   INTEGER NOT NULL,
+  published_at INTEGER
+);
+CREATE INDEX imports_unpublished ON imports (id) WHERE published_at IS NULL;
+ALTER TABLE measurements ADD COLUMN import_id INTEGER REFERENCES imports (id);
+CREATE INDEX measurements_by_import ON measurements (import_id) WHERE import_id IS NOT NULL;
+)sql";
+constexpr detail::MigrationStep kVersion10{kVersion10Sql};
 
 int schema_version(detail::Connection& writer) { return static_cast<int>(writer.query_integer("PRAGMA user_version")); }
 

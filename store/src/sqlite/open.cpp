@@ -19,6 +19,7 @@
 #include "recovery.hpp"
 #include "sqlite/engine.hpp"
 #include "sqlite/migrations.hpp"
+#include "staged_imports.hpp"
 #include "store_impl.hpp"
 
 namespace skinspec::store::sqlite {
@@ -153,6 +154,10 @@ void configure_writer(Connection& writer, const OpenOptions& options) {
   if (mode != "wal") fail(Kind::io, fmt::format("cannot use write-ahead logging (journal mode stays '{}')", mode));
   writer.execute("PRAGMA synchronous = FULL");
   writer.execute("PRAGMA foreign_keys = ON");
+  // Room for a batch of an import (OpenOptions::import_batch, a few MB) and the indexes' pages it
+  // passes through, so that a transaction's pages are written to the log once, at its commit,
+  // and not spilled into it before (SQLite's default is 2 MB).
+  writer.execute("PRAGMA cache_size = -16384");
   if (options.max_pages > 0) writer.execute(fmt::format("PRAGMA max_page_count = {}", options.max_pages));
 }
 
@@ -179,6 +184,9 @@ void open_read_write(Store::Impl& impl, SqliteEngine& engine) {
   configure_writer(writer, impl.options);
   detail::migrate(writer, detail::latest_schema_version());
   impl.version = detail::latest_schema_version();
+  // Before the jobs are recovered: an import its writer never published is removed, and its job
+  // (still running) is then failed as any other.
+  detail::remove_unpublished_imports(writer, impl.options.import_batch);
   impl.recovery = detail::recover(writer, impl.options.recovery, {}, impl.now());
   engine.start_checkpointer(impl.options.busy_timeout);
   engine.readers().configure(reader_opener(path, SQLITE_OPEN_READONLY, impl.options.busy_timeout),

@@ -1,8 +1,10 @@
 #pragma once
-// One file of spectra imported into a session (docs/store.md, "Imports"): read (import.hpp),
-// each spectrum fitted with the session's model and site on every core, and all of them stored
-// with their fits in one transaction. A defect anywhere in the file, or a spectrum the fitter
-// refuses, refuses the whole file, naming its line; nothing of it is stored.
+// One file of spectra imported into a session (docs/store.md, "Imports"): checked whole, then
+// read (import.hpp, SpectrumStream), each spectrum fitted with the session's model and site on
+// every core, and stored with its fit as it is ready, all of them or none
+// (Store::record_measurements_as_ready). The import holds a bounded number of spectra whatever
+// the file's size. A defect anywhere in the file, or a spectrum the fitter refuses, refuses the
+// whole file, naming its line; nothing of it is stored.
 
 #include <cstddef>
 #include <functional>
@@ -47,6 +49,13 @@ struct ImportedFile {
 // (import_job_result). `scale` is how the file writes its values (read_import).
 std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
                                                        std::string_view bytes, std::string_view source,
+                                                       ImportFormat format, const ImportObserver& observer = {},
+                                                       std::optional<store::Id> job_id = std::nullopt,
+                                                       ScaleRequest scale = ScaleRequest::automatic);
+
+// The same, the file read a piece at a time (bytes_of_file: a file of any size).
+std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
+                                                       const ReadBytes& bytes, std::string_view source,
                                                        ImportFormat format, const ImportObserver& observer = {},
                                                        std::optional<store::Id> job_id = std::nullopt,
                                                        ScaleRequest scale = ScaleRequest::automatic);
