@@ -4,9 +4,9 @@
 
 namespace skinspec::store::detail {
 
-Id begin_import(Connection& c, std::optional<Id> job_id, Time now) {
-  auto insert = c.prepare("INSERT INTO imports (job_id, started_at) VALUES (?1, ?2) RETURNING id");
-  insert.bind(job_id, now);
+Id begin_import(Connection& c, std::optional<Id> job_id, std::string_view bench, Time now) {
+  auto insert = c.prepare("INSERT INTO imports (job_id, bench, started_at) VALUES (?1, ?2, ?3) RETURNING id");
+  insert.bind(job_id, bench, now);
   if (!insert.step()) fail(StoreError::Kind::internal, "an import's row returned no id");
   const Id id = insert.integer(0);
   insert.run();
@@ -21,6 +21,12 @@ void publish_import(Connection& c, Id import_id, Time now) {
 }
 
 bool remove_part_of_import(Connection& c, Id import_id, int limit) {
+  // A publication whose outcome was not known (its connection lost after the COMMIT went out)
+  // may have committed: a published import is kept whole.
+  auto unpublished = c.prepare("SELECT 1 FROM imports WHERE id = ?1 AND published_at IS NULL", RowLock::update);
+  unpublished.bind(import_id);
+  if (!unpublished.step()) return true;
+  unpublished.run();
   // The same measurements for both: the first `limit` of the import by id, as its index orders them.
   c.prepare(
        "DELETE FROM fits WHERE measurement_id IN "
@@ -38,11 +44,13 @@ bool remove_part_of_import(Connection& c, Id import_id, int limit) {
   return true;
 }
 
-int remove_unpublished_imports(Connection& writer, int limit) {
+int remove_unpublished_imports(Connection& writer, int limit, std::optional<std::string_view> bench) {
   std::vector<Id> unpublished;
   {
     Transaction transaction(writer, TransactionKind::read);
-    auto rows = writer.prepare("SELECT id FROM imports WHERE published_at IS NULL ORDER BY id");
+    auto rows =
+        writer.prepare("SELECT id FROM imports WHERE published_at IS NULL AND (bench = ?1 OR ?1 IS NULL) ORDER BY id");
+    rows.bind(bench);
     while (rows.step()) unpublished.push_back(rows.integer(0));
     transaction.commit();
   }

@@ -95,8 +95,8 @@ void require_row(Connection& c, std::string_view sql, Id id, std::string_view wh
 constexpr std::string_view kMeasurementColumns =
     "session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, quality_code, quality, units, "
     "settings, reading_count, radiance, radiance_sd, reflectance, warnings, raw_reply, started_at, finished_at, "
-    "created_at";
-constexpr int kMeasurementColumnCount = 20;
+    "created_at, import_id";
+constexpr int kMeasurementColumnCount = 21;
 constexpr std::string_view kFitColumns =
     "site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, iterations, converged, solver_summary, "
     "options, model_version, tables_digest, constants_digest, measured, fitted, samples_ignored, created_at";
@@ -107,14 +107,17 @@ std::optional<Blob> optional_blob(const SpectralSamples& spectrum, const std::st
   return Blob{bytes};
 }
 
-void bind_measurement(detail::Statement& insert, int first, const Measurement& m, Time now) {
+// `import_id`: the unpublished import it is staged in (staged_imports.hpp), if any.
+void bind_measurement(detail::Statement& insert, int first, const Measurement& m, Time now,
+                      std::optional<Id> import_id) {
   const auto radiance = detail::encode_spectrum(m.radiance);
   const auto radiance_sd = detail::encode_spectrum(m.radiance_sd);
   const auto reflectance = detail::encode_spectrum(m.reflectance);
   insert.bind_from(first, m.session_id, to_string(m.kind), m.label, m.instrument_id, m.white_measurement_id, m.job_id,
                    m.simulated, m.quality_code, m.quality, m.units, m.settings, m.reading_count, Blob{radiance},
                    optional_blob(m.radiance_sd, radiance_sd), optional_blob(m.reflectance, reflectance),
-                   detail::encode_text_list(m.warnings), Blob{m.raw_reply}, m.started_at, m.finished_at, now);
+                   detail::encode_text_list(m.warnings), Blob{m.raw_reply}, m.started_at, m.finished_at, now,
+                   import_id);
 }
 
 void bind_fit(detail::Statement& insert, int first, const Fit& f, Time now) {
@@ -273,12 +276,13 @@ struct Recorded {
 // the COMMIT goes with it. The statement writes only what the checks below allow: they read what
 // it found, and name what failed.
 Recorded record_by_one_statement(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
-                                 const std::optional<std::string>& result_head, bool last, Time now) {
+                                 const std::optional<std::string>& result_head, bool last, Time now,
+                                 std::optional<Id> import_id = {}) {
   check_measurement(m);
   if (fit) check_fit(*fit);
   using enum postgresql::RecordingColumn;
   auto row = c.prepare(recording_statement(fit.has_value(), result_head.has_value()));
-  bind_measurement(row, 1, m, now);
+  bind_measurement(row, 1, m, now, import_id);
   if (fit) bind_fit(row, kMeasurementColumnCount + 1, *fit, now);
   if (result_head) row.bind_at(kMeasurementColumnCount + (fit ? kFitColumnCount : 0) + 1, *result_head);
   if (last) row.send_with_commit();
@@ -302,11 +306,11 @@ Recorded record_by_one_statement(Connection& c, const Measurement& m, const std:
 
 // A measurement and its fit, inside the caller's transaction, after the checks every
 // measurement passes; `last`: the transaction's last statement.
-// `import_id`: the unpublished import it is staged in (SQLite; staged_imports.hpp).
+// `import_id`: the unpublished import it is staged in (staged_imports.hpp).
 RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
                                                Time now, bool last = false, std::optional<Id> import_id = {}) {
   if (c.dialect() == detail::Dialect::postgresql)
-    return record_by_one_statement(c, m, fit, std::nullopt, last, now).ids;
+    return record_by_one_statement(c, m, fit, std::nullopt, last, now, import_id).ids;
   check_measurement(m);
   if (fit) check_fit(*fit);
   // What the checks need, in one query: the session's state, the white reading's kind (NULL
@@ -320,11 +324,10 @@ RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement&
   if (!context.step()) fail(Kind::not_found, fmt::format("session {} does not exist", m.session_id));
   check_context(context, 0, m);
   static const std::string insert_sql =
-      fmt::format("INSERT INTO measurements ({}, import_id) VALUES ({}, ?{}) RETURNING id", kMeasurementColumns,
-                  detail::placeholders(1, kMeasurementColumnCount), kMeasurementColumnCount + 1);
+      fmt::format("INSERT INTO measurements ({}) VALUES ({}) RETURNING id", kMeasurementColumns,
+                  detail::placeholders(1, kMeasurementColumnCount));
   auto insert = c.prepare(insert_sql);
-  bind_measurement(insert, 1, m, now);
-  insert.bind_from(kMeasurementColumnCount + 1, import_id);
+  bind_measurement(insert, 1, m, now, import_id);
   RecordedMeasurement ids;
   ids.measurement_id = returned_id(insert);
   if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
@@ -475,10 +478,38 @@ std::vector<RecordedMeasurement> insert_batch(Connection& c, const std::vector<M
   return insert_measurements(c, next, job, now, import_id);
 }
 
-// SQLite's measurements of a file (staged_imports.hpp): in one transaction when they fit in a
-// batch; otherwise each batch committed in an unpublished import as `next` gives it, the writer
-// held only while it is written, then published with the job's end. Whatever fails after the
-// first batch (a store error, or `next` throwing) removes what was staged before it leaves.
+// Import `import_id`'s batches removed, a batch to a transaction, after it failed. A failure here
+// leaves the rest unseen, for its bench's next opening to remove.
+void remove_staged(Store::Impl& impl, Id import_id) {
+  for (;;) {
+    const auto gone = impl.write("removing an unpublished import", [&](Connection& c) {
+      return detail::remove_part_of_import(c, import_id, impl.options.import_batch);
+    });
+    if (!gone || *gone) return;
+  }
+}
+
+// Makes import `import_id` seen, with the end of its job when there is one, inside the caller's
+// transaction: each measurement's session was open when it was stored, and still is.
+void publish(Connection& c, Id import_id, const std::set<Id>& sessions, const std::optional<JobCompletion>& job,
+             Time now) {
+  for (const Id session : sessions) {
+    const auto state = session_state_of(c, session);
+    if (state != to_string(SessionState::open))
+      fail(Kind::conflict, fmt::format("session {} is {}, not open", session, state));
+  }
+  detail::publish_import(c, import_id, now);
+  if (!job) return;
+  const auto running = job_in(c, job->job_id);
+  require_running(job->job_id, running.state);
+  change_job(c, running, {.state = JobState::succeeded, .result = job->result}, now);
+}
+
+// The measurements of a file (staged_imports.hpp), on every engine: in one transaction when they
+// fit in a batch; otherwise each batch committed in an unpublished import as `next` gives it, the
+// writer held only while it is written (never while `next` fits the next spectra), then
+// published with the job's end. Whatever fails after the first batch (a store error, or `next`
+// throwing) removes what was staged before it leaves.
 Result<std::vector<RecordedMeasurement>> record_in_batches(Store::Impl& impl, const Store::NextMeasurement& next,
                                                            const std::optional<JobCompletion>& job) {
   const auto limit = static_cast<std::size_t>(impl.options.import_batch);
@@ -500,16 +531,8 @@ Result<std::vector<RecordedMeasurement>> record_in_batches(Store::Impl& impl, co
                       [&](Connection& c) { return insert_batch(c, batch, job, now); });
   }
   std::optional<Id> import_id;
-  bool published = false;
-  const auto remove = [&] {
-    if (!import_id || published) return;
-    // A failure here leaves the rest unseen, for the next opening to remove.
-    for (;;) {
-      const auto gone = impl.write("removing an unpublished import", [&](Connection& c) {
-        return detail::remove_part_of_import(c, *import_id, impl.options.import_batch);
-      });
-      if (!gone || *gone) return;
-    }
+  const auto abandon = [&] {
+    if (import_id) remove_staged(impl, *import_id);
   };
   try {
     std::vector<RecordedMeasurement> out;
@@ -517,12 +540,13 @@ Result<std::vector<RecordedMeasurement>> record_in_batches(Store::Impl& impl, co
     while (!batch.empty()) {
       using Written = std::pair<Id, std::vector<RecordedMeasurement>>;
       auto written = impl.write(fmt::format("storing {} measurements of an import", batch.size()), [&](Connection& c) {
-        const Id id =
-            import_id ? *import_id : detail::begin_import(c, job ? std::optional<Id>(job->job_id) : std::nullopt, now);
+        const Id id = import_id ? *import_id
+                                : detail::begin_import(c, job ? std::optional(job->job_id) : std::nullopt,
+                                                       impl.options.bench, now);
         return Written{id, insert_batch(c, batch, job, now, id)};
       });
       if (!written) {
-        remove();
+        abandon();
         return std::unexpected(written.error());
       }
       import_id = written->first;
@@ -531,28 +555,15 @@ Result<std::vector<RecordedMeasurement>> record_in_batches(Store::Impl& impl, co
       if (!more) break;
       more = take_batch();
     }
-    auto publishing = impl.write("publishing an import", [&](Connection& c) {
-      // Each measurement's session was open when it was stored: it still is when they are seen.
-      for (const Id session : sessions) {
-        const auto state = session_state_of(c, session);
-        if (state != to_string(SessionState::open))
-          fail(Kind::conflict, fmt::format("session {} is {}, not open", session, state));
-      }
-      const auto published_at = impl.now();
-      detail::publish_import(c, *import_id, published_at);
-      if (!job) return;
-      const auto running = job_in(c, job->job_id);
-      require_running(job->job_id, running.state);
-      change_job(c, running, {.state = JobState::succeeded, .result = job->result}, published_at);
-    });
-    if (!publishing) {
-      remove();
-      return std::unexpected(publishing.error());
+    auto published =
+        impl.write("publishing an import", [&](Connection& c) { publish(c, *import_id, sessions, job, impl.now()); });
+    if (!published) {
+      abandon();
+      return std::unexpected(published.error());
     }
-    published = true;
     return out;
   } catch (...) {
-    remove();
+    abandon();
     throw;
   }
 }
@@ -562,29 +573,14 @@ Result<std::vector<RecordedMeasurement>> record_in_batches(Store::Impl& impl, co
 Result<std::vector<RecordedMeasurement>> Store::record_measurements(
     const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements,
     const std::optional<JobCompletion>& job) {
-  if (impl_->backend == Backend::sqlite) {
-    std::size_t given = 0;
-    return record_in_batches(
-        *impl_, [&]() { return given < measurements.size() ? &measurements[given++] : nullptr; }, job);
-  }
-  return impl_->write(fmt::format("recording {} measurements", measurements.size()),
-                      [&](Connection& c) { return insert_batch(c, measurements, job, impl_->now()); });
+  std::size_t given = 0;
+  return record_in_batches(
+      *impl_, [&]() { return given < measurements.size() ? &measurements[given++] : nullptr; }, job);
 }
 
 Result<std::vector<RecordedMeasurement>> Store::record_measurements_as_ready(const NextMeasurement& next,
                                                                              const std::optional<JobCompletion>& job) {
-  if (impl_->backend == Backend::sqlite) return record_in_batches(*impl_, next, job);
-  // PostgreSQL keeps the one transaction: its log is redo only, recycled by its checkpoints
-  // whatever transactions are open, and the rows it writes leave no page in this program's
-  // memory; its readers never see a transaction before it commits (docs/store.md, "Imports").
-  bool consumed = false;
-  const NextMeasurement taking = [&] {
-    consumed = true;
-    return next();
-  };
-  return impl_->write(
-      "recording measurements", [&](Connection& c) { return insert_measurements(c, taking, job, impl_->now()); },
-      &consumed);
+  return record_in_batches(*impl_, next, job);
 }
 
 Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measurement& m, const std::optional<Fit>& fit,

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <future>
 #include <set>
 
 #include "skinspec/store/store.hpp"
@@ -757,6 +758,15 @@ OpenOptions batches_of(int rows) {
   return options;
 }
 
+using ImportRow = std::pair<Measurement, std::optional<Fit>>;
+
+// `count` sample measurements of `session`, each with its fit.
+std::vector<ImportRow> import_rows(Id session, int count) {
+  std::vector<ImportRow> rows;
+  for (int i = 0; i < count; ++i) rows.emplace_back(sample_measurement(session, i), sample_fit(i));
+  return rows;
+}
+
 // An import larger than a batch: the batches are committed as they come (on SQLite), yet no read
 // sees any of it, through this Store or another program's, until the whole of it is published
 // with its job's end; then all of it at once.
@@ -770,31 +780,26 @@ TEST_P(StoreTest, AnImportIsSeenWholeWithItsJobsEndOrNotAtAll) {
   job.session_id = session;
   const Id job_id = value_of(store.create_job(job)).job.id;
   value_of(store.update_job(job_id, {.state = JobState::running}));
-  std::vector<std::pair<Measurement, std::optional<Fit>>> rows;
-  for (int i = 0; i < 400; ++i) rows.emplace_back(sample_measurement(session, i), sample_fit(i));
+  const auto rows = import_rows(session, 400);
   std::size_t given = 0;
   long long staged = 0;
   const auto stored = value_of(store.record_measurements_as_ready(
-      [&]() -> const std::pair<Measurement, std::optional<Fit>>* {
+      [&]() -> const ImportRow* {
         if (given == 300) {
           EXPECT_TRUE(value_of(store.session_detail(session)).measurements.empty());
           EXPECT_TRUE(value_of(store.session_detail(session)).fits.empty());
           EXPECT_EQ(value_of(store.count_measurements_to_refit({.made_by = {"paper", "x", "y", "z"}})), 0);
           EXPECT_EQ(value_of(store.job(job_id)).state, JobState::running);
-          if (on_sqlite()) {
-            const auto reader = value_of(Store::open(path_, read_only));
-            EXPECT_TRUE(value_of(reader.session_detail(session)).measurements.empty());
-            staged = raw().integer("SELECT count(*) FROM measurements");
-          }
+          const auto reader = value_of(Store::open(path_, read_only));
+          EXPECT_TRUE(value_of(reader.session_detail(session)).measurements.empty());
+          staged = raw().integer("SELECT count(*) FROM measurements");
         }
         return given < rows.size() ? &rows[given++] : nullptr;
       },
       JobCompletion{job_id, R"({"imported":400})"}));
   ASSERT_EQ(stored.size(), 400u);
   // Batches of 50 before the 300th row was asked for: committed, and passed over by every read.
-  if (on_sqlite()) {
-    EXPECT_GE(staged, 250);
-  }
+  EXPECT_GE(staged, 250);
   EXPECT_EQ(value_of(store.measurement(stored[0].measurement_id)).label, rows[0].first.label);
   const auto detail = value_of(store.session_detail(session));
   EXPECT_EQ(detail.measurements.size(), 400u);
@@ -808,30 +813,68 @@ TEST_P(StoreTest, AnImportIsSeenWholeWithItsJobsEndOrNotAtAll) {
 TEST_P(StoreTest, AnImportThatFailsPartWayLeavesNothing) {
   auto store = open(batches_of(50));
   const Id session = value_of(store.create_session(sample_session(1)));
-  std::vector<std::pair<Measurement, std::optional<Fit>>> rows;
-  for (int i = 0; i < 400; ++i) rows.emplace_back(sample_measurement(session, i), sample_fit(i));
+  const auto rows = import_rows(session, 400);
   std::size_t given = 0;
   struct Refused {};
-  EXPECT_THROW((void)store.record_measurements_as_ready([&]() -> const std::pair<Measurement, std::optional<Fit>>* {
+  EXPECT_THROW((void)store.record_measurements_as_ready([&]() -> const ImportRow* {
     if (given == 300) throw Refused{};
     return &rows[given++];
   }),
                Refused);
-  // SQLite writes between an import's batches: a session closed meanwhile fails the import at
-  // its publication. (PostgreSQL holds the writer throughout, and `next` must not write.)
-  if (on_sqlite()) {
-    given = 0;
-    const auto closed = store.record_measurements_as_ready([&]() -> const std::pair<Measurement, std::optional<Fit>>* {
-      if (given == 380) value_of(store.update_session(session, {.state = SessionState::complete}));
-      return given < rows.size() ? &rows[given++] : nullptr;
-    });
-    ASSERT_FALSE(closed);
-    EXPECT_EQ(closed.error().kind, Kind::conflict);
-  }
+  // Other writes go on between an import's batches: a session closed meanwhile fails the import
+  // at its publication.
+  given = 0;
+  const auto closed = store.record_measurements_as_ready([&]() -> const ImportRow* {
+    if (given == 380) value_of(store.update_session(session, {.state = SessionState::complete}));
+    return given < rows.size() ? &rows[given++] : nullptr;
+  });
+  ASSERT_FALSE(closed);
+  EXPECT_EQ(closed.error().kind, Kind::conflict);
   EXPECT_TRUE(value_of(store.session_detail(session)).measurements.empty());
   EXPECT_EQ(raw().integer("SELECT count(*) FROM measurements"), 0);
   EXPECT_EQ(raw().integer("SELECT count(*) FROM fits"), 0);
   EXPECT_EQ(raw().integer("SELECT count(*) FROM imports"), 0);
+}
+
+// The Store's other writes (a bench's heartbeat, a new session) go on while an import waits for its
+// next spectra (fitted, for a file): the import holds the writer only while it writes a batch.
+// Here the import's source waits, two batches in, until the other writes are done or have waited
+// long; the import is then published whole.
+TEST_P(StoreTest, OtherWritesGoOnWhileAnImportWaitsForItsSpectra) {
+  auto store = open(batches_of(50));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const auto rows = import_rows(session, 400);
+  std::promise<void> waiting, released;
+  auto waiting_future = waiting.get_future();
+  auto released_future = released.get_future();
+  std::size_t given = 0;
+  auto import = std::async(std::launch::async, [&] {
+    return store.record_measurements_as_ready([&]() -> const ImportRow* {
+      if (given == 120) {
+        waiting.set_value();
+        released_future.wait();
+      }
+      return given < rows.size() ? &rows[given++] : nullptr;
+    });
+  });
+  waiting_future.wait();
+  auto others = std::async(std::launch::async, [&] {
+    Bench bench;
+    bench.host = "bench-pc";
+    const bool beaten = store.beat(bench).has_value();
+    return std::pair{beaten, value_of(store.create_session(sample_session(2)))};
+  });
+  const bool prompt = others.wait_for(std::chrono::seconds(10)) == std::future_status::ready;
+  const auto staged = raw().integer("SELECT count(*) FROM measurements");
+  released.set_value();
+  EXPECT_TRUE(prompt) << "the other writes waited for the import";
+  EXPECT_EQ(staged, 100) << "two batches committed, unseen";
+  const auto [beaten, second] = others.get();
+  EXPECT_TRUE(beaten);
+  EXPECT_EQ(value_of(store.session(second)).subject, sample_session(2).subject);
+  EXPECT_EQ(value_of(import.get()).size(), 400u);
+  EXPECT_EQ(value_of(store.session_detail(session)).measurements.size(), 400u);
+  EXPECT_EQ(value_of(store.session_detail(session)).fits.size(), 400u);
 }
 
 // An import of a thousand times the batch: the write-ahead log stays a small part of the file

@@ -359,11 +359,13 @@ constexpr detail::MigrationStep kVersion9{kVersion9Sql};
 // Imports in batches (docs/store.md, "Imports"): a large file's measurements are committed a
 // batch at a time, each naming its import, and stay unseen by every read until the import's row
 // is published; an import never published (its writer died) is removed when the file is next
-// opened. A published import's row is kept: its measurements still name it.
+// opened. A published import's row is kept: its measurements still name it. `bench`: the bench
+// whose writer stored it, whose next opening removes it on PostgreSQL.
 constexpr std::string_view kVersion10Sql = R"sql(
 CREATE TABLE imports (
   id           INTEGER PRIMARY KEY,
   job_id       INTEGER REFERENCES jobs (id),
+  bench        TEXT NOT NULL,
   started_at   INTEGER NOT NULL,
   published_at INTEGER
 );

@@ -19,7 +19,6 @@
 #include "recovery.hpp"
 #include "sqlite/engine.hpp"
 #include "sqlite/migrations.hpp"
-#include "staged_imports.hpp"
 #include "store_impl.hpp"
 
 namespace skinspec::store::sqlite {
@@ -184,10 +183,7 @@ void open_read_write(Store::Impl& impl, SqliteEngine& engine) {
   configure_writer(writer, impl.options);
   detail::migrate(writer, detail::latest_schema_version());
   impl.version = detail::latest_schema_version();
-  // Before the jobs are recovered: an import its writer never published is removed, and its job
-  // (still running) is then failed as any other.
-  detail::remove_unpublished_imports(writer, impl.options.import_batch);
-  impl.recovery = detail::recover(writer, impl.options.recovery, {}, impl.now());
+  impl.recovery = detail::recover(writer, impl.options.recovery, {}, impl.now(), impl.options.import_batch);
   engine.start_checkpointer(impl.options.busy_timeout);
   engine.readers().configure(reader_opener(path, SQLITE_OPEN_READONLY, impl.options.busy_timeout),
                              impl.options.max_readers);

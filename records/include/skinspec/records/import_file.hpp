@@ -35,8 +35,9 @@ struct ImportFailure {
 // Told how many of the file's spectra are fitted, of how many: once with none when the file has
 // been read, then as the fitting and the storing go (from any thread, one call at a time); once
 // all are fitted, every call tells fitted == total while the rest is stored. Returning false
-// stops the import: nothing of the file is stored. The store's writer may be held while it is
-// called, so it must not write to the store.
+// stops the import: nothing of the file is stored. It may write to the store: the import holds
+// the store's writer only while a batch of the file is written, and never waits for the observer
+// meanwhile.
 using ImportObserver = std::function<bool(std::size_t fitted, std::size_t total)>;
 
 struct ImportedFile {
