@@ -7,7 +7,7 @@
 #include <cmath>
 #include <span>
 
-#include "finite_number.hpp"
+#include "import_csv.hpp"
 #include "skinspec/records/cgats.hpp"
 #include "skinspec/spectral/csv.hpp"
 #include "skinspec/spectral/enum_names.hpp"
@@ -17,28 +17,20 @@ namespace skinspec::records {
 
 namespace {
 
+using detail::is_reflectance;
+using detail::kLowestReflectance;
+using detail::names_wavelengths;
+using detail::trimmed;
+
 constexpr EnumNames<ImportFormat, 2> kFormats = {{
     {ImportFormat::csv, "csv"},
     {ImportFormat::cgats, "cgats"},
 }};
 
-// A reflectance lies from a little below 0 (spectrometer noise over black) to 1.5, above which a
-// value is no fraction (reflectance_scale.hpp).
-constexpr double kLowestReflectance = -0.05;
-
-bool is_reflectance(double value) { return value >= kLowestReflectance && value <= kPercentAbove; }
-
 struct Row {
   std::size_t line = 0;
   std::vector<std::string_view> cells;  // trimmed, into the file or into its csv::Reader
 };
-
-std::string_view trimmed(std::string_view text) {
-  const auto first = text.find_first_not_of(" \t");
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(" \t");
-  return text.substr(first, last - first + 1);
-}
 
 // The file's rows. Lines starting with '#' before the header are skipped (a comment there is
 // not parsed for quotes); after the header such a line is data, where '#12' may well be a
@@ -58,21 +50,6 @@ std::expected<std::vector<Row>, InputError> rows_of(csv::Reader& reader, std::st
     rows.push_back(std::move(row));
   }
   return rows;
-}
-
-std::optional<double> wavelength_of(std::string_view header) {
-  std::string_view text = trimmed(header);
-  if (text.ends_with("nm")) text = trimmed(text.substr(0, text.size() - 2));
-  const auto value = detail::finite_number(text);
-  if (!value || *value <= 0 || *value > 100000) return std::nullopt;
-  return value;
-}
-
-bool names_wavelengths(std::string header) {
-  std::ranges::transform(header, header.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  std::erase(header, ' ');
-  return header == "wavelength_nm" || header == "wavelength" || header == "nm" || header == "wavelength(nm)" ||
-         header == "lambda";
 }
 
 class CsvReader {
@@ -138,18 +115,10 @@ class CsvReader {
   // One row per spectrum: text columns (the first the sample id), then wavelength columns.
   std::expected<std::vector<ImportedSpectrum>, InputError> by_rows() {
     const auto& header = rows_[0].cells;
-    std::size_t first = header.size();
-    while (first > 0 && wavelength_of(header[first - 1])) --first;
-    if (header.size() - first < 2)
-      return fail(rows_[0].line, 0,
-                  "the header names no wavelengths: its first field is not wavelength_nm (one column per spectrum) "
-                  "and it does not end in wavelength columns such as 400nm (one row per spectrum)");
-    std::vector<double> grid;
-    for (std::size_t c = first; c < header.size(); ++c) {
-      grid.push_back(*wavelength_of(header[c]));
-      if (grid.size() > 1 && !(grid.back() > grid[grid.size() - 2]))
-        return fail(rows_[0].line, c + 1, "the wavelengths must increase from column to column");
-    }
+    auto columns = detail::wavelength_columns(header);
+    if (!columns) return fail(rows_[0].line, columns.error().column, columns.error().message);
+    const std::size_t first = columns->first;
+    const auto& grid = columns->grid;
     first_value_column_ = first;
     std::vector<ImportedSpectrum> out;
     for (std::size_t r = 1; r < rows_.size(); ++r) {
@@ -197,10 +166,7 @@ class CsvReader {
           continue;
         }
         const auto [line, column] = position(i, k);
-        return fail(line, column,
-                    fmt::format("{} is not a reflectance ({} to {}{}){}", value, kLowestReflectance * divisor,
-                                kPercentAbove * divisor, scale->scale == ReflectanceScale::percent ? " percent" : "",
-                                out_of_range_note(*scale, value)));
+        return fail(line, column, detail::not_a_reflectance(value, *scale));
       }
     }
     return {};

@@ -50,19 +50,28 @@ std::string describe_conflict(std::string_view spectrum_name) {
       quote(spectrum_name), kPercentAbove);
 }
 
-std::expected<ScaleDecision, ScaleConflict> decide_scale(ScaleRequest request,
-                                                         std::span<const std::span<const double>> spectra) {
+bool ScaleTally::add(std::span<const double> spectrum) {
+  const auto above = static_cast<std::size_t>(std::ranges::count_if(spectrum, above_fraction));
+  if (above == 0 && !first_below_) first_below_ = spectra_;
+  ++spectra_;
+  values_ += spectrum.size();
+  above_ += above;
+  return above == 0;
+}
+
+std::expected<ScaleDecision, ScaleConflict> ScaleTally::decide(ScaleRequest request) const {
   if (request == ScaleRequest::fraction) return ScaleDecision{ReflectanceScale::fraction, false};
   if (request == ScaleRequest::percent) return ScaleDecision{ReflectanceScale::percent, false};
-  std::size_t values = 0, above = 0;
-  for (const auto& spectrum : spectra) {
-    values += spectrum.size();
-    above += static_cast<std::size_t>(std::ranges::count_if(spectrum, above_fraction));
-  }
-  if (values == 0 || 2 * above < values) return ScaleDecision{ReflectanceScale::fraction, true};
-  for (std::size_t i = 0; i < spectra.size(); ++i)
-    if (std::ranges::none_of(spectra[i], above_fraction)) return std::unexpected(ScaleConflict{i});
+  if (values_ == 0 || 2 * above_ < values_) return ScaleDecision{ReflectanceScale::fraction, true};
+  if (first_below_) return std::unexpected(ScaleConflict{*first_below_});
   return ScaleDecision{ReflectanceScale::percent, true};
+}
+
+std::expected<ScaleDecision, ScaleConflict> decide_scale(ScaleRequest request,
+                                                         std::span<const std::span<const double>> spectra) {
+  ScaleTally tally;
+  for (const auto& spectrum : spectra) tally.add(spectrum);
+  return tally.decide(request);
 }
 
 }  // namespace skinspec

@@ -31,12 +31,17 @@ struct Table {
   std::vector<Column> types;
   std::string_view key = "id";  // its rows' order: its primary key, integers
   int page_rows = 256;          // read at a time, so that a large table is never held whole
+  std::string_view where = {};  // the rows copied, when not all: those every read may see
 };
 
 // Each table after those its rows refer to; a measurement refers to an earlier one (its white),
 // so rows go in key order. A page of a map's data is a few MiB.
 const std::array<Table, 11>& tables() {
   using enum Column;
+  // An import not yet published is no record of the database (staged_imports.hpp): neither its
+  // measurements nor their fits are copied.
+  static const std::string kFitPublished =
+      fmt::format("EXISTS (SELECT 1 FROM measurements WHERE id = fits.measurement_id AND {})", detail::kPublished);
   static const std::array<Table, 11> kTables = {{
       {"instruments", detail::kInstrumentColumns, {integer, text, text, text, text, time, time}},
       {"white_standards", detail::kWhiteStandardColumns, {integer, text, text, blob, time}},
@@ -46,11 +51,20 @@ const std::array<Table, 11>& tables() {
       {"jobs",
        detail::kJobColumns,
        {integer, text, text, text, integer, text, text, text, text, time, time, time, text}},
-      {"measurements", detail::kMeasurementColumns, {integer, integer, text, text, integer, integer, integer,
-                                                     boolean, integer, text, text, text,    integer, blob,
-                                                     blob,    blob,    text, blob, time,    time,    time}},
-      {"fits", detail::kFitColumns, {integer, integer, text, text, text, text, real, real, real,    integer,
-                                     boolean, text,    text, text, text, text, blob, blob, integer, time}},
+      {"measurements",
+       detail::kMeasurementColumns,
+       {integer, integer, text, text, integer, integer, integer, boolean, integer, text, text,
+        text,    integer, blob, blob, blob,    text,    blob,    time,    time,    time},
+       "id",
+       256,
+       detail::kPublished},
+      {"fits",
+       detail::kFitColumns,
+       {integer, integer, text, text, text, text, real, real, real,    integer,
+        boolean, text,    text, text, text, text, blob, blob, integer, time},
+       "id",
+       256,
+       kFitPublished},
       {"rejected_readings",
        detail::kRejectedReadingColumns,
        {integer, integer, integer, integer, integer, integer, text, text, blob, time, time}},
@@ -146,8 +160,9 @@ class Digest {
 // of a statement's rows at once).
 std::string select_page(const Table& table) {
   const auto key_columns = static_cast<int>(column_count(table.key));
-  return fmt::format("SELECT {} FROM {} WHERE ({}) > ({}) ORDER BY {} LIMIT {}", table.columns, table.name, table.key,
-                     detail::placeholders(1, key_columns), table.key, table.page_rows);
+  return fmt::format("SELECT {} FROM {} WHERE ({}) > ({}){}{} ORDER BY {} LIMIT {}", table.columns, table.name,
+                     table.key, detail::placeholders(1, key_columns), table.where.empty() ? "" : " AND ", table.where,
+                     table.key, table.page_rows);
 }
 
 void check_listed(const Table& table) {

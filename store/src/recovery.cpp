@@ -3,6 +3,7 @@
 #include "recovery.hpp"
 
 #include "codec.hpp"
+#include "staged_imports.hpp"
 
 namespace skinspec::store::detail {
 
@@ -52,7 +53,8 @@ RecoveryReport mark_interrupted(Connection& writer, RecoveryPolicy policy, const
   return report;
 }
 
-RecoveryReport recover(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now) {
+RecoveryReport recover(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now, int import_batch) {
+  remove_unpublished_imports(writer, import_batch, owner.bench);
   Transaction transaction(writer, detail::TransactionKind::write);
   auto report = mark_interrupted(writer, policy, owner, now);
   transaction.commit();

@@ -21,7 +21,9 @@ struct Owner {
 // the jobs it left queued or running (code `interrupted`), inside the caller's transaction.
 RecoveryReport mark_interrupted(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now);
 
-// The same in a transaction of its own, when opening.
-RecoveryReport recover(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now);
+// What opening does: the owner's unpublished imports removed (staged_imports.hpp), `import_batch`
+// measurements to a transaction, then the same as mark_interrupted in a transaction of its own
+// (an import's job, still running, is failed as any other).
+RecoveryReport recover(Connection& writer, RecoveryPolicy policy, const Owner& owner, Time now, int import_batch);
 
 }  // namespace skinspec::store::detail

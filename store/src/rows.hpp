@@ -22,6 +22,10 @@ inline constexpr std::string_view kMeasurementColumns =
     "id, session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, quality_code, quality, "
     "units, settings, reading_count, radiance, radiance_sd, reflectance, warnings, raw_reply, started_at, "
     "finished_at, created_at";
+// The condition of a measurement every read may see: none of an import not yet published
+// (docs/store.md, "Imports"). Its columns are the measurement's, unqualified.
+inline constexpr std::string_view kPublished =
+    "(import_id IS NULL OR import_id NOT IN (SELECT id FROM imports WHERE published_at IS NULL))";
 inline constexpr std::string_view kFitColumns =
     "id, measurement_id, site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, iterations, "
     "converged, solver_summary, options, model_version, tables_digest, constants_digest, measured, fitted, "

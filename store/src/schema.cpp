@@ -11,7 +11,7 @@ namespace skinspec::store::detail {
 
 namespace {
 
-constexpr std::array<Migration, 10> kMigrations = {{
+constexpr std::array<Migration, 11> kMigrations = {{
     {1, &sqlite::kVersion1, nullptr},
     {2, &sqlite::kVersion2, nullptr},
     {3, &sqlite::kVersion3, nullptr},
@@ -22,6 +22,7 @@ constexpr std::array<Migration, 10> kMigrations = {{
     {8, &sqlite::kVersion8, &postgresql::kVersion8},
     {9, &sqlite::kVersion9, &postgresql::kVersion9},
     {10, &sqlite::kVersion10, &postgresql::kVersion10},
+    {11, &sqlite::kVersion11, &postgresql::kVersion11},
 }};
 
 constexpr bool numbered_in_order() {

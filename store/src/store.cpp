@@ -43,6 +43,8 @@ Result<Store> Store::open(const std::string& target, const OpenOptions& options)
     impl->path = path;
     impl->backend = backend;
     impl->options = options;
+    if (options.import_batch < 1)
+      fail(Kind::invalid_argument, fmt::format("an import batch of {} measurements", options.import_batch));
     if (backend == Backend::postgresql) {
       postgresql::open(*impl);
     } else {

@@ -58,12 +58,9 @@ struct Store::Impl {
   // One write transaction around `body(connection)`, committed when it returns, with its audit
   // row when this thread has an actor (AuditScope): `what` is the change it records. A failure
   // that left nothing committed and may pass (a lost connection, a serialisation conflict) is
-  // tried once more; for a body that consumes its input as it goes, only while `consumed` (set
-  // by the body) is still false, as when the writer's connection turns out lost at the first
-  // statement.
+  // tried once more.
   template <typename F>
-  auto write(std::string_view what, F&& body, const bool* consumed = nullptr)
-      -> Result<std::invoke_result_t<F, detail::Connection&>> {
+  auto write(std::string_view what, F&& body) -> Result<std::invoke_result_t<F, detail::Connection&>> {
     return detail::guarded(what, [&] {
       for (int attempt = 1;; ++attempt) {
         auto connection = engine->writer();
@@ -81,7 +78,7 @@ struct Store::Impl {
             return value;
           }
         } catch (const detail::Failure& failure) {
-          if (!failure.retryable || attempt == 2 || (consumed && *consumed)) throw;
+          if (!failure.retryable || attempt == 2) throw;
         }
       }
     });

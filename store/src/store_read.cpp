@@ -78,11 +78,12 @@ Result<Session> Store::session(Id id) const {
 Result<SessionDetail> Store::session_detail(Id id) const {
   return impl_->read(fmt::format("reading session {}", id), [&](Connection& c) {
     static const std::string measurements =
-        fmt::format("SELECT {} FROM measurements WHERE session_id = ?1 ORDER BY id", detail::kMeasurementColumns);
+        fmt::format("SELECT {} FROM measurements WHERE session_id = ?1 AND {} ORDER BY id", detail::kMeasurementColumns,
+                    detail::kPublished);
     static const std::string fits = fmt::format(
-        "SELECT {} FROM fits WHERE measurement_id IN (SELECT id FROM measurements WHERE session_id = ?1) "
+        "SELECT {} FROM fits WHERE measurement_id IN (SELECT id FROM measurements WHERE session_id = ?1 AND {}) "
         "ORDER BY id",
-        detail::kFitColumns);
+        detail::kFitColumns, detail::kPublished);
     static const std::string rejected = fmt::format(
         "SELECT {} FROM rejected_readings WHERE session_id = ?1 ORDER BY id", detail::kRejectedReadingColumns);
     SessionDetail detail;
@@ -119,7 +120,8 @@ Result<SessionPage> Store::sessions(const SessionFilter& filter) const {
 
 Result<Measurement> Store::measurement(Id id) const {
   return impl_->read_one("reading a measurement", [&](Connection& c) {
-    static const std::string sql = select_by_id(detail::kMeasurementColumns, "measurements");
+    static const std::string sql =
+        fmt::format("{} AND {}", select_by_id(detail::kMeasurementColumns, "measurements"), detail::kPublished);
     return one(c, sql, id, "measurement", detail::read_measurement);
   });
 }
@@ -128,8 +130,8 @@ Result<std::optional<Measurement>> Store::latest_measurement(Id session_id, Meas
   return impl_->read("reading the latest measurement", [&](Connection& c) {
     session_in(c, session_id);
     static const std::string sql =
-        fmt::format("SELECT {} FROM measurements WHERE session_id = ?1 AND kind = ?2 ORDER BY id DESC LIMIT 1",
-                    detail::kMeasurementColumns);
+        fmt::format("SELECT {} FROM measurements WHERE session_id = ?1 AND kind = ?2 AND {} ORDER BY id DESC LIMIT 1",
+                    detail::kMeasurementColumns, detail::kPublished);
     auto row = c.prepare(sql);
     row.bind(session_id, to_string(kind));
     return row.step() ? std::optional<Measurement>(detail::read_measurement(row)) : std::nullopt;
@@ -138,14 +140,17 @@ Result<std::optional<Measurement>> Store::latest_measurement(Id session_id, Meas
 
 Result<Fit> Store::fit(Id id) const {
   return impl_->read_one("reading a fit", [&](Connection& c) {
-    static const std::string sql = select_by_id(detail::kFitColumns, "fits");
+    static const std::string sql =
+        fmt::format("{} AND EXISTS (SELECT 1 FROM measurements WHERE id = fits.measurement_id AND {})",
+                    select_by_id(detail::kFitColumns, "fits"), detail::kPublished);
     return one(c, sql, id, "fit", detail::read_fit);
   });
 }
 
 Result<std::vector<Fit>> Store::fits_of_measurement(Id measurement_id) const {
   return impl_->read("listing fits", [&](Connection& c) {
-    static const std::string exists = "SELECT 1 FROM measurements WHERE id = ?1";
+    static const std::string exists =
+        fmt::format("SELECT 1 FROM measurements WHERE id = ?1 AND {}", detail::kPublished);
     one(c, exists, measurement_id, "measurement", [](const detail::Statement&) { return 0; });
     static const std::string sql =
         fmt::format("SELECT {} FROM fits WHERE measurement_id = ?1 ORDER BY id", detail::kFitColumns);
@@ -157,10 +162,11 @@ namespace {
 
 // The measurements of a RefitQuery: ?1-?4 the maker, ?5 the session or NULL. (Unqualified
 // columns of the outer SELECT are the measurement's.)
-constexpr std::string_view kToRefit =
-    "FROM measurements m WHERE m.reflectance IS NOT NULL AND (m.session_id = ?5 OR ?5 IS NULL) AND NOT EXISTS "
+const std::string kToRefit = fmt::format(
+    "FROM measurements m WHERE m.reflectance IS NOT NULL AND (m.session_id = ?5 OR ?5 IS NULL) AND {} AND NOT EXISTS "
     "(SELECT 1 FROM fits f WHERE f.measurement_id = m.id AND f.model = ?1 AND f.model_version = ?2 AND "
-    "f.tables_digest = ?3 AND f.constants_digest = ?4)";
+    "f.tables_digest = ?3 AND f.constants_digest = ?4)",
+    detail::kPublished);
 
 void check_refit_query(const RefitQuery& query) {
   if (query.limit < 1 || query.limit > 10000)

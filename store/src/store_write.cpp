@@ -14,6 +14,7 @@
 #include "map_pieces.hpp"
 #include "postgresql/statements.hpp"
 #include "rows.hpp"
+#include "staged_imports.hpp"
 #include "store_impl.hpp"
 
 namespace skinspec::store {
@@ -79,6 +80,10 @@ std::string session_state_of(Connection& c, Id session_id) {
   return stmt.text(0);
 }
 
+// A measurement that reads may see (not one of an unpublished import) by its id, ?1.
+const std::string kPublishedMeasurement =
+    fmt::format("SELECT 1 FROM measurements WHERE id = ?1 AND {}", detail::kPublished);
+
 void require_row(Connection& c, std::string_view sql, Id id, std::string_view what) {
   auto stmt = c.prepare(sql);
   stmt.bind(id);
@@ -90,8 +95,8 @@ void require_row(Connection& c, std::string_view sql, Id id, std::string_view wh
 constexpr std::string_view kMeasurementColumns =
     "session_id, kind, label, instrument_id, white_measurement_id, job_id, simulated, quality_code, quality, units, "
     "settings, reading_count, radiance, radiance_sd, reflectance, warnings, raw_reply, started_at, finished_at, "
-    "created_at";
-constexpr int kMeasurementColumnCount = 20;
+    "created_at, import_id";
+constexpr int kMeasurementColumnCount = 21;
 constexpr std::string_view kFitColumns =
     "site, model, parameters, assessment, rmse, max_abs_error, delta_e00_d65, iterations, converged, solver_summary, "
     "options, model_version, tables_digest, constants_digest, measured, fitted, samples_ignored, created_at";
@@ -102,14 +107,17 @@ std::optional<Blob> optional_blob(const SpectralSamples& spectrum, const std::st
   return Blob{bytes};
 }
 
-void bind_measurement(detail::Statement& insert, int first, const Measurement& m, Time now) {
+// `import_id`: the unpublished import it is staged in (staged_imports.hpp), if any.
+void bind_measurement(detail::Statement& insert, int first, const Measurement& m, Time now,
+                      std::optional<Id> import_id) {
   const auto radiance = detail::encode_spectrum(m.radiance);
   const auto radiance_sd = detail::encode_spectrum(m.radiance_sd);
   const auto reflectance = detail::encode_spectrum(m.reflectance);
   insert.bind_from(first, m.session_id, to_string(m.kind), m.label, m.instrument_id, m.white_measurement_id, m.job_id,
                    m.simulated, m.quality_code, m.quality, m.units, m.settings, m.reading_count, Blob{radiance},
                    optional_blob(m.radiance_sd, radiance_sd), optional_blob(m.reflectance, reflectance),
-                   detail::encode_text_list(m.warnings), Blob{m.raw_reply}, m.started_at, m.finished_at, now);
+                   detail::encode_text_list(m.warnings), Blob{m.raw_reply}, m.started_at, m.finished_at, now,
+                   import_id);
 }
 
 void bind_fit(detail::Statement& insert, int first, const Fit& f, Time now) {
@@ -268,12 +276,13 @@ struct Recorded {
 // the COMMIT goes with it. The statement writes only what the checks below allow: they read what
 // it found, and name what failed.
 Recorded record_by_one_statement(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
-                                 const std::optional<std::string>& result_head, bool last, Time now) {
+                                 const std::optional<std::string>& result_head, bool last, Time now,
+                                 std::optional<Id> import_id = {}) {
   check_measurement(m);
   if (fit) check_fit(*fit);
   using enum postgresql::RecordingColumn;
   auto row = c.prepare(recording_statement(fit.has_value(), result_head.has_value()));
-  bind_measurement(row, 1, m, now);
+  bind_measurement(row, 1, m, now, import_id);
   if (fit) bind_fit(row, kMeasurementColumnCount + 1, *fit, now);
   if (result_head) row.bind_at(kMeasurementColumnCount + (fit ? kFitColumnCount : 0) + 1, *result_head);
   if (last) row.send_with_commit();
@@ -297,17 +306,20 @@ Recorded record_by_one_statement(Connection& c, const Measurement& m, const std:
 
 // A measurement and its fit, inside the caller's transaction, after the checks every
 // measurement passes; `last`: the transaction's last statement.
+// `import_id`: the unpublished import it is staged in (staged_imports.hpp).
 RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
-                                               Time now, bool last = false) {
+                                               Time now, bool last = false, std::optional<Id> import_id = {}) {
   if (c.dialect() == detail::Dialect::postgresql)
-    return record_by_one_statement(c, m, fit, std::nullopt, last, now).ids;
+    return record_by_one_statement(c, m, fit, std::nullopt, last, now, import_id).ids;
   check_measurement(m);
   if (fit) check_fit(*fit);
   // What the checks need, in one query: the session's state, the white reading's kind (NULL
   // when there is none or it does not exist) and whether the instrument exists.
-  auto context = c.prepare(
-      "SELECT s.state, (SELECT kind FROM measurements WHERE id = ?2), (SELECT count(*) FROM instruments WHERE id = "
-      "?3) FROM sessions s WHERE s.id = ?1");
+  static const std::string context_sql = fmt::format(
+      "SELECT s.state, (SELECT kind FROM measurements WHERE id = ?2 AND {}), (SELECT count(*) FROM instruments "
+      "WHERE id = ?3) FROM sessions s WHERE s.id = ?1",
+      detail::kPublished);
+  auto context = c.prepare(context_sql);
   context.bind(m.session_id, m.white_measurement_id, m.instrument_id);
   if (!context.step()) fail(Kind::not_found, fmt::format("session {} does not exist", m.session_id));
   check_context(context, 0, m);
@@ -315,7 +327,7 @@ RecordedMeasurement insert_measurement_and_fit(Connection& c, const Measurement&
       fmt::format("INSERT INTO measurements ({}) VALUES ({}) RETURNING id", kMeasurementColumns,
                   detail::placeholders(1, kMeasurementColumnCount));
   auto insert = c.prepare(insert_sql);
-  bind_measurement(insert, 1, m, now);
+  bind_measurement(insert, 1, m, now, import_id);
   RecordedMeasurement ids;
   ids.measurement_id = returned_id(insert);
   if (fit) ids.fit_id = insert_fit(c, *fit, ids.measurement_id, now);
@@ -414,9 +426,9 @@ namespace {
 // A measurement stored on its own (not a job's, which complete_measurement_job stores), with its
 // fit, inside the caller's transaction.
 RecordedMeasurement insert_measurement_without_job(Connection& c, const Measurement& m, const std::optional<Fit>& fit,
-                                                   Time now, bool last = false) {
+                                                   Time now, bool last = false, std::optional<Id> import_id = {}) {
   if (m.job_id) invalid(fmt::format("the measurement of job {} is stored with the job's end", *m.job_id));
-  return insert_measurement_and_fit(c, m, fit, now, last);
+  return insert_measurement_and_fit(c, m, fit, now, last, import_id);
 }
 
 }  // namespace
@@ -428,13 +440,16 @@ Result<RecordedMeasurement> Store::record_measurement(const Measurement& m, cons
 
 namespace {
 
-// The measurements `next` gives, with the end of their job when there is one, inside the
-// caller's transaction.
+// The measurements `next` gives, inside the caller's transaction: with the end of their job
+// when there is one, or, staged in unpublished import `import_id`, without it (the import's
+// publication ends it).
 std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store::NextMeasurement& next,
-                                                     const std::optional<JobCompletion>& job, Time now) {
+                                                     const std::optional<JobCompletion>& job, Time now,
+                                                     std::optional<Id> import_id = {}) {
   std::vector<RecordedMeasurement> out;
   if (!job) {
-    while (const auto* row = next()) out.push_back(insert_measurement_without_job(c, row->first, row->second, now));
+    while (const auto* row = next())
+      out.push_back(insert_measurement_without_job(c, row->first, row->second, now, false, import_id));
     return out;
   }
   const auto running = job_in(c, job->job_id);
@@ -445,10 +460,129 @@ std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store:
     check_job_ended_by(job->job_id, running.state, running.session_id, m.session_id);
     Measurement of_job = m;
     of_job.job_id = job->job_id;
-    out.push_back(insert_measurement_and_fit(c, of_job, fit, now));
+    out.push_back(insert_measurement_and_fit(c, of_job, fit, now, false, import_id));
   }
-  change_job(c, running, {.state = JobState::succeeded, .result = job->result}, now);
+  if (!import_id) change_job(c, running, {.state = JobState::succeeded, .result = job->result}, now);
   return out;
+}
+
+using MeasurementRow = std::pair<Measurement, std::optional<Fit>>;
+
+// Rows of a batch handed over as `next` hands them, from the first again on each call: a write
+// tried again stores the same ones.
+std::vector<RecordedMeasurement> insert_batch(Connection& c, const std::vector<MeasurementRow>& batch,
+                                              const std::optional<JobCompletion>& job, Time now,
+                                              std::optional<Id> import_id = {}) {
+  std::size_t given = 0;
+  const Store::NextMeasurement next = [&]() { return given < batch.size() ? &batch[given++] : nullptr; };
+  return insert_measurements(c, next, job, now, import_id);
+}
+
+// Import `import_id`'s batches removed, a batch to a transaction, after it failed. A failure here
+// leaves the rest unseen, for its bench's next opening to remove.
+void remove_staged(Store::Impl& impl, Id import_id) {
+  for (;;) {
+    const auto gone = impl.write("removing an unpublished import", [&](Connection& c) {
+      return detail::remove_part_of_import(c, import_id, impl.options.import_batch);
+    });
+    if (!gone || *gone) return;
+  }
+}
+
+// Unpublished imports of this bench whose job has ended: ones whose removal after their failure
+// failed too (on a full disk it needs room of its own). Removed before another import is staged,
+// so that the room they hold is there for it, with no restart. An import without a job may be in
+// progress: left for the next opening.
+void remove_abandoned_imports(Store::Impl& impl) {
+  const auto abandoned = impl.read("finding abandoned imports", [&](Connection& c) {
+    return detail::all(
+        c,
+        "SELECT i.id FROM imports i JOIN jobs j ON j.id = i.job_id WHERE i.published_at IS NULL AND "
+        "i.bench = ?1 AND j.state <> 'running' ORDER BY i.id",
+        [](const detail::Statement& row) { return row.integer(0); }, impl.options.bench);
+  });
+  if (!abandoned) return;  // the import's own first write meets the same fault, and says so
+  for (const Id id : *abandoned) remove_staged(impl, id);
+}
+
+// Makes import `import_id` seen, with the end of its job when there is one, inside the caller's
+// transaction: each measurement's session was open when it was stored, and still is.
+void publish(Connection& c, Id import_id, const std::set<Id>& sessions, const std::optional<JobCompletion>& job,
+             Time now) {
+  for (const Id session : sessions) {
+    const auto state = session_state_of(c, session);
+    if (state != to_string(SessionState::open))
+      fail(Kind::conflict, fmt::format("session {} is {}, not open", session, state));
+  }
+  detail::publish_import(c, import_id, now);
+  if (!job) return;
+  const auto running = job_in(c, job->job_id);
+  require_running(job->job_id, running.state);
+  change_job(c, running, {.state = JobState::succeeded, .result = job->result}, now);
+}
+
+// The measurements of a file (staged_imports.hpp), on every engine: in one transaction when they
+// fit in a batch; otherwise each batch committed in an unpublished import as `next` gives it, the
+// writer held only while it is written (never while `next` fits the next spectra), then
+// published with the job's end. Whatever fails after the first batch (a store error, or `next`
+// throwing) removes what was staged before it leaves.
+Result<std::vector<RecordedMeasurement>> record_in_batches(Store::Impl& impl, const Store::NextMeasurement& next,
+                                                           const std::optional<JobCompletion>& job) {
+  const auto limit = static_cast<std::size_t>(impl.options.import_batch);
+  std::vector<MeasurementRow> batch;
+  // Whether the batch is full, so that `next` may give more.
+  const auto take_batch = [&] {
+    batch.clear();
+    while (batch.size() < limit) {
+      const auto* row = next();
+      if (!row) return false;
+      batch.push_back(*row);
+    }
+    return true;
+  };
+  const auto now = impl.now();
+  bool more = take_batch();
+  if (!more) {
+    return impl.write(fmt::format("recording {} measurements", batch.size()),
+                      [&](Connection& c) { return insert_batch(c, batch, job, now); });
+  }
+  remove_abandoned_imports(impl);
+  std::optional<Id> import_id;
+  const auto abandon = [&] {
+    if (import_id) remove_staged(impl, *import_id);
+  };
+  try {
+    std::vector<RecordedMeasurement> out;
+    std::set<Id> sessions;
+    while (!batch.empty()) {
+      using Written = std::pair<Id, std::vector<RecordedMeasurement>>;
+      auto written = impl.write(fmt::format("storing {} measurements of an import", batch.size()), [&](Connection& c) {
+        const Id id = import_id ? *import_id
+                                : detail::begin_import(c, job ? std::optional(job->job_id) : std::nullopt,
+                                                       impl.options.bench, now);
+        return Written{id, insert_batch(c, batch, job, now, id)};
+      });
+      if (!written) {
+        abandon();
+        return std::unexpected(written.error());
+      }
+      import_id = written->first;
+      out.insert(out.end(), written->second.begin(), written->second.end());
+      for (const auto& row : batch) sessions.insert(row.first.session_id);
+      if (!more) break;
+      more = take_batch();
+    }
+    auto published =
+        impl.write("publishing an import", [&](Connection& c) { publish(c, *import_id, sessions, job, impl.now()); });
+    if (!published) {
+      abandon();
+      return std::unexpected(published.error());
+    }
+    return out;
+  } catch (...) {
+    abandon();
+    throw;
+  }
 }
 
 }  // namespace
@@ -456,23 +590,14 @@ std::vector<RecordedMeasurement> insert_measurements(Connection& c, const Store:
 Result<std::vector<RecordedMeasurement>> Store::record_measurements(
     const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements,
     const std::optional<JobCompletion>& job) {
-  return impl_->write(fmt::format("recording {} measurements", measurements.size()), [&](Connection& c) {
-    std::size_t given = 0;  // from the start again if the write is tried again
-    const NextMeasurement next = [&]() { return given < measurements.size() ? &measurements[given++] : nullptr; };
-    return insert_measurements(c, next, job, impl_->now());
-  });
+  std::size_t given = 0;
+  return record_in_batches(
+      *impl_, [&]() { return given < measurements.size() ? &measurements[given++] : nullptr; }, job);
 }
 
 Result<std::vector<RecordedMeasurement>> Store::record_measurements_as_ready(const NextMeasurement& next,
                                                                              const std::optional<JobCompletion>& job) {
-  bool consumed = false;
-  const NextMeasurement taking = [&] {
-    consumed = true;
-    return next();
-  };
-  return impl_->write(
-      "recording measurements", [&](Connection& c) { return insert_measurements(c, taking, job, impl_->now()); },
-      &consumed);
+  return record_in_batches(*impl_, next, job);
 }
 
 Result<CompletedJob> Store::complete_measurement_job(Id job_id, const Measurement& m, const std::optional<Fit>& fit,
@@ -567,7 +692,7 @@ Result<Job> Store::complete_map_job(Id job_id, const Map& map, const MapData& an
 Result<Id> Store::add_fit(const Fit& fit) {
   return impl_->write(fmt::format("storing a fit of measurement {}", fit.measurement_id), [&](Connection& c) {
     check_fit(fit);
-    require_row(c, "SELECT 1 FROM measurements WHERE id = ?1", fit.measurement_id, "measurement");
+    require_row(c, kPublishedMeasurement, fit.measurement_id, "measurement");
     return insert_fit(c, fit, fit.measurement_id, impl_->now());
   });
 }
@@ -578,7 +703,7 @@ Result<std::vector<Id>> Store::add_fits(const std::vector<Fit>& fits) {
     const auto now = impl_->now();
     for (const auto& fit : fits) {
       check_fit(fit);
-      require_row(c, "SELECT 1 FROM measurements WHERE id = ?1", fit.measurement_id, "measurement");
+      require_row(c, kPublishedMeasurement, fit.measurement_id, "measurement");
       ids.push_back(insert_fit(c, fit, fit.measurement_id, now));
     }
     return ids;

@@ -42,7 +42,7 @@ class FullDiskTest : public ::testing::Test {
   void SetUp() override {
     if (::geteuid() != 0) GTEST_SKIP() << "mounting a tmpfs of its own needs root (CI runs as root)";
     const std::string script =
-        "mount -t tmpfs -o size=8m tmpfs \"$0\" && exec \"$1\" --db \"$0/lab.db\" --listen 127.0.0.1:0 "
+        "mount -t tmpfs -o size=16m tmpfs \"$0\" && exec \"$1\" --db \"$0/lab.db\" --listen 127.0.0.1:0 "
         "--log-level warn";
     daemon_ = std::make_unique<BackgroundProcess>(
         "/usr/bin/unshare", std::vector<std::string>{"-m", "--propagation", "private", "sh", "-c", script,

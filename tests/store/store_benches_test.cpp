@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <optional>
 #include <thread>
 
 #include "skinspec/store/store.hpp"
@@ -279,6 +280,31 @@ TEST_P(PostgresqlBenchesTest, OpeningRecoversOnlyItsOwnBenchsJobs) {
   Store b = open("bench-b");
   EXPECT_THAT(b.recovery().failed_jobs, ElementsAre(b_job));
   EXPECT_EQ(value_of(a.job(a_job)).state, JobState::queued);
+}
+
+// Bench A's program is importing a file, two batches of it committed and unpublished, when bench
+// B's program opens the database: an opening removes the unpublished imports of its own bench
+// only (those its program left when it died), and A's import is published whole.
+TEST_P(PostgresqlBenchesTest, OpeningLeavesAnotherBenchsImportInProgressAlone) {
+  OpenOptions options;
+  options.bench = "bench-a";
+  options.clock = clock_.function();
+  options.import_batch = 50;
+  Store a = value_of(Store::open(target_, options));
+  const Id session = value_of(a.create_session(sample_session(1)));
+  std::vector<std::pair<Measurement, std::optional<Fit>>> rows;
+  for (int i = 0; i < 200; ++i) rows.emplace_back(testing::sample_measurement(session, i), testing::sample_fit(i));
+  std::optional<Store> b;
+  std::size_t given = 0;
+  const auto stored = a.record_measurements_as_ready([&]() -> const std::pair<Measurement, std::optional<Fit>>* {
+    if (given == 120) b.emplace(open("bench-b"));
+    return given < rows.size() ? &rows[given++] : nullptr;
+  });
+  ASSERT_TRUE(stored) << stored.error().message;
+  EXPECT_EQ(stored->size(), 200u);
+  ASSERT_TRUE(b);
+  EXPECT_EQ(value_of(b->session_detail(session)).measurements.size(), 200u);
+  EXPECT_EQ(value_of(b->session_detail(session)).fits.size(), 200u);
 }
 
 TEST_P(PostgresqlBenchesTest, ABenchWhoseProgramStillHoldsItsLockIsNotRecoveredWhateverItsHeartbeat) {

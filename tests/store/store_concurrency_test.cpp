@@ -11,6 +11,7 @@
 #include <map>
 #include <random>
 #include <sstream>
+#include <string>
 #include <thread>
 
 #include "skinspec/store/store.hpp"
@@ -228,6 +229,53 @@ TEST_P(StoreCrashTest, AWriterKilledAtRandomMomentsLosesNothingItReported) {
       "SELECT count(*) FROM jobs WHERE state = 'failed' AND started_at IS NOT NULL");
   std::printf("kills mid-stream: %d of 100, of them while a job ran: %lld\n", kills_mid_stream, killed_while_running);
   EXPECT_GE(killed_while_running, 15);
+}
+
+// The rows of `table`, whether any read may see them or not.
+long long raw_count(const std::string& target, const std::string& table) {
+  return testing::raw_database(target)->integer("SELECT count(*) FROM " + table);
+}
+
+// A writer killed in the middle of an import, some of its batches committed and none published:
+// no read sees anything of it, and the next read-write opening of its bench removes its rows and
+// fails its job as interrupted. On PostgreSQL another bench's opening leaves them alone (that
+// bench's import might be in progress).
+TEST_P(StoreCrashTest, AWriterKilledMidImportLeavesNothingOfIt) {
+  testing::BackgroundProcess writer(SKINSPEC_TEST_BIN_DIR "/store_crash_writer", {target_, "import", "bench-a"});
+  ASSERT_TRUE(writer.started()) << writer.start_error();
+  ASSERT_TRUE(writer.wait_for_stdout_line("staged ", std::chrono::seconds(60))) << writer.err();
+  writer.send_signal(SIGKILL);
+  const auto ended = writer.wait(std::chrono::seconds(10));
+  ASSERT_EQ(ended.signal, SIGKILL) << ended.describe();
+  long long session = 0, job = 0;
+  ASSERT_EQ(std::sscanf(ended.out.substr(ended.out.find("staged ")).c_str(), "staged %lld %lld", &session, &job), 2);
+
+  // Four batches of 50 committed (store_crash_writer.cpp), unpublished.
+  EXPECT_EQ(raw_count(target_, "measurements"), 200);
+  EXPECT_EQ(raw_count(target_, "fits"), 200);
+  {
+    OpenOptions read_only;
+    read_only.mode = OpenMode::read_only;
+    read_only.check_integrity = false;
+    auto reader = value_of(Store::open(target_, read_only));
+    EXPECT_TRUE(value_of(reader.session_detail(session)).measurements.empty());
+    EXPECT_TRUE(value_of(reader.session_detail(session)).fits.empty());
+    EXPECT_EQ(value_of(reader.job(job)).state, JobState::running);
+  }
+  OpenOptions options;
+  if (GetParam() == Backend::postgresql) {
+    options.bench = "bench-b";
+    value_of(Store::open(target_, options));
+    EXPECT_EQ(raw_count(target_, "measurements"), 200) << "another bench's opening removed bench-a's import";
+  }
+  options.bench = "bench-a";
+  auto store = value_of(Store::open(target_, options));
+  EXPECT_THAT(store.recovery().failed_jobs, ::testing::ElementsAre(job));
+  EXPECT_EQ(value_of(store.job(job)).error->code, JobErrorCode::interrupted);
+  EXPECT_TRUE(value_of(store.session_detail(session)).measurements.empty());
+  EXPECT_EQ(raw_count(target_, "measurements"), 0);
+  EXPECT_EQ(raw_count(target_, "fits"), 0);
+  EXPECT_EQ(raw_count(target_, "imports"), 0);
 }
 
 }  // namespace

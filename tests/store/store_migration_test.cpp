@@ -135,7 +135,8 @@ const std::map<int, std::string> kRowsAtVersion = {
     {6, rows_with_benches(kVersion5Rows + kVersion4Job)},
     {7, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 7 changed nothing in a SQLite file
     {8, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 8 only admitted imported measurements
-    {9, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 9 added maps, 10 the audit trail: new tables
+    {9, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 9 added maps, none of which these rows hold
+    {10, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 10 added the audit trail, a new table
 };
 
 // What every version's rows must read back as under the current schema.

@@ -181,6 +181,7 @@ TEST(PostgresqlStoreTest, AVersion6DatabaseIsMigratedWithItsRows) {
   postgres_cluster().execute(db.name,
                              "ALTER TABLE measurements RESET (toast_tuple_target); ALTER TABLE fits RESET "
                              "(toast_tuple_target); DROP TABLE audit, map_pictures, map_data, maps; "
+                             "ALTER TABLE measurements DROP COLUMN import_id; DROP TABLE imports; "
                              "UPDATE skinspec_schema SET version = 6");
   ASSERT_EQ(tables_keeping_rows_whole(db.name), 0);
   auto store = value_of(Store::open(db.uri));
@@ -198,8 +199,10 @@ TEST(PostgresqlStoreTest, AVersion8DatabaseGetsMaps) {
     auto store = value_of(Store::open(db.uri));
     session = value_of(store.create_session(sample_session(1)));
   }
-  postgres_cluster().execute(db.name,
-                             "DROP TABLE audit, map_pictures, map_data, maps; UPDATE skinspec_schema SET version = 8");
+  postgres_cluster().execute(
+      db.name,
+      "DROP TABLE audit, map_pictures, map_data, maps; ALTER TABLE measurements DROP COLUMN import_id; "
+      "DROP TABLE imports; UPDATE skinspec_schema SET version = 8");
   auto store = value_of(Store::open(db.uri));
   EXPECT_EQ(store.schema_version(), current_schema_version());
   const Id map = testing::store_sample_map(store, session, "arm", testing::sample_map_bytes(1000, 8));

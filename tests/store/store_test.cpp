@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <future>
 #include <set>
 
 #include "skinspec/store/store.hpp"
@@ -749,6 +750,160 @@ TEST_P(SqliteStoreTest, TheLogStaysShortBehindAWriterThatNeverPauses) {
   }
   EXPECT_LT(longest, 24'000'000u) << "after " << written << " measurements";
   EXPECT_EQ(testing::sqlite_integer(path_, "SELECT count(*) FROM measurements"), written);
+}
+
+OpenOptions batches_of(int rows) {
+  OpenOptions options;
+  options.import_batch = rows;
+  return options;
+}
+
+using ImportRow = std::pair<Measurement, std::optional<Fit>>;
+
+// `count` sample measurements of `session`, each with its fit.
+std::vector<ImportRow> import_rows(Id session, int count) {
+  std::vector<ImportRow> rows;
+  for (int i = 0; i < count; ++i) rows.emplace_back(sample_measurement(session, i), sample_fit(i));
+  return rows;
+}
+
+// An import larger than a batch: the batches are committed as they come (on SQLite), yet no read
+// sees any of it, through this Store or another program's, until the whole of it is published
+// with its job's end; then all of it at once.
+TEST_P(StoreTest, AnImportIsSeenWholeWithItsJobsEndOrNotAtAll) {
+  auto store = open(batches_of(50));
+  OpenOptions read_only;
+  read_only.mode = OpenMode::read_only;
+  const Id session = value_of(store.create_session(sample_session(1)));
+  Job job;
+  job.kind = "import";
+  job.session_id = session;
+  const Id job_id = value_of(store.create_job(job)).job.id;
+  value_of(store.update_job(job_id, {.state = JobState::running}));
+  const auto rows = import_rows(session, 400);
+  std::size_t given = 0;
+  long long staged = 0;
+  const auto stored = value_of(store.record_measurements_as_ready(
+      [&]() -> const ImportRow* {
+        if (given == 300) {
+          EXPECT_TRUE(value_of(store.session_detail(session)).measurements.empty());
+          EXPECT_TRUE(value_of(store.session_detail(session)).fits.empty());
+          EXPECT_EQ(value_of(store.count_measurements_to_refit({.made_by = {"paper", "x", "y", "z"}})), 0);
+          EXPECT_EQ(value_of(store.job(job_id)).state, JobState::running);
+          const auto reader = value_of(Store::open(path_, read_only));
+          EXPECT_TRUE(value_of(reader.session_detail(session)).measurements.empty());
+          staged = raw().integer("SELECT count(*) FROM measurements");
+        }
+        return given < rows.size() ? &rows[given++] : nullptr;
+      },
+      JobCompletion{job_id, R"({"imported":400})"}));
+  ASSERT_EQ(stored.size(), 400u);
+  // Batches of 50 before the 300th row was asked for: committed, and passed over by every read.
+  EXPECT_GE(staged, 250);
+  EXPECT_EQ(value_of(store.measurement(stored[0].measurement_id)).label, rows[0].first.label);
+  const auto detail = value_of(store.session_detail(session));
+  EXPECT_EQ(detail.measurements.size(), 400u);
+  EXPECT_EQ(detail.fits.size(), 400u);
+  EXPECT_EQ(detail.measurements.back().job_id, job_id);
+  EXPECT_EQ(value_of(store.job(job_id)).state, JobState::succeeded);
+}
+
+// An import that fails after some of its batches were committed (its file refused part way, or
+// its session closed meanwhile) leaves nothing, seen or not, and its job running.
+TEST_P(StoreTest, AnImportThatFailsPartWayLeavesNothing) {
+  auto store = open(batches_of(50));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const auto rows = import_rows(session, 400);
+  std::size_t given = 0;
+  struct Refused {};
+  EXPECT_THROW((void)store.record_measurements_as_ready([&]() -> const ImportRow* {
+    if (given == 300) throw Refused{};
+    return &rows[given++];
+  }),
+               Refused);
+  // Other writes go on between an import's batches: a session closed meanwhile fails the import
+  // at its publication.
+  given = 0;
+  const auto closed = store.record_measurements_as_ready([&]() -> const ImportRow* {
+    if (given == 380) value_of(store.update_session(session, {.state = SessionState::complete}));
+    return given < rows.size() ? &rows[given++] : nullptr;
+  });
+  ASSERT_FALSE(closed);
+  EXPECT_EQ(closed.error().kind, Kind::conflict);
+  EXPECT_TRUE(value_of(store.session_detail(session)).measurements.empty());
+  EXPECT_EQ(raw().integer("SELECT count(*) FROM measurements"), 0);
+  EXPECT_EQ(raw().integer("SELECT count(*) FROM fits"), 0);
+  EXPECT_EQ(raw().integer("SELECT count(*) FROM imports"), 0);
+}
+
+// The Store's other writes (a bench's heartbeat, a new session) go on while an import waits for its
+// next spectra (fitted, for a file): the import holds the writer only while it writes a batch.
+// Here the import's source waits, two batches in, until the other writes are done or have waited
+// long; the import is then published whole.
+TEST_P(StoreTest, OtherWritesGoOnWhileAnImportWaitsForItsSpectra) {
+  auto store = open(batches_of(50));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const auto rows = import_rows(session, 400);
+  std::promise<void> waiting, released;
+  auto waiting_future = waiting.get_future();
+  auto released_future = released.get_future();
+  std::size_t given = 0;
+  auto import = std::async(std::launch::async, [&] {
+    return store.record_measurements_as_ready([&]() -> const ImportRow* {
+      if (given == 120) {
+        waiting.set_value();
+        released_future.wait();
+      }
+      return given < rows.size() ? &rows[given++] : nullptr;
+    });
+  });
+  waiting_future.wait();
+  auto others = std::async(std::launch::async, [&] {
+    Bench bench;
+    bench.host = "bench-pc";
+    const bool beaten = store.beat(bench).has_value();
+    return std::pair{beaten, value_of(store.create_session(sample_session(2)))};
+  });
+  const bool prompt = others.wait_for(std::chrono::seconds(10)) == std::future_status::ready;
+  const auto staged = raw().integer("SELECT count(*) FROM measurements");
+  released.set_value();
+  EXPECT_TRUE(prompt) << "the other writes waited for the import";
+  EXPECT_EQ(staged, 100) << "two batches committed, unseen";
+  const auto [beaten, second] = others.get();
+  EXPECT_TRUE(beaten);
+  EXPECT_EQ(value_of(store.session(second)).subject, sample_session(2).subject);
+  EXPECT_EQ(value_of(import.get()).size(), 400u);
+  EXPECT_EQ(value_of(store.session_detail(session)).measurements.size(), 400u);
+  EXPECT_EQ(value_of(store.session_detail(session)).fits.size(), 400u);
+}
+
+// An import of a thousand times the batch: the write-ahead log stays a small part of the file
+// while it is stored, where one transaction would spill the whole import into it (and more: its
+// pages again and again past the page cache), and the checkpoints could copy none of it back.
+TEST_P(SqliteStoreTest, ALargeImportKeepsTheLogShort) {
+  auto store = open(batches_of(32));
+  const Id session = value_of(store.create_session(sample_session(1)));
+  const std::string log = path_ + "-wal";
+  constexpr int kRows = 16000;
+  std::pair<Measurement, std::optional<Fit>> row;
+  int given = 0;
+  std::uintmax_t longest = 0, database = 0;
+  const auto stored = value_of(store.record_measurements_as_ready([&]() -> const decltype(row)* {
+    if (given % 500 == 0 && std::filesystem::exists(log)) {
+      longest = std::max(longest, std::filesystem::file_size(log));
+      database = std::filesystem::file_size(path_);
+    }
+    if (given == kRows) return nullptr;
+    row = {sample_measurement(session, given), sample_fit(given)};
+    ++given;
+    return &row;
+  }));
+  ASSERT_EQ(stored.size(), static_cast<std::size_t>(kRows));
+  longest = std::max(longest, std::filesystem::file_size(log));
+  database = std::max(database, std::filesystem::file_size(path_));
+  EXPECT_GT(database, 40'000'000u) << "the import is not larger than the log's bound";
+  EXPECT_LT(longest, database / 2) << "the log reached " << longest << " bytes beside " << database;
+  EXPECT_EQ(value_of(store.session_detail(session)).measurements.size(), static_cast<std::size_t>(kRows));
 }
 
 TEST_P(SqliteStoreTest, ReadOnlyOpeningNeedsAnExistingFile) {

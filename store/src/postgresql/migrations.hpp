@@ -13,6 +13,7 @@ extern const detail::MigrationStep kVersion7;
 extern const detail::MigrationStep kVersion8;
 extern const detail::MigrationStep kVersion9;
 extern const detail::MigrationStep kVersion10;
+extern const detail::MigrationStep kVersion11;
 
 // The version of the database `writer` is connected to; 0 for an empty one. Throws corrupt for
 // a database whose schema holds another application's tables.

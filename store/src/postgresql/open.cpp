@@ -55,7 +55,8 @@ void open_read_write(Store::Impl& impl, const Target& target, PgEngine& engine) 
   require_writable(writer, target, version);
   detail::migrate(writer, detail::latest_schema_version());
   impl.version = detail::latest_schema_version();
-  impl.recovery = detail::recover(writer, impl.options.recovery, {impl.options.bench}, impl.now());
+  impl.recovery =
+      detail::recover(writer, impl.options.recovery, {impl.options.bench}, impl.now(), impl.options.import_batch);
 }
 
 void open_read_only(Store::Impl& impl, PgEngine& engine) {

@@ -370,6 +370,25 @@ CREATE TABLE audit (
 )sql";
 constexpr detail::MigrationStep kVersion10{kVersion10Sql};
 
+// Imports in batches (docs/store.md, "Imports"): a large file's measurements are committed a
+// batch at a time, each naming its import, and stay unseen by every read until the import's row
+// is published; an import never published (its writer died) is removed when the file is next
+// opened. A published import's row is kept: its measurements still name it. `bench`: the bench
+// whose writer stored it, whose next opening removes it on PostgreSQL.
+constexpr std::string_view kVersion11Sql = R"sql(
+CREATE TABLE imports (
+  id           INTEGER PRIMARY KEY,
+  job_id       INTEGER REFERENCES jobs (id),
+  bench        TEXT NOT NULL,
+  started_at   INTEGER NOT NULL,
+  published_at INTEGER
+);
+CREATE INDEX imports_unpublished ON imports (id) WHERE published_at IS NULL;
+ALTER TABLE measurements ADD COLUMN import_id INTEGER REFERENCES imports (id);
+CREATE INDEX measurements_by_import ON measurements (import_id) WHERE import_id IS NOT NULL;
+)sql";
+constexpr detail::MigrationStep kVersion11{kVersion11Sql};
+
 int schema_version(detail::Connection& writer) { return static_cast<int>(writer.query_integer("PRAGMA user_version")); }
 
 void set_schema_version(detail::Connection& writer, int version) {

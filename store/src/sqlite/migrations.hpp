@@ -20,6 +20,7 @@ extern const detail::MigrationStep kVersion6;
 extern const detail::MigrationStep kVersion8;
 extern const detail::MigrationStep kVersion9;
 extern const detail::MigrationStep kVersion10;
+extern const detail::MigrationStep kVersion11;
 
 int schema_version(detail::Connection& writer);
 void set_schema_version(detail::Connection& writer, int version);

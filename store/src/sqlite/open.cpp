@@ -153,6 +153,10 @@ void configure_writer(Connection& writer, const OpenOptions& options) {
   if (mode != "wal") fail(Kind::io, fmt::format("cannot use write-ahead logging (journal mode stays '{}')", mode));
   writer.execute("PRAGMA synchronous = FULL");
   writer.execute("PRAGMA foreign_keys = ON");
+  // Room for a batch of an import (OpenOptions::import_batch, a few MB) and the indexes' pages it
+  // passes through, so that a transaction's pages are written to the log once, at its commit,
+  // and not spilled into it before (SQLite's default is 2 MB).
+  writer.execute("PRAGMA cache_size = -16384");
   if (options.max_pages > 0) writer.execute(fmt::format("PRAGMA max_page_count = {}", options.max_pages));
 }
 
@@ -179,7 +183,7 @@ void open_read_write(Store::Impl& impl, SqliteEngine& engine) {
   configure_writer(writer, impl.options);
   detail::migrate(writer, detail::latest_schema_version());
   impl.version = detail::latest_schema_version();
-  impl.recovery = detail::recover(writer, impl.options.recovery, {}, impl.now());
+  impl.recovery = detail::recover(writer, impl.options.recovery, {}, impl.now(), impl.options.import_batch);
   engine.start_checkpointer(impl.options.busy_timeout);
   engine.readers().configure(reader_opener(path, SQLITE_OPEN_READONLY, impl.options.busy_timeout),
                              impl.options.max_readers);

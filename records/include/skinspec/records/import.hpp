@@ -16,8 +16,12 @@
 // (and column).
 
 #include <cstddef>
+#include <cstdint>
 #include <expected>
+#include <functional>
+#include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -48,5 +52,34 @@ struct ImportedSpectrum {
 std::expected<std::vector<ImportedSpectrum>, InputError> read_import(std::string_view bytes, std::string_view source,
                                                                      ImportFormat format,
                                                                      ScaleRequest scale = ScaleRequest::automatic);
+
+// A file's bytes as an import reads them, a piece at a time: `read(offset, into)` fills `into`
+// from byte `offset` on and says how many bytes it gave (fewer than asked only at the end), or
+// why it cannot read.
+using ReadBytes = std::function<std::expected<std::size_t, std::string>(std::uint64_t offset, std::span<char> into)>;
+// Bytes held in memory, which must outlive the reading.
+ReadBytes bytes_in_memory(std::string_view bytes);
+// A file read as it is needed, never held whole; or why it cannot be opened.
+std::expected<ReadBytes, std::string> bytes_of_file(const std::string& path);
+
+// A file's spectra, checked first as read_import checks them, then handed over one at a time in
+// the file's order. A CSV file of one row per spectrum (the layout of large archives) is read a
+// piece at a time twice, to check it and then to hand its spectra over, and never held whole;
+// one of one column per spectrum, or a CGATS file, is read whole by read_import.
+class SpectrumStream {
+ public:
+  virtual ~SpectrumStream() = default;
+  virtual std::size_t size() const = 0;                       // how many spectra the file holds
+  virtual std::optional<ReflectanceScale> scale() const = 0;  // how the values are read (none: CGATS)
+  // The next spectrum, or nullopt after the last; or the defect that a file changed since it was
+  // checked has, or why it can no longer be read.
+  virtual std::expected<std::optional<ImportedSpectrum>, InputError> next() = 0;
+};
+
+// The file's spectra as a stream, or its first defect (as read_import says it, though a file
+// with several defects may be refused for another one).
+std::expected<std::unique_ptr<SpectrumStream>, InputError> stream_import(const ReadBytes& bytes,
+                                                                         std::string_view source, ImportFormat format,
+                                                                         ScaleRequest scale = ScaleRequest::automatic);
 
 }  // namespace skinspec::records

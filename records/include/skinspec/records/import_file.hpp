@@ -1,8 +1,10 @@
 #pragma once
-// One file of spectra imported into a session (docs/store.md, "Imports"): read (import.hpp),
-// each spectrum fitted with the session's model and site on every core, and all of them stored
-// with their fits in one transaction. A defect anywhere in the file, or a spectrum the fitter
-// refuses, refuses the whole file, naming its line; nothing of it is stored.
+// One file of spectra imported into a session (docs/store.md, "Imports"): checked whole, then
+// read (import.hpp, SpectrumStream), each spectrum fitted with the session's model and site on
+// every core, and stored with its fit as it is ready, all of them or none
+// (Store::record_measurements_as_ready). The import holds a bounded number of spectra whatever
+// the file's size. A defect anywhere in the file, or a spectrum the fitter refuses, refuses the
+// whole file, naming its line; nothing of it is stored.
 
 #include <cstddef>
 #include <functional>
@@ -33,8 +35,9 @@ struct ImportFailure {
 // Told how many of the file's spectra are fitted, of how many: once with none when the file has
 // been read, then as the fitting and the storing go (from any thread, one call at a time); once
 // all are fitted, every call tells fitted == total while the rest is stored. Returning false
-// stops the import: nothing of the file is stored. The store's writer may be held while it is
-// called, so it must not write to the store.
+// stops the import: nothing of the file is stored. It may write to the store: the import holds
+// the store's writer only while a batch of the file is written, and never waits for the observer
+// meanwhile.
 using ImportObserver = std::function<bool(std::size_t fitted, std::size_t total)>;
 
 struct ImportedFile {
@@ -47,6 +50,13 @@ struct ImportedFile {
 // (import_job_result). `scale` is how the file writes its values (read_import).
 std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
                                                        std::string_view bytes, std::string_view source,
+                                                       ImportFormat format, const ImportObserver& observer = {},
+                                                       std::optional<store::Id> job_id = std::nullopt,
+                                                       ScaleRequest scale = ScaleRequest::automatic);
+
+// The same, the file read a piece at a time (bytes_of_file: a file of any size).
+std::expected<ImportedFile, ImportFailure> import_file(store::Store& store, const Fitter& fitter, store::Id session_id,
+                                                       const ReadBytes& bytes, std::string_view source,
                                                        ImportFormat format, const ImportObserver& observer = {},
                                                        std::optional<store::Id> job_id = std::nullopt,
                                                        ScaleRequest scale = ScaleRequest::automatic);

@@ -59,6 +59,18 @@ struct ScaleConflict {
 // Why that spectrum refuses the file, naming it (quoted, printable).
 std::string describe_conflict(std::string_view spectrum_name);
 
+// decide_scale's rule over spectra given one at a time, for a file too large to hold whole.
+class ScaleTally {
+ public:
+  // Whether the spectrum stays at or below kPercentAbove throughout.
+  bool add(std::span<const double> spectrum);
+  std::expected<ScaleDecision, ScaleConflict> decide(ScaleRequest request) const;
+
+ private:
+  std::size_t spectra_ = 0, values_ = 0, above_ = 0;
+  std::optional<std::size_t> first_below_;  // the first spectrum with no value above kPercentAbove
+};
+
 // The scale of a file's values, one span per spectrum, for `request` (auto above).
 std::expected<ScaleDecision, ScaleConflict> decide_scale(ScaleRequest request,
                                                          std::span<const std::span<const double>> spectra);

@@ -62,6 +62,12 @@ struct OpenOptions {
   // Caps the database at this many pages (PRAGMA max_page_count, 4 KiB each); 0 = no cap.
   // Writes beyond it fail as `full`, like a full disk.
   std::int64_t max_pages = 0;
+  // How many measurements of a larger import (record_measurements and
+  // record_measurements_as_ready) are committed at a time, unseen by every read until the
+  // import is published (docs/store.md, "Imports"). The writer is held one batch at a time, and
+  // on SQLite the write-ahead log and the writer's memory stay bounded by it, whatever the file's
+  // size. At least 1.
+  int import_batch = 1024;
   // Where the store takes "now" from; the system clock when empty.
   std::function<Time()> clock;
 };
@@ -212,20 +218,23 @@ class Store {
   // ignored), in one transaction: both or neither. A measurement a job made (job_id set) is
   // refused here: it is stored with the job's end, by complete_measurement_job.
   Result<RecordedMeasurement> record_measurement(const Measurement& measurement, const std::optional<Fit>& fit);
-  // Several measurements, each with its fit when given, in one transaction: all of them or none
-  // (an imported file). Their ids in the order given. With `job`, the running job that made
-  // them ends `succeeded` in the same transaction and each measurement names it (job_id), so
-  // an import the service acknowledged is stored whole with its job's end, or not at all.
+  // Several measurements, each with its fit when given: all of them or none (an imported file).
+  // Their ids in the order given. With `job`, the running job that made them ends `succeeded`
+  // with them and each measurement names it (job_id), so an import the service acknowledged is
+  // stored whole with its job's end, or not at all. In one transaction when they fit in
+  // OpenOptions::import_batch, and otherwise a batch at a time, unseen by every read until one
+  // last small transaction publishes them with the job's end (docs/store.md, "Imports"): an
+  // import that fails, or whose writer dies, leaves nothing seen, and its batches are removed (by
+  // this call, or when this bench's writer next opens the database).
   Result<std::vector<RecordedMeasurement>> record_measurements(
       const std::vector<std::pair<Measurement, std::optional<Fit>>>& measurements,
       const std::optional<JobCompletion>& job = std::nullopt);
   // The same, the measurements handed over one at a time as they become ready (an import's, as
   // they are fitted): `next` gives the next one (valid until it is called again), or null when
-  // there are no more. Each is stored as it comes and the transaction commits after the last:
-  // all or none. `next` may end it by throwing; the exception leaves this call and nothing is
-  // stored. The writer is held from this call to the commit (so `next` must not write to the
-  // store); the transaction is tried a second time only when it failed before `next` was
-  // first called (a lost connection found at the first statement).
+  // there are no more. All or none, as above. `next` may end it by throwing; the exception
+  // leaves this call and nothing is stored. A batch is taken from `next` before the writer is,
+  // and the writer is held only while the batch is written: other writes (`next`'s too) go on
+  // while the spectra are fitted.
   using NextMeasurement = std::function<const std::pair<Measurement, std::optional<Fit>>*()>;
   Result<std::vector<RecordedMeasurement>> record_measurements_as_ready(
       const NextMeasurement& next, const std::optional<JobCompletion>& job = std::nullopt);
