@@ -1,9 +1,10 @@
-// HTTPS on a real skinspecd (--tls-cert, --tls-key) with curl as the client: certificates made
-// here with the openssl program, a throwaway CA's for 127.0.0.1 and an unrelated CA. curl trusting
-// the right CA gets answers and a job's Server-Sent Events; trusting the wrong one it fails
-// verification and gets nothing; plain HTTP or garbage on the port closes that connection and
-// nothing else; a client that never handshakes is held to the read timeout and gives way to a
-// newcomer like any idle connection; bad TLS settings stop skinspecd before it listens.
+// HTTPS on a real skinspecd (--tls-cert, --tls-key) with curl and skinspec as its clients, and
+// certificates made here with the openssl program: a throwaway CA's for 127.0.0.1 and an
+// unrelated CA. A client trusting the right CA (curl --cacert, skinspec --ca-file) gets answers
+// and a job's Server-Sent Events; trusting the wrong one it fails verification and gets nothing;
+// plain HTTP or garbage on the port closes that connection and nothing else; a client that never
+// handshakes is held to the read timeout and gives way to a newcomer like any idle connection;
+// bad TLS settings stop skinspecd before it listens.
 
 #include <gtest/gtest.h>
 
@@ -36,6 +37,7 @@ using nlohmann::json;
 using namespace std::chrono_literals;
 
 const std::string kDaemon = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspecd";
+const std::string kSkinspec = std::string(SKINSPEC_TEST_BIN_DIR) + "/skinspec";
 
 // curl's exit status when the server's certificate does not verify.
 constexpr int kCurlBadCertificate = 60;
@@ -226,6 +228,22 @@ TEST_F(TlsProcessTest, TheRightCaVerifiesTheWrongOneFailsAndPlainHttpIsTurnedAwa
   ASSERT_GE(seen.size(), 2u) << events.out;
   EXPECT_NE(seen.front()["state"], "succeeded") << events.out;
   EXPECT_EQ(seen.back()["state"], "succeeded") << events.out << rig.logs();
+
+  // skinspec over HTTPS: a measurement followed by its events; the wrong CA gets exit 4.
+  const auto skinspec = [&](const std::string& ca, std::vector<std::string> args) {
+    args.insert(args.end(), {"--server", https(p, ""), "--ca-file", ca});
+    return run_process(kSkinspec, args, {.stdin_bytes = {}, .timeout = 60s, .environment = {}});
+  };
+  const auto opened = skinspec(pki_.ca, {"session", "new", "--site", "forearm", "--json"});
+  ASSERT_EQ(opened.exit_status, 0) << opened.describe();
+  const std::string id = std::to_string(json::parse(opened.out)["id"].get<long long>());
+  const auto measured = skinspec(pki_.ca, {"session", "measure", id, "--kind", "white", "--count", "2", "--json"});
+  EXPECT_EQ(measured.exit_status, 0) << measured.describe();
+  const auto refused = skinspec(pki_.other_ca, {"session", "show", id});
+  EXPECT_EQ(refused.exit_status, 4) << refused.describe();
+  EXPECT_NE(refused.err.find("certificate verify failed"), std::string::npos) << refused.err;
+  const auto unreadable = skinspec(dir_.file("missing.pem"), {"session", "show", id});
+  EXPECT_EQ(unreadable.exit_status, 2) << unreadable.describe();
 }
 
 // The handshake has the time a request has: a client that connects and sends nothing, or half
