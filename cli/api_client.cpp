@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
+#include <fstream>
 #include <utility>
 
 #include "common.hpp"
@@ -55,12 +56,13 @@ std::pair<std::string, std::string> name_and_data(const std::string& event) {
 }  // namespace
 
 ServerUrl parse_server_url(const std::string& text) {
-  const std::string scheme = "http://";
   const auto bad = [&](const std::string& why) { return Failure{kBadInput, "--server " + quote(text) + ": " + why}; };
-  if (text.rfind(scheme, 0) != 0) throw bad("expected http://HOST[:PORT][/PREFIX]");
   ServerUrl url;
+  url.https = text.rfind("https://", 0) == 0;
+  if (!url.https && text.rfind("http://", 0) != 0) throw bad("expected http[s]://HOST[:PORT][/PREFIX]");
   url.text = text;
-  std::string rest = text.substr(scheme.size());
+  if (url.https) url.port = "443";
+  std::string rest = text.substr(url.https ? 8 : 7);
   if (const auto slash = rest.find('/'); slash != std::string::npos) {
     url.base = rest.substr(slash);
     rest.erase(slash);
@@ -78,11 +80,19 @@ ServerUrl parse_server_url(const std::string& text) {
   return url;
 }
 
+std::optional<client::Tls> ApiClient::tls() const {
+  if (!server_.https) return std::nullopt;
+  // A mistyped path is the user's, not the server's: OpenSSL would only say "asio.ssl error".
+  if (!ca_file_.empty() && !std::ifstream(ca_file_))
+    throw Failure{kBadInput, "--ca-file " + quote(ca_file_) + ": cannot read it"};
+  return client::Tls{ca_file_};
+}
+
 json ApiClient::request(const std::string& method, const std::string& target, const std::string& body,
                         const std::string& content_type) const {
   auto headers = headers_of(token_);
   if (!body.empty()) headers.emplace_back("Content-Type", content_type);
-  client::HttpConnection connection(server_.host, server_.port);
+  client::HttpConnection connection(server_.host, server_.port, {}, tls());
   const auto reply = connection.request(method, server_.base + target, body, headers);
   if (reply.status == 0) unreachable(server_, reply.error);
   if (reply.status < 200 || reply.status >= 300) refuse(reply);
@@ -101,7 +111,7 @@ json ApiClient::post_text(const std::string& target, const std::string& text, co
 
 void ApiClient::follow_events(const std::string& target,
                               const std::function<void(const std::string&, const std::string&)>& on_event) const {
-  client::HttpConnection connection(server_.host, server_.port);
+  client::HttpConnection connection(server_.host, server_.port, {}, tls());
   const auto reply = connection.follow_events(
       server_.base + target,
       [&](const std::string& event) {

@@ -4,9 +4,12 @@
 // as they come. A server that cannot be reached ends the command with kUnreachable.
 
 #include <functional>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
+
+#include "skinspec/client/http_client.hpp"
 
 namespace skinspec::cli {
 
@@ -15,14 +18,18 @@ struct ServerUrl {
   std::string port = "80";
   std::string base;  // a path prefix without the trailing slash, often empty
   std::string text;  // as given, for messages
+  bool https = false;
 };
 
-// "http://HOST[:PORT][/PREFIX]"; Failure kBadInput otherwise.
+// "http://HOST[:PORT][/PREFIX]" or "https://..."; Failure kBadInput otherwise.
 ServerUrl parse_server_url(const std::string& text);
 
 class ApiClient {
  public:
-  ApiClient(ServerUrl server, std::string token) : server_(std::move(server)), token_(std::move(token)) {}
+  // `ca_file`: for an https:// server, the PEM file of the CA its certificate must chain to
+  // (empty: the system's CAs).
+  ApiClient(ServerUrl server, std::string token, std::string ca_file = {})
+      : server_(std::move(server)), token_(std::move(token)), ca_file_(std::move(ca_file)) {}
 
   // The body as JSON when the status is 2xx; Failure kBadInput with the server's message for
   // a 4xx, kFailure for anything else.
@@ -39,8 +46,10 @@ class ApiClient {
  private:
   nlohmann::json request(const std::string& method, const std::string& target, const std::string& body,
                          const std::string& content_type) const;
+  std::optional<client::Tls> tls() const;
   ServerUrl server_;
   std::string token_;
+  std::string ca_file_;
 };
 
 // The token for --token-file FILE (a file holding the token alone, or the service's old

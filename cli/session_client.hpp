@@ -12,12 +12,13 @@ namespace skinspec::cli {
 struct ServerArgs {
   std::string server = "http://127.0.0.1:8650";
   std::string token_file;
+  std::string ca_file;  // for https://
   bool json = false;
 
-  ApiClient client() const { return ApiClient(parse_server_url(server), resolve_token(token_file)); }
+  ApiClient client() const { return ApiClient(parse_server_url(server), resolve_token(token_file), ca_file); }
 };
 
-// Registers --server, --token-file and --json on `command`.
+// Registers --server, --token-file, --ca-file and --json on `command`.
 void add_server_options(CLI::App& command, ServerArgs& args);
 
 // skinspec session measure: queues a measurement and follows it to its result.

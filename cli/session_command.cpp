@@ -129,7 +129,9 @@ void run_list(const ServerArgs& server, const ListArgs& args) {
 }  // namespace
 
 void add_server_options(CLI::App& command, ServerArgs& args) {
-  command.add_option("--server", args.server, "skinspecd's URL")->capture_default_str();
+  command.add_option("--server", args.server, "skinspecd's URL: http:// or https://")->capture_default_str();
+  command.add_option("--ca-file", args.ca_file,
+                     "PEM file of the CA an https:// server's certificate must chain to (else the system's CAs)");
   command.add_option("--token-file", args.token_file,
                      "a file holding the bearer token, or skinspecd's old two-token file (else $SKINSPEC_TOKEN)");
   command.add_flag("--json", args.json, "print the server's JSON instead of text");

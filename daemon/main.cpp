@@ -27,6 +27,14 @@ int serve(const skinspec::daemon::Options& o) {
   using namespace skinspec;
   const auto listen = daemon::parse_listen(o.listen);
   if (!listen) return spdlog::error("event=bad_option message=\"{}\"", listen.error()), 2;
+  const auto tls_files = daemon::tls_files(o);
+  if (!tls_files) return spdlog::error("event=bad_option message=\"{}\"", tls_files.error()), 2;
+  std::shared_ptr<boost::asio::ssl::context> tls;
+  if (*tls_files) {
+    auto context = api::make_tls_context(**tls_files);
+    if (!context) return spdlog::error("event=bad_tls message=\"{}\"", context.error()), 2;
+    tls = std::move(*context);
+  }
   const auto model = drivers::ModelChoice::parse(o.model);
   if (!model) return spdlog::error("event=bad_option message=\"--model: {}\"", model.error()), 2;
   api::RouterContext context;
@@ -44,6 +52,10 @@ int serve(const skinspec::daemon::Options& o) {
                   listen->first);
     return 2;
   }
+  // Off loopback a bearer token crosses the network: without TLS anyone on the path can read it.
+  if (!tls && !daemon::is_loopback(listen->first))
+    spdlog::warn("event=plain_http address={} message=\"tokens travel unencrypted: give --tls-cert and --tls-key\"",
+                 listen->first);
 
   const std::string bench = o.bench.empty() ? daemon::host_name() : o.bench;
   if (!daemon::valid_bench_name(bench))
@@ -115,6 +127,7 @@ int serve(const skinspec::daemon::Options& o) {
   options.read_timeout = std::chrono::milliseconds(o.read_timeout_ms);
   options.io_threads = o.io_threads;
   options.worker_threads = o.threads;
+  options.tls = tls;
   api::Server server(router, options);
   if (auto ok = server.listen(); !ok) return spdlog::error("event=listen_failed message=\"{}\"", ok.error()), 1;
   if (const auto limits = server.limits(); limits.max_connections < o.max_connections)
@@ -153,11 +166,12 @@ int serve(const skinspec::daemon::Options& o) {
     });
   };
   await_hangup();
-  spdlog::info("event=listening address={} port={} db=\"{}\" auth={} tokens={} version={}", options.address,
-               server.port(), store::display_target(o.db), tokens ? "tokens" : "none", tokens ? tokens->size() : 0,
-               skinspec::kVersion);
+  const char* scheme = tls ? "https" : "http";
+  spdlog::info("event=listening scheme={} address={} port={} db=\"{}\" auth={} tokens={} version={}", scheme,
+               options.address, server.port(), store::display_target(o.db), tokens ? "tokens" : "none",
+               tokens ? tokens->size() : 0, skinspec::kVersion);
   // For people and for programs waiting for the service to come up.
-  std::cout << "skinspecd listening on http://"
+  std::cout << "skinspecd listening on " << scheme << "://"
             << (options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address) << ':'
             << server.port() << std::endl;
   server.run();
@@ -210,6 +224,10 @@ int main(int argc, char** argv) {
   app.add_option("--token-file", o.token_file,
                  "0600 JSON file of named tokens' hashes (skinspec token new), or with read_token and operator_token; "
                  "read again on SIGHUP; required off loopback");
+  app.add_option("--tls-cert", o.tls_cert,
+                 "PEM certificate (then any intermediates) to serve HTTPS with; needs --tls-key. What makes tokens "
+                 "safe to send off loopback");
+  app.add_option("--tls-key", o.tls_key, "PEM private key of --tls-cert, unencrypted");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical or off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
       ->capture_default_str();

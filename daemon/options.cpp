@@ -25,6 +25,8 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
       else if (key == "device") o.device = v.get<std::string>();
       else if (key == "model") o.model = v.get<std::string>();
       else if (key == "token_file") o.token_file = v.get<std::string>();
+      else if (key == "tls_cert") o.tls_cert = v.get<std::string>();
+      else if (key == "tls_key") o.tls_key = v.get<std::string>();
       else if (key == "bench") o.bench = v.get<std::string>();
       else if (key == "data_dir") o.data_dir = v.get<std::string>();
       else if (key == "work_dir") o.work_dir = v.get<std::string>();
@@ -55,6 +57,13 @@ std::expected<void, std::string> apply_config_json(const std::string& text, Opti
     if (value < 1 || value > 64)
       return std::unexpected(std::string("config: ") + key + " " + std::to_string(value) + " is not 1-64");
   return {};
+}
+
+std::expected<std::optional<api::TlsFiles>, std::string> tls_files(const Options& o) {
+  if (o.tls_cert.empty() && o.tls_key.empty()) return std::nullopt;
+  if (o.tls_key.empty()) return std::unexpected("--tls-cert needs --tls-key, the certificate's private key");
+  if (o.tls_cert.empty()) return std::unexpected("--tls-key needs --tls-cert, the key's certificate");
+  return api::TlsFiles{o.tls_cert, o.tls_key};
 }
 
 std::expected<std::pair<std::string, unsigned short>, std::string> parse_listen(const std::string& text) {

@@ -4,10 +4,12 @@
 
 #include <expected>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "skinspec/api/router.hpp"
 #include "skinspec/api/server.hpp"
+#include "skinspec/api/tls.hpp"
 #include "measure_policy.hpp"
 
 namespace skinspec::daemon {
@@ -18,6 +20,9 @@ struct Options {
   std::string device;          // serial:, tcp:, usb: URI or "auto"; empty: no instrument
   std::string model = "auto";  // the meter's model (a profile id), or auto: found out when connecting
   std::string token_file;
+  // HTTPS: the server's PEM certificate (chain) and its private key; both or neither.
+  std::string tls_cert;
+  std::string tls_key;
   // Skin maps: the directory whose cubes POST /api/v1/maps may name (empty: uploads only), and
   // where map jobs work (empty: the system's temporary directory).
   std::string data_dir;
@@ -49,6 +54,10 @@ struct Options {
 // a wrong type or an unknown key.
 std::expected<void, std::string> apply_config_json(const std::string& text, Options& options,
                                                    const std::function<bool(const std::string&)>& given);
+
+// The TLS files when both --tls-cert and --tls-key are given, nothing when neither is; an
+// explanation naming the missing one otherwise.
+std::expected<std::optional<api::TlsFiles>, std::string> tls_files(const Options& options);
 
 // "host:port" → address and port.
 std::expected<std::pair<std::string, unsigned short>, std::string> parse_listen(const std::string& text);

@@ -6,6 +6,7 @@
 #include <string_view>
 
 #include <boost/asio/error.hpp>
+#include <boost/asio/ssl/error.hpp>
 #include <boost/beast/core/error.hpp>
 #include <boost/beast/core/string.hpp>
 #include <boost/beast/http/error.hpp>
@@ -37,6 +38,12 @@ Reply with_body(const Response& response, unsigned version, bool keep_alive) {
   return reply;
 }
 
+// Over HTTPS: the client closed without a close_notify, or sent what is not TLS. Nothing can be
+// answered on such a connection.
+bool tls_broken(const beast::error_code& ec) {
+  return ec == boost::asio::ssl::error::stream_truncated || ec.category() == boost::asio::error::get_ssl_category();
+}
+
 }  // namespace
 
 void prepare_parser(RequestParser& parser, const RequestLimits& limits) {
@@ -62,7 +69,7 @@ std::optional<ApiError> check_framing(const http::request_header<>& header) {
 bool client_gone(const beast::error_code& ec) {
   return ec == http::error::end_of_stream || ec == beast::error::timeout ||
          ec == boost::asio::error::operation_aborted || ec == boost::asio::error::connection_reset ||
-         ec == boost::asio::error::eof;
+         ec == boost::asio::error::eof || tls_broken(ec);
 }
 
 ApiError read_failure(const beast::error_code& ec, const RequestLimits& limits) {

@@ -37,7 +37,8 @@ void prepare_parser(RequestParser& parser, const RequestLimits& limits);
 // could let a body be read as a second request.
 std::optional<ApiError> check_framing(const http::request_header<>& header);
 
-// Whether a read ended because the client went away or took too long: nothing to answer.
+// Whether a read ended because the client went away or took too long, or its TLS broke:
+// nothing to answer.
 bool client_gone(const boost::beast::error_code& ec);
 // The answer to a request that could not be read (too large, malformed); the connection is
 // closed after it.

@@ -43,7 +43,7 @@ void admit(const std::shared_ptr<Server::State>& state, tcp::socket socket, std:
     const ConnectionTable::Id id = ++state->last_id;
     admission = state->connections->admit(id, client);
     if (admission.refusal == ConnectionTable::Refusal::none) {
-      session = std::make_shared<detail::Session>(std::move(socket), state, id);
+      session = detail::make_session(std::move(socket), state, id);
       state->sessions.emplace(id, session);
     }
     if (admission.evicted) {

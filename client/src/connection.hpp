@@ -2,6 +2,7 @@
 // What the client's files share behind its header: Beast, and a connection's state.
 
 #include <algorithm>
+#include <optional>
 #include <string>
 
 // GCC 12 with the sanitizers sees Beast's parser return an uninitialised boost::optional where
@@ -12,6 +13,7 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
+#include <boost/beast/ssl/ssl_stream.hpp>
 #pragma GCC diagnostic pop
 
 #include "skinspec/client/http_client.hpp"
@@ -27,6 +29,9 @@ using Clock = std::chrono::steady_clock;
 struct HttpConnection::Impl {
   asio::io_context ioc;
   beast::tcp_stream stream{ioc};
+  // HTTPS: the context, then TLS over `stream`, which keeps its timeouts.
+  std::optional<asio::ssl::context> tls_context;
+  std::optional<beast::ssl_stream<beast::tcp_stream&>> tls;
   beast::flat_buffer buffer;
   std::string host;
   Timeouts timeouts;
@@ -35,6 +40,14 @@ struct HttpConnection::Impl {
 
   // The next reads and writes on the stream may take up to `wait`, and not past the deadline.
   void arm(std::chrono::milliseconds wait) { stream.expires_at(std::min(Clock::now() + wait, deadline)); }
+  // `io(stream)` on the stream requests go over: TLS when there is TLS, else plain TCP.
+  template <class Io>
+  void on_stream(Io&& io) {
+    if (tls) io(*tls);
+    else io(stream);
+  }
+  // After connecting: the handshake, checking the server's certificate; why it failed, or "".
+  std::string start_tls(const Tls& options);
   // Sends a request and reads its answer into `parser`, or only the answer's head; the reply's
   // status and headers, or the error that stopped it (the body is left in `parser`).
   HttpReply exchange(const std::string& method, const std::string& target, const std::string& body,

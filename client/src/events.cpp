@@ -48,7 +48,7 @@ std::string read_events(HttpConnection::Impl& connection, http::response_parser<
   beast::error_code ec;
   while (!parser.is_done() && !events.hung_up()) {
     connection.arm(connection.timeouts.silence);
-    http::read_some(connection.stream, connection.buffer, parser, ec);
+    connection.on_stream([&](auto& s) { http::read_some(s, connection.buffer, parser, ec); });
     if (ec && !events.hung_up()) return "read: " + ec.message();
   }
   // A server that does not chunk the stream leaves it all in the body.
@@ -69,7 +69,7 @@ HttpReply HttpConnection::follow_events(const std::string& target, const EventHa
   if (!reply.error.empty()) return reply;
   beast::error_code ec;
   if (reply.status != 200) {
-    http::read(impl_->stream, impl_->buffer, parser, ec);
+    impl_->on_stream([&](auto& s) { http::read(s, impl_->buffer, parser, ec); });
     reply.body = parser.get().body();
   } else {
     reply.error = read_events(*impl_, parser, on_event);

@@ -72,7 +72,8 @@ void AcquisitionRig::start_daemon(const std::vector<std::string>& extra_args) {
   ProcessOptions process;
   process.environment = options_.daemon_environment;
   daemon = std::make_unique<BackgroundProcess>(options_.bin_dir + "/skinspecd", args, process);
-  port = port_of(daemon->wait_for_stdout_line("skinspecd listening on http://127.0.0.1:", 30s));
+  // http:// or https://, as the daemon_args have it.
+  port = port_of(daemon->wait_for_stdout_line("skinspecd listening on http", 30s));
 }
 
 ProcessResult AcquisitionRig::stop_daemon(int signal) {

@@ -7,7 +7,7 @@
 // streamed in chunks, pulled on a thread per stream, until the source ends, the client hangs
 // up or the server stops. Connections are shared out fairly (docs/api.md, "Connections"): each
 // client address may hold a number of them, and a newcomer over a limit takes the place of the
-// connection idle longest.
+// connection idle longest. With a TLS context every connection is HTTPS (tls.hpp).
 
 #include <chrono>
 #include <cstddef>
@@ -20,6 +20,7 @@
 #include <boost/asio/io_context.hpp>
 
 #include "skinspec/api/router.hpp"
+#include "skinspec/api/tls.hpp"
 
 namespace skinspec::api {
 
@@ -51,6 +52,9 @@ struct ServerOptions {
   // a 503 with Retry-After.
   std::size_t compute_threads = 2;
   std::size_t compute_queue = 8;
+  // Set (make_tls_context): every connection is HTTPS, its handshake held to read_timeout like
+  // a request. Null: plain HTTP.
+  std::shared_ptr<boost::asio::ssl::context> tls;
 };
 
 // The connection limits in force, after listen().

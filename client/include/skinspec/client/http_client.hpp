@@ -1,5 +1,5 @@
 #pragma once
-// The HTTP/1.1 client of skinspecd, synchronous: requests with any method, headers and bytes
+// The HTTP/1.1 client of skinspecd, over plain TCP or TLS, synchronous: requests with any method, headers and bytes
 // as body, on a connection kept alive for as many as the caller sends; a stream of Server-Sent
 // Events read as it comes; and the responses in bytes read off a socket. A failure is an
 // answer, not an exception: status 0, and `error` saying which step failed and why.
@@ -8,6 +8,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -37,14 +38,22 @@ struct Timeouts {
   std::chrono::milliseconds silence = std::chrono::seconds(60);
 };
 
+// HTTPS: the server's certificate must chain to a CA of `ca_file` (PEM; empty: the system's
+// CAs) and name the host connected to.
+struct Tls {
+  std::string ca_file;
+};
+
 // An event's text: its lines, without the blank line that ends it (keep-alive comments too).
 // Returning false hangs up.
 using EventHandler = std::function<bool(const std::string& text)>;
 
 class HttpConnection {
  public:
-  // Resolves `host` and connects; a failure is kept, and is the answer to every request.
-  HttpConnection(const std::string& host, const std::string& port, Timeouts timeouts = {});
+  // Resolves `host`, connects, and with `tls` completes a TLS handshake checking the server's
+  // certificate; a failure is kept, and is the answer to every request.
+  HttpConnection(const std::string& host, const std::string& port, Timeouts timeouts = {},
+                 const std::optional<Tls>& tls = std::nullopt);
   // To 127.0.0.1, where a test's service listens.
   explicit HttpConnection(unsigned short port, Timeouts timeouts = {});
   ~HttpConnection();

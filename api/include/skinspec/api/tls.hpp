@@ -1,0 +1,25 @@
+#pragma once
+// HTTPS for the server: the certificate and private key it presents, loaded and checked before
+// it listens, so that a wrong file stops the service at its start rather than failing every
+// handshake later. TLS 1.2 is the oldest version offered; the ciphers are OpenSSL's defaults.
+
+#include <expected>
+#include <memory>
+#include <string>
+
+namespace boost::asio::ssl {
+class context;
+}
+
+namespace skinspec::api {
+
+struct TlsFiles {
+  std::string certificate;  // PEM: the server's certificate, then any intermediate ones
+  std::string private_key;  // PEM, unencrypted
+};
+
+// The server side of TLS with `files`; an explanation naming the file at fault when one cannot
+// be read, holds no certificate or key, or the key is not the certificate's.
+std::expected<std::shared_ptr<boost::asio::ssl::context>, std::string> make_tls_context(const TlsFiles& files);
+
+}  // namespace skinspec::api
