@@ -3,6 +3,9 @@
 // own, for the process tests of benches and of the database server's faults.
 
 #include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <stdexcept>
 #include <functional>
 #include <memory>
 #include <string>
@@ -49,6 +52,18 @@ inline bool eventually(const std::function<bool()>& holds, std::chrono::millisec
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return holds();
+}
+
+// An API time, "2026-12-02T16:10:09.355436Z".
+inline std::chrono::system_clock::time_point time_of(const std::string& text) {
+  std::tm parts{};
+  int micros = 0;
+  if (std::sscanf(text.c_str(), "%d-%d-%dT%d:%d:%d.%dZ", &parts.tm_year, &parts.tm_mon, &parts.tm_mday, &parts.tm_hour,
+                  &parts.tm_min, &parts.tm_sec, &micros) != 7)
+    throw std::runtime_error("not an API time: " + text);
+  parts.tm_year -= 1900;
+  parts.tm_mon -= 1;
+  return std::chrono::system_clock::from_time_t(timegm(&parts)) + std::chrono::microseconds(micros);
 }
 
 }  // namespace skinspec::testing

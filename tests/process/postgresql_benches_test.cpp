@@ -2,8 +2,7 @@
 // list every session; a job for bench A's session posted through bench B's daemon runs on A's
 // meter, and its progress is followed through B; a daemon killed mid-job has its job
 // interrupted by the other, which goes on serving and refuses jobs for the dead bench with 409
-// bench_not_running; and benches whose machines' clocks disagree by ten minutes judge each other
-// by the database server's (docs/store.md, "Benches").
+// bench_not_running (docs/store.md, "Benches").
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -48,24 +47,6 @@ std::vector<json> job_events(unsigned short port, long long id) {
       120s);
   EXPECT_EQ(reply.status, 200) << reply.body;
   return events;
-}
-
-// An API time, "2026-12-02T16:10:09.355436Z".
-std::chrono::system_clock::time_point time_of(const std::string& text) {
-  std::tm parts{};
-  int micros = 0;
-  if (std::sscanf(text.c_str(), "%d-%d-%dT%d:%d:%d.%dZ", &parts.tm_year, &parts.tm_mon, &parts.tm_mday, &parts.tm_hour,
-                  &parts.tm_min, &parts.tm_sec, &micros) != 7)
-    throw std::runtime_error("not an API time: " + text);
-  parts.tm_year -= 1900;
-  parts.tm_mon -= 1;
-  return std::chrono::system_clock::from_time_t(timegm(&parts)) + std::chrono::microseconds(micros);
-}
-
-// A daemon's environment that moves its wall clock by `offset` ("+5m") through libfaketime, and
-// leaves its steady clock, by which it times its heartbeats and timeouts, alone.
-std::vector<std::string> clock_moved(const std::string& offset) {
-  return {"LD_PRELOAD=" SKINSPEC_TEST_LIBFAKETIME, "FAKETIME=" + offset, "FAKETIME_DONT_FAKE_MONOTONIC=1"};
 }
 
 TEST(PostgresqlBenchesTest, TwoBenchesSeeEverySessionAndAJobPostedThroughTheOtherRunsOnItsOwnBench) {
@@ -169,56 +150,6 @@ TEST(PostgresqlBenchesTest, ABenchKilledMidJobHasItsJobInterruptedByTheOtherWhic
   // B goes on measuring on its own bench.
   const long long on_b = new_session(b.port(), "B2");
   EXPECT_EQ(wait_for_job(b.port(), submit(b.port(), on_b, {{"kind", "white"}}))["state"], "succeeded");
-}
-
-// Bench A's machine is 5 minutes behind, bench B's 5 minutes ahead. By their own clocks each
-// would find the other's heartbeats 10 minutes off: B would take A, alive, for silent and refuse
-// its jobs, and A would take B's heartbeats for fresh for 10 minutes after B died. Judged by the
-// server's clock, neither happens.
-TEST(PostgresqlBenchesTest, BenchesWhoseClocksDisagreeByTenMinutesJudgeEachOtherByTheServersClock) {
-  const auto uri = postgres_cluster().uri(postgres_cluster().create_database());
-  Bench a(uri, "bench-a", "0.05", {"--lease", "2"}, clock_moved("-5m"));
-  ASSERT_TRUE(a.rig->ready()) << a.rig->logs();
-  Bench b(uri, "bench-b", "0.05", {"--lease", "2"}, clock_moved("+5m"));
-  ASSERT_TRUE(b.rig->ready()) << b.rig->logs();
-  // The clocks are moved: each bench's start is written by its own.
-  const auto started = [&](const std::string& name) {
-    return time_of(bench_named(a.port(), name)["started_at"].get<std::string>());
-  };
-  EXPECT_GT(started("bench-b") - started("bench-a"), 9min) << get_json(a.port(), "/api/v1/benches");
-
-  // Both running to both, through heartbeats over more than twice the lease.
-  for (const auto until = std::chrono::steady_clock::now() + 5s; std::chrono::steady_clock::now() < until;) {
-    for (const auto port : {a.port(), b.port()})
-      for (const auto* name : {"bench-a", "bench-b"})
-        ASSERT_EQ(bench_named(port, name)["state"], "running")
-            << name << " through " << port << ": " << get_json(port, "/api/v1/benches");
-    std::this_thread::sleep_for(250ms);
-  }
-  // Each runs the jobs posted through the other.
-  const long long on_a = new_session(a.port(), "A4");
-  const long long on_b = new_session(b.port(), "B4");
-  const auto white_on_a = submit(b.port(), on_a, {{"kind", "white"}});
-  ASSERT_TRUE(white_on_a["id"].is_number_integer()) << white_on_a << b.rig->logs();
-  EXPECT_EQ(wait_for_job(a.port(), white_on_a)["state"], "succeeded") << a.rig->logs();
-  const auto white_on_b = submit(a.port(), on_b, {{"kind", "white"}});
-  ASSERT_TRUE(white_on_b["id"].is_number_integer()) << white_on_b << a.rig->logs();
-  EXPECT_EQ(wait_for_job(b.port(), white_on_b)["state"], "succeeded") << b.rig->logs();
-
-  // B, ahead, dies mid-job; A, behind, finds it within seconds, not ten minutes.
-  const auto running = submit(b.port(), on_b, {{"kind", "sample"}, {"count", 20}});
-  const auto path = "/api/v1/jobs/" + running["id"].dump();
-  ASSERT_TRUE(eventually([&] { return get_json(a.port(), path)["state"] == "running"; }, 20s)) << b.rig->logs();
-  b.rig->stop_daemon(SIGKILL);
-  const auto ended = [&] {
-    const auto state = get_json(a.port(), path)["state"];
-    return state != "queued" && state != "running";
-  };
-  ASSERT_TRUE(eventually(ended, 30s)) << get_json(a.port(), path) << a.rig->logs();
-  const auto job = get_json(a.port(), path);
-  EXPECT_EQ(job["state"], "failed") << job;
-  EXPECT_EQ(job["error"]["code"], "interrupted") << job;
-  EXPECT_EQ(bench_named(a.port(), "bench-b")["state"], "silent") << get_json(a.port(), "/api/v1/benches");
 }
 
 }  // namespace
