@@ -8,6 +8,7 @@
 
 #include <thread>
 
+#include "each_backend.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/testkit/postgres_cluster.hpp"
 #include "skinspec/testkit/raw_database.hpp"
@@ -41,12 +42,8 @@ class StoreAuditTest : public ::testing::TestWithParam<Backend> {
   std::unique_ptr<testing::RawDatabase> raw_;
 };
 
-std::string backend_name(const ::testing::TestParamInfo<Backend>& info) {
-  return info.param == Backend::sqlite ? "sqlite" : "postgresql";
-}
-
 INSTANTIATE_TEST_SUITE_P(EachBackend, StoreAuditTest, ::testing::Values(Backend::sqlite, Backend::postgresql),
-                         backend_name);
+                         testing::backend_name);
 
 TEST_P(StoreAuditTest, AWriteInAScopeRecordsItsActorAndChangeOnce) {
   Id session = 0;

@@ -10,6 +10,7 @@
 #include <optional>
 #include <thread>
 
+#include "each_backend.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/testkit/postgres_cluster.hpp"
 #include "skinspec/testkit/process.hpp"
@@ -78,11 +79,8 @@ class StoreBenchesTest : public ::testing::TestWithParam<Backend> {
   StillClock clock_;
 };
 
-std::string backend_name(const ::testing::TestParamInfo<Backend>& info) {
-  return info.param == Backend::sqlite ? "sqlite" : "postgresql";
-}
 INSTANTIATE_TEST_SUITE_P(EachBackend, StoreBenchesTest, ::testing::Values(Backend::sqlite, Backend::postgresql),
-                         backend_name);
+                         testing::backend_name);
 
 TEST_P(StoreBenchesTest, SessionsAndJobsRecordTheirBenchAndEachBenchSeesItsOwnQueue) {
   Store a = open("bench-a");
@@ -175,9 +173,10 @@ TEST_P(StoreBenchesTest, ANotificationReachesEverySubscriberOfItsChannelOnly) {
 }
 
 class PostgresqlBenchesTest : public StoreBenchesTest {};
-INSTANTIATE_TEST_SUITE_P(Postgresql, PostgresqlBenchesTest, ::testing::Values(Backend::postgresql), backend_name);
+INSTANTIATE_TEST_SUITE_P(Postgresql, PostgresqlBenchesTest, ::testing::Values(Backend::postgresql),
+                         testing::backend_name);
 class SqliteBenchesTest : public StoreBenchesTest {};
-INSTANTIATE_TEST_SUITE_P(Sqlite, SqliteBenchesTest, ::testing::Values(Backend::sqlite), backend_name);
+INSTANTIATE_TEST_SUITE_P(Sqlite, SqliteBenchesTest, ::testing::Values(Backend::sqlite), testing::backend_name);
 
 // One program writes a SQLite file, whatever its bench: whoever opens it next recovers every
 // job left running, the host's name having changed or not.

@@ -14,6 +14,7 @@
 #include <string>
 #include <thread>
 
+#include "each_backend.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/testkit/postgres_cluster.hpp"
 #include "skinspec/testkit/process.hpp"
@@ -45,13 +46,10 @@ class OnEachBackend : public ::testing::TestWithParam<Backend> {
 using StoreConcurrencyTest = OnEachBackend;
 using StoreCrashTest = OnEachBackend;
 
-std::string backend_name(const ::testing::TestParamInfo<Backend>& info) {
-  return info.param == Backend::sqlite ? "sqlite" : "postgresql";
-}
 INSTANTIATE_TEST_SUITE_P(EachBackend, StoreConcurrencyTest, ::testing::Values(Backend::sqlite, Backend::postgresql),
-                         backend_name);
+                         testing::backend_name);
 INSTANTIATE_TEST_SUITE_P(EachBackend, StoreCrashTest, ::testing::Values(Backend::sqlite, Backend::postgresql),
-                         backend_name);
+                         testing::backend_name);
 
 // Readers see whole transactions only: every fit they find has its measurement, every
 // measurement they find has its fit, and the counts only grow.

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "each_backend.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/testkit/postgres_cluster.hpp"
 #include "skinspec/testkit/raw_database.hpp"
@@ -70,12 +71,8 @@ class StoreMapsTest : public ::testing::TestWithParam<Backend> {
   std::unique_ptr<testing::RawDatabase> raw_;
 };
 
-std::string backend_name(const ::testing::TestParamInfo<Backend>& info) {
-  return info.param == Backend::sqlite ? "sqlite" : "postgresql";
-}
-
 INSTANTIATE_TEST_SUITE_P(EachBackend, StoreMapsTest, ::testing::Values(Backend::sqlite, Backend::postgresql),
-                         backend_name);
+                         testing::backend_name);
 
 // 3.5 MiB: four pieces, two of them random, two compressible, the last one short.
 TEST_P(StoreMapsTest, AMapRoundTripsItsDataPicturesAndSummaryWithItsJobsEnd) {

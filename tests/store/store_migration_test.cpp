@@ -133,9 +133,9 @@ const std::map<int, std::string> kRowsAtVersion = {
     {4, rows_written_by_version(", NULL") + kVersion4Job},
     {5, kVersion5Rows + kVersion4Job},
     {6, rows_with_benches(kVersion5Rows + kVersion4Job)},
-    {7, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 7 changed nothing in a SQLite file
-    {8, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 8 only admitted imported measurements
-    {9, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 9 added maps, none of which these rows hold
+    {7, rows_with_benches(kVersion5Rows + kVersion4Job)},   // 7 changed nothing in a SQLite file
+    {8, rows_with_benches(kVersion5Rows + kVersion4Job)},   // 8 only admitted imported measurements
+    {9, rows_with_benches(kVersion5Rows + kVersion4Job)},   // 9 added maps, none of which these rows hold
     {10, rows_with_benches(kVersion5Rows + kVersion4Job)},  // 10 added the audit trail, a new table
 };
 

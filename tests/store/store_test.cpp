@@ -14,6 +14,7 @@
 #include <future>
 #include <set>
 
+#include "each_backend.hpp"
 #include "skinspec/store/store.hpp"
 #include "skinspec/testkit/postgres_cluster.hpp"
 #include "skinspec/testkit/raw_database.hpp"
@@ -76,12 +77,9 @@ class StoreTest : public ::testing::TestWithParam<Backend> {
 // What only a SQLite file has: its pragmas, and a file read without a writer.
 class SqliteStoreTest : public StoreTest {};
 
-std::string backend_name(const ::testing::TestParamInfo<Backend>& info) {
-  return info.param == Backend::sqlite ? "sqlite" : "postgresql";
-}
-
-INSTANTIATE_TEST_SUITE_P(EachBackend, StoreTest, ::testing::Values(Backend::sqlite, Backend::postgresql), backend_name);
-INSTANTIATE_TEST_SUITE_P(Sqlite, SqliteStoreTest, ::testing::Values(Backend::sqlite), backend_name);
+INSTANTIATE_TEST_SUITE_P(EachBackend, StoreTest, ::testing::Values(Backend::sqlite, Backend::postgresql),
+                         testing::backend_name);
+INSTANTIATE_TEST_SUITE_P(Sqlite, SqliteStoreTest, ::testing::Values(Backend::sqlite), testing::backend_name);
 
 template <typename T>
 T value_of(Result<T> result) {
