@@ -1,4 +1,5 @@
 // skinspec export --db PATH|URI [--session ID] [--format csv|json|cgats]: stored spectra and fits.
+// skinspec export --db PATH|URI --audit [--format csv|json]: the audit trail.
 
 #include <iostream>
 #include <sstream>
@@ -14,6 +15,7 @@ struct ExportArgs {
   std::string db;
   std::optional<store::Id> session;
   std::string format = "json";
+  bool audit = false;
 };
 
 // Whatever the store reports (a missing, foreign, damaged, newer or older file, an unknown
@@ -40,7 +42,9 @@ std::string exported(const store::Store& db, const ExportArgs& args) {
                                                : records::ExportFormat::json;
   std::ostringstream out;
   store::Result<void> written;
-  if (args.session) {
+  if (args.audit) {
+    written = records::export_audit(db, format, out);
+  } else if (args.session) {
     if (format == records::ExportFormat::csv) records::write_csv_header(out);
     written = records::export_session(db, *args.session, format, out);
   } else {
@@ -52,6 +56,8 @@ std::string exported(const store::Store& db, const ExportArgs& args) {
 
 void run_export(const ExportArgs& args) {
   const auto db = open_for_export(args.db);
+  if (args.audit && args.format == "cgats")
+    throw Failure{kBadInput, "--audit writes the audit trail as csv or json, not cgats"};
   // ArgyllCMS's tools read one table of a CGATS file: one session's spectra at a time.
   if (args.format == "cgats" && !args.session)
     throw Failure{kBadInput, "--format cgats writes one session's spectra: give --session ID"};
@@ -67,7 +73,12 @@ void add_export_command(CLI::App& app) {
   auto args = std::make_shared<ExportArgs>();
   auto* command = app.add_subcommand("export", "write the stored spectra and fits of one session or all");
   command->add_option("--db", args->db, "the skinspec database, a file or a postgresql:// URI (only read)")->required();
-  command->add_option("--session", args->session, "the session id (default: every session)");
+  auto* session = command->add_option("--session", args->session, "the session id (default: every session)");
+  command
+      ->add_flag("--audit", args->audit,
+                 "write the audit trail instead: each change made through the service, oldest first, with who "
+                 "asked, from where and when")
+      ->excludes(session);
   command
       ->add_option("--format", args->format,
                    "csv (one row per wavelength), json (one line per session) or cgats (reflectance spectra, "

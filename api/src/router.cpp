@@ -457,13 +457,7 @@ struct Router::Handlers {
     if (limit > 1000) fail(ErrorKind::bad_request, "invalid_parameter", "'limit' must be 1 to 1000");
     const auto entries = value(store_of(c).audit(before, static_cast<int>(limit)));
     json list = json::array();
-    for (const auto& e : entries)
-      list.push_back({{"id", e.id},
-                      {"at", detail::format_time(e.at)},
-                      {"token", e.token.empty() ? json(nullptr) : json(e.token)},
-                      {"address", e.address},
-                      {"request", e.request},
-                      {"change", e.change}});
+    for (const auto& e : entries) list.push_back(records::to_json(e));
     const bool more = std::cmp_equal(entries.size(), limit);
     return json_response({{"entries", list}, {"next_before", more ? json(entries.back().id) : json(nullptr)}});
   }

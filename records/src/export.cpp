@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <ostream>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "skinspec/records/cgats.hpp"
 #include "skinspec/records/fit_record.hpp"
@@ -17,6 +19,7 @@ namespace skinspec::records {
 namespace {
 
 using Json = nlohmann::json;
+using store::AuditEntry;
 using store::Fit;
 using store::Id;
 using store::Measurement;
@@ -25,6 +28,7 @@ using store::Session;
 using store::SessionDetail;
 using store::SessionFilter;
 using store::Store;
+using store::StoreError;
 
 // A measurement with its fits, each as the service shows it.
 Json measurement_with_fits(const Measurement& m, const std::vector<Fit>& fits) {
@@ -253,6 +257,33 @@ Result<void> export_all(const Store& store, ExportFormat format, std::ostream& o
   if (format == ExportFormat::csv) write_csv_header(out);
   for (const Id id : ids) {
     if (auto written = export_session(store, id, format, out); !written) return written;
+  }
+  return {};
+}
+
+Result<void> export_audit(const Store& store, ExportFormat format, std::ostream& out) {
+  if (format == ExportFormat::cgats)
+    return std::unexpected(StoreError{StoreError::Kind::invalid_argument, "the audit trail has no CGATS form", 0});
+  // The store reads the trail newest first, a page at a time.
+  std::vector<AuditEntry> entries;
+  std::optional<Id> before;
+  for (;;) {
+    constexpr int kPage = 1000;
+    auto page = store.audit(before, kPage);
+    if (!page) return std::unexpected(page.error());
+    entries.insert(entries.end(), page->begin(), page->end());
+    if (std::cmp_less(page->size(), kPage)) break;
+    before = page->back().id;
+  }
+  std::ranges::reverse(entries);
+  if (format == ExportFormat::csv) out << "id,at,token,address,request,change\n";
+  for (const auto& e : entries) {
+    if (format == ExportFormat::json) {
+      out << to_json(e).dump(-1, ' ', false, Json::error_handler_t::replace) << '\n';
+    } else {
+      out << e.id << ',' << json_time(e.at) << ',' << csv_field(e.token) << ',' << csv_field(e.address) << ','
+          << csv_field(e.request) << ',' << csv_field(e.change) << '\n';
+    }
   }
   return {};
 }

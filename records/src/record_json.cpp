@@ -144,6 +144,11 @@ Json to_json(const store::Fit& f) {
   return out;
 }
 
+Json to_json(const store::AuditEntry& e) {
+  return {{"id", e.id},           {"at", json_time(e.at)}, {"token", e.token.empty() ? Json(nullptr) : Json(e.token)},
+          {"address", e.address}, {"request", e.request},  {"change", e.change}};
+}
+
 std::optional<store::Id> latest_fit_of(store::Id measurement_id, const std::vector<store::Fit>& fits) {
   std::optional<store::Id> latest;
   for (const auto& f : fits)

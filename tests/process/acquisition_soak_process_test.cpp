@@ -2,7 +2,8 @@
 // faults on every command's reply: lost replies, late ones, cut, garbled and bit-flipped ones,
 // dropped lines, and the quality codes a real meter gives. The faults are single (a command
 // asked again after one is spared): no job may fail for one of them, and the jobs' durations,
-// from their records, must stay short at time scale 0.
+// from their records, must stay short at time scale 0. scripts/soak runs it with more jobs
+// (SKINSPEC_SOAK_JOBS) and other seeds (SKINSPEC_SOAK_SEED).
 
 #include <gtest/gtest.h>
 
@@ -15,6 +16,7 @@
 
 #include "skinspec/testkit/acquisition_rig.hpp"
 #include "support/job_error.hpp"
+#include "support/soak_size.hpp"
 #include "skinspec/testkit/store_samples.hpp"
 
 namespace skinspec::testing {
@@ -24,9 +26,7 @@ using nlohmann::json;
 using namespace std::chrono_literals;
 using Micros = std::chrono::microseconds;
 
-constexpr int kJobs = 120;           // a white, then samples, in one session
 constexpr double kFaultRate = 0.05;  // per command, as in the field campaign that found the holes
-constexpr const char* kSeed = "13";
 // A fixed integration time that suits the simulated white and skin: a silent M0 then costs
 // 2 x 600 ms plus the meter's overhead, not the 30 s adaptive integration is allowed.
 constexpr int kIntegrationMs = 600;
@@ -80,8 +80,10 @@ class AcquisitionSoakTest : public ::testing::Test {
 };
 
 TEST_F(AcquisitionSoakTest, NoJobFailsForASingleLostOrDamagedReplyAndJobsStayShort) {
+  const int job_count = soak_size("SKINSPEC_SOAK_JOBS", 120);  // a white, then samples, in one session
+  const std::string seed = std::to_string(soak_size("SKINSPEC_SOAK_SEED", 13));
   AcquisitionRig rig(rig_options(dir_.path().string(),
-                                 {"--fault-rate", std::to_string(kFaultRate), "--fault-gap", "1", "--seed", kSeed}));
+                                 {"--fault-rate", std::to_string(kFaultRate), "--fault-gap", "1", "--seed", seed}));
   ASSERT_TRUE(rig.ready()) << rig.logs();
   const auto p = rig.port;
   const long long session = new_session(p, "SOAK");
@@ -89,7 +91,7 @@ TEST_F(AcquisitionSoakTest, NoJobFailsForASingleLostOrDamagedReplyAndJobsStaySho
 
   const auto started = std::chrono::steady_clock::now();
   std::vector<json> accepted;
-  for (int i = 0; i < kJobs; ++i) {
+  for (int i = 0; i < job_count; ++i) {
     const json body = {{"kind", i == 0 ? "white" : "sample"}, {"integration_ms", kIntegrationMs}};
     accepted.push_back(submit(p, session, body));
     ASSERT_TRUE(accepted.back().contains("job_id")) << accepted.back();
@@ -135,8 +137,9 @@ TEST_F(AcquisitionSoakTest, NoJobFailsForASingleLostOrDamagedReplyAndJobsStaySho
       "%d readings rejected, %d measured again\n"
       "soak: job duration p50 %.0f ms, p95 %.0f ms, max %.0f ms\n"
       "soak: %d faults fired; by command:%s; by kind:%s\n",
-      kJobs, std::chrono::duration<double>(wall).count(), kFaultRate, kSeed, failed, failed_on_quality, rejected,
-      remeasured, ms(at(0.5)), ms(p95), ms(durations.back()), fired.total, by_command.c_str(), by_kind.c_str());
+      job_count, std::chrono::duration<double>(wall).count(), kFaultRate, seed.c_str(), failed, failed_on_quality,
+      rejected, remeasured, ms(at(0.5)), ms(p95), ms(durations.back()), fired.total, by_command.c_str(),
+      by_kind.c_str());
 
   EXPECT_GE(static_cast<int>(jobs.size()), 100);
   EXPECT_EQ(failed, 0) << rig.logs();

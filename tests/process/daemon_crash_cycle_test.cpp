@@ -3,7 +3,8 @@
 // each kill the file is intact and its jobs agree with its rows (every stored measurement's job
 // has succeeded and names it, every succeeded job has its measurement and fit); after each
 // restart every job of the cycle has either succeeded, with its measurement and fit readable
-// through the API, or failed with the code `interrupted`.
+// through the API, or failed with the code `interrupted`. scripts/soak runs it for 1,000 kills
+// (SKINSPEC_SOAK_KILLS), from other seeds (SKINSPEC_SOAK_SEED).
 
 #include <gtest/gtest.h>
 
@@ -19,6 +20,7 @@
 #include "skinspec/client/http_client.hpp"
 #include "skinspec/testkit/raw_database.hpp"
 #include "skinspec/testkit/store_samples.hpp"
+#include "support/soak_size.hpp"
 
 namespace skinspec::testing {
 namespace {
@@ -158,7 +160,8 @@ TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
   // Three rigs at once, each on its own database: a restarted daemon spends most of its time
   // waiting for the meter to settle, not computing.
   constexpr int kRigs = 3;
-  constexpr int kCyclesPerRig = 34;
+  const int cycles_per_rig = (soak_size("SKINSPEC_SOAK_KILLS", 102) + kRigs - 1) / kRigs;
+  const auto first_seed = static_cast<unsigned>(soak_size("SKINSPEC_SOAK_SEED", 1312));
   ScratchDirectory dir;
   std::vector<Tally> tallies(kRigs);
   const auto started = std::chrono::steady_clock::now();
@@ -168,8 +171,8 @@ TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
       const auto work_dir = dir.path() / ("rig" + std::to_string(r));
       std::filesystem::create_directories(work_dir);
       auto& tally = tallies[static_cast<std::size_t>(r)];
-      rigs.emplace_back([&tally, r, work_dir] {
-        run_cycles(work_dir.string(), 1312 + static_cast<unsigned>(r), kCyclesPerRig, tally);
+      rigs.emplace_back([&tally, r, work_dir, first_seed, cycles_per_rig] {
+        run_cycles(work_dir.string(), first_seed + static_cast<unsigned>(r), cycles_per_rig, tally);
       });
     }
   }
@@ -183,11 +186,11 @@ TEST(DaemonCrashCycleTest, KilledAtRandomMomentsItsJobsAndRowsAlwaysAgree) {
   }
   const auto seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::printf("%d kills in %.1f s: %d while a job ran, %d while jobs only waited; %d jobs succeeded, %d interrupted\n",
-              kRigs * kCyclesPerRig, seconds, total.killed_while_running, total.killed_while_queued, total.succeeded,
+              kRigs * cycles_per_rig, seconds, total.killed_while_running, total.killed_while_queued, total.succeeded,
               total.interrupted);
   // The kills must have hit jobs at work, and jobs must have finished between them.
-  EXPECT_GE(total.killed_while_running, kRigs * kCyclesPerRig / 4);
-  EXPECT_GE(total.killed_after_a_job_ended, kRigs * kCyclesPerRig / 6);
+  EXPECT_GE(total.killed_while_running, kRigs * cycles_per_rig / 4);
+  EXPECT_GE(total.killed_after_a_job_ended, kRigs * cycles_per_rig / 6);
 }
 
 }  // namespace

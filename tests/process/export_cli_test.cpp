@@ -15,6 +15,7 @@
 
 #include "skinspec/records/cgats.hpp"
 #include "skinspec/records/export.hpp"
+#include "skinspec/records/record_json.hpp"
 #include "skinspec/spectral/colour.hpp"
 #include "skinspec/store/store.hpp"
 #include "support/data.hpp"
@@ -312,6 +313,55 @@ TEST_F(ExportTest, ExportingBesideAWriterChangesNothing) {
   EXPECT_EQ(value_of(store.session(first_)).state, SessionState::open);
   EXPECT_EQ(value_of(store.job(job_id)).state, JobState::running);
   EXPECT_TRUE(store.record_measurement(testing::sample_measurement(first_, 9), testing::sample_fit(9)));
+}
+
+// The trail of changes made through the service, as `GET /api/v1/audit` shows its entries but
+// oldest first; a change made outside a request (here: no AuditScope) is not in it.
+TEST_F(ExportTest, TheAuditTrailIsExportedOldestFirstAsJsonLinesOrCsv) {
+  auto store = value_of(Store::open(path_));
+  {
+    AuditScope scope(Actor{"ana", "127.0.0.1", "POST /api/v1/sessions"});
+    value_of(store.create_session(testing::sample_session(0)));
+  }
+  value_of(store.create_session(testing::sample_session(1)));
+  {
+    AuditScope scope(Actor{"", "::1", R"(PATCH /api/v1/sessions/1?note="a, b")"});
+    value_of(store.create_session(testing::sample_session(2)));
+  }
+  const auto stored = value_of(store.audit(std::nullopt, 10));
+  ASSERT_EQ(stored.size(), 2u);
+
+  const auto json = skinspec({"export", "--db", path_, "--audit"});
+  ASSERT_EQ(json.exit_status, 0) << json.describe();
+  const auto lines = lines_of(json.out);
+  ASSERT_EQ(lines.size(), 2u) << json.out;
+  EXPECT_EQ(Json::parse(lines[0]), records::to_json(stored[1]));
+  EXPECT_EQ(Json::parse(lines[1]), records::to_json(stored[0]));
+  EXPECT_EQ(Json::parse(lines[0])["token"], "ana");
+  EXPECT_EQ(Json::parse(lines[0])["change"], "creating a session");
+  EXPECT_TRUE(Json::parse(lines[1])["token"].is_null());
+
+  const auto csv = skinspec({"export", "--db", path_, "--audit", "--format", "csv"});
+  ASSERT_EQ(csv.exit_status, 0) << csv.describe();
+  const auto rows = lines_of(csv.out);
+  ASSERT_EQ(rows.size(), 3u) << csv.out;
+  EXPECT_EQ(rows[0], "id,at,token,address,request,change");
+  const auto last = fields_of(rows[2]);
+  ASSERT_EQ(last.size(), 6u) << rows[2];
+  EXPECT_EQ(last[0], std::to_string(stored[0].id));
+  EXPECT_EQ(last[1], Json::parse(lines[1])["at"]);
+  EXPECT_EQ(last[2], "");
+  EXPECT_EQ(last[3], "::1");
+  EXPECT_EQ(last[4], R"(PATCH /api/v1/sessions/1?note="a, b")");
+  EXPECT_EQ(last[5], "creating a session");
+
+  for (const auto& refused : {std::vector<std::string>{"--format", "cgats"}, {"--session", "1"}}) {
+    auto args = std::vector<std::string>{"export", "--db", path_, "--audit"};
+    args.insert(args.end(), refused.begin(), refused.end());
+    const auto result = skinspec(args);
+    EXPECT_EQ(result.exit_status, kBadInput) << result.describe();
+    EXPECT_THAT(result.out, IsEmpty());
+  }
 }
 
 TEST_F(ExportTest, AnUnknownSessionIsBadInputWithNothingOnStdout) {

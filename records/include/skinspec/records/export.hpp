@@ -25,4 +25,8 @@ store::Result<void> export_session(const store::Store& store, store::Id session_
 // session's CGATS tables.
 store::Result<void> export_all(const store::Store& store, ExportFormat format, std::ostream& out);
 
+// The audit trail (store/audit.hpp), oldest first: one JSON line per entry (record_json.hpp's
+// fields) or CSV with a header line and the same columns. invalid_argument for CGATS.
+store::Result<void> export_audit(const store::Store& store, ExportFormat format, std::ostream& out);
+
 }  // namespace skinspec::records

@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "skinspec/store/audit.hpp"
 #include "skinspec/store/types.hpp"
 
 namespace skinspec::records {
@@ -36,6 +37,10 @@ nlohmann::json to_json(const store::RejectedReading& reading);
 // measurement_id, samples_ignored, solver_summary, options, model_version, tables_digest,
 // created_at.
 nlohmann::json to_json(const store::Fit& fit);
+
+// id, at, token (its name; null when the change came without a token), address, request,
+// change: one entry of the audit trail.
+nlohmann::json to_json(const store::AuditEntry& entry);
 
 // The id of the last of `fits` (in store order) that belongs to `measurement_id`.
 std::optional<store::Id> latest_fit_of(store::Id measurement_id, const std::vector<store::Fit>& fits);
