@@ -349,7 +349,7 @@ TEST_F(ExportTest, TheAuditTrailIsExportedOldestFirstAsJsonLinesOrCsv) {
   const auto last = fields_of(rows[2]);
   ASSERT_EQ(last.size(), 6u) << rows[2];
   EXPECT_EQ(last[0], std::to_string(stored[0].id));
-  EXPECT_EQ(last[1], Json::parse(lines[1])["at"]);
+  EXPECT_EQ(last[1], Json::parse(lines[1])["at"].get<std::string>());
   EXPECT_EQ(last[2], "");
   EXPECT_EQ(last[3], "::1");
   EXPECT_EQ(last[4], R"(PATCH /api/v1/sessions/1?note="a, b")");
