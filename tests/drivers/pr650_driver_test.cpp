@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <expected>
 #include <thread>
 
 #include "skinspec/drivers/memory_transport.hpp"
@@ -229,22 +230,47 @@ TEST(Pr650Driver, AnUnpluggedCableInTheMiddleOfAReportIsLost) {
   EXPECT_EQ(reading.error().kind, InstrumentError::Kind::lost);
 }
 
+// A measurement cancelled from another thread once the meter has received `commands` commands
+// and `after` more has passed, then the next measurement, which must read only its own replies.
+std::expected<Reading, InstrumentError> cancel_then_measure(Rig& r, std::size_t commands,
+                                                            std::chrono::milliseconds after) {
+  std::jthread canceller([&] {
+    while (r.meter->commands().size() < commands) std::this_thread::sleep_for(1ms);
+    std::this_thread::sleep_for(after);
+    r.driver->cancel();
+  });
+  const auto cancelled = r.driver->measure({});
+  EXPECT_FALSE(cancelled);
+  if (!cancelled) {
+    EXPECT_EQ(cancelled.error().kind, InstrumentError::Kind::cancelled);
+  }
+  canceller.join();
+  return r.driver->measure({});
+}
+
 TEST(Pr650Driver, CancelEndsAMeasurementAndTheNextOneStillWorks) {
   auto r = rig(contact() + std::vector<MeterStep>{{"s01,,,,,0,01,1", kSetupOk}, {"m0", kOk, 400ms}} +
                measurement("s01,,,,,0,01,1", d5(1e-4)));
   ASSERT_TRUE(r.driver->connect());
-  std::jthread canceller([&] {
-    // Once the meter has the M0 and is measuring (400 ms).
-    while (r.meter->commands().size() < 3) std::this_thread::sleep_for(5ms);
-    r.driver->cancel();
-  });
-  const auto cancelled = r.driver->measure({});
-  ASSERT_FALSE(cancelled);
-  EXPECT_EQ(cancelled.error().kind, InstrumentError::Kind::cancelled);
-  canceller.join();
-  // The cancelled measurement's late "000" must not be taken for the next command's reply.
-  const auto reading = r.driver->measure({});
+  // Once the meter has the M0 and is measuring (400 ms). Its late "000" must not be taken for
+  // the next command's reply.
+  const auto reading = cancel_then_measure(r, 3, 0ms);
   ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(r.meter->mismatch(), "");
+}
+
+// A cancel that lands while the spectral report streams in: the meter sends the rest of it all
+// the same, and the next measurement's commands must not read it as their replies.
+TEST(Pr650Driver, TheRestOfAReportACancelCutShortIsNotTakenForTheNextReply) {
+  DriverOptions options = fast_options();
+  options.timing.line_bytes_per_second = 9600;                                       // a whole report may take 0.5 s
+  std::vector<MeterStep> streamed = failed_measurement("s01,,,,,0,01,1", d5(1e-4));  // up to D5
+  streamed[2].line_interval = 3ms;                                                   // 101 data lines: about 0.3 s
+  auto r = rig(contact() + streamed + measurement("s01,,,,,0,01,1", d5(2e-4)), options);
+  ASSERT_TRUE(r.driver->connect());
+  const auto reading = cancel_then_measure(r, 4, 60ms);  // the D5's first lines are out
+  ASSERT_TRUE(reading) << reading.error().message;
+  EXPECT_EQ(reading->radiance, lamp(2e-4).values);
   EXPECT_EQ(r.meter->mismatch(), "");
 }
 

@@ -385,6 +385,42 @@ TEST(Pr6xxDriver, ACancelledM5IsDrainedBeforeTheNextMeasurement) {
   EXPECT_EQ(reading->integration_ms, 100);
 }
 
+// A cancel that lands while a spectrum streams in: the meter sends the rest of it all the same.
+// Neither the idle check that follows (D110) nor the next measurement may take it for its own
+// reply. The PR-670's spectrum is M5's reply; the PR-730's comes after T, P and V, to D5.
+TEST(Pr6xxDriver, TheRestOfASpectrumACancelCutShortIsNotTakenForTheNextReply) {
+  for (const Model model : {Model::pr670, Model::pr730}) {
+    MeterOptions meter = meter_options(model);
+    meter.time_scale = 0.25;  // the spectrum streams for about 1 s (PR-670) or 1.7 s (PR-730)
+    RemoteOptions options = fast_remote();
+    options.timing.reply = 3s;
+    options.timing.line_bytes_per_second = 960;
+    options.timing.measurement_overhead = 3s;
+    Bench bench(model, {}, options, std::move(meter));
+    ASSERT_TRUE(bench.driver->connect());
+    const std::string spectrum_command = profile(model).family == Family::pr6xx ? "M5\r" : "D5\r";
+    std::atomic<bool> returned{false};
+    std::thread canceller([&] {
+      while (bench.written().find(spectrum_command) == std::string::npos && !returned) std::this_thread::sleep_for(1ms);
+      // Once the spectrum's first bytes are in.
+      const std::uint64_t before = bench.driver->replies_received();
+      while (bench.driver->replies_received() == before && !returned) std::this_thread::sleep_for(1ms);
+      std::this_thread::sleep_for(100ms);
+      bench.driver->cancel();
+    });
+    auto cancelled = bench.driver->measure({.integration_ms = 100});
+    returned = true;
+    canceller.join();
+    ASSERT_FALSE(cancelled) << profile(model).id;
+    ASSERT_EQ(cancelled.error().kind, K::cancelled) << profile(model).id << ": " << cancelled.error().message;
+    const auto checked = bench.driver->check();
+    EXPECT_TRUE(checked) << profile(model).id << ": " << checked.error().message;
+    auto reading = bench.driver->measure({.integration_ms = 100});
+    ASSERT_TRUE(reading) << profile(model).id << ": " << reading.error().message;
+    EXPECT_EQ(reading->radiance.size(), static_cast<std::size_t>(profile(model).simulator_grid->points));
+  }
+}
+
 // ---- Leaving remote mode ---------------------------------------------------------------------
 
 TEST(Pr6xxDriver, DisconnectAndDestructionSendQ) {

@@ -52,6 +52,19 @@ bool ScriptedMeter::read_command(std::string& command) {
   return false;
 }
 
+void ScriptedMeter::send(const MeterStep& step) {
+  if (step.line_interval == 0ms) {
+    if (!step.reply.empty()) (void)end_->write(step.reply, drivers::deadline_in(1s));
+    return;
+  }
+  for (std::size_t at = 0; at < step.reply.size() && !stopping_;) {
+    const std::size_t end = std::min(step.reply.find('\n', at), step.reply.size() - 1) + 1;
+    (void)end_->write(std::string_view(step.reply).substr(at, end - at), drivers::deadline_in(1s));
+    at = end;
+    if (at < step.reply.size()) std::this_thread::sleep_for(step.line_interval);
+  }
+}
+
 void ScriptedMeter::run() {
   std::string command;
   while (read_command(command)) {
@@ -69,7 +82,7 @@ void ScriptedMeter::run() {
     }
     const MeterStep& step = script_[index];
     for (auto waited = 0ms; waited < step.delay && !stopping_; waited += 5ms) std::this_thread::sleep_for(5ms);
-    if (!step.reply.empty()) (void)end_->write(step.reply, drivers::deadline_in(1s));
+    send(step);
     next_ = index + 1;
     if (step.close_after) {
       end_->close();

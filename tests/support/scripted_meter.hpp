@@ -16,10 +16,11 @@
 namespace skinspec::testing {
 
 struct MeterStep {
-  std::string command;                 // expected, lower case, without terminator
-  std::string reply;                   // bytes to send back (may be empty: silence)
-  std::chrono::milliseconds delay{0};  // before replying
-  bool close_after = false;            // then close the link, as an unplugged cable
+  std::string command;                         // expected, lower case, without terminator
+  std::string reply;                           // bytes to send back (may be empty: silence)
+  std::chrono::milliseconds delay{0};          // before replying
+  bool close_after = false;                    // then close the link, as an unplugged cable
+  std::chrono::milliseconds line_interval{0};  // between the reply's lines: one streaming in
 };
 
 class ScriptedMeter {
@@ -35,6 +36,7 @@ class ScriptedMeter {
 
  private:
   void run();
+  void send(const MeterStep& step);
   bool read_command(std::string& command);
 
   std::unique_ptr<drivers::Transport> end_;

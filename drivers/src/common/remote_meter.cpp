@@ -267,11 +267,8 @@ std::expected<RemoteMeter::Spectrum, InstrumentError> RemoteMeter::measure_with_
     const Rule rule{p6::ReplyShape::spectral,   grid().points, limit, options_.timing.idle,
                     whole_reply(grid().points), false};
     auto reply = session_->transact(command, rule);
-    if (!reply) {
-      // There is no abort: the measurement runs on, and its reply is drained before the next.
-      if (reply.error().kind == InstrumentError::Kind::cancelled) measurement_pending(limit);
-      return std::unexpected(reply.error());
-    }
+    // There is no abort: a cancelled measurement runs on, and the session drops its reply.
+    if (!reply) return std::unexpected(reply.error());
     if (reply->end == remote::ReplyEnd::silent) {
       remeasured = true;
       continue;
@@ -284,6 +281,11 @@ std::expected<RemoteMeter::Spectrum, InstrumentError> RemoteMeter::measure_with_
     return again;
   }
   return std::unexpected(session_->unanswered(command, {}));
+}
+
+void RemoteMeter::measurement_pending(std::chrono::milliseconds limit) {
+  session_->expect_stray_reply(
+      {p6::ReplyShape::spectral, grid().points, limit, options_.timing.idle, whole_reply(grid().points), false});
 }
 
 std::expected<RemoteMeter::Spectrum, InstrumentError> RemoteMeter::read_spectrum(std::string_view command,
@@ -354,10 +356,6 @@ std::expected<Reading, InstrumentError> RemoteMeter::measure(const MeasureOption
   if (auto ok = check(options); !ok) return std::unexpected(ok.error());
   if (!identified_)
     if (auto identity = query_identity(); !identity) return std::unexpected(identity.error());
-  if (pending_ > 0ms) {
-    session_->drain(options_.timing.idle, pending_);
-    pending_ = 0ms;
-  }
   const std::size_t warned = firmware_warnings().size();
   Reading reading;
   reading.started = std::chrono::system_clock::now();

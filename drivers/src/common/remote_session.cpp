@@ -105,7 +105,7 @@ std::expected<void, InstrumentError> Session::open(std::chrono::milliseconds mod
 // 50 ms between bytes). Only the wait before a command's first byte yields to cancel(): once a
 // byte is out, the command goes out whole and its reply is waited for briefly (settle), so that
 // the meter never takes what comes next, Q above all, as the rest of it.
-std::expected<void, InstrumentError> Session::write_paced(std::string_view command, Pacing pacing) {
+std::expected<void, InstrumentError> Session::write_paced(std::string_view command, Pacing pacing, const Rule* reply) {
   const bool yields = pacing == Pacing::yields;
   const std::size_t step = pacing_ > 0ms ? 1 : command.size();
   for (std::size_t i = 0; i < command.size(); i += step) {
@@ -123,7 +123,7 @@ std::expected<void, InstrumentError> Session::write_paced(std::string_view comma
     }
     last_byte_ = Clock::now();
   }
-  if (yields && cancelled_) return settle();
+  if (yields && cancelled_) return settle(reply);
   return {};
 }
 
@@ -138,18 +138,24 @@ std::expected<void, TransportError> Session::write_uninterrupted(std::string_vie
   return written;
 }
 
-// After a command that a cancel overtook while it went out: its reply (one line), waited for no
-// longer than `settle`, whatever it says. The call ends cancelled all the same.
-std::unexpected<InstrumentError> Session::settle() {
+// After a command that a cancel overtook while it went out: its reply (one line, or the whole
+// reply `reply` describes), waited for no longer than `settle`, whatever it says. What has not
+// come by then is dropped before the next command. The call ends cancelled all the same.
+std::unexpected<InstrumentError> Session::settle(const Rule* reply) {
+  const p6::ReplyShape shape = reply ? reply->shape : p6::ReplyShape::line;
+  const int points = reply ? reply->points : 0;
   std::string received;
   char buffer[256];
   const Deadline end = deadline_in(timing_.settle);
-  while (p6::reply_size(p6::ReplyShape::line, received) == 0 && Clock::now() < end) {
+  while (p6::reply_size(shape, received, points) == 0 && Clock::now() < end) {
     transport_.clear_interrupt();
     auto n = transport_.read(buffer, sizeof buffer, end);
     if (n) received.append(buffer, *n);
     else if (n.error().kind != TransportError::Kind::interrupted) break;
   }
+  if (reply && p6::reply_size(shape, received, points) == 0)
+    stray_.expect(received.empty() ? deadline_in(reply->first_byte) : Clock::now(),
+                  deadline_in(reply->first_byte + reply->whole));
   return fail(InstrumentError::Kind::cancelled, "cancelled");
 }
 
@@ -157,10 +163,10 @@ std::unexpected<InstrumentError> Session::settle() {
 // longer than `idle` until reply_size() says it is whole. A banner in front of the reply (the
 // meter holds it back until the next reply) and an echo are not part of it.
 std::expected<Reply, InstrumentError> Session::transact(std::string_view command, const Rule& rule, bool flush) {
-  if (cancelled_) return fail(InstrumentError::Kind::cancelled, "cancelled");
+  if (cancelled_ || !stray_.drop(transport_, timing_.idle)) return fail(InstrumentError::Kind::cancelled, "cancelled");
   if (flush)
     if (auto flushed = transport_.flush_input(); !flushed) return std::unexpected(link_error(flushed.error(), command));
-  if (auto written = write_paced(command); !written) return std::unexpected(written.error());
+  if (auto written = write_paced(command, Pacing::yields, &rule); !written) return std::unexpected(written.error());
   const std::string_view echo = std::string_view(command).substr(0, printable(command).size());
   std::string received;
   Deadline next = deadline_in(rule.first_byte);
@@ -174,6 +180,9 @@ std::expected<Reply, InstrumentError> Session::transact(std::string_view command
       return Reply{ReplyEnd::complete, std::string(reply.substr(0, size))};
     auto n = transport_.read(buffer, sizeof buffer, whole ? std::min(next, *whole) : next);
     if (!n) {
+      // Cancelled while the reply was due or coming: the meter sends the rest all the same.
+      if (n.error().kind == TransportError::Kind::interrupted)
+        stray_.expect(whole ? Clock::now() : next, whole ? *whole : next + rule.whole);
       if (n.error().kind != TransportError::Kind::timeout) return std::unexpected(link_error(n.error(), command));
       if (reply.empty()) return Reply{ReplyEnd::silent, {}};
       if (rule.shape == p6::ReplyShape::listing) return Reply{ReplyEnd::complete, std::string(reply)};
@@ -203,6 +212,10 @@ std::expected<Reply, InstrumentError> Session::transact_despite_cancel(std::stri
   return reply;
 }
 
+void Session::expect_stray_reply(const Rule& rule) {
+  stray_.expect(deadline_in(rule.first_byte), deadline_in(rule.first_byte + rule.whole));
+}
+
 void Session::drain(std::chrono::milliseconds idle, std::chrono::milliseconds limit) {
   char buffer[512];
   const Deadline end = deadline_in(limit);
@@ -229,6 +242,7 @@ std::expected<std::string, InstrumentError> Session::read_banner(std::chrono::mi
 }
 
 std::expected<bool, InstrumentError> Session::enter_remote() {
+  if (!stray_.drop(transport_, timing_.idle)) return fail(InstrumentError::Kind::cancelled, "cancelled");
   // Q first: a meter that a crashed program left in remote mode ignores PHOTO.
   if (auto flushed = transport_.flush_input(); !flushed) return std::unexpected(link_error(flushed.error(), "Q"));
   if (auto q = write_paced(p6::kQuit); !q) return std::unexpected(q.error());

@@ -14,6 +14,7 @@
 #include <string>
 #include <string_view>
 
+#include "skinspec/drivers/stray_reply.hpp"
 #include "skinspec/drivers/emergency_quit.hpp"
 #include "skinspec/drivers/instrument.hpp"
 #include "skinspec/drivers/remote_options.hpp"
@@ -54,6 +55,8 @@ class Session {
   void quit();
   bool remote() const { return remote_; }
 
+  // A command and its reply. The reply of an exchange a cancel cut short is read and dropped
+  // first (stray_reply.hpp).
   std::expected<Reply, InstrumentError> transact(std::string_view command, const Rule& rule, bool flush = true);
   // The same, even when cancel() was called: for the abort that a cancel itself sends.
   std::expected<Reply, InstrumentError> transact_despite_cancel(std::string_view command, const Rule& rule);
@@ -63,6 +66,9 @@ class Session {
       -> std::expected<typename decltype(parse(std::string_view()))::value_type, InstrumentError>;
   // Reads and drops a reply that may still come within `limit`, until `idle` of silence after it.
   void drain(std::chrono::milliseconds idle, std::chrono::milliseconds limit);
+  // A reply that may come within `rule.first_byte` although no command asked for it now (a
+  // measurement a cancel could not stop): dropped before the next command.
+  void expect_stray_reply(const Rule& rule);
   // Waits, cut short by cancel(); false when cancelled.
   bool pause(std::chrono::milliseconds how_long);
 
@@ -77,9 +83,12 @@ class Session {
  private:
   // Whether the wait before a command's first byte yields to cancel(); Q's does not.
   enum class Pacing { yields, whole };
-  std::expected<void, InstrumentError> write_paced(std::string_view command, Pacing pacing = Pacing::yields);
+  // `reply`: how the command is answered, when a reply cut short by a cancel is to be dropped
+  // before the next command.
+  std::expected<void, InstrumentError> write_paced(std::string_view command, Pacing pacing = Pacing::yields,
+                                                   const Rule* reply = nullptr);
   std::expected<void, TransportError> write_uninterrupted(std::string_view bytes);
-  std::unexpected<InstrumentError> settle();
+  std::unexpected<InstrumentError> settle(const Rule* reply);
   std::expected<std::string, InstrumentError> read_banner(std::chrono::milliseconds first_byte);
   InstrumentError not_remote_mode(std::string_view command, std::string_view answer) const;
   // Remote mode entered or left, with the link on the emergency list (emergency_quit.hpp) while
@@ -94,6 +103,7 @@ class Session {
   bool remote_ = false;
   std::optional<EmergencyQuitListing> listing_;
   Clock::time_point last_byte_{};  // when the last byte went out, for the pacing
+  StrayReply stray_;
   std::atomic<bool> cancelled_{false};
   std::atomic<std::uint64_t> replies_{0};
   std::mutex pause_mutex_;

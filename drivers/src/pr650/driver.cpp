@@ -139,7 +139,7 @@ InstrumentError Pr650::link_error(const TransportError& error, const std::string
 // taken for this one's. Silence and a reply that stopped are results, not errors: the caller's
 // rule says what follows; errors are a failed link and cancel().
 std::expected<Pr650::Reply, InstrumentError> Pr650::transact(const std::string& command, const pp::ExchangeRule& rule) {
-  if (cancelled_) return fail(InstrumentError::Kind::cancelled, "cancelled");
+  if (cancelled_ || !stray_.drop(*transport_, rule.idle)) return fail(InstrumentError::Kind::cancelled, "cancelled");
   if (auto flushed = transport_->flush_input(); !flushed) return std::unexpected(link_error(flushed.error(), command));
   if (auto written = transport_->write(command, deadline_in(rule.first_byte)); !written)
     return std::unexpected(link_error(written.error(), command));
@@ -153,6 +153,9 @@ std::expected<Pr650::Reply, InstrumentError> Pr650::transact(const std::string& 
       return Reply{ReplyEnd::complete, std::string(reply.substr(0, size)), std::string(reply.substr(size))};
     auto n = transport_->read(buffer, sizeof buffer, whole ? std::min(next, *whole) : next);
     if (!n) {
+      // Cancelled while the reply was due or coming: the meter sends the rest all the same.
+      if (n.error().kind == TransportError::Kind::interrupted)
+        stray_.expect(whole ? Clock::now() : next, whole ? *whole : next + rule.whole);
       if (n.error().kind != TransportError::Kind::timeout) return std::unexpected(link_error(n.error(), command));
       if (reply.empty()) return Reply{ReplyEnd::silent, received, {}};
       return Reply{ReplyEnd::cut, std::string(reply), {}};
@@ -361,25 +364,6 @@ std::expected<pp::Setup::Sync, InstrumentError> Pr650::choose_sync(const Measure
   return pp::Setup::Sync::last_measured;
 }
 
-// A measurement cancelled while the meter worked still ends with a status line; read it (or
-// wait out the measurement) before the next command, or it would be taken for that reply.
-std::expected<void, InstrumentError> Pr650::drain_pending_measurement() {
-  if (!measurement_pending_) return {};
-  char buffer[64];
-  const Deadline deadline = deadline_in(pp::measurement_time(0, 1, options_.timing));
-  std::string received;
-  while (!pp::reply_complete(pp::ReplyShape::line, received)) {
-    auto n = transport_->read(buffer, sizeof buffer, deadline);
-    if (!n) {
-      if (n.error().kind == TransportError::Kind::timeout) break;
-      return std::unexpected(link_error(n.error(), "m0"));
-    }
-    received.append(buffer, *n);
-  }
-  measurement_pending_ = false;
-  return {};
-}
-
 // M0 and the wait for the measurement to end. Any reply, even a damaged one, says the meter
 // measured: the spectral report that follows carries the measurement and its quality code,
 // which decides (the M0 status is "000" whatever the outcome on most meters). Silence may mean
@@ -393,7 +377,9 @@ std::expected<void, InstrumentError> Pr650::start_measurement(const MeasureOptio
     reading.started = std::chrono::system_clock::now();
     auto status = transact(command, m0);
     if (!status) {
-      if (status.error().kind == InstrumentError::Kind::cancelled) measurement_pending_ = true;
+      // Cancelled, perhaps as M0 went out: the measurement may run on and end with a status line.
+      if (status.error().kind == InstrumentError::Kind::cancelled)
+        stray_.expect(deadline_in(m0.first_byte), deadline_in(m0.first_byte + m0.whole));
       return std::unexpected(status.error());
     }
     if (status->end != ReplyEnd::silent) break;
@@ -495,7 +481,6 @@ std::expected<Reading, InstrumentError> Pr650::measure(const MeasureOptions& opt
   if (const auto setting = refused_setting(limits, options))
     return fail(InstrumentError::Kind::rejected, refusal_message(limits, options, *setting));
   if (!connected_) return fail(InstrumentError::Kind::lost, "not connected to the PR-650");
-  if (auto drained = drain_pending_measurement(); !drained) return std::unexpected(drained.error());
 
   MeasureOptions current = options;
   int integration = options.integration_ms;

@@ -15,6 +15,7 @@
 #include "skinspec/drivers/instrument.hpp"
 #include "skinspec/drivers/pr650_exchange.hpp"
 #include "skinspec/drivers/pr650_protocol.hpp"
+#include "skinspec/drivers/stray_reply.hpp"
 #include "skinspec/drivers/transport.hpp"
 
 namespace skinspec::drivers {
@@ -90,7 +91,6 @@ class Pr650 final : public Instrument {
                                                          Reading& reading);
   std::expected<Reading, InstrumentError> measure_once(const MeasureOptions& options, int integration_ms);
   std::expected<void, InstrumentError> read_colorimetry(const MeasureOptions& options, Reading& reading);
-  std::expected<void, InstrumentError> drain_pending_measurement();
   InstrumentError link_error(const TransportError& error, const std::string& command) const;
 
   std::unique_ptr<Transport> transport_;
@@ -98,7 +98,7 @@ class Pr650 final : public Instrument {
   std::atomic<bool> cancelled_{false};
   std::atomic<bool> connected_{false};
   std::atomic<std::uint64_t> replies_{0};
-  bool measurement_pending_ = false;  // an M command whose reply never came (cancelled)
+  StrayReply stray_;  // the reply of an exchange a cancel cut short, dropped before the next
   std::string serial_number_;
   std::mutex call_mutex_;  // one call on the wire at a time
 };

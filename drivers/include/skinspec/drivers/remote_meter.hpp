@@ -74,7 +74,7 @@ class RemoteMeter : public Instrument {
   // M5, whose reply is the spectrum: the PR-655/670/680's measurement, and the PR-7xx's on a
   // firmware without T. A measurement that never answered is made once more; one whose reply
   // came damaged did measure, so D5 reads it again. There is no abort: a cancelled M5's reply is
-  // drained before the next measurement.
+  // dropped before the next command.
   std::expected<Spectrum, InstrumentError> measure_with_m5(int exposure_ms, int cycles);
 
   // What the meter on this connection turned out not to know, found from its refusals (an
@@ -102,8 +102,9 @@ class RemoteMeter : public Instrument {
   std::chrono::milliseconds measurement_time(int exposure_ms, int cycles) const;
   // The cap on a whole reply of `points` data lines (0: one line), from the line rate.
   std::chrono::milliseconds whole_reply(int points) const;
-  // A cancelled measurement whose reply may still come within `limit`: drained before the next.
-  void measurement_pending(std::chrono::milliseconds limit) { pending_ = limit; }
+  // A measurement a cancel could not stop, whose spectrum may still come within `limit`: dropped
+  // before the next command.
+  void measurement_pending(std::chrono::milliseconds limit);
   // Waits while the meter finishes a measurement, after it answered `command` with busy (1):
   // only meters that measure in the background say so. Others: a protocol error.
   virtual std::expected<void, InstrumentError> wait_while_busy(std::string_view command);
@@ -157,7 +158,6 @@ class RemoteMeter : public Instrument {
   std::optional<std::string> units_, exposure_, averages_, sync_mode_, sync_frequency_, sensitivity_, aperture_;
   std::optional<std::vector<pr6xx::Aperture>> apertures_;  // D117, read once per connection when needed
   std::string unlisted_;                                   // why D117 listed none, for messages
-  std::chrono::milliseconds pending_{0};
   Dialect dialect_;
   mutable std::mutex warnings_mutex_;           // firmware_warnings_, read from any thread
   std::vector<std::string> firmware_warnings_;  // each fallback, said once per connection
