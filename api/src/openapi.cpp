@@ -593,7 +593,7 @@ json Router::openapi_document() {
     json op = {{"summary", r.summary}, {"operationId", r.method + " " + r.path}};
     json content;
     if (r.response_schema == "text/csv" || r.response_schema == "text/plain" ||
-        r.response_schema == "text/event-stream")
+        r.response_schema == "text/event-stream" || r.response_schema == "application/jsonl")
       content = {{r.response_schema, {{"schema", {{"type", "string"}}}}}};
     else if (r.response_schema == "image/png" || r.response_schema == "application/octet-stream")
       content = {{r.response_schema, {{"schema", {{"type", "string"}, {"contentMediaType", r.response_schema}}}}}};

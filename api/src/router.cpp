@@ -461,6 +461,21 @@ struct Router::Handlers {
     const bool more = std::cmp_equal(entries.size(), limit);
     return json_response({{"entries", list}, {"next_before", more ? json(entries.back().id) : json(nullptr)}});
   }
+  // GET /api/v1/audit/export.csv and .json: the whole trail, oldest first, as `skinspec export
+  // --audit` writes it, for an inspection or an archive.
+  static Response audit_file(const RouterContext& c, const Call& call, records::ExportFormat format,
+                             const char* content_type, const char* extension) {
+    no_query(call);
+    std::ostringstream out;
+    if (auto done = records::export_audit(store_of(c), format, out); !done) fail_store(done.error());
+    return download(out.str(), content_type, std::string("audit.") + extension);
+  }
+  static Response export_audit_csv(const RouterContext& c, const Call& call) {
+    return audit_file(c, call, records::ExportFormat::csv, "text/csv; charset=utf-8", "csv");
+  }
+  static Response export_audit_jsonl(const RouterContext& c, const Call& call) {
+    return audit_file(c, call, records::ExportFormat::json, "application/jsonl; charset=utf-8", "jsonl");
+  }
   // The detail always holds every measurement's and fit's spectra, so a notebook has a whole
   // session in one request; `include=spectra` says so explicitly and is the only include.
   static Response get_session(const RouterContext& c, const Call& call) {
@@ -508,9 +523,12 @@ struct Router::Handlers {
     std::ostringstream out;
     if (format == records::ExportFormat::csv) records::write_csv_header(out);
     if (auto done = records::export_session(store_of(c), call.ids[0], format, out); !done) fail_store(done.error());
-    Response r{200, content_type, out.str(), {}};
-    r.headers.emplace_back("Content-Disposition",
-                           "attachment; filename=\"session-" + std::to_string(call.ids[0]) + "." + extension + "\"");
+    return download(out.str(), content_type, "session-" + std::to_string(call.ids[0]) + "." + extension);
+  }
+  // A file to save rather than show: the browser offers `filename`.
+  static Response download(std::string body, const char* content_type, const std::string& filename) {
+    Response r{200, content_type, std::move(body), {}};
+    r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + filename + "\"");
     return r;
   }
   static Response export_csv(const RouterContext& c, const Call& call) {
@@ -813,6 +831,14 @@ const std::vector<Route>& route_table() {
         {{"GET", "/api/v1/audit", "The changes made through the service, newest first: who, from where, what",
           Scope::admin, "", "AuditList", 200},
          &H::audit,
+         {}},
+        {{"GET", "/api/v1/audit/export.csv", "The whole audit trail as CSV, oldest first", Scope::admin, "", "text/csv",
+          200},
+         &H::export_audit_csv,
+         {}},
+        {{"GET", "/api/v1/audit/export.jsonl", "The whole audit trail as JSON lines, oldest first", Scope::admin, "",
+          "application/jsonl", 200},
+         &H::export_audit_jsonl,
          {}},
         {{"GET", "/api/v1/maps", "List skin maps, newest first; of one session with session_id", Scope::read, "",
           "MapList", 200},

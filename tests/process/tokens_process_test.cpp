@@ -9,6 +9,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <csignal>
 #include <fstream>
 #include <map>
@@ -170,7 +171,7 @@ TEST_F(TokensProcessTest, EachScopeDoesWhatItMayAndSighupAddsAndRevokes) {
     const auto r = as(viewer, p, "GET", target);
     ++gets;
     // The audit trail is the one GET for admins alone: it names who did what.
-    const int expected = target == "/api/v1/audit" ? 403 : target.starts_with("/api/v1/maps/") ? 404 : 200;
+    const int expected = target.starts_with("/api/v1/audit") ? 403 : target.starts_with("/api/v1/maps/") ? 404 : 200;
     EXPECT_EQ(r.status, expected) << target << ": " << r.body;
   }
   EXPECT_GE(gets, 25);
@@ -256,6 +257,21 @@ TEST_F(TokensProcessTest, EachChangeIsInTheAuditTrailOnceWithItsTokensName) {
   const auto page = as(lab, p, "GET", "/api/v1/audit?limit=1");
   EXPECT_EQ(page.json()["entries"].size(), 1u) << page.body;
   EXPECT_TRUE(page.json()["next_before"].is_number_integer()) << page.body;
+
+  // The whole trail to download, oldest first, exactly as `skinspec export --audit` writes it.
+  for (const std::string format : {"csv", "jsonl"}) {
+    const std::string target = "/api/v1/audit/export." + format;
+    expect_error(as(ana, p, "GET", target), 403, "forbidden");
+    const auto exported = as(lab, p, "GET", target);
+    ASSERT_EQ(exported.status, 200) << target << ": " << exported.body;
+    const auto cli =
+        skinspec({"export", "--db", rig.db_path(), "--audit", "--format", format == "csv" ? "csv" : "json"});
+    ASSERT_EQ(cli.exit_status, 0) << cli.describe();
+    EXPECT_EQ(exported.body, cli.out) << target;
+  }
+  const auto lines = as(lab, p, "GET", "/api/v1/audit/export.jsonl").body;
+  EXPECT_EQ(std::ranges::count(lines, '\n'), 4) << lines;
+  EXPECT_EQ(json::parse(lines.substr(0, lines.find('\n')))["request"], "POST /api/v1/sessions") << lines;
 }
 
 TEST_F(TokensProcessTest, TheOldTwoTokenFileStillWorksAndIsConverted) {
