@@ -23,17 +23,38 @@
 
 namespace {
 
+void reload_tokens(const std::string& file_name, skinspec::api::Keyring& tokens, int reload) {
+  if (auto file = skinspec::api::read_token_file(file_name); !file) {
+    spdlog::error("event=token_reload_failed reload={} tokens_kept={} message=\"{}\"", reload, tokens.size(),
+                  file.error());
+  } else {
+    tokens.replace(std::move(file->tokens));
+    spdlog::info("event=tokens_reloaded reload={} tokens={} file=\"{}\"", reload, tokens.size(), file_name);
+  }
+}
+
+// A renewed certificate: new connections present it, open ones keep the one they started with.
+void reload_tls(const skinspec::api::TlsFiles& files, skinspec::api::TlsCredentials& tls, int reload) {
+  if (auto context = skinspec::api::make_tls_context(files); !context) {
+    spdlog::error("event=tls_reload_failed reload={} message=\"{}; the certificate loaded before is kept\"", reload,
+                  context.error());
+  } else {
+    tls.replace(std::move(*context));
+    spdlog::info("event=tls_reloaded reload={} certificate=\"{}\"", reload, files.certificate);
+  }
+}
+
 int serve(const skinspec::daemon::Options& o) {
   using namespace skinspec;
   const auto listen = daemon::parse_listen(o.listen);
   if (!listen) return spdlog::error("event=bad_option message=\"{}\"", listen.error()), 2;
   const auto tls_files = daemon::tls_files(o);
   if (!tls_files) return spdlog::error("event=bad_option message=\"{}\"", tls_files.error()), 2;
-  std::shared_ptr<boost::asio::ssl::context> tls;
+  std::shared_ptr<api::TlsCredentials> tls;  // its context replaced on SIGHUP
   if (*tls_files) {
     auto context = api::make_tls_context(**tls_files);
     if (!context) return spdlog::error("event=bad_tls message=\"{}\"", context.error()), 2;
-    tls = std::move(*context);
+    tls = std::make_shared<api::TlsCredentials>(std::move(*context));
   }
   const auto model = drivers::ModelChoice::parse(o.model);
   if (!model) return spdlog::error("event=bad_option message=\"--model: {}\"", model.error()), 2;
@@ -137,9 +158,10 @@ int serve(const skinspec::daemon::Options& o) {
         "leaves room for fewer connections than --max-connections\"",
         o.max_connections, limits.max_connections, limits.descriptor_limit);
 
-  // SIGHUP reads the token file again, so that a token is added or revoked without a restart.
-  // A file that cannot be read or parsed then leaves the tokens as they were: a mistake in it
-  // must neither stop the service nor open it to everyone.
+  // SIGHUP reads the token file again, so that a token is added or revoked without a restart,
+  // and the TLS certificate and key, so that a renewed certificate is served. A file that cannot
+  // be read or parsed then leaves what it holds as it was: a mistake in it must neither stop the
+  // service nor open it to everyone.
   boost::asio::signal_set hangups(server.context(), SIGHUP);
   boost::asio::signal_set signals(server.context(), SIGINT, SIGTERM);
   signals.async_wait([&server, &hangups](const boost::system::error_code& ec, int signal) {
@@ -153,15 +175,11 @@ int serve(const skinspec::daemon::Options& o) {
     hangups.async_wait([&](const boost::system::error_code& ec, int) {
       if (ec) return;
       ++reloads;
-      if (!tokens) {
-        spdlog::warn("event=tokens_not_reloaded reload={} message=\"started without --token-file\"", reloads);
-      } else if (auto file = api::read_token_file(o.token_file); !file) {
-        spdlog::error("event=token_reload_failed reload={} tokens_kept={} message=\"{}\"", reloads, tokens->size(),
-                      file.error());
-      } else {
-        tokens->replace(std::move(file->tokens));
-        spdlog::info("event=tokens_reloaded reload={} tokens={} file=\"{}\"", reloads, tokens->size(), o.token_file);
-      }
+      if (tokens) reload_tokens(o.token_file, *tokens, reloads);
+      if (tls) reload_tls(**tls_files, *tls, reloads);
+      if (!tokens && !tls)
+        spdlog::warn("event=nothing_reloaded reload={} message=\"started without --token-file or --tls-cert\"",
+                     reloads);
       await_hangup();
     });
   };
@@ -225,8 +243,8 @@ int main(int argc, char** argv) {
                  "0600 JSON file of named tokens' hashes (skinspec token new), or with read_token and operator_token; "
                  "read again on SIGHUP; required off loopback");
   app.add_option("--tls-cert", o.tls_cert,
-                 "PEM certificate (then any intermediates) to serve HTTPS with; needs --tls-key. What makes tokens "
-                 "safe to send off loopback");
+                 "PEM certificate (then any intermediates) to serve HTTPS with; needs --tls-key; read again on "
+                 "SIGHUP. What makes tokens safe to send off loopback");
   app.add_option("--tls-key", o.tls_key, "PEM private key of --tls-cert, unencrypted");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error, critical or off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))

@@ -52,11 +52,16 @@ using TlsStream = beast::ssl_stream<beast::tcp_stream>;
 template <class Stream>
 class StreamSession final : public Session, public std::enable_shared_from_this<StreamSession<Stream>> {
  public:
-  // `stream_args` make the stream: the socket, and the TLS context for HTTPS.
+  // `stream_args` make the stream: the socket, and the TLS context for HTTPS, which `tls` keeps
+  // alive while the connection lasts (a certificate reloaded meanwhile replaces it for others).
   template <class... StreamArgs>
   StreamSession(std::shared_ptr<Server::State> state, ConnectionTable::Id id, std::string peer,
-                StreamArgs&&... stream_args)
-      : peer_(std::move(peer)), stream_(std::forward<StreamArgs>(stream_args)...), state_(std::move(state)), id_(id) {}
+                std::shared_ptr<boost::asio::ssl::context> tls, StreamArgs&&... stream_args)
+      : peer_(std::move(peer)),
+        tls_(std::move(tls)),
+        stream_(std::forward<StreamArgs>(stream_args)...),
+        state_(std::move(state)),
+        id_(id) {}
   ~StreamSession() override;
   StreamSession(const StreamSession&) = delete;
   StreamSession& operator=(const StreamSession&) = delete;
@@ -97,7 +102,8 @@ class StreamSession final : public Session, public std::enable_shared_from_this<
   void drain();
   void do_close();
 
-  std::string peer_;  // the client's address
+  std::string peer_;                                // the client's address
+  std::shared_ptr<boost::asio::ssl::context> tls_;  // before stream_, which refers to it
   Stream stream_;
   std::shared_ptr<Server::State> state_;
   ConnectionTable::Id id_;
@@ -112,9 +118,14 @@ class StreamSession final : public Session, public std::enable_shared_from_this<
 std::shared_ptr<Session> make_session(tcp::socket socket, std::shared_ptr<Server::State> state,
                                       ConnectionTable::Id id) {
   std::string peer = peer_of(socket);
-  if (const auto tls = state->options.tls)
-    return std::make_shared<StreamSession<TlsStream>>(std::move(state), id, std::move(peer), std::move(socket), *tls);
-  return std::make_shared<StreamSession<PlainStream>>(std::move(state), id, std::move(peer), std::move(socket));
+  if (state->options.tls) {
+    auto tls = state->options.tls->current();
+    auto& context = *tls;
+    return std::make_shared<StreamSession<TlsStream>>(std::move(state), id, std::move(peer), std::move(tls),
+                                                      std::move(socket), context);
+  }
+  return std::make_shared<StreamSession<PlainStream>>(std::move(state), id, std::move(peer), nullptr,
+                                                      std::move(socket));
 }
 
 template <class Stream>

@@ -16,6 +16,8 @@
 
 #include <cerrno>
 #include <chrono>
+#include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <future>
 #include <memory>
@@ -62,21 +64,27 @@ void make_ca(const ScratchDirectory& dir, const std::string& name) {
   ASSERT_EQ(made.exit_status, 0) << made.describe();
 }
 
+// A server certificate for 127.0.0.1 that the CA `ca` (made by make_ca) signed, and its new key.
+void make_server_certificate(const ScratchDirectory& dir, const std::string& ca, const std::string& cert,
+                             const std::string& key) {
+  const auto request = openssl({"req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256", "-nodes", "-keyout", key,
+                                "-out", dir.file("server.csr"), "-subj", "/CN=127.0.0.1"});
+  EXPECT_EQ(request.exit_status, 0) << request.describe();
+  // Clients check the address they connect to against the subject alternative names.
+  std::ofstream(dir.file("server.ext")) << "subjectAltName=IP:127.0.0.1\nbasicConstraints=CA:FALSE\n"
+                                           "extendedKeyUsage=serverAuth\n";
+  const auto signed_ = openssl({"x509", "-req", "-in", dir.file("server.csr"), "-CA", dir.file(ca + ".pem"), "-CAkey",
+                                dir.file(ca + ".key"), "-CAcreateserial", "-out", cert, "-days", "1", "-extfile",
+                                dir.file("server.ext")});
+  EXPECT_EQ(signed_.exit_status, 0) << signed_.describe();
+}
+
 Pki make_pki(const ScratchDirectory& dir) {
   Pki pki{dir.file("ca.pem"), dir.file("server.pem"), dir.file("server.key"), dir.file("other_ca.pem"),
           dir.file("other_ca.key")};
   make_ca(dir, "ca");
   make_ca(dir, "other_ca");
-  const auto request = openssl({"req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256", "-nodes", "-keyout",
-                                pki.server_key, "-out", dir.file("server.csr"), "-subj", "/CN=127.0.0.1"});
-  EXPECT_EQ(request.exit_status, 0) << request.describe();
-  // Clients check the address they connect to against the subject alternative names.
-  std::ofstream(dir.file("server.ext")) << "subjectAltName=IP:127.0.0.1\nbasicConstraints=CA:FALSE\n"
-                                           "extendedKeyUsage=serverAuth\n";
-  const auto signed_ =
-      openssl({"x509", "-req", "-in", dir.file("server.csr"), "-CA", pki.ca, "-CAkey", dir.file("ca.key"),
-               "-CAcreateserial", "-out", pki.server_cert, "-days", "1", "-extfile", dir.file("server.ext")});
-  EXPECT_EQ(signed_.exit_status, 0) << signed_.describe();
+  make_server_certificate(dir, "ca", pki.server_cert, pki.server_key);
   return pki;
 }
 
@@ -299,6 +307,33 @@ TEST_F(TlsProcessTest, BadTlsSettingsStopTheDaemonBeforeItListens) {
     EXPECT_NE(r.err.find(message), std::string::npos) << message << "\n" << r.err;
     EXPECT_EQ(r.out.find("listening"), std::string::npos) << r.out;
   }
+}
+
+// A renewed certificate (here from another CA, so that the tests can tell which one is served)
+// is written over the files and taken up on SIGHUP, not before; files that fail the checks on
+// SIGHUP leave the certificate served as it was.
+TEST_F(TlsProcessTest, SighupServesARenewedCertificateAndKeepsTheOldOneWhenTheNewFilesAreBad) {
+  const std::string cert = dir_.file("live.pem"), key = dir_.file("live.key");
+  std::filesystem::copy_file(pki_.server_cert, cert);
+  std::filesystem::copy_file(pki_.server_key, key);
+  const auto p = start_daemon({"--tls-cert", cert, "--tls-key", key});
+  ASSERT_NE(p, 0) << daemon_->err();
+  const auto served_by = [&](const std::string& ca) { return curl({"--cacert", ca, https(p, "/healthz")}); };
+  ASSERT_EQ(served_by(pki_.ca).exit_status, 0);
+
+  make_server_certificate(dir_, "other_ca", cert, key);
+  EXPECT_EQ(served_by(pki_.ca).exit_status, 0) << "read again only on SIGHUP";
+  daemon_->send_signal(SIGHUP);
+  ASSERT_TRUE(daemon_->wait_for_stderr("event=tls_reloaded reload=1 ", 20s)) << daemon_->err();
+  EXPECT_EQ(served_by(pki_.other_ca).exit_status, 0) << served_by(pki_.other_ca).describe();
+  EXPECT_EQ(served_by(pki_.ca).exit_status, kCurlBadCertificate);
+
+  std::ofstream(cert, std::ios::trunc) << "-----BEGIN CERTIFICATE-----\nnonsense\n";
+  daemon_->send_signal(SIGHUP);
+  ASSERT_TRUE(daemon_->wait_for_stderr("event=tls_reload_failed reload=2 ", 20s)) << daemon_->err();
+  EXPECT_NE(daemon_->err().find("no PEM certificate"), std::string::npos) << daemon_->err();
+  EXPECT_EQ(served_by(pki_.other_ca).exit_status, 0) << "the certificate served before is kept";
+  EXPECT_FALSE(daemon_->has_exited());
 }
 
 // The config file names them as it names the other flags.

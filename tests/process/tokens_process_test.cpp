@@ -317,7 +317,7 @@ TEST_F(TokensProcessTest, WithoutATokenFileSighupChangesNothing) {
   ASSERT_TRUE(line) << d.err();
   const auto p = static_cast<unsigned short>(std::stoi(line->substr(line->rfind(':') + 1)));
   EXPECT_EQ(http_request(p, "POST", "/api/v1/white-standards", kWhiteStandard).status, 201);
-  ASSERT_TRUE(hang_up(d, 1, "tokens_not_reloaded")) << d.err();
+  ASSERT_TRUE(hang_up(d, 1, "nothing_reloaded")) << d.err();
   EXPECT_EQ(http_request(p, "POST", "/api/v1/sessions", kSession).status, 201);
   d.send_signal(SIGTERM);
   EXPECT_EQ(d.wait(30s).exit_status, 0);

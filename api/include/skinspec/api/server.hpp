@@ -53,8 +53,8 @@ struct ServerOptions {
   std::size_t compute_threads = 2;
   std::size_t compute_queue = 8;
   // Set (make_tls_context): every connection is HTTPS, its handshake held to read_timeout like
-  // a request. Null: plain HTTP.
-  std::shared_ptr<boost::asio::ssl::context> tls;
+  // a request, with the context current when it was accepted. Null: plain HTTP.
+  std::shared_ptr<TlsCredentials> tls;
 };
 
 // The connection limits in force, after listen().
