@@ -15,6 +15,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "skinspec/drivers/meter_profile.hpp"
 #include "skinspec/drivers/pr6xx_protocol.hpp"
@@ -89,14 +90,28 @@ void check_spectral(std::string_view bytes, const drivers::Grid& grid) {
   });
 }
 
-void check_spectra(std::string_view bytes) {
-  for (const drivers::MeterProfile& profile : drivers::all_profiles()) {
-    if (profile.family == drivers::Family::pr650) continue;
-    check_spectral(bytes, *profile.simulator_grid);
-    for (const auto& variant : profile.grid_variants) {
-      if (variant) check_spectral(bytes, *variant);
+// Every grid a newer meter measures on (its own and the variants the sources give), each once:
+// models share grids, and a spectrum parsed twice on one grid finds nothing new.
+const std::vector<drivers::Grid>& newer_meters_grids() {
+  static const std::vector<drivers::Grid> grids = [] {
+    std::vector<drivers::Grid> all;
+    const auto add = [&](const drivers::Grid& grid) {
+      if (std::ranges::find(all, grid) == all.end()) all.push_back(grid);
+    };
+    for (const drivers::MeterProfile& profile : drivers::all_profiles()) {
+      if (profile.family == drivers::Family::pr650) continue;
+      add(*profile.simulator_grid);
+      for (const auto& variant : profile.grid_variants) {
+        if (variant) add(*variant);
+      }
     }
-  }
+    return all;
+  }();
+  return grids;
+}
+
+void check_spectra(std::string_view bytes) {
+  for (const drivers::Grid& grid : newer_meters_grids()) check_spectral(bytes, grid);
 }
 
 void check_line_replies(std::string_view bytes) {
