@@ -263,9 +263,9 @@ TEST(Pr650Driver, CancelEndsAMeasurementAndTheNextOneStillWorks) {
 // the same, and the next measurement's commands must not read it as their replies.
 TEST(Pr650Driver, TheRestOfAReportACancelCutShortIsNotTakenForTheNextReply) {
   DriverOptions options = fast_options();
-  options.timing.line_bytes_per_second = 9600;                                       // a whole report may take 0.5 s
+  options.timing.line_bytes_per_second = 4800;                                       // a whole report may take 0.8 s
   std::vector<MeterStep> streamed = failed_measurement("s01,,,,,0,01,1", d5(1e-4));  // up to D5
-  streamed[2].line_interval = 3ms;                                                   // 101 data lines: about 0.3 s
+  streamed[2].line_interval = 5ms;                                                   // 101 data lines: about 0.5 s
   auto r = rig(contact() + streamed + measurement("s01,,,,,0,01,1", d5(2e-4)), options);
   ASSERT_TRUE(r.driver->connect());
   const auto reading = cancel_then_measure(r, 4, 60ms);  // the D5's first lines are out
