@@ -32,8 +32,11 @@ std::string read_text(const std::string& path) {
 
 class ImportCliTest : public ::testing::Test {
  protected:
+  static constexpr std::size_t kBodyLimit = 64 * 1024;
   void SetUp() override {
-    rig_ = std::make_unique<AcquisitionRig>(rig_options(dir_.path().string(), 0));
+    // A small body limit, so that a file over it is small too: an upload's size is its own.
+    rig_ = std::make_unique<AcquisitionRig>(
+        rig_options(dir_.path().string(), {"--time-scale", "0"}, {"--body-limit", std::to_string(kBodyLimit)}));
     ASSERT_NE(rig_->port, 0) << rig_->logs();
   }
   ProcessResult skinspec(std::vector<std::string> args) const {
@@ -138,8 +141,8 @@ TEST_F(ImportCliTest, TheScaleAskedForIsHowTheServiceReadsTheFile) {
 
 TEST_F(ImportCliTest, AFileLargerThanTheBodyLimitIsAnUpload) {
   const long long id = new_session(rig_->port, "S2");
-  const auto r =
-      skinspec({"import", write("big.csv", archive(0, 1300 * 1024)), "--session", std::to_string(id), "--json"});
+  const auto r = skinspec(
+      {"import", write("big.csv", archive(0, kBodyLimit + kBodyLimit / 4)), "--session", std::to_string(id), "--json"});
   ASSERT_EQ(r.exit_status, 0) << r.describe() << rig_->logs();
   const json job = json::parse(r.out);
   EXPECT_EQ(job["state"], "succeeded");
