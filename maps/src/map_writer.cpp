@@ -1,10 +1,8 @@
 #include "skinspec/maps/map_writer.hpp"
 
-#include "gdal_support.hpp"
+#include "gdal_io.hpp"
 #include "skinspec/maps/map_picture.hpp"
 #include "skinspec/render/png.hpp"
-
-#include <gdal_priv.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -24,18 +22,11 @@ namespace fs = std::filesystem;
 struct MapWriter::State {
   fs::path dir, partial, name, cube_file;
   std::size_t samples = 0, bands = 0;
-  std::unique_ptr<GDALDataset> cube;
+  std::unique_ptr<gdal_io::AnswerFile> cube;  // written through GDAL (gdal_io.hpp)
   bool finished = false;
 };
 
 namespace {
-
-// An ENVI header list cannot hold commas inside its items.
-std::string header_item(std::string text) {
-  for (char& c : text)
-    if (c == ',' || c == '{' || c == '}') c = ';';
-  return text;
-}
 
 // A map killed outright (SIGKILL, a power cut) leaves its hidden directory behind, under no
 // final name. Those of the same cube whose process is gone are removed when it is mapped
@@ -80,63 +71,23 @@ std::expected<MapWriter, std::string> MapWriter::create(const fs::path& dir, con
   fs::create_directories(state->partial, error);
   if (error) return std::unexpected(fmt::format("{}: cannot create: {}", dir.string(), error.message()));
   remove_abandoned(dir, name);
-  detail::start_gdal();
   const bool envi = format == MapFormat::envi;
-  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName(envi ? "ENVI" : "GTiff");
-  if (!driver) return std::unexpected(fmt::format("GDAL has no {} driver", envi ? "ENVI" : "GTiff"));
-  // ENVI: the header GDAL writes is the data file's name with ".hdr" for its extension.
-  const char* envi_options[] = {"INTERLEAVE=BIL", nullptr};
-  const char* tiff_options[] = {"INTERLEAVE=BAND", "TILED=YES", "BIGTIFF=IF_SAFER", nullptr};
   state->cube_file = state->partial / (name + (envi ? ".map.img" : ".map.tif"));
-  state->cube.reset(driver->Create(state->cube_file.c_str(), static_cast<int>(cube.samples),
-                                   static_cast<int>(cube.lines), static_cast<int>(bands.size()), GDT_Float32,
-                                   const_cast<char**>(envi ? envi_options : tiff_options)));
-  if (!state->cube)
-    return std::unexpected(fmt::format("{}: cannot create: {}", state->cube_file.string(), CPLGetLastErrorMsg()));
-  std::string units = "{";
-  for (std::size_t b = 0; b < bands.size(); ++b) {
-    GDALRasterBand* band = state->cube->GetRasterBand(static_cast<int>(b + 1));
-    band->SetDescription(bands[b].name.c_str());
-    band->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());  // not determined, or not skin
-    units += (b ? ", " : " ") + header_item(bands[b].unit);
-  }
-  if (envi) state->cube->SetMetadataItem("band_units", (units + " }").c_str(), "ENVI");
-  // A TIFF's bands carry their names (above) and units as GDAL band metadata.
-  for (std::size_t b = 0; b < bands.size() && !envi; ++b)
-    state->cube->GetRasterBand(static_cast<int>(b + 1))->SetMetadataItem("unit", bands[b].unit.c_str());
-  state->cube->SetDescription(fmt::format("skinspec map of {}", cube.file).c_str());
+  auto answers = gdal_io::io().create_answer_file(state->cube_file, cube, bands, envi);
+  if (!answers) return std::unexpected(answers.error());
+  state->cube = std::move(*answers);
   return MapWriter(std::move(state));
 }
 
 std::expected<void, std::string> MapWriter::write_lines(std::size_t first, std::size_t count,
                                                         std::span<const float> answers) {
-  const auto bands = static_cast<GSpacing>(state_->bands);
-  const CPLErr result = state_->cube->RasterIO(
-      GF_Write, 0, static_cast<int>(first), static_cast<int>(state_->samples), static_cast<int>(count),
-      const_cast<float*>(answers.data()), static_cast<int>(state_->samples), static_cast<int>(count), GDT_Float32,
-      static_cast<int>(state_->bands), nullptr, bands * static_cast<GSpacing>(sizeof(float)),
-      bands * static_cast<GSpacing>(state_->samples * sizeof(float)), static_cast<GSpacing>(sizeof(float)), nullptr);
-  if (result != CE_None) return std::unexpected(fmt::format("cannot write the map: {}", CPLGetLastErrorMsg()));
-  return {};
+  return state_->cube->write_lines(first, count, answers);
 }
 
 std::expected<std::vector<ParameterSummary>, std::string> MapWriter::close(ModelKind model, bool pictures) {
-  CPLErrorReset();
-  state_->cube->FlushCache(true);
-  state_->cube.reset();  // closing writes the header
-  if (CPLGetLastErrorType() >= CE_Failure)
-    return std::unexpected(fmt::format("cannot write the map: {}", CPLGetLastErrorMsg()));
-  std::unique_ptr<GDALDataset> cube(GDALDataset::Open(state_->cube_file.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
-  if (!cube) return std::unexpected(fmt::format("cannot read the map back: {}", CPLGetLastErrorMsg()));
-  const auto lines = static_cast<std::size_t>(cube->GetRasterYSize());
-  const auto read_band = [&](int index) -> std::expected<std::vector<float>, std::string> {
-    std::vector<float> band(lines * state_->samples);
-    if (cube->GetRasterBand(index)->RasterIO(GF_Read, 0, 0, static_cast<int>(state_->samples), static_cast<int>(lines),
-                                             band.data(), static_cast<int>(state_->samples), static_cast<int>(lines),
-                                             GDT_Float32, 0, 0, nullptr) != CE_None)
-      return std::unexpected(fmt::format("cannot read the map back: {}", CPLGetLastErrorMsg()));
-    return band;
-  };
+  if (auto reopened = state_->cube->close_and_reopen(); !reopened) return std::unexpected(reopened.error());
+  const auto lines = state_->cube->lines();
+  const auto read_band = [&](int index) { return state_->cube->read_band(index); };
   const auto mask = read_band(static_cast<int>(state_->bands));
   if (!mask) return std::unexpected(mask.error());
   const auto bands = map_bands(model);

@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -154,6 +155,42 @@ TEST_F(MapCli, ABadCubeExitsWithStatus2NamingTheFileAndFieldAndWritesNothing) {
     EXPECT_THAT(run.err, HasSubstr(header.string() + ": " + bad.field)) << bad.name;
     EXPECT_THAT(left_in(out), ::testing::IsEmpty()) << bad.name;
   }
+}
+
+// GDAL and the libraries it needs are loaded only to read or write a cube: a command that does
+// not (here --version) starts without them, and `skinspec map` loads the module that has them.
+TEST_F(MapCli, GdalIsLoadedOnlyByACommandThatReadsACube) {
+  const auto loaded = [](const testing::ProcessResult& run, std::string_view library) {
+    return std::ranges::any_of(lines_of(run.err), [&](const std::string& line) {
+      return line.find("file=") != std::string::npos && line.find(library) != std::string::npos;
+    });
+  };
+  const testing::ProcessOptions traced{std::nullopt, std::chrono::seconds(120), {"LD_DEBUG=files"}};
+  const auto version = testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec", {"--version"}, traced);
+  ASSERT_EQ(version.exit_status, 0) << version.describe();
+  EXPECT_FALSE(loaded(version, "libgdal")) << version.err;
+  EXPECT_FALSE(loaded(version, "libskinspec-gdal")) << version.err;
+
+  write_envi(dir_ / "small", skin_cube(4, 3), {});
+  const auto map = testing::run_process(SKINSPEC_TEST_BIN_DIR "/skinspec",
+                                        {"map", (dir_ / "small.hdr").string(), "-o", (dir_ / "out").string()}, traced);
+  ASSERT_EQ(map.exit_status, 0) << map.describe();
+  EXPECT_TRUE(loaded(map, "libskinspec-gdal.so")) << map.err;
+  EXPECT_TRUE(loaded(map, "libgdal")) << map.err;
+}
+
+// A skinspec installed without its GDAL module says so, and exits as for a fault of its own
+// (1), not of the cube (2); it writes nothing.
+TEST_F(MapCli, WithoutItsGdalModuleAMapSaysSoAndWritesNothing) {
+  fs::create_directories(dir_ / "bin");
+  fs::copy_file(SKINSPEC_TEST_BIN_DIR "/skinspec", dir_ / "bin" / "skinspec");
+  write_envi(dir_ / "small", skin_cube(4, 3), {});
+  const auto run = testing::run_process((dir_ / "bin" / "skinspec").string(),
+                                        {"map", (dir_ / "small.hdr").string(), "-o", (dir_ / "out").string()});
+  EXPECT_EQ(run.exit_status, 1) << run.describe();
+  EXPECT_THAT(run.err, HasSubstr("GDAL module")) << run.err;
+  EXPECT_THAT(run.err, HasSubstr((dir_ / "lib" / "skinspec" / "libskinspec-gdal.so").string())) << run.err;
+  EXPECT_THAT(left_in(dir_ / "out"), ::testing::IsEmpty());
 }
 
 TEST_F(MapCli, SigintStopsAMapAndLeavesNothingUnderItsNames) {

@@ -13,6 +13,10 @@
 
 namespace skinspec::maps {
 
+namespace gdal_io {
+class CubeData;
+}
+
 // What is wrong with a cube: the file, the header field (empty when none is to blame) and why.
 struct CubeError {
   std::string file;
@@ -61,11 +65,8 @@ class Cube {
   std::expected<std::vector<float>, CubeError> read_lines(std::size_t first, std::size_t count) const;
 
  private:
-  struct Dataset;
-  Cube(std::unique_ptr<Dataset> dataset, CubeInfo info);
-  // A cube that is an array of a container (HDF5, netCDF) at `file`, named `path` in errors.
-  static std::expected<Cube, CubeError> open_array(const std::string& path, const std::string& file);
-  std::unique_ptr<Dataset> dataset_;
+  Cube(std::unique_ptr<gdal_io::CubeData> data, CubeInfo info);
+  std::unique_ptr<gdal_io::CubeData> data_;  // read through GDAL, in its module (gdal_io.hpp)
   CubeInfo info_;
 };
 

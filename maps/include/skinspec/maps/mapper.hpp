@@ -14,6 +14,7 @@
 
 #include "skinspec/fit/fitter.hpp"
 #include "skinspec/maps/cube.hpp"
+#include "skinspec/maps/map_band.hpp"
 
 namespace skinspec::maps {
 
@@ -51,11 +52,6 @@ struct MapOptions {
   unsigned threads = 0;  // 0: one per core
 };
 
-// One band of the answer cube: its name and unit, as the ENVI header gives them.
-struct MapBand {
-  std::string name;
-  std::string unit;
-};
 // For each parameter its value and standard error (NaN where the spectrum does not determine
 // it), then rmse, delta_e00_d65, iterations, termination (its number in termination_names()) and
 // mask (a MaskReason's number).

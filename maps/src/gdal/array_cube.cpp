@@ -1,8 +1,8 @@
-#include "array_cube.hpp"
+#include "gdal/array_cube.hpp"
 
 #include <fmt/format.h>
 
-#include "gdal_support.hpp"
+#include "gdal/gdal_support.hpp"
 
 namespace skinspec::maps::detail {
 

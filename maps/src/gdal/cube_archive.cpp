@@ -11,8 +11,8 @@
 #include <fstream>
 #include <memory>
 
-#include "gdal_support.hpp"
-#include "skinspec/maps/cube.hpp"
+#include "gdal/cube_reader.hpp"
+#include "gdal/gdal_support.hpp"
 
 namespace skinspec::maps {
 
@@ -67,8 +67,8 @@ std::expected<void, std::string> copy_member(const std::string& from, const fs::
 
 }  // namespace
 
-std::expected<std::string, CubeError> cube_of_upload(const std::string& file, const std::string& dir,
-                                                     const std::string& name) {
+std::expected<std::string, CubeError> unpack_cube_upload(const std::string& file, const std::string& dir,
+                                                         const std::string& name) {
   const Archive archive = archive_of(file);
   if (archive == Archive::none) return file;
   const auto refuse = [&](std::string why) { return std::unexpected(CubeError{name, "", std::move(why)}); };

@@ -1,4 +1,4 @@
-#include "gdal_support.hpp"
+#include "gdal/gdal_support.hpp"
 
 #include <gdal_priv.h>
 
