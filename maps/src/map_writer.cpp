@@ -20,7 +20,7 @@ namespace skinspec::maps {
 namespace fs = std::filesystem;
 
 struct MapWriter::State {
-  fs::path dir, partial, name, cube_file;
+  fs::path dir, partial, name;
   std::size_t samples = 0, bands = 0;
   std::unique_ptr<gdal_io::AnswerFile> cube;  // written through GDAL (gdal_io.hpp)
   bool finished = false;
@@ -72,8 +72,8 @@ std::expected<MapWriter, std::string> MapWriter::create(const fs::path& dir, con
   if (error) return std::unexpected(fmt::format("{}: cannot create: {}", dir.string(), error.message()));
   remove_abandoned(dir, name);
   const bool envi = format == MapFormat::envi;
-  state->cube_file = state->partial / (name + (envi ? ".map.img" : ".map.tif"));
-  auto answers = gdal_io::io().create_answer_file(state->cube_file, cube, bands, envi);
+  const fs::path answer_file = state->partial / (name + (envi ? ".map.img" : ".map.tif"));
+  auto answers = gdal_io::io().create_answer_file(answer_file, cube, bands, envi);
   if (!answers) return std::unexpected(answers.error());
   state->cube = std::move(*answers);
   return MapWriter(std::move(state));

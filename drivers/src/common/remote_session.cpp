@@ -181,8 +181,7 @@ std::expected<Reply, InstrumentError> Session::transact(std::string_view command
     auto n = transport_.read(buffer, sizeof buffer, whole ? std::min(next, *whole) : next);
     if (!n) {
       // Cancelled while the reply was due or coming: the meter sends the rest all the same.
-      if (n.error().kind == TransportError::Kind::interrupted)
-        stray_.expect(whole ? Clock::now() : next, whole ? *whole : next + rule.whole);
+      if (n.error().kind == TransportError::Kind::interrupted) stray_.expect_rest(whole, next, rule.whole);
       if (n.error().kind != TransportError::Kind::timeout) return std::unexpected(link_error(n.error(), command));
       if (reply.empty()) return Reply{ReplyEnd::silent, {}};
       if (rule.shape == p6::ReplyShape::listing) return Reply{ReplyEnd::complete, std::string(reply)};
@@ -214,13 +213,6 @@ std::expected<Reply, InstrumentError> Session::transact_despite_cancel(std::stri
 
 void Session::expect_stray_reply(const Rule& rule) {
   stray_.expect(deadline_in(rule.first_byte), deadline_in(rule.first_byte + rule.whole));
-}
-
-void Session::drain(std::chrono::milliseconds idle, std::chrono::milliseconds limit) {
-  char buffer[512];
-  const Deadline end = deadline_in(limit);
-  Deadline next = end;  // the first byte may take all of `limit`, then the reply streams
-  while (transport_.read(buffer, sizeof buffer, std::min(next, end))) next = deadline_in(idle);
 }
 
 // What came after PHOTO: the banner whole, other bytes, or nothing (an empty string).

@@ -64,8 +64,6 @@ class Session {
   template <typename Parse>
   auto ask(std::string_view command, const Rule& rule, std::string_view what, Parse parse)
       -> std::expected<typename decltype(parse(std::string_view()))::value_type, InstrumentError>;
-  // Reads and drops a reply that may still come within `limit`, until `idle` of silence after it.
-  void drain(std::chrono::milliseconds idle, std::chrono::milliseconds limit);
   // A reply that may come within `rule.first_byte` although no command asked for it now (a
   // measurement a cancel could not stop): dropped before the next command.
   void expect_stray_reply(const Rule& rule);
@@ -128,8 +126,9 @@ auto Session::ask(std::string_view command, const Rule& rule, std::string_view w
     if (!reply) return std::unexpected(reply.error());
     if (reply->end != ReplyEnd::complete) {
       failure = unanswered(command, *reply);
-      // The rest of a reply that stopped may still be on its way: not a reply to the next try.
-      if (reply->end == ReplyEnd::cut) drain(rule.idle, rule.whole);
+      // The rest of a reply that stopped may still be on its way: not a reply to the next try,
+      // which drops it first (transact).
+      if (reply->end == ReplyEnd::cut) stray_.expect(Clock::now(), deadline_in(rule.whole));
       continue;
     }
     auto parsed = parse(reply->bytes);

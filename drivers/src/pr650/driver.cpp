@@ -154,8 +154,7 @@ std::expected<Pr650::Reply, InstrumentError> Pr650::transact(const std::string& 
     auto n = transport_->read(buffer, sizeof buffer, whole ? std::min(next, *whole) : next);
     if (!n) {
       // Cancelled while the reply was due or coming: the meter sends the rest all the same.
-      if (n.error().kind == TransportError::Kind::interrupted)
-        stray_.expect(whole ? Clock::now() : next, whole ? *whole : next + rule.whole);
+      if (n.error().kind == TransportError::Kind::interrupted) stray_.expect_rest(whole, next, rule.whole);
       if (n.error().kind != TransportError::Kind::timeout) return std::unexpected(link_error(n.error(), command));
       if (reply.empty()) return Reply{ReplyEnd::silent, received, {}};
       return Reply{ReplyEnd::cut, std::string(reply), {}};

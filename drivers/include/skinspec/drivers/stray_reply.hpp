@@ -17,6 +17,12 @@ class StrayReply {
   // A reply whose first byte came already (`start_by` in the past) or may still come until
   // `start_by`, and which is over by `end_by` at the latest.
   void expect(Deadline start_by, Deadline end_by);
+  // The rest of a reply whose wait was interrupted: started (`whole_by`, its cap, set when its
+  // first byte came) or due by `first_byte_by`, then taking at most `whole`.
+  void expect_rest(std::optional<Deadline> whole_by, Deadline first_byte_by, std::chrono::milliseconds whole) {
+    if (whole_by) expect(Clock::now(), *whole_by);
+    else expect(first_byte_by, first_byte_by + whole);
+  }
   // Reads and drops the expected reply: until `idle` passes without a byte once it has started,
   // or its end. Returns false when interrupted (a cancel): it is then still expected.
   bool drop(Transport& transport, std::chrono::milliseconds idle);
