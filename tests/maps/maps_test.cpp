@@ -206,6 +206,33 @@ TEST_F(MapsTest, ABadCubeIsRefusedNamingItsFileAndField) {
   }
 }
 
+// GDAL reads some two hundred formats, and some of them name other files or addresses: a VRT
+// file's bands can be any raw file the process may read, a WMS file's a web server. A cube is
+// read only as ENVI, TIFF, HDF5 or netCDF, so an uploaded "cube" cannot make the service read
+// its database, its token file or its TLS key, or fetch an address inside the lab's network.
+TEST_F(MapsTest, AFileThatNamesOtherFilesIsNotReadAsACube) {
+  const fs::path secret = dir_ / "secret.bin";
+  {
+    std::ofstream out(secret, std::ios::binary);
+    const std::vector<float> values(2 * 2 * 3, 0.5F);
+    out.write(reinterpret_cast<const char*>(values.data()), static_cast<std::streamsize>(values.size() * 4));
+  }
+  std::string vrt = R"(<VRTDataset rasterXSize="2" rasterYSize="2">)";
+  for (const int band : {0, 1, 2})
+    vrt += fmt::format(R"(<VRTRasterBand dataType="Float32" band="{}" subClass="VRTRawRasterBand">)"
+                       R"(<Metadata><MDI key="wavelength">{}</MDI></Metadata>)"
+                       R"(<SourceFilename relativeToVRT="0">{}</SourceFilename><ImageOffset>{}</ImageOffset>)"
+                       R"(<PixelOffset>4</PixelOffset><LineOffset>8</LineOffset></VRTRasterBand>)",
+                       band + 1, 400 + 150 * band, secret.string(), 16 * band);
+  vrt += "</VRTDataset>";
+  for (const char* name : {"cube.vrt", "cube.tif"}) {
+    std::ofstream(dir_ / name) << vrt;
+    const CubeError e = refusal(dir_ / name);
+    EXPECT_EQ(e.file, (dir_ / name).string());
+    EXPECT_NE(e.message.find("ENVI, TIFF, HDF5 or netCDF"), std::string::npos) << e.what();
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Ground truth: every parameter varies smoothly over the image; a border two pixels wide is a
 // grey card, which is not skin.

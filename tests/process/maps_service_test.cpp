@@ -228,6 +228,62 @@ TEST_F(MapsServiceTest, PathsLeadingOutOfTheDataDirectoryAreForbidden) {
   EXPECT_THAT(scratch_left(), ::testing::IsEmpty());
 }
 
+// An upload whose values would be another file the daemon can read (its database, its token
+// file, its TLS key): a GDAL VRT naming a raw file, and HDF5 files with an external dataset, a
+// virtual dataset and a link into another file. Each is refused, and nothing is read or stored.
+TEST_F(MapsServiceTest, AnUploadWhoseValuesAreInOtherFilesIsRefused) {
+  const fs::path outside = dir_.path() / "outside";
+  fs::create_directories(outside);
+  const auto cube = skin_cube(2, 3);
+  write_envi(outside / "secret", cube, {});
+  const std::string script =
+      "import numpy, sys, h5py\n"
+      "outside, wl = sys.argv[1], numpy.array([float(w) for w in sys.argv[2].split(',')])\n"
+      "shape = (" +
+      fmt::format("{}, {}, {}", cube.lines, cube.samples, cube.bands) +
+      ")\n"
+      "with h5py.File(outside + '/secret.h5', 'w') as f:\n"
+      "    f['cube'] = numpy.zeros(shape, dtype='<f4')\n"
+      "with h5py.File(outside + '/external.h5', 'w') as f:\n"
+      "    f.create_dataset('cube', shape=shape, dtype='<f4',\n"
+      "                     external=[(outside + '/secret.img', 0, 4 * int(numpy.prod(shape)))])\n"
+      "    f['wavelength'] = wl\n"
+      "layout = h5py.VirtualLayout(shape=shape, dtype='<f4')\n"
+      "layout[:] = h5py.VirtualSource(outside + '/secret.h5', 'cube', shape=shape)\n"
+      "with h5py.File(outside + '/virtual.h5', 'w') as f:\n"
+      "    f.create_virtual_dataset('cube', layout)\n"
+      "    f['wavelength'] = wl\n"
+      "with h5py.File(outside + '/linked.h5', 'w') as f:\n"
+      "    f['cube'] = h5py.ExternalLink(outside + '/secret.h5', '/cube')\n"
+      "    f['wavelength'] = wl\n";
+  std::string wavelengths;
+  for (const double w : cube.wavelength_nm) wavelengths += (wavelengths.empty() ? "" : ",") + std::to_string(w);
+  const auto made = run_process("/usr/bin/python3", {"-c", script, outside.string(), wavelengths});
+  ASSERT_EQ(made.exit_status, 0) << made.describe();
+  std::string vrt = fmt::format(R"(<VRTDataset rasterXSize="{}" rasterYSize="{}">)", cube.samples, cube.lines);
+  for (std::size_t band = 0; band < cube.bands; ++band)
+    vrt += fmt::format(
+        R"(<VRTRasterBand dataType="Float32" band="{}" subClass="VRTRawRasterBand">)"
+        R"(<Metadata><MDI key="wavelength">{}</MDI></Metadata><SourceFilename>{}</SourceFilename>)"
+        R"(<ImageOffset>{}</ImageOffset><PixelOffset>{}</PixelOffset><LineOffset>{}</LineOffset></VRTRasterBand>)",
+        band + 1, cube.wavelength_nm[band], (outside / "secret.img").string(), 4 * band, 4 * cube.bands,
+        4 * cube.bands * cube.samples);
+  vrt += "</VRTDataset>";
+  const std::vector<std::pair<std::string, std::string>> uploads{
+      {"cube.vrt", vrt},
+      {"cube.tif", vrt},
+      {"external.h5", file_bytes((outside / "external.h5").string())},
+      {"virtual.h5", file_bytes((outside / "virtual.h5").string())},
+      {"linked.h5", file_bytes((outside / "linked.h5").string())}};
+  for (const auto& [name, bytes] : uploads) {
+    const auto reply = post_upload(bytes, "name=" + name);
+    EXPECT_EQ(reply.status, 422) << name << ": " << reply.body;
+    EXPECT_EQ(reply.json()["error"]["code"], "bad_cube") << name << ": " << reply.body;
+  }
+  EXPECT_THAT(get_json(port(), "/api/v1/maps")["maps"], ::testing::IsEmpty());
+  EXPECT_THAT(scratch_left(), ::testing::IsEmpty());
+}
+
 TEST_F(MapsServiceTest, BadCubesAreRefusedWithA4xxNamingTheFileAndTheField) {
   for (const auto& c : write_bad_cubes(data_)) {
     const auto by_path = post_path({{"path", c.name + ".hdr"}});

@@ -43,10 +43,12 @@ class GdalAnswerFile final : public gdal_io::AnswerFile {
   std::expected<void, std::string> close_and_reopen() override {
     CPLErrorReset();
     cube_->FlushCache(true);
+    const std::string driver = cube_->GetDriver()->GetDescription();
     cube_.reset();  // closing writes the header
     if (CPLGetLastErrorType() >= CE_Failure)
       return std::unexpected(fmt::format("cannot write the map: {}", CPLGetLastErrorMsg()));
-    cube_.reset(GDALDataset::Open(file_.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+    const char* const written_by[] = {driver.c_str(), nullptr};
+    cube_.reset(GDALDataset::Open(file_.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, written_by));
     if (!cube_) return std::unexpected(fmt::format("cannot read the map back: {}", CPLGetLastErrorMsg()));
     return {};
   }

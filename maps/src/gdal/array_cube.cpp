@@ -32,7 +32,8 @@ std::expected<std::vector<double>, CubeError> array_values(GDALMDArray& array, c
 }  // namespace
 
 std::expected<ArrayCube, CubeError> open_array_cube(const std::string& path) {
-  std::unique_ptr<GDALDataset> container(GDALDataset::Open(path.c_str(), GDAL_OF_MULTIDIM_RASTER | GDAL_OF_READONLY));
+  std::unique_ptr<GDALDataset> container(
+      GDALDataset::Open(path.c_str(), GDAL_OF_MULTIDIM_RASTER | GDAL_OF_READONLY, kArrayDrivers));
   const auto root = container ? container->GetRootGroup() : nullptr;
   if (!root) return std::unexpected(CubeError{path, "bands", "the file holds no image and no arrays GDAL can read"});
   std::shared_ptr<GDALMDArray> cube, wavelengths;

@@ -1,9 +1,10 @@
-// The cube reader of the GDAL module (gdal_io.hpp): ENVI, TIFF and the images GDAL reads,
+// The cube reader of the GDAL module (gdal_io.hpp): ENVI and TIFF images,
 // and containers of arrays (array_cube.hpp).
 #include "gdal/cube_reader.hpp"
 
 #include "gdal/array_cube.hpp"
 #include "gdal/gdal_support.hpp"
+#include "gdal/hdf5_guard.hpp"
 
 #include <gdal_priv.h>
 
@@ -27,6 +28,16 @@ namespace {
 
 class GdalCubeData final : public gdal_io::CubeData {
  public:
+  GdalCubeData() = default;
+  GdalCubeData(const GdalCubeData&) = delete;
+  GdalCubeData& operator=(const GdalCubeData&) = delete;
+  ~GdalCubeData() override {
+    if (!container) return;
+    const std::lock_guard hdf5(detail::hdf5_mutex());  // closing it calls HDF5
+    array.reset();
+    container.reset();
+  }
+
   std::expected<std::vector<float>, CubeError> read_lines(const CubeInfo& info, std::size_t first,
                                                           std::size_t count) const override;
 
@@ -197,14 +208,17 @@ std::expected<gdal_io::OpenedCube, CubeError> open_gdal_cube(const std::string& 
   CPLErrorReset();
   const auto data_file = data_file_of(path);
   if (!data_file) return std::unexpected(data_file.error());
+  const std::lock_guard hdf5(detail::hdf5_mutex());
+  if (auto inside = detail::refuse_data_outside(path, *data_file); !inside) return std::unexpected(inside.error());
   auto dataset = std::make_unique<GdalCubeData>();
-  dataset->gdal.reset(GDALDataset::Open(data_file->c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  dataset->gdal.reset(GDALDataset::Open(data_file->c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, detail::kCubeDrivers));
   if (!dataset->gdal) {
     const std::string why = last_gdal_error();
     const bool type =
         lower(why).find("data type") != std::string::npos || lower(why).find("data_type") != std::string::npos;
     const std::string field = type ? "data type" : "";
-    return std::unexpected(CubeError{path, field, fmt::format("not a spectral image GDAL can read: {}", why)});
+    return std::unexpected(CubeError{
+        path, field, fmt::format("not a spectral image in a format read here ({}): {}", detail::kCubeFormats, why)});
   }
   // Containers of arrays are read as arrays: GDAL's image of their one dataset knows neither
   // its wavelengths nor MATLAB's column order.
@@ -263,6 +277,7 @@ std::expected<std::vector<float>, CubeError> GdalCubeData::read_lines(const Cube
                             static_cast<int>(count), GDT_Float32, static_cast<int>(info.bands), nullptr, bands * word,
                             bands * static_cast<GSpacing>(info.samples) * word, word, nullptr);
   } else {
+    const std::lock_guard hdf5(detail::hdf5_mutex());
     // The array's own dimensions, read straight into pixel-interleaved order.
     std::array<GUInt64, 3> start{};
     std::array<std::size_t, 3> counts{};

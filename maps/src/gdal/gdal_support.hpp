@@ -11,9 +11,18 @@
 
 namespace skinspec::maps::detail {
 
-// GDAL once per process: every driver registered; no side files (a .aux.xml beside a cube
-// that was only read); a small block cache; GDAL's errors kept for our messages, not printed.
+// GDAL once per process: every driver registered (a cube is opened with kCubeDrivers alone);
+// no side files (a .aux.xml beside a cube that was only read); a small block cache; GDAL's
+// errors kept for our messages, not printed.
 void start_gdal();
+// The formats a cube is read in, as GDAL's lists of driver names. GDAL reads some two hundred,
+// and some of them name other files or addresses: a VRT file's bands can be any raw file the
+// process may read, a WMS file's a web server. Offered one of those as a cube, the service
+// would read its own database or TLS key, or fetch an address inside the lab's network.
+inline constexpr const char* kCubeDrivers[] = {"ENVI", "GTiff", "HDF5", "netCDF", nullptr};
+inline constexpr const char* kArrayDrivers[] = {"HDF5", "netCDF", nullptr};
+inline constexpr const char* kCubeFormats = "ENVI, TIFF, HDF5 or netCDF";
+
 // GDAL's last error message, or a word that it gave none.
 std::string last_gdal_error();
 std::string lower(std::string_view text);
