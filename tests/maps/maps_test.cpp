@@ -14,6 +14,7 @@
 #include <fstream>
 #include <memory>
 #include <random>
+#include <span>
 #include <string>
 #include <unistd.h>
 
@@ -86,6 +87,15 @@ TEST_F(MapsTest, EveryLayoutReadsTheSameReflectance) {
           EXPECT_EQ(cube->info().samples, 7u);
           EXPECT_EQ(cube->info().wavelength_nm, values.wavelength_nm);
           EXPECT_EQ(reflectance_of(*cube), values.values) << header;
+          // Lines from the middle: where each lies in the file, in every layout.
+          const auto middle = cube->read_lines(1, 3);
+          ASSERT_TRUE(middle) << middle.error().what();
+          const auto pixel = static_cast<std::ptrdiff_t>(values.samples * values.bands);
+          EXPECT_TRUE(std::ranges::equal(*middle, std::span(values.values).subspan(pixel, 3 * pixel),
+                                         [&](float stored, double value) {
+                                           return static_cast<double>(stored) / cube->info().reflectance_scale == value;
+                                         }))
+              << header;
         }
   EXPECT_EQ(written, 24);
 }

@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <string_view>
 
 namespace skinspec::maps {
@@ -42,6 +43,7 @@ class GdalCubeData final : public gdal_io::CubeData {
                                                           std::size_t count) const override;
 
   std::unique_ptr<GDALDataset> gdal;  // an image: ENVI, TIFF, ...
+  bool pixel_interleaved = true;      // its bands together for each pixel, in its file
   // Or a container of arrays (HDF5, netCDF) and its cube's array, with which of its dimensions
   // runs along the bands, the samples and the lines.
   std::unique_ptr<GDALDataset> container;
@@ -228,6 +230,8 @@ std::expected<gdal_io::OpenedCube, CubeError> open_gdal_cube(const std::string& 
     return open_array(path, *data_file);
   }
   GDALDataset& d = *dataset->gdal;
+  const char* interleave = d.GetMetadataItem("INTERLEAVE", "IMAGE_STRUCTURE");
+  dataset->pixel_interleaved = !interleave || std::string_view(interleave) == "PIXEL";
   CubeInfo info;
   info.file = path;
   char** files = d.GetFileList();
@@ -272,6 +276,8 @@ std::expected<std::vector<float>, CubeError> GdalCubeData::read_lines(const Cube
   CPLErrorReset();
   CPLErr result = CE_None;
   if (!array) {
+    std::optional<detail::DirectRawReads> direct;
+    if (!pixel_interleaved) direct.emplace();
     result = gdal->RasterIO(GF_Read, 0, static_cast<int>(first), static_cast<int>(info.samples),
                             static_cast<int>(count), values.data(), static_cast<int>(info.samples),
                             static_cast<int>(count), GDT_Float32, static_cast<int>(info.bands), nullptr, bands * word,

@@ -24,10 +24,17 @@ void start_gdal() {
     // default: 1.2 GB of a 24 GB machine, for blocks a map reads once. Its lines are read in
     // blocks of our own, so a small cache is enough.
     GDALSetCacheMax64(kGdalCacheBytes);
+    // A raw cube's lines are read band by band, a seek and a read of a few kilobytes each:
+    // 52,000 system calls for a 512 x 512 x 101 BIL cube. Through GDAL's cache of file
+    // blocks (25 MB a file) it read in 0.16 s rather than 0.27 s.
+    CPLSetConfigOption("VSI_CACHE", "TRUE");
     CPLSetErrorHandler(CPLQuietErrorHandler);
     GDALAllRegister();
   });
 }
+
+DirectRawReads::DirectRawReads() { CPLSetThreadLocalConfigOption("GDAL_ONE_BIG_READ", "YES"); }
+DirectRawReads::~DirectRawReads() { CPLSetThreadLocalConfigOption("GDAL_ONE_BIG_READ", nullptr); }
 
 std::string last_gdal_error() {
   const std::string message = CPLGetLastErrorMsg();

@@ -23,6 +23,21 @@ inline constexpr const char* kCubeDrivers[] = {"ENVI", "GTiff", "HDF5", "netCDF"
 inline constexpr const char* kArrayDrivers[] = {"HDF5", "netCDF", nullptr};
 inline constexpr const char* kCubeFormats = "ENVI, TIFF, HDF5 or netCDF";
 
+// While one lives, GDAL's raw readers (ENVI) on this thread read straight into the caller's
+// buffer, a run of one band's samples at a time, rather than through GDAL's block cache, which
+// allocates and fills a block for each line of each band. For a cube stored band by band or
+// line by line: a 512 x 512 x 101 BIL cube read in 0.08 s rather than 0.16 s. Not for one stored
+// pixel by pixel, where each band's read would read every line whole again (0.31 s for 0.10 s).
+// Nor for a read of one band's whole image into a plain buffer: GDAL 3.6 then reads it as one
+// run of bytes, as if its lines were contiguous in the file, which in a BIL file they are not.
+class DirectRawReads {
+ public:
+  DirectRawReads();
+  ~DirectRawReads();
+  DirectRawReads(const DirectRawReads&) = delete;
+  DirectRawReads& operator=(const DirectRawReads&) = delete;
+};
+
 // GDAL's last error message, or a word that it gave none.
 std::string last_gdal_error();
 std::string lower(std::string_view text);
