@@ -101,36 +101,43 @@ TEST_F(MapsTest, EveryLayoutReadsTheSameReflectance) {
 }
 
 // A multi-band float TIFF, each band's centre in its GDAL metadata (as GDAL and ENVI write
-// them), reads as the same cube written as ENVI.
+// them), stored pixel by pixel or band by band, reads as the same cube written as ENVI.
 TEST_F(MapsTest, AMultiBandFloatTiffReadsAsTheEnviCube) {
   const CubeValues values = quantized_cube(3, 4);
   const auto envi = Cube::open(write_envi(dir_ / "envi", values, {}).string());
   ASSERT_TRUE(envi) << envi.error().what();
   GDALAllRegister();
-  const fs::path tiff = dir_ / "cube.tif";
-  {
-    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
-    ASSERT_NE(driver, nullptr);
-    std::unique_ptr<GDALDataset> out(driver->Create(tiff.c_str(), static_cast<int>(values.samples),
-                                                    static_cast<int>(values.lines), static_cast<int>(values.bands),
-                                                    GDT_Float32, nullptr));
-    ASSERT_NE(out, nullptr);
-    for (std::size_t b = 0; b < values.bands; ++b) {
-      std::vector<float> band(values.lines * values.samples);
-      for (std::size_t p = 0; p < band.size(); ++p) band[p] = static_cast<float>(values.values[p * values.bands + b]);
-      GDALRasterBand* raster = out->GetRasterBand(static_cast<int>(b + 1));
-      ASSERT_EQ(raster->RasterIO(GF_Write, 0, 0, static_cast<int>(values.samples), static_cast<int>(values.lines),
-                                 band.data(), static_cast<int>(values.samples), static_cast<int>(values.lines),
-                                 GDT_Float32, 0, 0, nullptr),
-                CE_None);
-      raster->SetMetadataItem("wavelength", fmt::format("{}", values.wavelength_nm[b]).c_str());
-      raster->SetMetadataItem("wavelength_units", "nm");
+  // Each pixel's bands together (GDAL's default) and each band's plane whole.
+  for (const char* interleave : {"INTERLEAVE=PIXEL", "INTERLEAVE=BAND"}) {
+    const fs::path tiff = dir_ / (std::string(interleave) + ".tif");
+    {
+      GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+      ASSERT_NE(driver, nullptr);
+      const char* options[] = {interleave, nullptr};
+      std::unique_ptr<GDALDataset> out(driver->Create(tiff.c_str(), static_cast<int>(values.samples),
+                                                      static_cast<int>(values.lines), static_cast<int>(values.bands),
+                                                      GDT_Float32, const_cast<char**>(options)));
+      ASSERT_NE(out, nullptr);
+      for (std::size_t b = 0; b < values.bands; ++b) {
+        std::vector<float> band(values.lines * values.samples);
+        for (std::size_t p = 0; p < band.size(); ++p) band[p] = static_cast<float>(values.values[p * values.bands + b]);
+        GDALRasterBand* raster = out->GetRasterBand(static_cast<int>(b + 1));
+        ASSERT_EQ(raster->RasterIO(GF_Write, 0, 0, static_cast<int>(values.samples), static_cast<int>(values.lines),
+                                   band.data(), static_cast<int>(values.samples), static_cast<int>(values.lines),
+                                   GDT_Float32, 0, 0, nullptr),
+                  CE_None);
+        raster->SetMetadataItem("wavelength", fmt::format("{}", values.wavelength_nm[b]).c_str());
+        raster->SetMetadataItem("wavelength_units", "nm");
+      }
     }
+    const auto cube = Cube::open(tiff.string());
+    ASSERT_TRUE(cube) << cube.error().what();
+    EXPECT_EQ(cube->info().wavelength_nm, values.wavelength_nm);
+    EXPECT_EQ(reflectance_of(*cube), reflectance_of(*envi)) << interleave;
+    const auto middle = cube->read_lines(1, 2), envi_middle = envi->read_lines(1, 2);
+    ASSERT_TRUE(middle && envi_middle) << interleave;
+    EXPECT_EQ(*middle, *envi_middle) << interleave;
   }
-  const auto cube = Cube::open(tiff.string());
-  ASSERT_TRUE(cube) << cube.error().what();
-  EXPECT_EQ(cube->info().wavelength_nm, values.wavelength_nm);
-  EXPECT_EQ(reflectance_of(*cube), reflectance_of(*envi));
 }
 
 TEST_F(MapsTest, WavelengthsInMicrometresAreReadInNanometres) {
