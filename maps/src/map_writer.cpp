@@ -47,34 +47,31 @@ void remove_abandoned(const fs::path& dir, const std::string& name) {
   }
 }
 
-// How many pixels determined a parameter, and its percentiles over them. Each percentile is the
-// value a full sort would put at its place; nth_element finds them in turn, each in what is
-// left above the one before: a tenth of the time of sorting.
+// How many pixels determined a parameter, and its percentiles over them: the picture's 2nd and
+// 98th around the summary's. Each is the value a full sort would put at its place; nth_element
+// finds them in ascending turn, each in what is left above the one before: a tenth of the time
+// of sorting.
 ParameterSummary summarise(const std::vector<float>& values, const MapBand& band) {
+  static_assert(kSummaryPercentiles.front() > 2 && kSummaryPercentiles.back() < 98);
   std::vector<float> determined;
   determined.reserve(values.size());
   for (const float v : values)
     if (!std::isnan(v)) determined.push_back(v);
-  std::array<int, kSummaryPercentiles.size() + 2> wanted{};
-  std::ranges::copy(kSummaryPercentiles, wanted.begin());
-  wanted[kSummaryPercentiles.size()] = 2, wanted[kSummaryPercentiles.size() + 1] = 98;
-  std::array<double, wanted.size()> found{};
+  std::array<int, kSummaryPercentiles.size() + 2> ascending{};
+  ascending.front() = 2, ascending.back() = 98;
+  std::ranges::copy(kSummaryPercentiles, ascending.begin() + 1);
+  std::array<double, ascending.size()> found{};
   found.fill(std::numeric_limits<double>::quiet_NaN());
-  if (!determined.empty()) {
-    std::array<std::size_t, wanted.size()> order{};
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::ranges::sort(order, {}, [&](std::size_t i) { return wanted[i]; });
-    auto from = determined.begin();
-    for (const std::size_t i : order) {
-      const auto at = determined.begin() +
-                      static_cast<std::ptrdiff_t>((determined.size() - 1) * static_cast<std::size_t>(wanted[i]) / 100);
-      std::nth_element(from, at, determined.end());
-      found[i] = static_cast<double>(*at);
-      from = at;
-    }
+  auto from = determined.begin();
+  for (std::size_t i = 0; i < ascending.size() && !determined.empty(); ++i) {
+    const auto at = determined.begin() +
+                    static_cast<std::ptrdiff_t>((determined.size() - 1) * static_cast<std::size_t>(ascending[i]) / 100);
+    std::nth_element(from, at, determined.end());
+    found[i] = static_cast<double>(*at);
+    from = at;
   }
-  ParameterSummary summary{band, determined.size(), {}, {found[wanted.size() - 2], found[wanted.size() - 1]}};
-  std::copy_n(found.begin(), kSummaryPercentiles.size(), summary.percentiles.begin());
+  ParameterSummary summary{band, determined.size(), {}, {found.front(), found.back()}};
+  std::copy_n(found.begin() + 1, kSummaryPercentiles.size(), summary.percentiles.begin());
   return summary;
 }
 

@@ -234,14 +234,7 @@ TEST_F(MapsTest, AFileThatNamesOtherFilesIsNotReadAsACube) {
     const std::vector<float> values(2 * 2 * 3, 0.5F);
     out.write(reinterpret_cast<const char*>(values.data()), static_cast<std::streamsize>(values.size() * 4));
   }
-  std::string vrt = R"(<VRTDataset rasterXSize="2" rasterYSize="2">)";
-  for (const int band : {0, 1, 2})
-    vrt += fmt::format(R"(<VRTRasterBand dataType="Float32" band="{}" subClass="VRTRawRasterBand">)"
-                       R"(<Metadata><MDI key="wavelength">{}</MDI></Metadata>)"
-                       R"(<SourceFilename relativeToVRT="0">{}</SourceFilename><ImageOffset>{}</ImageOffset>)"
-                       R"(<PixelOffset>4</PixelOffset><LineOffset>8</LineOffset></VRTRasterBand>)",
-                       band + 1, 400 + 150 * band, secret.string(), 16 * band);
-  vrt += "</VRTDataset>";
+  const std::string vrt = testing::raw_file_vrt(secret, 2, 2, {400, 550, 700});
   for (const char* name : {"cube.vrt", "cube.tif"}) {
     std::ofstream(dir_ / name) << vrt;
     const CubeError e = refusal(dir_ / name);

@@ -260,15 +260,7 @@ TEST_F(MapsServiceTest, AnUploadWhoseValuesAreInOtherFilesIsRefused) {
   for (const double w : cube.wavelength_nm) wavelengths += (wavelengths.empty() ? "" : ",") + std::to_string(w);
   const auto made = run_process("/usr/bin/python3", {"-c", script, outside.string(), wavelengths});
   ASSERT_EQ(made.exit_status, 0) << made.describe();
-  std::string vrt = fmt::format(R"(<VRTDataset rasterXSize="{}" rasterYSize="{}">)", cube.samples, cube.lines);
-  for (std::size_t band = 0; band < cube.bands; ++band)
-    vrt += fmt::format(
-        R"(<VRTRasterBand dataType="Float32" band="{}" subClass="VRTRawRasterBand">)"
-        R"(<Metadata><MDI key="wavelength">{}</MDI></Metadata><SourceFilename>{}</SourceFilename>)"
-        R"(<ImageOffset>{}</ImageOffset><PixelOffset>{}</PixelOffset><LineOffset>{}</LineOffset></VRTRasterBand>)",
-        band + 1, cube.wavelength_nm[band], (outside / "secret.img").string(), 4 * band, 4 * cube.bands,
-        4 * cube.bands * cube.samples);
-  vrt += "</VRTDataset>";
+  const std::string vrt = raw_file_vrt(outside / "secret.img", cube.lines, cube.samples, cube.wavelength_nm);
   const std::vector<std::pair<std::string, std::string>> uploads{
       {"cube.vrt", vrt},
       {"cube.tif", vrt},

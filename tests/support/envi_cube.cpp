@@ -123,4 +123,19 @@ std::filesystem::path write_envi(const std::filesystem::path& stem, const CubeVa
   return hdr;
 }
 
+std::string raw_file_vrt(const std::filesystem::path& raw, std::size_t lines, std::size_t samples,
+                         const std::vector<double>& wavelength_nm) {
+  const std::size_t bands = wavelength_nm.size();
+  std::ostringstream vrt;
+  vrt << "<VRTDataset rasterXSize=\"" << samples << "\" rasterYSize=\"" << lines << "\">";
+  for (std::size_t band = 0; band < bands; ++band)
+    vrt << "<VRTRasterBand dataType=\"Float32\" band=\"" << band + 1 << "\" subClass=\"VRTRawRasterBand\">"
+        << "<Metadata><MDI key=\"wavelength\">" << wavelength_nm[band] << "</MDI></Metadata>"
+        << "<SourceFilename>" << raw.string() << "</SourceFilename><ImageOffset>" << 4 * band
+        << "</ImageOffset><PixelOffset>" << 4 * bands << "</PixelOffset><LineOffset>" << 4 * bands * samples
+        << "</LineOffset></VRTRasterBand>";
+  vrt << "</VRTDataset>";
+  return vrt.str();
+}
+
 }  // namespace skinspec::testing

@@ -48,4 +48,9 @@ struct BadCube {
 // of 600-960 nm that miss 420-680 nm ("wavelength"), and a truncated data file ("lines").
 std::vector<BadCube> write_bad_cubes(const std::filesystem::path& dir);
 
+// A GDAL VRT whose bands are the float32 values of `raw`, a file stored pixel by pixel (each
+// pixel's bands together), one band a wavelength: a "cube" that names another file.
+std::string raw_file_vrt(const std::filesystem::path& raw, std::size_t lines, std::size_t samples,
+                         const std::vector<double>& wavelength_nm);
+
 }  // namespace skinspec::testing
