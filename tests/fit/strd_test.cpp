@@ -4,6 +4,7 @@
 // docs/solver.md says why that start is out of reach. The files in tests/data/strd/ are NIST's
 // (public domain); a small parser reads them, and the Jacobians come from Ceres' automatic
 // differentiation of each model as NIST writes it, independently of the solver and the answer.
+// The fit's covariance must give NIST's certified standard deviations at the answer.
 
 #include <gtest/gtest.h>
 
@@ -21,6 +22,7 @@
 #include <string_view>
 #include <vector>
 
+#include "determination.hpp"        // fit/src
 #include "levenberg_marquardt.hpp"  // fit/src
 
 namespace skinspec {
@@ -293,6 +295,20 @@ struct Case {
   bool within_reach;  // false: docs/solver.md, "The solver on the NIST StRD problems", says why
 };
 
+// The standard deviations NIST certifies, from the fit's covariance (fit/src/determination.hpp)
+// at the solver's answer: the same estimate, sigma^2 (J^T J)^-1, to 4 significant digits (the
+// answer itself is certified to 6, and the deviations move with it).
+template <int N>
+void expect_certified_standard_deviations(const StrdFile& file, const detail::LmResult<N>& result, const Case& c) {
+  std::vector<std::size_t> all(N);
+  for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
+  const auto covariance = detail::parameter_covariance(result.jacobian, all, result.cost);
+  for (int k = 0; k < N; ++k)
+    EXPECT_GE(matching_digits(std::sqrt(covariance(k, k)), file.params[static_cast<std::size_t>(k)].certified_sd), 4.0)
+        << c.name << " start " << c.start << " b" << k + 1 << ": " << std::sqrt(covariance(k, k)) << " against "
+        << file.params[static_cast<std::size_t>(k)].certified_sd;
+}
+
 // One problem from one start: the certified answer where it is within reach, and no false
 // claim of it where it is not.
 template <typename Model>
@@ -316,6 +332,7 @@ void check(const Case& c) {
     EXPECT_TRUE(converged(result.termination)) << c.name << " start " << c.start << ": " << result.message;
     EXPECT_GE(fewest, 6.0) << c.name << " start " << c.start << ":" << found << "; " << result.message;
     EXPECT_NEAR(result.cost, certified_cost, 1e-8 * certified_cost) << c.name << " start " << c.start;
+    expect_certified_standard_deviations(file, result, c);
   } else {
     // Out of reach: the solver must not claim the certified answer, nor a cost below it.
     EXPECT_LT(fewest, 6.0) << c.name << " start " << c.start << " is now within reach: update docs/solver.md";
