@@ -142,7 +142,7 @@ std::expected<std::vector<ParameterSummary>, std::string> MapWriter::close(Model
       drawn[p] =
           render::encode_png(parameter_picture(*values, *mask, state_->cube->lines(), state_->samples, bands[2 * p],
                                                summaries[p].picture_range[0], summaries[p].picture_range[1]),
-                             8);
+                             8, render::PngContent::false_colour);
   });
   for (std::size_t p = 0; p < count; ++p) {
     if (!drawn[p]) return std::unexpected(drawn[p].error());

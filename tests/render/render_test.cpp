@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <string>
+#include <vector>
 
 #include "skinspec/render/figures.hpp"
 #include "skinspec/render/png.hpp"
@@ -302,6 +305,56 @@ TEST(RenderImages, SixteenBitPngKeepsTheImage) {
   EXPECT_EQ(png->width, 3);
   EXPECT_EQ(png->height, 2);
   EXPECT_EQ(png->pixel(2, 1), (std::array<int, 3>{255, 0, 255}));
+}
+
+// Where the 8-bit sRGB code of a linear value steps from code - 1 to code: the least double
+// with that code, by bisection on the value.
+double code_step(int code) {
+  const auto code_at = [](double v) { return srgb_8bit({v, v, v})[0]; };
+  double below = 0, at = 1;
+  for (int i = 0; i < 200 && below < at; ++i) {
+    const double middle = below + (at - below) / 2;
+    if (middle == below || middle == at) break;
+    (code_at(middle) >= code ? at : below) = middle;
+  }
+  return at;
+}
+
+// 8-bit PNGs hold srgb_8bit's code of each sample, bit for bit: at 65,536 values spread over
+// [0, 1], at the 64 floats either side of every step from one code to the next, and at values
+// the curve clips (below 0, above 1, NaN), in both kinds of picture.
+TEST(RenderImages, EightBitPngHoldsTheSrgbCodeOfEverySample) {
+  std::vector<float> values;
+  for (int i = 0; i <= 65535; ++i) values.push_back(static_cast<float>(i) / 65535.0f);
+  for (int code = 1; code <= 255; ++code) {
+    float v = static_cast<float>(code_step(code));
+    for (int i = 0; i < 64; ++i) v = std::nextafter(v, 0.0f);
+    for (int i = 0; i < 128; ++i, v = std::nextafter(v, 2.0f)) values.push_back(v);
+  }
+  for (const float v : {-1.0f, -0.0f, 1.0f, 1.5f, std::numeric_limits<float>::quiet_NaN(),
+                        std::numeric_limits<float>::infinity(), std::numeric_limits<float>::denorm_min()})
+    values.push_back(v);
+  constexpr int kWidth = 1024;
+  const int height = static_cast<int>((values.size() + kWidth - 1) / kWidth);
+  Image image(kWidth, height);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const float v = values[i], w = values[values.size() - 1 - i];
+    image.at(static_cast<int>(i % kWidth), static_cast<int>(i / kWidth)) = {v, w, v};
+  }
+  for (const PngContent content : {PngContent::continuous_tone, PngContent::false_colour}) {
+    const auto bytes = *encode_png(image, 8, content);
+    const auto png = testing::decode_png(std::string(bytes.begin(), bytes.end()));
+    ASSERT_TRUE(png.has_value());
+    int wrong = 0;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const auto x = static_cast<int>(i % kWidth), y = static_cast<int>(i / kWidth);
+      if (png->pixel(x, y) != code_of(image.at(x, y)) && ++wrong <= 5)
+        ADD_FAILURE() << "linear " << values[i] << " (" << x << "," << y << "): PNG holds " << png->pixel(x, y)[0]
+                      << "," << png->pixel(x, y)[1] << " where srgb_8bit gives " << code_of(image.at(x, y))[0] << ","
+                      << code_of(image.at(x, y))[1];
+    }
+    EXPECT_EQ(wrong, 0);
+  }
 }
 
 TEST(RenderImages, ContactSheetHoldsEveryCellAndItsLabel) {
