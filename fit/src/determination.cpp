@@ -34,8 +34,8 @@ bool on_bound(const ParamSpec& spec, double value, Pin pin) {
 
 // The normal matrix J^T J of the free columns scaled to unit norm, and the scales: dot
 // products of the Jacobian's columns in place, 28 at most, rather than a copy of the columns
-// and a general matrix product (which packed and blocked a 100 x 7 product, half the cost of
-// judging a fit started near its answer).
+// and a general matrix product (which packed and blocked a 100 x 7 product: a quarter of the
+// cost of judging a fit started near its answer).
 struct ScaledNormal {
   SmallMatrix normal;
   SmallVector scale;
