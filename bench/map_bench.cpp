@@ -96,7 +96,9 @@ fs::path write_cube(const fs::path& dir, const Fitter& fitter, const Args& a) {
 }
 
 struct Mapped {
-  double seconds = 0, fitting_seconds = 0, closing_seconds = 0;  // closing: the summary and the pictures
+  // closing: MapWriter::close and finish, the answer cube flushed and read back band by band,
+  // the summary and the pictures made and written, the files moved into place
+  double seconds = 0, fitting_seconds = 0, closing_seconds = 0;
   maps::MapTally tally;
 };
 

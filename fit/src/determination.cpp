@@ -35,7 +35,7 @@ bool on_bound(const ParamSpec& spec, double value, Pin pin) {
 // The normal matrix J^T J of the free columns scaled to unit norm, and the scales: dot
 // products of the Jacobian's columns in place, 28 at most, rather than a copy of the columns
 // and a general matrix product (which packed and blocked a 100 x 7 product: a quarter of the
-// cost of judging a fit started near its answer).
+// cost of judging a fit started near its answer, docs/benchmarks.md "Skin maps").
 struct ScaledNormal {
   SmallMatrix normal;
   SmallVector scale;
@@ -55,8 +55,9 @@ ScaledNormal scaled_normal(const Eigen::MatrixXd& jacobian, const std::vector<st
     s.invisible[static_cast<std::size_t>(a)] = !(norm > 0);
     s.scale(a) = norm > 0 ? norm : 1;
   }
+  // One scale at a time: the product of two tiny norms could underflow.
   for (Eigen::Index a = 0; a < k; ++a)
-    for (Eigen::Index b = 0; b < k; ++b) s.normal(a, b) /= s.scale(a) * s.scale(b);
+    for (Eigen::Index b = 0; b < k; ++b) s.normal(a, b) = s.normal(a, b) / s.scale(a) / s.scale(b);
   return s;
 }
 
@@ -65,7 +66,7 @@ ScaledNormal scaled_normal(const Eigen::MatrixXd& jacobian, const std::vector<st
 // 1 / trace(inverse); so where k trace(inverse) is under 1 / kNullEigenvalue, by a margin for
 // the inverse's own rounding, no eigenvalue is zero and the pseudo-inverse is the inverse,
 // which Cholesky gives far more cheaply. Most fits are such: this and the normal matrix taken in
-// place made map_bench's fitting 15 % faster.
+// place made map_bench's fitting 15 % faster (docs/benchmarks.md, "Skin maps").
 constexpr double kNullEigenvalue = 1e-14, kCholeskyMargin = 100;
 
 std::optional<SmallMatrix> plain_inverse(const SmallMatrix& normal) {

@@ -23,8 +23,8 @@ struct FitUncertainty {
 using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxParamCount, kMaxParamCount>;
 
 // sigma^2 (J^T J)^-1 over the `free` columns of `jacobian` (in their order), sigma^2 being
-// 2 cost / (rows - free); a parameter in the null space of J gets an infinite variance and NaN
-// covariances. The usual estimate, which NIST certifies for its StRD problems.
+// 2 cost / max(1, rows - free); a parameter in the null space of J gets an infinite variance
+// and NaN covariances. The usual estimate, which NIST certifies for its StRD problems.
 SmallMatrix parameter_covariance(const Eigen::MatrixXd& jacobian, const std::vector<std::size_t>& free, double cost);
 
 // `jacobian` of the weighted residuals at `params` (rows samples), `cost` half their sum of

@@ -28,9 +28,12 @@ unsigned srgb_code(float linear, double top) {
 }
 
 // The 8-bit code of a linear value, exactly as srgb_code gives it, without a pow: the code
-// steps up at 255 values, found once by bisection over the floats of [0, 1] (whose bits
-// order as they do), and a value's code is the number of steps at or below it. A picture's
-// pow per sample was a fifth of drawing a map's pictures.
+// steps up at 255 values, found once by bisection over the floats of [0, 1] (the bit patterns
+// of non-negative floats order as their values do), and a value's code is the number of steps
+// at or below it. This needs srgb_code never to fall from one float to the next: neighbouring
+// floats are far further apart than pow's error, and the curve's two pieces meet at code 10.3,
+// away from a rounding point. A picture's pow per sample was a fifth of drawing a map's
+// pictures (docs/benchmarks.md, "Skin maps").
 class EightBitCodes {
  public:
   EightBitCodes() {
@@ -49,7 +52,7 @@ class EightBitCodes {
   }
 
  private:
-  std::array<float, 255> steps_{};  // steps_[c - 1]: the least value whose code is c
+  std::array<float, 255> steps_{};  // steps_[c - 1]: the least float whose code is at least c
 };
 
 // Rows of gamma-encoded samples, 16-bit ones big-endian as PNG stores them.

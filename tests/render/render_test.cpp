@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <zlib.h>
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -331,8 +334,9 @@ TEST(RenderImages, EightBitPngHoldsTheSrgbCodeOfEverySample) {
     for (int i = 0; i < 64; ++i) v = std::nextafter(v, 0.0f);
     for (int i = 0; i < 128; ++i, v = std::nextafter(v, 2.0f)) values.push_back(v);
   }
-  for (const float v : {-1.0f, -0.0f, 1.0f, 1.5f, std::numeric_limits<float>::quiet_NaN(),
-                        std::numeric_limits<float>::infinity(), std::numeric_limits<float>::denorm_min()})
+  using limits = std::numeric_limits<float>;
+  for (const float v : {-1.0f, -0.0f, 1.0f, std::nextafter(1.0f, 2.0f), 1.5f, limits::quiet_NaN(), limits::infinity(),
+                        -limits::infinity(), limits::denorm_min(), std::nextafter(limits::min(), 0.0f), limits::min()})
     values.push_back(v);
   constexpr int kWidth = 1024;
   const int height = static_cast<int>((values.size() + kWidth - 1) / kWidth);
@@ -348,13 +352,51 @@ TEST(RenderImages, EightBitPngHoldsTheSrgbCodeOfEverySample) {
     int wrong = 0;
     for (std::size_t i = 0; i < values.size(); ++i) {
       const auto x = static_cast<int>(i % kWidth), y = static_cast<int>(i / kWidth);
-      if (png->pixel(x, y) != code_of(image.at(x, y)) && ++wrong <= 5)
-        ADD_FAILURE() << "linear " << values[i] << " (" << x << "," << y << "): PNG holds " << png->pixel(x, y)[0]
-                      << "," << png->pixel(x, y)[1] << " where srgb_8bit gives " << code_of(image.at(x, y))[0] << ","
-                      << code_of(image.at(x, y))[1];
+      const auto held = png->pixel(x, y), expected = code_of(image.at(x, y));
+      if (held != expected && ++wrong <= 5)
+        ADD_FAILURE() << "linear " << values[i] << " (" << x << "," << y << "): PNG holds " << held[0] << "," << held[1]
+                      << "," << held[2] << " where srgb_8bit gives " << expected[0] << "," << expected[1] << ","
+                      << expected[2];
     }
     EXPECT_EQ(wrong, 0);
   }
+}
+
+// The filter byte that starts each row of an 8-bit RGB PNG's image data: the IDAT chunks
+// joined and inflated with zlib, apart from libpng, which reads past them.
+std::vector<int> row_filters(const std::vector<unsigned char>& png, int width, int height) {
+  std::vector<unsigned char> deflated;
+  for (std::size_t at = 8; at + 12 <= png.size();) {  // past the signature, chunk by chunk
+    const std::size_t length = (std::size_t{png[at]} << 24) | (std::size_t{png[at + 1]} << 16) |
+                               (std::size_t{png[at + 2]} << 8) | std::size_t{png[at + 3]};
+    if (std::string(png.begin() + static_cast<std::ptrdiff_t>(at + 4),
+                    png.begin() + static_cast<std::ptrdiff_t>(at + 8)) == "IDAT")
+      deflated.insert(deflated.end(), png.begin() + static_cast<std::ptrdiff_t>(at + 8),
+                      png.begin() + static_cast<std::ptrdiff_t>(at + 8 + length));
+    at += 12 + length;
+  }
+  const std::size_t stride = 1 + 3 * static_cast<std::size_t>(width);
+  std::vector<unsigned char> rows(stride * static_cast<std::size_t>(height));
+  uLongf size = rows.size();
+  if (uncompress(rows.data(), &size, deflated.data(), deflated.size()) != Z_OK || size != rows.size()) return {};
+  std::vector<int> filters;
+  for (std::size_t row = 0; row < static_cast<std::size_t>(height); ++row) filters.push_back(rows[row * stride]);
+  return filters;
+}
+
+// A false-colour picture's rows are written unfiltered; a rendering's keep libpng's adaptive
+// filters, which choose others on a gradient.
+TEST(RenderImages, FalseColourPicturesAreWrittenUnfiltered) {
+  constexpr int kSize = 64;
+  Image gradient(kSize, kSize);
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) gradient.at(x, y) = {x / float{kSize}, y / float{kSize}, 0.5f};
+  const auto unfiltered = row_filters(*encode_png(gradient, 8, PngContent::false_colour), kSize, kSize);
+  ASSERT_EQ(unfiltered.size(), std::size_t{kSize});
+  EXPECT_EQ(std::ranges::count(unfiltered, 0), kSize);
+  const auto adaptive = row_filters(*encode_png(gradient, 8), kSize, kSize);
+  ASSERT_EQ(adaptive.size(), std::size_t{kSize});
+  EXPECT_GT(std::ranges::count_if(adaptive, [](int f) { return f != 0; }), 0);
 }
 
 TEST(RenderImages, ContactSheetHoldsEveryCellAndItsLabel) {
