@@ -14,7 +14,7 @@ namespace skinspec::render {
 // smooth gradients, which PNG's per-row filters turn into small differences; a false-colour map
 // takes its few hundred colours from a colour map, and there the filters only add noise: left
 // unfiltered and deflated at zlib's fastest level, a 512 x 512 map encodes 3 to 6 times faster
-// and comes out smaller (docs/maps.md).
+// and comes out smaller (docs/benchmarks.md, "Skin maps").
 enum class PngContent { continuous_tone, false_colour };
 
 // bits: 8 or 16 per channel.
