@@ -157,16 +157,17 @@ class Minimizer {
     return (point.jacobian.array() * 0.0).sum() == 0.0;
   }
 
-  // The candidate's cost, the largest double where it cannot be evaluated or its Jacobian is
-  // not finite. The Jacobian is computed only where the step ends the solve or is taken: a
-  // rejected step needs none, and about half the steps are rejected.
+  // The candidate's cost, the largest double where it cannot be evaluated or, for a step that
+  // is taken, its Jacobian is not finite. The Jacobian is computed only for a step taken: a
+  // rejected step needs none (about half the steps are rejected), nor does one whose cost
+  // settles the solve, which ends at x, not at the candidate (most of a map's pixels end so).
   double evaluate_candidate(double predicted) {
     constexpr double kRefused = std::numeric_limits<double>::max();
     if (!evaluate(candidate_)) return kRefused;
     const double cost = candidate_.cost;
     const bool converges = cost_settled(cost);
     const bool taken = !((x_.cost - cost) / predicted <= kMinStepQuality);
-    if ((converges || taken) && !differentiate(candidate_)) return kRefused;
+    if (!converges && taken && !differentiate(candidate_)) return kRefused;
     return cost;
   }
 
