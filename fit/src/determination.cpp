@@ -2,10 +2,12 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
 
+#include "kernels/kernels.hpp"
 #include "solver.hpp"
 
 namespace skinspec::detail {
@@ -33,9 +35,10 @@ bool on_bound(const ParamSpec& spec, double value, Pin pin) {
 }
 
 // The normal matrix J^T J of the free columns scaled to unit norm, and the scales: dot
-// products of the Jacobian's columns in place, 28 at most, rather than a copy of the columns
-// and a general matrix product (which packed and blocked a 100 x 7 product: a quarter of the
-// cost of judging a fit started near its answer, docs/benchmarks.md "Skin maps").
+// products of the Jacobian's columns in place (a kernel, kernels.hpp), rather than a copy of
+// the columns and a general matrix product (which packed and blocked a 100 x 7 product: a
+// quarter of the cost of judging a fit started near its answer, docs/benchmarks.md "Skin
+// maps").
 struct ScaledNormal {
   SmallMatrix normal;
   SmallVector scale;
@@ -44,12 +47,11 @@ struct ScaledNormal {
 
 ScaledNormal scaled_normal(const Eigen::MatrixXd& jacobian, const std::vector<std::size_t>& free) {
   const auto k = static_cast<Eigen::Index>(free.size());
-  const auto column = [&](Eigen::Index a) {
-    return jacobian.col(static_cast<Eigen::Index>(free[static_cast<std::size_t>(a)]));
-  };
   ScaledNormal s{SmallMatrix(k, k), SmallVector(k), std::vector<bool>(free.size())};
-  for (Eigen::Index a = 0; a < k; ++a)
-    for (Eigen::Index b = 0; b <= a; ++b) s.normal(a, b) = s.normal(b, a) = column(a).dot(column(b));
+  std::array<int, kMaxParamCount> columns{};
+  for (std::size_t f = 0; f < free.size(); ++f) columns[f] = static_cast<int>(free[f]);
+  fit_kernels().normal_matrix(
+      {jacobian.data(), static_cast<int>(jacobian.rows()), columns.data(), static_cast<int>(k), s.normal.data()});
   for (Eigen::Index a = 0; a < k; ++a) {
     const double norm = std::sqrt(s.normal(a, a));
     s.invisible[static_cast<std::size_t>(a)] = !(norm > 0);

@@ -232,6 +232,32 @@ TEST(KernelsQr, ScaleColumnsAndTakeTheirNormsAndProductsAsPlainLoopsDo) {
   }
 }
 
+TEST(KernelsQr, TakeTheNormalMatrixAsPlainLoopsDo) {
+  std::mt19937_64 random(7);
+  std::normal_distribution<double> normal;
+  for (const int rows : {135, 101, 6, 3}) {
+    const int all = 7;
+    std::vector<double> jacobian(static_cast<std::size_t>(rows * all));
+    for (double& x : jacobian) x = normal(random);
+    for (const std::vector<int>& columns : {std::vector<int>{0, 1, 2, 3, 4, 5, 6}, {6, 2, 3}, {4}}) {
+      const auto count = static_cast<int>(columns.size());
+      for (const FitKernels* kernels : runnable()) {
+        std::vector<double> out(static_cast<std::size_t>(count * count), -1.0);
+        kernels->normal_matrix({jacobian.data(), rows, columns.data(), count, out.data()});
+        for (int a = 0; a < count; ++a)
+          for (int b = 0; b < count; ++b) {
+            double product = 0;
+            for (int i = 0; i < rows; ++i)
+              product += jacobian[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)] * rows + i)] *
+                         jacobian[static_cast<std::size_t>(columns[static_cast<std::size_t>(b)] * rows + i)];
+            EXPECT_NEAR(out[static_cast<std::size_t>(b * count + a)], product, 1e-13 * rows)
+                << name_of(kernels) << " " << rows << " rows, (" << a << "," << b << ") of " << count;
+          }
+      }
+    }
+  }
+}
+
 // The coarse search's scores: each the plain formula's (model.hpp) summed in sample order, on
 // every target, with and without a stratum corneum, over whole vectors and a short tail.
 TEST(KernelsSearch, ScoreTheGridAsThePlainFormulaDoes) {

@@ -29,8 +29,9 @@ namespace {
 }  // namespace
 
 const FitKernels* kernel_table() {
-  static constexpr FitKernels table{HWY_TARGET,     &reflectance,    &jacobian,      &blood_packing, &power_law,
-                                    &triangularize, &scaled_columns, &coarse_errors, &exp_of,        &expm1_of};
+  static constexpr FitKernels table{HWY_TARGET,     &reflectance,   &jacobian,       &blood_packing,
+                                    &power_law,     &triangularize, &scaled_columns, &normal_matrix,
+                                    &coarse_errors, &exp_of,        &expm1_of};
   return &table;
 }
 

@@ -117,6 +117,17 @@ struct CoarseErrorsArgs {
   double *squared, *errors;
 };
 
+// The dot products of `count` columns of a column-major Jacobian (`rows` rows): those the
+// covariance's normal matrix J^T J is made of, into `out` (count x count, column-major, both
+// triangles).
+struct NormalMatrixArgs {
+  const double* jacobian;
+  int rows;
+  const int* columns;
+  int count;
+  double* out;
+};
+
 struct FitKernels {
   std::int64_t target;  // Highway's target (HWY_AVX2, ...) the kernels were compiled for
   void (*reflectance)(const ReflectanceArgs&);
@@ -126,6 +137,7 @@ struct FitKernels {
   // small_qr.hpp's triangularize.
   void (*triangularize)(double* a, int rows, int cols, double* b);
   void (*scaled_columns)(const ScaledColumnsArgs&);
+  void (*normal_matrix)(const NormalMatrixArgs&);
   void (*coarse_errors)(const CoarseErrorsArgs&);
   // The exp and expm1 the kernels use (Highway's), element by element, for the tests.
   void (*exp)(const double* x, int n, double* out);

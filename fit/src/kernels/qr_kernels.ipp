@@ -20,7 +20,7 @@ inline double sum_of(Lanes v) { return hn::GetLane(hn::SumOfLanes(Tag(), v)); }
 
 // |v|^2 and v . y[t] for each of kCount columns y, over n rows.
 template <int kCount>
-void products(const double* v, double* const* y, int n, double& norm2, double* out) {
+void products(const double* v, const double* const* y, int n, double& norm2, double* out) {
   const Tag d;
   const int lanes = static_cast<int>(hn::Lanes(d));
   Lanes squares = hn::Zero(d), sums[kCount];
@@ -58,7 +58,7 @@ void subtract(const double* v, double* const* y, int n, const double* factor) {
 // The two passes for `count` columns (1 to kColumnsPerPass), each with its number of
 // registers known.
 template <int kCount = kColumnsPerPass>
-void products_of(int count, const double* v, double* const* y, int n, double& norm2, double* out) {
+void products_of(int count, const double* v, const double* const* y, int n, double& norm2, double* out) {
   if constexpr (kCount > 1)
     if (count < kCount) return products_of<kCount - 1>(count, v, y, n, norm2, out);
   products<kCount>(v, y, n, norm2, out);
@@ -146,6 +146,26 @@ void scale_columns_of(int count, const ScaledColumnsArgs& in, int first) {
   if constexpr (kCount > 1)
     if (count < kCount) return scale_columns_of<kCount - 1>(count, in, first);
   scale_columns<kCount>(in, first);
+}
+
+// Each column's products with itself and the columns right of it, in one pass over the rows
+// (products() above).
+void normal_matrix(const NormalMatrixArgs& in) {
+  const auto column = [&](int c) { return in.jacobian + static_cast<long>(in.columns[c]) * in.rows; };
+  const auto at = [&](int a, int b) -> double& { return in.out[static_cast<long>(b) * in.count + a]; };
+  for (int a = 0; a < in.count; ++a) {
+    const double* v = column(a);
+    const double* right[kMaxQrColumns];
+    double found[kMaxQrColumns];
+    int count = 0;
+    for (int b = a + 1; b < in.count; ++b) right[count++] = column(b);
+    if (count == 0) right[count++] = v;  // the last column: its own norm is all that is wanted
+    double norm2 = 0;
+    for (int first = 0; first < count; first += kColumnsPerPass)
+      products_of(in_pass_of(count, first), v, right + first, in.rows, norm2, found + first);
+    at(a, a) = norm2;
+    for (int b = a + 1; b < in.count; ++b) at(a, b) = at(b, a) = found[b - a - 1];
+  }
 }
 
 void scaled_columns(const ScaledColumnsArgs& in) {
