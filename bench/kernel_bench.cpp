@@ -113,20 +113,23 @@ BENCHMARK(PowerLaw);
 
 void Triangularize(benchmark::State& state) {
   constexpr int kColumns = 7;
+  const auto rows = static_cast<int>(state.range(0));
   Columns columns;
   const double* right_side = columns.next();
-  std::vector<double> a, b(right_side, right_side + kSamples);
+  std::vector<double> a, b(right_side, right_side + rows);
   for (int c = 0; c < kColumns; ++c) {
     const double* column = columns.next();
-    a.insert(a.end(), column, column + kSamples);
+    a.insert(a.end(), column, column + rows);
   }
   time_kernel(state, [&] {
     std::vector<double> work_a = a, work_b = b;
-    fit_kernels().triangularize(work_a.data(), kSamples, kColumns, work_b.data());
+    fit_kernels().triangularize(work_a.data(), rows, kColumns, work_b.data());
     return work_b[0];
   });
 }
-BENCHMARK(Triangularize);
+// A spectrum's samples, and the 14 rows of a Levenberg-Marquardt step's damped system (R over
+// the damping's diagonal).
+BENCHMARK(Triangularize)->ArgName("rows")->Arg(kSamples)->Arg(76)->Arg(14);
 
 }  // namespace
 }  // namespace skinspec
