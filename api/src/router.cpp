@@ -295,7 +295,13 @@ struct Router::Handlers {
     if (!job) throw detail::HandlerError{job.error()};
     return json_response(job_view(c, job->id));
   }
-  static Response openapi(const RouterContext&, const Call&) { return json_response(openapi_document()); }
+  // The document depends on the route table alone, so it is built and written out once: each
+  // request built some 100 kB of JSON afresh (http_request_fuzz, 150,000 executions from its
+  // kept corpus with one seed: 137 s before, 108 s after).
+  static Response openapi(const RouterContext&, const Call&) {
+    static const std::string body = detail::dump(openapi_document());
+    return Response{200, "application/json", body, {}};
+  }
   static Response metrics(const RouterContext& c, const Call&) {
     return Response{200, "text/plain; version=0.0.4; charset=utf-8", c.metrics->prometheus_text(), {}};
   }
