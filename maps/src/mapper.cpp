@@ -153,12 +153,15 @@ Mapper::Mapper(const Fitter& fitter, MapOptions options, const CubeInfo& cube)
   const auto site = optics.site(options_.fit.site);
   if (!site || fitted_nm_.size() < 2) return;
   const SkinModel model(optics, *site, fitted_nm_, options_.fit.lateral_diffusion);
-  for (const double melanin : kReferenceMelanin) {
+  static_assert(std::size(kReferenceMelanin) == kReferenceSkins);
+  references_.resize(fitted_nm_.size());
+  for (std::size_t k = 0; k < kReferenceSkins; ++k) {
     Params p = default_params(options_.fit.model);
-    p[kMelanin] = melanin;
+    p[kMelanin] = kReferenceMelanin[k];
     std::vector<double> r(fitted_nm_.size());
     for (std::size_t i = 0; i < r.size(); ++i) r[i] = model.reflectance_at(i, p.data());
-    references_.push_back(unit_length(std::move(r)));
+    r = unit_length(std::move(r));
+    for (std::size_t i = 0; i < r.size(); ++i) references_[i][k] = r[i];
   }
 }
 
@@ -171,15 +174,18 @@ MaskReason Mapper::judge(std::span<const double> reflectance, bool clipped) cons
   if (visible_bands_.empty() || visible / static_cast<double>(visible_bands_.size()) < options_.min_mean_reflectance)
     return MaskReason::too_dark;
   // The smallest angle is the largest cosine: the dot product with each unit reference over
-  // the pixel's length, taken in place, since this runs for every pixel.
+  // the pixel's length. The pixel's squared length and its dot products are summed side by side
+  // in one pass, each in the bands' order: one sum after another waited on each addition, and
+  // judging took 2 % of a pixel's time.
   double squares = 0;
-  for (const std::size_t b : fitted_bands_) squares += reflectance[b] * reflectance[b];
-  double cosine = -1;
-  for (const auto& reference : references_) {
-    double dot = 0;
-    for (std::size_t i = 0; i < fitted_bands_.size(); ++i) dot += reflectance[fitted_bands_[i]] * reference[i];
-    cosine = std::max(cosine, dot / std::sqrt(squares));
+  std::array<double, kReferenceSkins> dots{};
+  for (std::size_t i = 0; i < references_.size(); ++i) {
+    const double r = reflectance[fitted_bands_[i]];
+    squares += r * r;
+    for (std::size_t k = 0; k < kReferenceSkins; ++k) dots[k] += r * references_[i][k];
   }
+  double cosine = -1;
+  for (const double dot : dots) cosine = std::max(cosine, dot / std::sqrt(squares));
   const double angle =
       references_.empty() ? std::numeric_limits<double>::infinity() : std::acos(std::clamp(cosine, -1.0, 1.0));
   return angle > options_.max_spectral_angle ? MaskReason::not_skin : MaskReason::skin;

@@ -1,7 +1,8 @@
 #pragma once
-// One cube mapped whole: read in blocks of lines, each block judged, fitted and written, then
-// the answer cube closed, its pictures drawn, the summary written and everything moved into
-// place (MapWriter). What `skinspec map` and the service's map jobs both run.
+// One cube mapped whole: read in blocks of lines (the next block read while one is fitted),
+// each block judged, fitted and written, then the answer cube closed, its pictures drawn, the
+// summary written and everything moved into place (MapWriter). What `skinspec map` and the
+// service's map jobs both run.
 
 #include <expected>
 #include <filesystem>
@@ -46,10 +47,19 @@ struct MapRunError {
   std::string message;
 };
 
+// Where a map's time went, in seconds of the clock on the wall.
+struct MapTimings {
+  double total = 0;    // from the first read to the files in their places
+  double fitting = 0;  // the blocks judged and fitted (Mapper::map_lines)
+  double closing = 0;  // the answer cube closed, summed up and drawn, the files moved into place
+};
+
 struct MapRun {
   bool stopped = false;                      // the observer stopped it: nothing was written
   std::vector<std::filesystem::path> files;  // in their final places
   std::string summary_json;
+  MapTally tally;
+  MapTimings timings;
 };
 
 // Maps `cube` into `dir` as NAME.map.*, NAME.summary.json and NAME.PARAMETER.png.

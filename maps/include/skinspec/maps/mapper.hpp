@@ -113,10 +113,14 @@ class Mapper {
   const Fitter& fitter_;
   MapOptions options_;
   CubeInfo cube_;
-  std::vector<std::size_t> fitted_bands_;        // the cube's bands inside the model's range
-  std::vector<double> fitted_nm_;                // their wavelengths
-  std::vector<std::size_t> visible_bands_;       // those inside 420-680 nm, for brightness
-  std::vector<std::vector<double>> references_;  // unit-length reference skins on fitted_nm_
+  std::vector<std::size_t> fitted_bands_;   // the cube's bands inside the model's range
+  std::vector<double> fitted_nm_;           // their wavelengths
+  std::vector<std::size_t> visible_bands_;  // those inside 420-680 nm, for brightness
+  // The spectral-angle test's reference skins (light to dark), unit length on fitted_nm_: all of
+  // them at each sample, so that judging a pixel takes every dot product in one pass. Empty
+  // where the model cannot be evaluated (an unknown site); then nothing counts as skin.
+  static constexpr std::size_t kReferenceSkins = 4;
+  std::vector<std::array<double, kReferenceSkins>> references_;
   std::size_t band_count_;
 };
 
