@@ -276,7 +276,7 @@ std::expected<std::vector<float>, CubeError> GdalCubeData::read_lines(const Cube
   CPLErrorReset();
   CPLErr result = CE_None;
   if (!array) {
-    std::optional<detail::DirectRawReads> direct;
+    std::optional<detail::DirectRawIo> direct;
     if (!pixel_interleaved) direct.emplace();
     result = gdal->RasterIO(GF_Read, 0, static_cast<int>(first), static_cast<int>(info.samples),
                             static_cast<int>(count), values.data(), static_cast<int>(info.samples),

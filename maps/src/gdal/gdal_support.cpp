@@ -33,8 +33,11 @@ void start_gdal() {
   });
 }
 
-DirectRawReads::DirectRawReads() { CPLSetThreadLocalConfigOption("GDAL_ONE_BIG_READ", "YES"); }
-DirectRawReads::~DirectRawReads() { CPLSetThreadLocalConfigOption("GDAL_ONE_BIG_READ", nullptr); }
+DirectRawIo::DirectRawIo() { CPLSetThreadLocalConfigOption("GDAL_ONE_BIG_READ", "YES"); }
+DirectRawIo::~DirectRawIo() { CPLSetThreadLocalConfigOption("GDAL_ONE_BIG_READ", nullptr); }
+
+UncachedFiles::UncachedFiles() { CPLSetThreadLocalConfigOption("VSI_CACHE", "FALSE"); }
+UncachedFiles::~UncachedFiles() { CPLSetThreadLocalConfigOption("VSI_CACHE", nullptr); }
 
 std::string last_gdal_error() {
   const std::string message = CPLGetLastErrorMsg();
