@@ -31,7 +31,7 @@ class GdalAnswerFile final : public gdal_io::AnswerFile {
   std::expected<void, std::string> write_lines(std::size_t first, std::size_t count,
                                                std::span<const float> answers) override {
     const auto bands = static_cast<GSpacing>(bands_);
-    const detail::DirectRawIo direct;
+    const auto direct = detail::direct_raw_io();
     const CPLErr result = cube_->RasterIO(
         GF_Write, 0, static_cast<int>(first), static_cast<int>(samples_), static_cast<int>(count),
         const_cast<float*>(answers.data()), static_cast<int>(samples_), static_cast<int>(count), GDT_Float32,
@@ -49,7 +49,7 @@ class GdalAnswerFile final : public gdal_io::AnswerFile {
     if (CPLGetLastErrorType() >= CE_Failure)
       return std::unexpected(fmt::format("cannot write the map: {}", CPLGetLastErrorMsg()));
     const char* const written_by[] = {driver.c_str(), nullptr};
-    const detail::UncachedFiles uncached;
+    const auto uncached = detail::uncached_files();
     cube_.reset(GDALDataset::Open(file_.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, written_by));
     if (!cube_) return std::unexpected(fmt::format("cannot read the map back: {}", CPLGetLastErrorMsg()));
     return {};
@@ -58,8 +58,8 @@ class GdalAnswerFile final : public gdal_io::AnswerFile {
   std::expected<std::vector<float>, std::string> read_band(int index) const override {
     const std::size_t lines = this->lines();
     std::vector<float> band(lines * samples_);
-    // Line by line, each read straight into the band (gdal_support.hpp, DirectRawIo).
-    const detail::DirectRawIo direct;
+    // Line by line, each read straight into the band (gdal_support.hpp, direct_raw_io).
+    const auto direct = detail::direct_raw_io();
     for (std::size_t line = 0; line < lines; ++line)
       if (cube_->GetRasterBand(index)->RasterIO(GF_Read, 0, static_cast<int>(line), static_cast<int>(samples_), 1,
                                                 band.data() + line * samples_, static_cast<int>(samples_), 1,

@@ -276,8 +276,7 @@ std::expected<std::vector<float>, CubeError> GdalCubeData::read_lines(const Cube
   CPLErrorReset();
   CPLErr result = CE_None;
   if (!array) {
-    std::optional<detail::DirectRawIo> direct;
-    if (!pixel_interleaved) direct.emplace();
+    const auto direct = detail::direct_raw_io(!pixel_interleaved);
     result = gdal->RasterIO(GF_Read, 0, static_cast<int>(first), static_cast<int>(info.samples),
                             static_cast<int>(count), values.data(), static_cast<int>(info.samples),
                             static_cast<int>(count), GDT_Float32, static_cast<int>(info.bands), nullptr, bands * word,

@@ -33,11 +33,10 @@ void start_gdal() {
   });
 }
 
-DirectRawIo::DirectRawIo() { CPLSetThreadLocalConfigOption("GDAL_ONE_BIG_READ", "YES"); }
-DirectRawIo::~DirectRawIo() { CPLSetThreadLocalConfigOption("GDAL_ONE_BIG_READ", nullptr); }
-
-UncachedFiles::UncachedFiles() { CPLSetThreadLocalConfigOption("VSI_CACHE", "FALSE"); }
-UncachedFiles::~UncachedFiles() { CPLSetThreadLocalConfigOption("VSI_CACHE", nullptr); }
+ThreadOption::ThreadOption(const char* name, const char* value) : name_(name) {
+  CPLSetThreadLocalConfigOption(name, value);
+}
+ThreadOption::~ThreadOption() { CPLSetThreadLocalConfigOption(name_, nullptr); }
 
 std::string last_gdal_error() {
   const std::string message = CPLGetLastErrorMsg();
