@@ -180,8 +180,8 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   result.wavelength_nm = std::move(samples->wavelength_nm);
   result.measured = std::move(samples->measured);
   result.samples_ignored = samples->ignored;
-  const auto prepared = cache_->get(skin, *site, result.wavelength_nm, options.lateral_diffusion);
-  const SkinModel& model = prepared->model;
+  const detail::PreparedModel& prepared = cache_->get(skin, *site, result.wavelength_nm, options.lateral_diffusion);
+  const SkinModel& model = prepared.model;
   std::vector<double> sqrt_weights(samples->weights.size());
   // Most fits weigh every sample 1, and their square roots, taken one by one (std::sqrt may set
   // errno), were a fifth of the time a fit spends outside its solve.
@@ -191,16 +191,11 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   // The coarse search's layers depend on what is held; the prepared ones hold nothing.
   const detail::CoarseLayers coarse =
       holds_any ? detail::coarse_layers(model, held_flags, held_values) : detail::CoarseLayers{};
-  const detail::Problem problem{model,
-                                prepared->columns,
-                                prepared->bounds,
-                                holds_any ? coarse : prepared->coarse,
-                                result.measured,
-                                samples->weights,
-                                sqrt_weights,
-                                held_flags,
-                                held_values,
-                                options.start ? &*options.start : nullptr};
+  const detail::Problem problem{model,           prepared.columns,
+                                prepared.bounds, holds_any ? coarse : prepared.coarse,
+                                result.measured, samples->weights,
+                                sqrt_weights,    held_flags,
+                                held_values,     options.start ? &*options.start : nullptr};
 
   const detail::Solution best = detail::solve(problem);
   result.params = best.params;
@@ -208,7 +203,7 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   result.termination = best.termination;
   result.converged = converged(best.termination);
   result.solver_message = best.message;
-  result.fitted = fitted_spectrum(best, result.measured, sqrt_weights, prepared->columns);
+  result.fitted = fitted_spectrum(best, result.measured, sqrt_weights, prepared.columns);
   auto uncertainty =
       detail::assess_uncertainty(options.model, best.jacobian, best.cost, best.params, problem.held, best.pinned);
   result.standard_error = std::move(uncertainty.standard_error);
@@ -224,8 +219,8 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
     result.max_abs_error = std::max(result.max_abs_error, std::abs(r));
   }
   result.rmse = std::sqrt(sum_squares / static_cast<double>(result.fitted.size()));
-  const auto measured_lab = Colorimetry::lab(result.measured, prepared->d65);
-  const auto fitted_lab = Colorimetry::lab(result.fitted, prepared->d65);
+  const auto measured_lab = Colorimetry::lab(result.measured, prepared.d65);
+  const auto fitted_lab = Colorimetry::lab(result.fitted, prepared.d65);
   result.delta_e00_d65 = delta_e2000(measured_lab, fitted_lab);
   result.skin_tone = skin_tone(result.wavelength_nm, result.measured, measured_lab);
   result.coverage_note = coverage_note(result);

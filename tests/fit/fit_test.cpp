@@ -94,7 +94,8 @@ FitOptions options_for(bool lateral_diffusion = true, std::vector<double> weight
           .site = kSite,
           .lateral_diffusion = lateral_diffusion,
           .weights = std::move(weights),
-          .held = {}, .start = {}};
+          .held = {},
+          .start = {}};
 }
 
 const auto& kSpecs = model_spec(ModelKind::paper).params;
@@ -570,6 +571,30 @@ TEST(FitterReuse, WhatAFitterKeepsBetweenFitsChangesNoAnswer) {
       EXPECT_EQ(again->iterations, fresh->iterations);
       EXPECT_EQ(again->fitted, fresh->fitted);
     }
+}
+
+// Each thread keeps the model it prepared last, marked with the cache it came from. Fitters of
+// optics that differ only in the dermis' scattering (so that the site, the grid and the model
+// are the same), each made where the one before may just have been destroyed, must each fit
+// with their own.
+TEST(FitterReuse, AFitterNeverFitsWithAnotherFittersOptics) {
+  ModelConstants constants = shipped_optics().constants();
+  constants.dermis_scattering_scale *= 1.5;
+  const std::array<SkinOptics, 2> optics = {shipped_optics(), shipped_optics().with_constants(constants)};
+  ASSERT_EQ(optics[0].site(kSite)->dermis_mm, optics[1].site(kSite)->dermis_mm);
+  const Spectrum measured = synthetic_measurement(kOrdinarySkin, 7, false);
+  std::array<Params, 2> answers;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto fit = Fitter(optics[i], testing::colorimetry()).fit(measured, options_for(false));
+    ASSERT_TRUE(fit);
+    answers[i] = fit->params;
+  }
+  ASSERT_NE(answers[0], answers[1]);
+  for (std::size_t round = 0; round < 6; ++round) {
+    const auto fit = Fitter(optics[round % 2], testing::colorimetry()).fit(measured, options_for(false));
+    ASSERT_TRUE(fit);
+    EXPECT_EQ(fit->params, answers[round % 2]) << "round " << round;
+  }
 }
 
 }  // namespace
