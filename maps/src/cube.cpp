@@ -27,7 +27,14 @@ std::expected<Cube, CubeError> Cube::open(const std::string& path) {
 }
 
 std::expected<std::vector<float>, CubeError> Cube::read_lines(std::size_t first, std::size_t count) const {
-  return data_->read_lines(info_, first, count);
+  std::vector<float> values;
+  if (auto read = data_->read_lines(info_, first, count, values); !read) return std::unexpected(read.error());
+  return values;
+}
+
+std::expected<void, CubeError> Cube::read_lines(std::size_t first, std::size_t count,
+                                                std::vector<float>& values) const {
+  return data_->read_lines(info_, first, count, values);
 }
 
 }  // namespace skinspec::maps

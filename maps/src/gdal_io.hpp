@@ -22,8 +22,8 @@ namespace skinspec::maps::gdal_io {
 class CubeData {
  public:
   virtual ~CubeData() = default;
-  virtual std::expected<std::vector<float>, CubeError> read_lines(const CubeInfo& info, std::size_t first,
-                                                                  std::size_t count) const = 0;
+  virtual std::expected<void, CubeError> read_lines(const CubeInfo& info, std::size_t first, std::size_t count,
+                                                    std::vector<float>& values) const = 0;
 };
 
 struct OpenedCube {

@@ -74,15 +74,21 @@ class ReadAhead {
     if (first + block_ < cube_.info().lines) begin(first + block_);
     return lines;
   }
+  // A block's values, done with: the next read goes into their memory.
+  void give_back(std::vector<float> values) { spare_ = std::move(values); }
 
  private:
   void begin(std::size_t first) {
     const std::size_t count = std::min(block_, cube_.info().lines - first);
-    pending_ = std::async(std::launch::async, [this, first, count] { return cube_.read_lines(first, count); });
+    pending_ = std::async(std::launch::async, [this, first, count, values = std::move(spare_)]() mutable -> Lines {
+      if (auto read = cube_.read_lines(first, count, values); !read) return std::unexpected(read.error());
+      return std::move(values);
+    });
   }
 
   const Cube& cube_;
   const std::size_t block_;
+  std::vector<float> spare_;
   std::future<Lines> pending_;
 };
 
@@ -146,9 +152,11 @@ std::expected<MapRun, MapRunError> run_map(const Fitter& fitter, const Cube& cub
     const auto fitting = Clock::now();
     auto answers = mapper.map_lines(*values, count, run.tally);
     run.timings.fitting += seconds(fitting);
-    // The block's values go with its answers only where its reflectance is written too: a block
-    // of a 2048 x 2048 x 200 cube is 52 MB.
-    std::vector<float> kept = reflectance.is_open() ? std::move(*values) : std::vector<float>{};
+    // The block's values go with its answers only where its reflectance is written too (a block
+    // of a 2048 x 2048 x 200 cube is 52 MB); else the next read takes their memory.
+    std::vector<float> kept;
+    if (reflectance.is_open()) kept = std::move(*values);
+    else reader.give_back(std::move(*values));
     auto write = [&, first, count, answers = std::move(answers), values = std::move(kept)]() -> Written {
       if (auto written = writer->write_lines(first, count, answers); !written)
         return std::unexpected(failed(written.error()));

@@ -39,8 +39,8 @@ class GdalCubeData final : public gdal_io::CubeData {
     container.reset();
   }
 
-  std::expected<std::vector<float>, CubeError> read_lines(const CubeInfo& info, std::size_t first,
-                                                          std::size_t count) const override;
+  std::expected<void, CubeError> read_lines(const CubeInfo& info, std::size_t first, std::size_t count,
+                                            std::vector<float>& values) const override;
 
   std::unique_ptr<GDALDataset> gdal;  // an image: ENVI, TIFF, ...
   bool pixel_interleaved = true;      // its bands together for each pixel, in its file
@@ -268,15 +268,43 @@ std::expected<gdal_io::OpenedCube, CubeError> open_gdal_cube(const std::string& 
   return gdal_io::OpenedCube{std::move(dataset), std::move(info)};
 }
 
-std::expected<std::vector<float>, CubeError> GdalCubeData::read_lines(const CubeInfo& info, std::size_t first,
-                                                                      std::size_t count) const {
-  std::vector<float> values(count * info.samples * info.bands);
+// Lines of a cube stored band by band or line by line, each read as its bands lie in the file
+// (a run of samples each) and then turned pixel by pixel, in tiles that stay in the processor's
+// cache. Asked for pixel order, GDAL wrote each sample a band's length from the one before, a
+// cache line each: reading a 512 x 512 x 101 BIL cube took 0.19 s of a core rather than 0.13 s.
+// A line at a time, so that the extra memory is a line's, not a block's.
+CPLErr read_by_bands(GDALDataset& gdal, const CubeInfo& info, std::size_t first, std::size_t count, float* pixels) {
+  const std::size_t samples = info.samples, bands = info.bands;
+  std::vector<float> by_band(bands * samples);
+  const auto word = static_cast<GSpacing>(sizeof(float));
+  const auto direct = detail::direct_raw_io();
+  for (std::size_t l = 0; l < count; ++l) {
+    const CPLErr result =
+        gdal.RasterIO(GF_Read, 0, static_cast<int>(first + l), static_cast<int>(samples), 1, by_band.data(),
+                      static_cast<int>(samples), 1, GDT_Float32, static_cast<int>(bands), nullptr, word,
+                      static_cast<GSpacing>(bands * samples) * word, static_cast<GSpacing>(samples) * word, nullptr);
+    if (result != CE_None) return result;
+    constexpr std::size_t kTile = 16;
+    float* out = pixels + l * samples * bands;
+    for (std::size_t b0 = 0; b0 < bands; b0 += kTile)
+      for (std::size_t s0 = 0; s0 < samples; s0 += kTile)
+        for (std::size_t b = b0; b < std::min(bands, b0 + kTile); ++b)
+          for (std::size_t s = s0; s < std::min(samples, s0 + kTile); ++s)
+            out[s * bands + b] = by_band[b * samples + s];
+  }
+  return CE_None;
+}
+
+std::expected<void, CubeError> GdalCubeData::read_lines(const CubeInfo& info, std::size_t first, std::size_t count,
+                                                        std::vector<float>& values) const {
+  values.resize(count * info.samples * info.bands);
   const auto bands = static_cast<GSpacing>(info.bands);
   const auto word = static_cast<GSpacing>(sizeof(float));
   CPLErrorReset();
   CPLErr result = CE_None;
-  if (!array) {
-    const auto direct = detail::direct_raw_io(!pixel_interleaved);
+  if (!array && !pixel_interleaved) {
+    result = read_by_bands(*gdal, info, first, count, values.data());
+  } else if (!array) {
     result = gdal->RasterIO(GF_Read, 0, static_cast<int>(first), static_cast<int>(info.samples),
                             static_cast<int>(count), values.data(), static_cast<int>(info.samples),
                             static_cast<int>(count), GDT_Float32, static_cast<int>(info.bands), nullptr, bands * word,
@@ -298,7 +326,7 @@ std::expected<std::vector<float>, CubeError> GdalCubeData::read_lines(const Cube
   if (result != CE_None)
     return std::unexpected(CubeError{
         info.file, "", fmt::format("lines {}-{} cannot be read: {}", first, first + count - 1, last_gdal_error())});
-  return values;
+  return {};
 }
 
 }  // namespace skinspec::maps

@@ -63,6 +63,9 @@ class Cube {
   // pixel: value (line, sample, band) at ((line - first) * samples + sample) * bands + band.
   // Errors: a data file shorter than its header says.
   std::expected<std::vector<float>, CubeError> read_lines(std::size_t first, std::size_t count) const;
+  // The same into `values`, resized to hold them, whose memory is used again: a map reads block
+  // after block into the same two, sparing a block's zero fill and fresh pages each time.
+  std::expected<void, CubeError> read_lines(std::size_t first, std::size_t count, std::vector<float>& values) const;
 
  private:
   Cube(std::unique_ptr<gdal_io::CubeData> data, CubeInfo info);
