@@ -50,7 +50,7 @@ struct MapRunError {
 // Where a map's time went, in seconds of the clock on the wall.
 struct MapTimings {
   double total = 0;    // from the first read to the files in their places
-  double fitting = 0;  // the blocks judged and fitted (Mapper::map_lines)
+  double fitting = 0;  // until the last block was fitted (its reads and writes overlap the fitting)
   double closing = 0;  // the answer cube closed, summed up and drawn, the files moved into place
 };
 
