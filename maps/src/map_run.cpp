@@ -156,6 +156,7 @@ std::expected<MapRun, MapRunError> run_map(const Fitter& fitter, const Cube& cub
     reflectance.open(options.reflectance_file, std::ios::binary | std::ios::trunc);
     if (!reflectance) return std::unexpected(failed(options.reflectance_file.string() + " cannot be written"));
   }
+  const bool keeps_reflectance = reflectance.is_open();  // the stream itself is the writes'
   MapRun run;
   const auto started = Clock::now();
   const auto seconds = [](Clock::time_point from) {
@@ -171,13 +172,13 @@ std::expected<MapRun, MapRunError> run_map(const Fitter& fitter, const Cube& cub
     // The block's values go with its answers only where its reflectance is written too (a block
     // of a 2048 x 2048 x 200 cube is 52 MB); else a later read takes their memory.
     std::vector<float> kept;
-    if (reflectance.is_open()) kept = std::move(fitted.values);
+    if (keeps_reflectance) kept = std::move(fitted.values);
     else reader.give_back(std::move(fitted.values));
     auto write = [&, first = fitted.first, count = fitted.count, answers = std::move(fitted.answers),
                   values = std::move(kept)]() -> Written {
       if (auto written = writer->write_lines(first, count, answers); !written)
         return std::unexpected(failed(written.error()));
-      if (!reflectance.is_open()) return {};
+      if (!keeps_reflectance) return {};
       const auto r = mapper.reflectance_lines(values);
       if (!reflectance.write(reinterpret_cast<const char*>(r.data()),
                              static_cast<std::streamsize>(r.size() * sizeof(float))))
@@ -208,7 +209,7 @@ std::expected<MapRun, MapRunError> run_map(const Fitter& fitter, const Cube& cub
   }
   run.timings.fitting = seconds(started);
   if (auto written = writes.finish(); !written) return std::unexpected(written.error());
-  if (reflectance.is_open() && !reflectance.flush())
+  if (keeps_reflectance && !reflectance.flush())
     return std::unexpected(failed(options.reflectance_file.string() + " cannot be written"));
   const auto closing = Clock::now();
   const double mapped_in = seconds(started);
