@@ -117,8 +117,11 @@ std::vector<double> fitted_spectrum(const detail::Solution& best, const std::vec
   if (best.residuals.size() != n || !std::ranges::all_of(sqrt_weights, [](double w) { return w > 0; }))
     return detail::reflectance(columns, best.params);
   std::vector<double> fitted(measured.size());
-  for (std::size_t i = 0; i < fitted.size(); ++i)
-    fitted[i] = measured[i] + best.residuals(static_cast<Eigen::Index>(i)) / sqrt_weights[i];
+  // A weight of 1 divides by nothing: most fits weigh every sample 1.
+  for (std::size_t i = 0; i < fitted.size(); ++i) {
+    const double residual = best.residuals(static_cast<Eigen::Index>(i));
+    fitted[i] = measured[i] + (sqrt_weights[i] == 1 ? residual : residual / sqrt_weights[i]);
+  }
   return fitted;
 }
 
@@ -219,8 +222,7 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
     result.max_abs_error = std::max(result.max_abs_error, std::abs(r));
   }
   result.rmse = std::sqrt(sum_squares / static_cast<double>(result.fitted.size()));
-  const auto measured_lab = Colorimetry::lab(result.measured, prepared.d65);
-  const auto fitted_lab = Colorimetry::lab(result.fitted, prepared.d65);
+  const auto [measured_lab, fitted_lab] = Colorimetry::labs(result.measured, result.fitted, prepared.d65);
   result.delta_e00_d65 = delta_e2000(measured_lab, fitted_lab);
   result.skin_tone = skin_tone(result.wavelength_nm, result.measured, measured_lab);
   result.coverage_note = coverage_note(result);

@@ -194,7 +194,8 @@ MaskReason Mapper::judge(std::span<const double> reflectance, bool clipped) cons
 double Mapper::reflectance_of(double stored, std::size_t band) const {
   if (cube_.ignore_value && stored == *cube_.ignore_value) return std::numeric_limits<double>::quiet_NaN();
   if (options_.radiance) return (stored - options_.radiance->dark[band]) * options_.radiance->gain[band];
-  return stored / cube_.reflectance_scale;
+  // Most cubes hold reflectance itself: no division for each of a pixel's bands.
+  return cube_.reflectance_scale == 1 ? stored : stored / cube_.reflectance_scale;
 }
 
 std::vector<float> Mapper::reflectance_lines(std::span<const float> values) const {

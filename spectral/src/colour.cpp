@@ -176,6 +176,20 @@ Lab Colorimetry::lab(std::span<const double> values, const SampledWeighting& w) 
   return xyz_to_lab(xyz(values, w), w.white);
 }
 
+std::array<Lab, 2> Colorimetry::labs(std::span<const double> first, std::span<const double> second,
+                                     const SampledWeighting& w) {
+  Xyz a, b;
+  for (std::size_t k = 0; k < first.size(); ++k) {
+    a.x += first[k] * w.x[k];
+    a.y += first[k] * w.y[k];
+    a.z += first[k] * w.z[k];
+    b.x += second[k] * w.x[k];
+    b.y += second[k] * w.y[k];
+    b.z += second[k] * w.z[k];
+  }
+  return {xyz_to_lab(a, w.white), xyz_to_lab(b, w.white)};
+}
+
 Xyz Colorimetry::xyz(const Spectrum& reflectance, const ColourWeighting& w) {
   Xyz sum;
   detail::resample_onto(reflectance.wavelengths(), reflectance.values(), observer_grid(),

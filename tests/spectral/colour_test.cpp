@@ -215,6 +215,22 @@ TEST(Colorimetry, WeightingOnTheSamplesGivesTheColourOfTheSpectrum) {
   }
 }
 
+// Two spectra's colours taken side by side are each one's own, to the bit.
+TEST(Colorimetry, TheLabsOfTwoSpectraAreEachOnesLab) {
+  const std::vector<double> grid = Spectrum::uniform_grid(380, 780, 4);
+  const SampledWeighting on = Colorimetry::on_samples(grid, colorimetry().weighting(named_illuminant("D65")));
+  std::vector<double> first, second;
+  for (const double w : grid) {
+    first.push_back(0.4 + 0.3 * std::sin(w / 37));
+    second.push_back(0.2 + 0.1 * std::cos(w / 23));
+  }
+  const auto [a, b] = Colorimetry::labs(first, second, on);
+  const auto same = [](const Lab& x, const Lab& y) { return x.l == y.l && x.a == y.a && x.b == y.b; };
+  EXPECT_TRUE(same(a, Colorimetry::lab(first, on)));
+  EXPECT_TRUE(same(b, Colorimetry::lab(second, on)));
+  EXPECT_GT(delta_e2000(a, b), 1);
+}
+
 TEST(Colorimetry, UnknownIlluminantListsTheKnownOnes) {
   const auto result = colorimetry().illuminant("F2");
   ASSERT_FALSE(result);

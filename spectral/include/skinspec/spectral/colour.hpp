@@ -63,6 +63,10 @@ class Colorimetry {
   static SampledWeighting on_samples(std::span<const double> wavelength_nm, const ColourWeighting& weighting);
   static Xyz xyz(std::span<const double> values, const SampledWeighting& weighting);
   static Lab lab(std::span<const double> values, const SampledWeighting& weighting);
+  // lab of two spectra on the same samples, to the bit, their sums taken side by side: a fit's
+  // measured and fitted colours, where one sum after another waited on each addition.
+  static std::array<Lab, 2> labs(std::span<const double> first, std::span<const double> second,
+                                 const SampledWeighting& weighting);
 
  private:
   Spectrum xbar_, ybar_, zbar_, d65_, a_;
