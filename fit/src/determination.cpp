@@ -287,12 +287,20 @@ FitUncertainty assess_uncertainty(ModelKind model, const Eigen::MatrixXd& jacobi
   FitUncertainty out;
   out.standard_error.assign(n, kInfinity);
   out.correlation.assign(n * n, kNaN);
+  // Each parameter's inverse standard deviation taken once: 7 square roots and divisions a fit
+  // rather than 49. A variance that is finite and positive correlates with itself exactly 1;
+  // one infinite (unseen) or 0 with nothing.
+  const auto covariance = [&](std::size_t a, std::size_t b) {
+    return judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+  };
+  std::array<double, kMaxParamCount> inverse_sd{};
+  for (const std::size_t a : free) inverse_sd[a] = 1 / std::sqrt(covariance(a, a));
   for (const std::size_t a : free)
-    for (const std::size_t b : free)
+    for (const std::size_t b : free) {
+      const double own = covariance(a, a);
       out.correlation[a * n + b] =
-          judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) /
-          std::sqrt(judged.covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(a)) *
-                    judged.covariance(static_cast<Eigen::Index>(b), static_cast<Eigen::Index>(b)));
+          a != b ? covariance(a, b) * inverse_sd[a] * inverse_sd[b] : (std::isfinite(own) && own > 0 ? 1.0 : kNaN);
+    }
   for (const std::size_t j : free) {
     auto& d = judged.determination[j];
     if (d.status == Determination::at_bound) continue;
