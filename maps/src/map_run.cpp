@@ -57,13 +57,14 @@ json summary_json(const CubeInfo& info, const MapRunOptions& options, const MapT
 }
 
 MapRunError bad_cube(const CubeError& error) { return {MapRunError::Kind::bad_cube, error.what()}; }
+MapRunError failed(std::string message) { return {MapRunError::Kind::failed, std::move(message)}; }
 
 using Lines = std::expected<std::vector<float>, CubeError>;
 
 // Reads a cube's blocks of lines one ahead, each on a thread of its own, while the block
-// before is fitted. Fitted in turn, a block left one core idle for its read (a sixth of the
-// map's time on two cores) and for the wait on its slowest line. One read at a time, since a
-// cube is read by one thread at once; a reader destroyed waits for its read to end.
+// before is fitted: read in turn, the blocks of a 512 x 512 cube kept a core idle for 0.2 s of
+// the map's 3.1 s. One read at a time, since a cube is read by one thread at once; a reader
+// destroyed waits for its read to end.
 class ReadAhead {
  public:
   ReadAhead(const Cube& cube, std::size_t block) : cube_(cube), block_(block) { begin(0); }
@@ -114,9 +115,8 @@ std::future<FittedBlock> fit_block(const Mapper& mapper, std::size_t first, std:
 }
 
 // Writes each block's answers on a thread of its own while the next block is fitted: written
-// in turn, a block's 600-odd runs of 2 kB kept a core idle. One write at a time, in order; a
-// write's failure is reported by the next write or by finish(). Destroyed, it waits for its
-// write to end.
+// in turn, a block's runs of samples (a line of a band each, 608 a block) kept a core idle. One write at a time, in
+// order; a write's failure is reported by the next write or by finish(). Destroyed, it waits for its write to end.
 class WriteBehind {
  public:
   // Waits for the write before, then begins this one.
@@ -131,7 +131,6 @@ class WriteBehind {
  private:
   std::future<Written> pending_;
 };
-MapRunError failed(std::string message) { return {MapRunError::Kind::failed, std::move(message)}; }
 
 }  // namespace
 
