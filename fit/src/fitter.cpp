@@ -187,7 +187,7 @@ std::expected<FitResult, std::string> Fitter::fit(const Spectrum& measured, cons
   const SkinModel& model = prepared.model;
   std::vector<double> sqrt_weights(samples->weights.size());
   // Most fits weigh every sample 1, and their square roots, taken one by one (std::sqrt may set
-  // errno), were a fifth of the time a fit spends outside its solve.
+  // errno), were a fifth of the time spent in this function's own code.
   std::ranges::transform(samples->weights, sqrt_weights.begin(), [](double w) { return w == 1 ? 1 : std::sqrt(w); });
   const auto& [held_flags, held_values] = *held;
   const bool holds_any = std::ranges::any_of(held_flags, std::identity{});
