@@ -211,7 +211,8 @@ void add_map_command(CLI::App& app) {
   map->add_option("--block-lines", args->block_lines, "lines read and fitted at a time")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
-  map->add_option("--threads", args->threads, "threads fitting lines; 0: one per core")->capture_default_str();
+  map->add_option("--threads", args->threads, "threads fitting a block's lines, two blocks at once; 0: one per core")
+      ->capture_default_str();
   map->add_flag("--no-neighbour-starts", args->no_neighbour_starts,
                 "start every pixel's fit from the coarse search instead of its left neighbour's answer");
   map->add_option("--format", args->format, "the answer cube: envi (NAME.map.img, .hdr) or tiff (NAME.map.tif)")
