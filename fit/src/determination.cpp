@@ -295,12 +295,12 @@ FitUncertainty assess_uncertainty(ModelKind model, const Eigen::MatrixXd& jacobi
   };
   std::array<double, kMaxParamCount> inverse_sd{};
   for (const std::size_t a : free) inverse_sd[a] = 1 / std::sqrt(covariance(a, a));
-  for (const std::size_t a : free)
-    for (const std::size_t b : free) {
-      const double own = covariance(a, a);
+  for (const std::size_t a : free) {
+    const double own = covariance(a, a);
+    for (const std::size_t b : free)
       out.correlation[a * n + b] =
           a != b ? covariance(a, b) * inverse_sd[a] * inverse_sd[b] : (std::isfinite(own) && own > 0 ? 1.0 : kNaN);
-    }
+  }
   for (const std::size_t j : free) {
     auto& d = judged.determination[j];
     if (d.status == Determination::at_bound) continue;

@@ -98,15 +98,15 @@ std::expected<std::vector<double>, CubeError> mean_spectrum(const Cube& cube, Re
                                      fmt::format("the region {},{},{},{} is not inside its {} × {} pixels", region.x,
                                                  region.y, region.w, region.h, info.samples, info.lines)});
   std::vector<double> sum(info.bands, 0.0);
+  std::vector<float> values;  // each block read into the last one's memory
   constexpr std::size_t kBlock = 32;
   for (std::size_t first = region.y; first < region.y + region.h; first += kBlock) {
     const std::size_t count = std::min(kBlock, region.y + region.h - first);
-    const auto values = cube.read_lines(first, count);
-    if (!values) return std::unexpected(values.error());
+    if (auto read = cube.read_lines(first, count, values); !read) return std::unexpected(read.error());
     for (std::size_t l = 0; l < count; ++l)
       for (std::size_t s = region.x; s < region.x + region.w; ++s)
         for (std::size_t b = 0; b < info.bands; ++b) {
-          const auto v = static_cast<double>((*values)[(l * info.samples + s) * info.bands + b]);
+          const auto v = static_cast<double>(values[(l * info.samples + s) * info.bands + b]);
           if (!std::isfinite(v) || (info.ignore_value && v == *info.ignore_value) ||
               (info.type_maximum && v == *info.type_maximum))
             return std::unexpected(CubeError{

@@ -60,10 +60,11 @@ class GdalAnswerFile final : public gdal_io::AnswerFile {
     std::vector<float> band(lines * samples_);
     // Line by line, each read straight into the band (gdal_support.hpp, direct_raw_io).
     const auto direct = detail::direct_raw_io();
+    GDALRasterBand* const raster = cube_->GetRasterBand(index);
     for (std::size_t line = 0; line < lines; ++line)
-      if (cube_->GetRasterBand(index)->RasterIO(GF_Read, 0, static_cast<int>(line), static_cast<int>(samples_), 1,
-                                                band.data() + line * samples_, static_cast<int>(samples_), 1,
-                                                GDT_Float32, 0, 0, nullptr) != CE_None)
+      if (raster->RasterIO(GF_Read, 0, static_cast<int>(line), static_cast<int>(samples_), 1,
+                           band.data() + line * samples_, static_cast<int>(samples_), 1, GDT_Float32, 0, 0,
+                           nullptr) != CE_None)
         return std::unexpected(fmt::format("cannot read the map back: {}", CPLGetLastErrorMsg()));
     return band;
   }
