@@ -169,6 +169,20 @@ std::string replaced(const fs::path& file, const std::string& from, const std::s
   return text;
 }
 
+// A raw file cut short after the cube was opened is an error when its lines are read, not zeros.
+TEST_F(MapsTest, ACubeTruncatedAfterItWasOpenedIsAnErrorWhenRead) {
+  const CubeValues values = quantized_cube(4, 3);
+  const auto header = write_envi(dir_ / "shrinking", values, {});
+  auto cube = Cube::open(header.string());
+  ASSERT_TRUE(cube) << cube.error().what();
+  ASSERT_TRUE(cube->read_lines(0, 4));
+  fs::resize_file(dir_ / "shrinking.img", fs::file_size(dir_ / "shrinking.img") / 2);
+  const auto lines = cube->read_lines(2, 2);
+  ASSERT_FALSE(lines);
+  EXPECT_EQ(lines.error().file, header.string());
+  EXPECT_EQ(lines.error().field, "lines");
+}
+
 TEST_F(MapsTest, ABadCubeIsRefusedNamingItsFileAndField) {
   const CubeValues values = quantized_cube(4, 3);
   {

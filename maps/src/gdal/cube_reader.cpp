@@ -330,6 +330,11 @@ std::expected<void, CubeError> GdalCubeData::read_lines(const CubeInfo& info, st
   if (result != CE_None)
     return std::unexpected(CubeError{
         info.file, "", fmt::format("lines {}-{} cannot be read: {}", first, first + count - 1, last_gdal_error())});
+  // GDAL reads a raw file cut short after it was opened as zeros, silently: a cube truncated
+  // while it was mapped (a copy still arriving, a share going away) gave a whole map of "too
+  // dark" pixels. Its size is checked again after every read.
+  if (!array)
+    if (auto error = envi_size_error(*gdal, info)) return std::unexpected(*error);
   return {};
 }
 
